@@ -1,0 +1,154 @@
+//! The arrangement: where each single-axis channel sits, which way it points, how noisy it is.
+
+use crate::error::ConfigError;
+
+/// One single-axis accelerometer (a tri-axial part is three channels).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Channel {
+    /// Seismic point `R` (m, body frame, from the instrument origin).
+    pub position: [f64; 3],
+    /// Unit sensitive axis `s` (body frame).
+    pub axis: [f64; 3],
+    /// White noise, m/s² RMS per sample (> 0).
+    pub noise: f64,
+}
+
+/// The estimation model (paper section 7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Model {
+    /// Model G: general field `A = ε{a}² + diag(d)`, 9 linear columns (σ0, Ω′, d); N ≥ 12.
+    General,
+    /// Model F: free float, `A = Γ + {Ω}²` with known `Γ`, 6 linear columns (σ0, Ω′),
+    /// `a ≡ Ω`; N ≥ 9.
+    FreeFloat,
+}
+
+impl Model {
+    /// Number of linear unknowns (columns of the design matrix).
+    pub const fn linear_unknowns(self) -> usize {
+        match self {
+            Model::General => 9,
+            Model::FreeFloat => 6,
+        }
+    }
+
+    /// Fewest channels the model can use (three quadratic forms for `a`).
+    pub const fn min_channels(self) -> usize {
+        self.linear_unknowns() + 3
+    }
+
+    /// The name used in files and on the command line.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Model::General => "general",
+            Model::FreeFloat => "free-float",
+        }
+    }
+}
+
+/// Up to `CAP` channels, validated on insertion.
+#[derive(Clone, Debug)]
+pub struct Arrangement<const CAP: usize> {
+    channels: [Channel; CAP],
+    len: usize,
+}
+
+impl<const CAP: usize> Default for Arrangement<CAP> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const CAP: usize> Arrangement<CAP> {
+    /// An empty arrangement.
+    pub const fn new() -> Self {
+        Arrangement {
+            channels: [Channel {
+                position: [0.0; 3],
+                axis: [0.0; 3],
+                noise: 0.0,
+            }; CAP],
+            len: 0,
+        }
+    }
+
+    /// Adds a channel after checking it; the axis is normalised. Returns its index.
+    ///
+    /// Errors: capacity exceeded, non-finite position, zero or non-finite axis, noise not a
+    /// positive finite number. On error nothing is added.
+    pub fn push(&mut self, position: [f64; 3], axis: [f64; 3], noise: f64) -> Result<usize, ConfigError> {
+        let channel = self.len;
+        if channel >= CAP {
+            return Err(ConfigError::TooManyChannels { capacity: CAP });
+        }
+        if !position.iter().all(|v| v.is_finite()) {
+            return Err(ConfigError::PositionNotFinite { channel });
+        }
+        if !axis.iter().all(|v| v.is_finite()) {
+            return Err(ConfigError::AxisNotFinite { channel });
+        }
+        let norm = libm::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+        if !(norm > 1e-9) || !norm.is_finite() {
+            return Err(ConfigError::AxisZero { channel });
+        }
+        if !(noise > 0.0) || !noise.is_finite() {
+            return Err(ConfigError::NoiseInvalid { channel });
+        }
+        self.channels[channel] = Channel {
+            position,
+            axis: [axis[0] / norm, axis[1] / norm, axis[2] / norm],
+            noise,
+        };
+        self.len += 1;
+        Ok(channel)
+    }
+
+    /// Number of channels.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when no channel has been added.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The channels.
+    pub fn channels(&self) -> &[Channel] {
+        &self.channels[..self.len]
+    }
+}
+
+/// Which channels take part in the solve (bit `i` = channel `i`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ChannelMask(pub u64);
+
+impl ChannelMask {
+    /// All of the first `n` channels.
+    pub const fn all(n: usize) -> Self {
+        if n >= 64 {
+            ChannelMask(u64::MAX)
+        } else {
+            ChannelMask((1u64 << n) - 1)
+        }
+    }
+
+    /// True if channel `i` is included.
+    pub const fn contains(self, i: usize) -> bool {
+        i < 64 && self.0 & (1u64 << i) != 0
+    }
+
+    /// Number of included channels among the first `n`.
+    pub const fn count(self, n: usize) -> usize {
+        (self.0 & Self::all(n).0).count_ones() as usize
+    }
+
+    /// This mask without channel `i`.
+    pub const fn without(self, i: usize) -> Self {
+        if i < 64 {
+            ChannelMask(self.0 & !(1u64 << i))
+        } else {
+            self
+        }
+    }
+}

@@ -1,0 +1,258 @@
+//! Precomputation per (arrangement, channel mask, frame `V`): everything the sample loop needs
+//! as matrix–vector products. Done in `f64`, stored in the sample-loop scalar `T`.
+//!
+//! Paper eq. (10)–(11): with rows `g_i = [s_i; R_i × s_i; s_i∘R_i] / σ_i` (model G, frame `V`
+//! coordinates) or `[s_i; R_i × s_i] / σ_i` (model F), the thin SVD of the whitened `G` gives
+//! the pseudo-inverse `G⁺` and the left null space `U⊥`. The sample loop then needs only
+//! - `y = W p`, `W = [G⁺; U⊥ᵀ] diag(1/σ)` (`N` rows: `k` linear, `m = N − k` quadratic),
+//! - `M_k = Σ_i U⊥_ik Q_i / σ_i` (the quadratic forms of the null-space equations),
+//! - `T_j = Σ_i G⁺_ji Q_i / σ_i`, so that `G⁺ q(a) = [aᵀ T_j a]_j` costs 9 quadratic forms.
+
+use crate::arrangement::{Arrangement, ChannelMask, Model};
+use crate::error::{ConfigError, Unknown};
+use crate::linalg::{cross, mat_vec, Mat3, Sym3};
+use crate::real::Real;
+use crate::svd::{Svd, MAX_COLS};
+
+/// Equilibrated condition number above which the design is refused (single precision could not
+/// separate the unknowns).
+pub const MAX_CONDITION: f64 = 1e6;
+
+/// The precomputed matrices for one channel mask and one frame.
+#[derive(Clone)]
+pub struct Projection<T, const CAP: usize> {
+    /// Linear unknowns (9 or 6).
+    pub k: usize,
+    /// Quadratic equations (`N_included − k`).
+    pub m: usize,
+    /// `W` (rows `0..k`: `G⁺`, rows `k..k+m`: `U⊥ᵀ`), columns indexed by channel, whitening
+    /// folded in; excluded channels have zero columns.
+    pub w: [[T; CAP]; CAP],
+    /// `M_k`, `k < m`.
+    pub mq: [Sym3<T>; CAP],
+    /// `T_j`, `j < k`.
+    pub tq: [Sym3<T>; MAX_COLS],
+    /// Diagonal 3×3 blocks of `G⁺ G⁺ᵀ` (σ0, Ω′, d): the covariance of `x` for known `a`.
+    pub cov0: [Sym3<T>; 3],
+    /// With `m ≥ 6`: `L` (6 × m), the least-squares solve of `tr(M_k S) = P_k` for
+    /// `S = a aᵀ` stored as `[xx, yy, zz, xy, xz, yz]`.
+    pub lin_s: [[T; CAP]; 6],
+    /// Whether `lin_s` is valid.
+    pub has_lin_s: bool,
+    /// Frame `V` (rows: frame axes in body coordinates).
+    pub frame: Mat3<T>,
+    /// Equilibrated condition number of the whitened design matrix.
+    pub condition: f64,
+}
+
+impl<T: Real, const CAP: usize> Projection<T, CAP> {
+    /// An empty projection (to be filled by [`Projection::build`]).
+    pub fn empty() -> Self {
+        Projection {
+            k: 0,
+            m: 0,
+            w: [[T::ZERO; CAP]; CAP],
+            mq: [Sym3::zero(); CAP],
+            tq: [Sym3::zero(); MAX_COLS],
+            cov0: [Sym3::zero(); 3],
+            lin_s: [[T::ZERO; CAP]; 6],
+            has_lin_s: false,
+            frame: [[T::ONE, T::ZERO, T::ZERO], [T::ZERO, T::ONE, T::ZERO], [T::ZERO, T::ZERO, T::ONE]],
+            condition: f64::INFINITY,
+        }
+    }
+
+    /// Fills `self` for the included channels of `arr`, the model and the frame `v`.
+    /// On error `self` is left unchanged.
+    pub fn build(
+        &mut self,
+        arr: &Arrangement<CAP>,
+        mask: ChannelMask,
+        model: Model,
+        v: &Mat3<f64>,
+        frame_index: u8,
+    ) -> Result<(), ConfigError> {
+        let k = model.linear_unknowns();
+        let mut idx = [0usize; CAP];
+        let mut n = 0;
+        for i in 0..arr.len() {
+            if mask.contains(i) {
+                idx[n] = i;
+                n += 1;
+            }
+        }
+        if n < model.min_channels() {
+            return Err(ConfigError::TooFewChannels {
+                model,
+                have: n,
+                need: model.min_channels(),
+            });
+        }
+        // Rows g_i (whitened) and forms Q_i (whitened) in frame coordinates.
+        let mut cols = [[0.0f64; CAP]; MAX_COLS];
+        let mut q = [Sym3::<f64>::zero(); CAP];
+        for (row, &i) in idx.iter().enumerate().take(n) {
+            let ch = &arr.channels()[i];
+            let s = mat_vec(v, &ch.axis);
+            let r = mat_vec(v, &ch.position);
+            let rxs = cross(&r, &s);
+            let g = [s[0], s[1], s[2], rxs[0], rxs[1], rxs[2], s[0] * r[0], s[1] * r[1], s[2] * r[2]];
+            for c in 0..k {
+                cols[c][row] = g[c] / ch.noise;
+            }
+            q[row] = Sym3::sensor_form(&s, &r).scaled(1.0 / ch.noise);
+        }
+        // Equilibrate columns (unit norm) so the condition number does not depend on units.
+        let mut col_norm = [0.0f64; MAX_COLS];
+        for c in 0..k {
+            let norm = libm::sqrt(cols[c][..n].iter().map(|x| x * x).sum::<f64>());
+            col_norm[c] = norm;
+            if norm > 0.0 {
+                for x in cols[c][..n].iter_mut() {
+                    *x /= norm;
+                }
+            }
+        }
+        let svd = Svd::<CAP>::new(&cols, n, k);
+        let condition = svd.condition();
+        if !(condition <= MAX_CONDITION) {
+            let mut involved = 0u16;
+            for c in 0..k {
+                if libm::fabs(svd.v[c][k - 1]) > 0.2 {
+                    involved |= 1 << c;
+                }
+            }
+            return Err(ConfigError::Degenerate {
+                involved,
+                condition,
+                frame: frame_index,
+            });
+        }
+        let mut pinv = [[0.0f64; CAP]; MAX_COLS];
+        svd.pseudo_inverse(&mut pinv);
+        for c in 0..k {
+            for x in pinv[c][..n].iter_mut() {
+                *x /= col_norm[c];
+            }
+        }
+        let m = n - k;
+        let mut null = [[0.0f64; CAP]; CAP];
+        svd.left_null_space(&mut null);
+
+        // Everything is computed; now write (so that an error above leaves self unchanged).
+        self.k = k;
+        self.m = m;
+        self.condition = condition;
+        self.w = [[T::ZERO; CAP]; CAP];
+        for (row, &i) in idx.iter().enumerate().take(n) {
+            let inv_noise = 1.0 / arr.channels()[i].noise;
+            for c in 0..k {
+                self.w[c][i] = T::of(pinv[c][row] * inv_noise);
+            }
+            for e in 0..m {
+                self.w[k + e][i] = T::of(null[e][row] * inv_noise);
+            }
+        }
+        let mut mq = [Sym3::<f64>::zero(); CAP];
+        for (e, mqe) in mq.iter_mut().enumerate().take(m) {
+            for row in 0..n {
+                *mqe = mqe.add_scaled(null[e][row], &q[row]);
+            }
+        }
+        for (dst, src) in self.mq.iter_mut().zip(mq.iter()) {
+            *dst = src.cast();
+        }
+        for c in 0..MAX_COLS {
+            let mut acc = Sym3::<f64>::zero();
+            if c < k {
+                for row in 0..n {
+                    acc = acc.add_scaled(pinv[c][row], &q[row]);
+                }
+            }
+            self.tq[c] = acc.cast();
+        }
+        for b in 0..3 {
+            let mut blk = [[0.0f64; 3]; 3];
+            if 3 * b + 2 < k {
+                for (i, blk_row) in blk.iter_mut().enumerate() {
+                    for (j, cell) in blk_row.iter_mut().enumerate() {
+                        *cell = (0..n).map(|row| pinv[3 * b + i][row] * pinv[3 * b + j][row]).sum();
+                    }
+                }
+            }
+            self.cov0[b] = Sym3::from_mat(&blk).cast();
+        }
+        self.build_linear_s(&mq, m);
+        for (dst, src) in self.frame.iter_mut().zip(v.iter()) {
+            for (d, s) in dst.iter_mut().zip(src.iter()) {
+                *d = T::of(*s);
+            }
+        }
+        Ok(())
+    }
+
+    /// `L` for `tr(M_k S) = P_k` when `m ≥ 6` and the 6 columns are well conditioned.
+    fn build_linear_s(&mut self, mq: &[Sym3<f64>; CAP], m: usize) {
+        self.has_lin_s = false;
+        self.lin_s = [[T::ZERO; CAP]; 6];
+        if m < 6 {
+            return;
+        }
+        let mut cols = [[0.0f64; CAP]; MAX_COLS];
+        for e in 0..m {
+            let mk = mq[e].0;
+            let row = [mk[0], mk[1], mk[2], 2.0 * mk[3], 2.0 * mk[4], 2.0 * mk[5]];
+            for (c, v) in row.iter().enumerate() {
+                cols[c][e] = *v;
+            }
+        }
+        let svd = Svd::<CAP>::new(&cols, m, 6);
+        if !(svd.condition() <= MAX_CONDITION) {
+            return;
+        }
+        let mut l = [[0.0f64; CAP]; MAX_COLS];
+        svd.pseudo_inverse(&mut l);
+        for c in 0..6 {
+            for e in 0..m {
+                self.lin_s[c][e] = T::of(l[c][e]);
+            }
+        }
+        self.has_lin_s = true;
+    }
+}
+
+/// Checks that no design-matrix column (body frame) is zero over the included channels, naming
+/// the unknown that could not be seen (for example "d_z is not observable: every channel has
+/// s_z·R_z = 0").
+pub fn check_structural<const CAP: usize>(
+    arr: &Arrangement<CAP>,
+    mask: ChannelMask,
+    model: Model,
+) -> Result<(), ConfigError> {
+    let k = model.linear_unknowns();
+    let mut colmax = [0.0f64; MAX_COLS];
+    let mut scale = 0.0f64;
+    for (i, ch) in arr.channels().iter().enumerate() {
+        if !mask.contains(i) {
+            continue;
+        }
+        let (s, r) = (ch.axis, ch.position);
+        let rxs = cross(&r, &s);
+        let g = [s[0], s[1], s[2], rxs[0], rxs[1], rxs[2], s[0] * r[0], s[1] * r[1], s[2] * r[2]];
+        for c in 0..k {
+            colmax[c] = colmax[c].max(libm::fabs(g[c]));
+        }
+        let rn = libm::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+        scale = scale.max(rn);
+    }
+    for (c, &cm) in colmax.iter().enumerate().take(k) {
+        // σ0 columns are unitless (axis components), the others scale with the lever arm.
+        let tol = if c < 3 { 1e-9 } else { 1e-9 * scale.max(1e-12) };
+        if cm <= tol {
+            return Err(ConfigError::NotObservable {
+                unknown: Unknown::of_column(c),
+            });
+        }
+    }
+    Ok(())
+}

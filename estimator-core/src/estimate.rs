@@ -1,0 +1,103 @@
+//! What the estimator produces for each sample set.
+
+use crate::linalg::{Sym3, Vec3};
+use crate::real::Real;
+
+/// Status bits of an [`Estimate`] (the `flags` column of `estimates.csv`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Flags(pub u16);
+
+impl Flags {
+    /// The sign of Ω is not yet settled (steady spin, no hint): Ω may be −Ω.
+    pub const SIGN_UNRESOLVED: u16 = 1 << 0;
+    /// No real solution for `a`: least-squares fallback used.
+    pub const FALLBACK: u16 = 1 << 1;
+    /// Ill-conditioned: the `a` solve (its Jacobian) or the frame decomposition is nearly
+    /// singular; typically a rate near zero or along a frame plane.
+    pub const ILL_CONDITIONED: u16 = 1 << 2;
+    /// One or more channels excluded from the solve.
+    pub const CHANNELS_EXCLUDED: u16 = 1 << 3;
+    /// Another branch (solution of the quadratic forms) is still nearly as consistent as the
+    /// chosen one.
+    pub const BRANCH_AMBIGUOUS: u16 = 1 << 4;
+    /// The sample had a non-finite reading: the output is the prediction, not a measurement.
+    pub const INPUT_INVALID: u16 = 1 << 5;
+    /// Whitened residual χ² above the 99.9 % point for its degrees of freedom (fault suspected).
+    pub const RESIDUAL_HIGH: u16 = 1 << 6;
+
+    /// True if `bit` is set.
+    pub const fn has(self, bit: u16) -> bool {
+        self.0 & bit != 0
+    }
+}
+
+/// One estimate: the field at the instrument origin and the solver's internals.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Estimate<T> {
+    /// Specific force at the origin σ(0), m/s² (body frame).
+    pub sigma0: Vec3<T>,
+    /// Angular acceleration Ω′, rad/s² (body frame).
+    pub domega: Vec3<T>,
+    /// Angular rate Ω, rad/s (body frame; sign per [`Flags::SIGN_UNRESOLVED`]).
+    pub omega: Vec3<T>,
+    /// Field matrix `A = Γ + {Ω}²`, s⁻² (body frame).
+    pub field: Sym3<T>,
+    /// The vector `a` of the decomposition `A = ε{a}² + diag(d)` (frame coordinates).
+    pub a: Vec3<T>,
+    /// The diagonal `d` (frame coordinates; zero in model F).
+    pub d: Vec3<T>,
+    /// Index of the frame `V` used.
+    pub frame: u8,
+    /// `ε = ±1`.
+    pub epsilon: i8,
+    /// Status bits.
+    pub flags: Flags,
+    /// Whitened residual `|r|²`.
+    pub chi2: T,
+    /// Degrees of freedom of `chi2` (N − 12 in model G, N − 9 in model F).
+    pub dof: u8,
+    /// Number of real branches of the `a` solve at this sample.
+    pub branches: u8,
+    /// Standard deviations of σ0 (first order).
+    pub sd_sigma0: Vec3<T>,
+    /// Standard deviations of Ω′.
+    pub sd_domega: Vec3<T>,
+    /// Standard deviations of Ω.
+    pub sd_omega: Vec3<T>,
+}
+
+/// 99.9 % points of χ² for 1..=30 degrees of freedom (beyond: Wilson–Hilferty).
+pub fn chi2_999(dof: usize) -> f64 {
+    const TABLE: [f64; 30] = [
+        10.83, 13.82, 16.27, 18.47, 20.52, 22.46, 24.32, 26.12, 27.88, 29.59, 31.26, 32.91, 34.53,
+        36.12, 37.70, 39.25, 40.79, 42.31, 43.82, 45.31, 46.80, 48.27, 49.73, 51.18, 52.62, 54.05,
+        55.48, 56.89, 58.30, 59.70,
+    ];
+    if dof == 0 {
+        return f64::INFINITY;
+    }
+    if dof <= 30 {
+        return TABLE[dof - 1];
+    }
+    let k = dof as f64;
+    let h = 2.0 / (9.0 * k);
+    let z = 3.090;
+    k * libm::pow(1.0 - h + z * libm::sqrt(h), 3.0)
+}
+
+impl<T: Real> Estimate<T> {
+    /// True if no component is NaN or infinite (the estimator guarantees this).
+    pub fn is_finite(&self) -> bool {
+        let v = |x: &Vec3<T>| x.iter().all(|c| c.is_finite());
+        v(&self.sigma0)
+            && v(&self.domega)
+            && v(&self.omega)
+            && self.field.0.iter().all(|c| c.is_finite())
+            && v(&self.a)
+            && v(&self.d)
+            && self.chi2.is_finite()
+            && v(&self.sd_sigma0)
+            && v(&self.sd_domega)
+            && v(&self.sd_omega)
+    }
+}

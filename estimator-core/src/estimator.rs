@@ -1,0 +1,748 @@
+//! The estimator: configuration (precomputation) and the per-sample solve.
+//!
+//! Per sample (no SVD, no allocation): `y = W p` (one matrix–vector product), the `a` solve
+//! from the `m` null-space equations, `x = G⁺(p − ε q(a))` as `y_lin − ε [aᵀ T_j a]` for each
+//! branch, branch and sign tracking, first-order standard deviations of the chosen branch, and
+//! (unless raw) the rate filter.
+
+use crate::arrangement::{Arrangement, ChannelMask, Model};
+use crate::design::{check_structural, Projection};
+use crate::error::ConfigError;
+use crate::estimate::{chi2_999, Estimate, Flags};
+use crate::filter::RateFilter;
+use crate::linalg::{dot, mat_t_vec, mat_vec, norm2, quat_to_mat, scale, Mat3, Sym3, Vec3};
+use crate::quadratic::{canonical_sign, closed_form, gauss_newton, rank_one_factor, residual2, MAX_ROOTS};
+use crate::real::Real;
+use crate::svd::MAX_COLS;
+use crate::tracker::{Candidate, Tracker, MAX_CANDIDATES};
+
+/// Number of precomputed frames `V` for model G.
+pub const NUM_FRAMES: usize = 4;
+
+/// The frames `V` of model G as quaternions `[w, x, y, z]`: chosen (numerical search over the
+/// sphere) so that every rate direction has all three components at least 0.185·|Ω| in one of
+/// them, which keeps every off-diagonal of `A` large (estimator.md: "Choose V from the
+/// predicted A so that the off-diagonals are large").
+pub const FRAME_QUATERNIONS: [[f64; 4]; NUM_FRAMES] = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.8178638641141279, -0.5425542429903757, 0.1674932673596002, 0.09316436324396377],
+    [0.24923937382434666, -0.8844306211486356, -0.14682476352409543, -0.36620308535890217],
+    [-0.6856432616288827, -0.614718901601607, -0.37747774290860625, 0.09759376724589237],
+];
+
+/// Options of the estimator.
+#[derive(Clone, Copy, Debug)]
+pub struct Options {
+    /// Per-sample output without the rate filter (continuity is still used for branch and sign).
+    pub raw: bool,
+    /// Approximate Ω at the first sample (settles sign and starting branch).
+    pub initial_omega: Option<[f64; 3]>,
+    /// Gravity-gradient tensor Γ (body frame), known; default 0.
+    pub gamma: Sym3<f64>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            raw: false,
+            initial_omega: None,
+            gamma: Sym3::zero(),
+        }
+    }
+}
+
+/// Gauss–Newton iterations per start (m > 3).
+const GN_ITERATIONS: usize = 6;
+
+/// One branch at one sample, in frame coordinates.
+#[derive(Clone, Copy, Debug, Default)]
+struct Branch<T> {
+    a: Vec3<T>,
+    x: [T; MAX_COLS],
+    fit: T,
+}
+
+/// The estimator for up to `CAP` channels.
+pub struct Estimator<T: Real, const CAP: usize = 32> {
+    arr: Arrangement<CAP>,
+    model: Model,
+    mask: ChannelMask,
+    proj: [Projection<T, CAP>; NUM_FRAMES],
+    usable: [bool; NUM_FRAMES],
+    frames: usize,
+    frame: usize,
+    gamma: Sym3<T>,
+    gamma_frame: [Sym3<T>; NUM_FRAMES],
+    gamma_offset: [T; CAP],
+    options: Options,
+    tracker: Tracker<T>,
+    filter: RateFilter<T>,
+    last_t: Option<f64>,
+    last: Option<Estimate<T>>,
+    step_var: T,
+}
+
+impl<T: Real, const CAP: usize> Estimator<T, CAP> {
+    /// Builds an estimator: validates the arrangement for the model and precomputes every
+    /// frame (paper eq. 10–11).
+    pub fn new(arr: &Arrangement<CAP>, model: Model, options: Options) -> Result<Self, ConfigError> {
+        let mut e = Estimator {
+            arr: Arrangement::new(),
+            model,
+            mask: ChannelMask::all(0),
+            proj: core::array::from_fn(|_| Projection::empty()),
+            usable: [false; NUM_FRAMES],
+            frames: 0,
+            frame: 0,
+            gamma: Sym3::zero(),
+            gamma_frame: [Sym3::zero(); NUM_FRAMES],
+            gamma_offset: [T::ZERO; CAP],
+            options: Options::default(),
+            tracker: Tracker::new(),
+            filter: RateFilter::new(),
+            last_t: None,
+            last: None,
+            step_var: T::ZERO,
+        };
+        e.configure(arr, model, ChannelMask::all(arr.len()), options)?;
+        Ok(e)
+    }
+
+    /// Reconfigures (new arrangement, model, channel mask or options). On error the previous
+    /// configuration stays in force, untouched.
+    pub fn configure(
+        &mut self,
+        arr: &Arrangement<CAP>,
+        model: Model,
+        mask: ChannelMask,
+        options: Options,
+    ) -> Result<(), ConfigError> {
+        if let Some(w) = options.initial_omega {
+            if !w.iter().all(|v| v.is_finite()) {
+                return Err(ConfigError::NotFinite { what: "initial omega" });
+            }
+        }
+        if !options.gamma.0.iter().all(|v| v.is_finite()) {
+            return Err(ConfigError::NotFinite {
+                what: "gravity gradient Γ",
+            });
+        }
+        for i in 0..64 {
+            if mask.contains(i) && i >= arr.len() {
+                return Err(ConfigError::NoSuchChannel { channel: i });
+            }
+        }
+        check_structural(arr, mask, model)?;
+        let frames = match model {
+            Model::General => NUM_FRAMES,
+            Model::FreeFloat => 1,
+        };
+        // Frame 0 (body axes) decides errors; nothing is changed before it succeeds.
+        self.proj[0].build(arr, mask, model, &quat_to_mat(FRAME_QUATERNIONS[0]), 0)?;
+        self.usable = [false; NUM_FRAMES];
+        self.usable[0] = true;
+        for f in 1..frames {
+            self.usable[f] = self.proj[f]
+                .build(arr, mask, model, &quat_to_mat(FRAME_QUATERNIONS[f]), f as u8)
+                .is_ok();
+        }
+        self.arr = arr.clone();
+        self.model = model;
+        self.mask = mask;
+        self.frames = frames;
+        self.frame = 0;
+        self.options = options;
+        self.set_gamma_internal(&options.gamma);
+        self.reset();
+        Ok(())
+    }
+
+    /// Excludes or includes channels (new precomputation); on error nothing changes.
+    pub fn set_mask(&mut self, mask: ChannelMask) -> Result<(), ConfigError> {
+        let arr = self.arr.clone();
+        self.configure(&arr, self.model, mask, self.options)
+    }
+
+    /// Sets the known gravity-gradient tensor Γ (body frame). Cheap (no SVD).
+    pub fn set_gamma(&mut self, gamma: &Sym3<f64>) -> Result<(), ConfigError> {
+        if !gamma.0.iter().all(|v| v.is_finite()) {
+            return Err(ConfigError::NotFinite {
+                what: "gravity gradient Γ",
+            });
+        }
+        self.options.gamma = *gamma;
+        self.set_gamma_internal(gamma);
+        Ok(())
+    }
+
+    fn set_gamma_internal(&mut self, gamma: &Sym3<f64>) {
+        self.gamma = gamma.cast();
+        for f in 0..NUM_FRAMES {
+            let v = quat_to_mat(FRAME_QUATERNIONS[f]);
+            self.gamma_frame[f] = gamma.rotate(&v).cast();
+        }
+        // Model F: p_i − s_i·Γ R_i enters the linear solve; precompute W (s·Γ R).
+        self.gamma_offset = [T::ZERO; CAP];
+        if self.model == Model::FreeFloat {
+            let pr = &self.proj[0];
+            let mut c = [0.0f64; CAP];
+            for (i, ch) in self.arr.channels().iter().enumerate() {
+                if self.mask.contains(i) {
+                    c[i] = dot(&ch.axis, &gamma.mul_vec(&ch.position));
+                }
+            }
+            for r in 0..pr.k + pr.m {
+                let mut acc = 0.0;
+                for (i, ci) in c.iter().enumerate().take(self.arr.len()) {
+                    acc += pr.w[r][i].to_f64() * ci;
+                }
+                self.gamma_offset[r] = T::of(acc);
+            }
+        }
+    }
+
+    /// Sets (or clears) the rate hint and restarts branch and sign tracking.
+    pub fn set_hint(&mut self, omega: Option<[f64; 3]>) -> Result<(), ConfigError> {
+        if let Some(w) = omega {
+            if !w.iter().all(|v| v.is_finite()) {
+                return Err(ConfigError::NotFinite { what: "rate hint" });
+            }
+        }
+        self.options.initial_omega = omega;
+        self.reset();
+        Ok(())
+    }
+
+    /// Forgets the history (tracker, filter, time).
+    pub fn reset(&mut self) {
+        self.tracker.reset();
+        self.filter.reset();
+        self.last_t = None;
+        self.last = None;
+        self.step_var = T::ZERO;
+    }
+
+    /// The model in use.
+    pub fn model(&self) -> Model {
+        self.model
+    }
+
+    /// The arrangement in use.
+    pub fn arrangement(&self) -> &Arrangement<CAP> {
+        &self.arr
+    }
+
+    /// The channel mask in use.
+    pub fn mask(&self) -> ChannelMask {
+        self.mask
+    }
+
+    /// Equilibrated condition number of the design matrix of frame `f` (None if unusable).
+    pub fn condition(&self, f: usize) -> Option<f64> {
+        (f < self.frames && self.usable[f]).then(|| self.proj[f].condition)
+    }
+
+    /// Degrees of freedom of the residual (`N − 12` in model G, `N − 9` in model F).
+    pub fn dof(&self) -> usize {
+        self.proj[0].m.saturating_sub(3)
+    }
+
+    /// One sample set: `p[i]` is channel `i`'s specific force (m/s²) at time `t` (s).
+    /// Never panics; never returns NaN (a non-finite reading gives the prediction, flagged).
+    pub fn update(&mut self, t: f64, p: &[T]) -> Estimate<T> {
+        let n = self.arr.len();
+        let input_ok = p.len() >= n && (0..n).all(|i| !self.mask.contains(i) || p[i].is_finite()) && t.is_finite();
+        let dt = match self.last_t {
+            Some(t0) if t > t0 && (t - t0).is_finite() => t - t0,
+            _ => 0.0,
+        };
+        if !input_ok {
+            return self.prediction(T::of(dt));
+        }
+        let dt_t = T::of(dt);
+        let excluded = self.mask.count(n) < n;
+
+        // Candidate branches.
+        let mut branches = [Branch::<T>::default(); MAX_CANDIDATES];
+        let mut cands = [Candidate::<T>::default(); MAX_CANDIDATES];
+        let mut fallback = false;
+        let mut nb = 0;
+        let mut eps = T::ONE;
+        let mut frame = self.frame;
+        let pred = self.tracker.predicted_omega(dt_t);
+        let hint: Option<Vec3<T>> = self.options.initial_omega.map(|w| [T::of(w[0]), T::of(w[1]), T::of(w[2])]);
+        let steer = pred.or(if self.tracker.has_history() { None } else { hint });
+        match (self.model, steer) {
+            (Model::General, Some(w)) if norm2(&w) > T::ZERO => {
+                frame = self.choose_frame(&w);
+                eps = self.epsilon(frame, &w);
+                let (k, fb) = self.solve_frame(frame, p, eps, dt_t, &mut branches);
+                nb = k;
+                fallback = fb;
+            }
+            (Model::General, _) => {
+                // No prediction: try every frame, keep the best-conditioned decomposition.
+                let mut best_score = -T::ONE;
+                for f in 0..self.frames {
+                    if !self.usable[f] {
+                        continue;
+                    }
+                    let mut trial = [Branch::<T>::default(); MAX_CANDIDATES];
+                    let (k, fb) = self.solve_frame(f, p, T::ONE, dt_t, &mut trial);
+                    let mut score = if fb { -T::of(0.5) } else { T::ZERO };
+                    for b in trial.iter().take(k) {
+                        score = score.max(frame_score(&b.a) - if fb { T::ONE } else { T::ZERO });
+                    }
+                    if score > best_score {
+                        best_score = score;
+                        frame = f;
+                        branches = trial;
+                        nb = k;
+                        fallback = fb;
+                    }
+                }
+            }
+            (Model::FreeFloat, _) => {
+                frame = 0;
+                let (k, fb) = self.solve_frame(0, p, T::ONE, dt_t, &mut branches);
+                nb = k;
+                fallback = fb;
+            }
+        }
+        self.frame = frame;
+        let v = self.proj[frame].frame;
+        for (c, b) in cands.iter_mut().zip(branches.iter()).take(nb) {
+            *c = Candidate {
+                omega: self.omega_of(frame, eps, b),
+                domega: mat_t_vec(&v, &[b.x[3], b.x[4], b.x[5]]),
+                fit: b.fit,
+            };
+        }
+        let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01) + self.step_var));
+        let step_var = self.step_var;
+        let Some(choice) = self.tracker.step(&cands[..nb], dt_t, step_var, hint_var) else {
+            return self.prediction(dt_t);
+        };
+        let b = branches[choice.candidate];
+        let mut est = self.finish(frame, eps, &b, &choice.omega);
+        est.branches = nb as u8;
+        let mut flags = est.flags.0;
+        if choice.sign_unresolved {
+            flags |= Flags::SIGN_UNRESOLVED;
+        }
+        if choice.branch_ambiguous {
+            flags |= Flags::BRANCH_AMBIGUOUS;
+        }
+        if fallback {
+            flags |= Flags::FALLBACK;
+        }
+        if excluded {
+            flags |= Flags::CHANNELS_EXCLUDED;
+        }
+        est.flags = Flags(flags);
+
+        // Noise scale of the kinematic residual for the next step.
+        let mean = |v: &Vec3<T>| (v[0].sq() + v[1].sq() + v[2].sq()) / T::of(3.0);
+        let dtn = T::of(dt.max(1e-3));
+        self.step_var = T::of(2.0) * mean(&est.sd_omega) + T::of(0.5) * dtn * dtn * mean(&est.sd_domega);
+
+        if !self.options.raw {
+            let sq = |v: &Vec3<T>| [v[0].sq(), v[1].sq(), v[2].sq()];
+            let (w, var) = self.filter.update(
+                dt_t,
+                &est.omega,
+                &sq(&est.sd_omega),
+                &est.domega,
+                &sq(&est.sd_domega),
+                self.tracker.model_variance(),
+            );
+            est.omega = w;
+            est.sd_omega = [var[0].sqrt(), var[1].sqrt(), var[2].sqrt()];
+            if self.model == Model::FreeFloat {
+                est.field = self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&w));
+            }
+        }
+        self.last_t = Some(t);
+        self.last = Some(est);
+        est
+    }
+
+    /// Output when a sample cannot be used: the last estimate propagated by Ω′, flagged.
+    fn prediction(&mut self, dt: T) -> Estimate<T> {
+        let mut est = self.last.unwrap_or_default();
+        est.omega = [
+            est.omega[0] + est.domega[0] * dt,
+            est.omega[1] + est.domega[1] * dt,
+            est.omega[2] + est.domega[2] * dt,
+        ];
+        est.flags = Flags(est.flags.0 | Flags::INPUT_INVALID);
+        if self.last.is_none() {
+            est.flags = Flags(est.flags.0 | Flags::SIGN_UNRESOLVED);
+        }
+        est
+    }
+
+    /// Frame whose axes see every component of `w` largest (with hysteresis).
+    fn choose_frame(&self, w: &Vec3<T>) -> usize {
+        let score = |f: usize| frame_score(&mat_vec(&self.proj[f].frame, w));
+        let current = if self.usable[self.frame] { score(self.frame) } else { -T::ONE };
+        let mut best = self.frame;
+        let mut best_score = current;
+        for f in 0..self.frames {
+            if self.usable[f] {
+                let s = score(f);
+                if s > best_score {
+                    best_score = s;
+                    best = f;
+                }
+            }
+        }
+        if best != self.frame && best_score > T::of(1.15) * current {
+            best
+        } else if self.usable[self.frame] {
+            self.frame
+        } else {
+            best
+        }
+    }
+
+    /// ε from the predicted `A` in frame `f`: the sign of `A₁₂ A₁₃ A₂₃` (Appendix, A1).
+    fn epsilon(&self, f: usize, w: &Vec3<T>) -> T {
+        let wv = mat_vec(&self.proj[f].frame, w);
+        let g = &self.gamma_frame[f].0;
+        let prod = (wv[0] * wv[1] + g[3]) * (wv[0] * wv[2] + g[4]) * (wv[1] * wv[2] + g[5]);
+        if prod < T::ZERO {
+            -T::ONE
+        } else {
+            T::ONE
+        }
+    }
+
+    /// The candidate branches in frame `f`; returns their number and whether the fallback
+    /// (least squares without an exact real solution) was used.
+    fn solve_frame(&self, f: usize, p: &[T], eps: T, dt: T, out: &mut [Branch<T>; MAX_CANDIDATES]) -> (usize, bool) {
+        let pr = &self.proj[f];
+        let (k, m) = (pr.k, pr.m);
+        let n = self.arr.len();
+        // y = W p (paper eq. 11 reduced by the SVD), minus the known-Γ term of model F.
+        let mut y = [T::ZERO; CAP];
+        for r in 0..(k + m) {
+            let row = &pr.w[r];
+            let mut acc = T::ZERO;
+            for i in 0..n {
+                acc += row[i] * p[i];
+            }
+            y[r] = acc - self.gamma_offset[r];
+        }
+        let mut pe = [T::ZERO; CAP];
+        for e in 0..m {
+            pe[e] = eps * y[k + e];
+        }
+        let forms = &pr.mq[..m];
+        let rhs = &pe[..m];
+        let mut roots = [[T::ZERO; 3]; MAX_CANDIDATES];
+        let mut nr = 0;
+        if m == 3 {
+            let m3 = [pr.mq[0], pr.mq[1], pr.mq[2]];
+            let p3 = [pe[0], pe[1], pe[2]];
+            let mut cf = [[T::ZERO; 3]; MAX_ROOTS];
+            nr = closed_form(&m3, &p3, &mut cf);
+            roots[..nr].copy_from_slice(&cf[..nr]);
+        } else {
+            // Starts: every surviving branch's prediction, and the linear S = a aᵀ solve.
+            let mut starts = [[T::ZERO; 3]; MAX_CANDIDATES + 1];
+            let mut preds = [[T::ZERO; 3]; MAX_CANDIDATES];
+            let np = self.tracker.predictions(dt, &mut preds);
+            let mut ns = 0;
+            for w in preds.iter().take(np) {
+                starts[ns] = self.a_from_omega(f, eps, w);
+                ns += 1;
+            }
+            if !self.tracker.has_history() {
+                if let Some(h) = self.options.initial_omega {
+                    starts[ns] = self.a_from_omega(f, eps, &[T::of(h[0]), T::of(h[1]), T::of(h[2])]);
+                    ns += 1;
+                }
+            }
+            if pr.has_lin_s && ns < starts.len() {
+                let mut s6 = [T::ZERO; 6];
+                for (c, s) in s6.iter_mut().enumerate() {
+                    let mut acc = T::ZERO;
+                    for e in 0..m {
+                        acc += pr.lin_s[c][e] * pe[e];
+                    }
+                    *s = acc;
+                }
+                let a0 = rank_one_factor(&Sym3(s6));
+                if norm2(&a0) > T::ZERO {
+                    starts[ns] = a0;
+                    ns += 1;
+                }
+            }
+            if ns == 0 {
+                // No prediction and no linear start: closed form on the first three equations.
+                let m3 = [pr.mq[0], pr.mq[1], pr.mq[2]];
+                let p3 = [pe[0], pe[1], pe[2]];
+                let mut cf = [[T::ZERO; 3]; MAX_ROOTS];
+                let nc = closed_form(&m3, &p3, &mut cf);
+                for a in cf.iter().take(nc) {
+                    if ns < starts.len() {
+                        starts[ns] = *a;
+                        ns += 1;
+                    }
+                }
+            }
+            for s in starts.iter().take(ns) {
+                let (mut a, _) = gauss_newton(forms, rhs, s, GN_ITERATIONS);
+                canonical_sign(&mut a);
+                let dup = roots[..nr]
+                    .iter()
+                    .any(|b| norm2(&crate::linalg::sub(&a, b)) <= T::of(1e-6) * norm2(&a).max(T::EPSILON));
+                if !dup && nr < MAX_CANDIDATES && a.iter().all(|v| v.is_finite()) {
+                    roots[nr] = a;
+                    nr += 1;
+                }
+            }
+        }
+        let mut fallback = false;
+        if nr == 0 {
+            // No real solution (noise at low rate): least squares from the prediction or a
+            // start of the right size.
+            fallback = true;
+            let start = match self.tracker.predicted_omega(dt) {
+                Some(w) if norm2(&w) > T::ZERO => self.a_from_omega(f, eps, &w),
+                _ => {
+                    let mut big = T::ZERO;
+                    let mut mnorm = T::ZERO;
+                    for e in 0..m {
+                        big = big.max(rhs[e].abs());
+                        mnorm = mnorm.max(forms[e].0.iter().fold(T::ZERO, |a, v| a.max(v.abs())));
+                    }
+                    let r = if mnorm > T::ZERO { (big / mnorm).sqrt() } else { T::ZERO };
+                    let c = r * T::of(0.577_350_269_189_625_8);
+                    [c, c, c]
+                }
+            };
+            let (mut a, _) = gauss_newton(forms, rhs, &start, 2 * GN_ITERATIONS);
+            if !a.iter().all(|v| v.is_finite()) {
+                a = [T::ZERO; 3];
+            }
+            roots[0] = a;
+            nr = 1;
+        }
+        for (b, a) in out.iter_mut().zip(roots.iter()).take(nr) {
+            let mut x = [T::ZERO; MAX_COLS];
+            for (j, xj) in x.iter_mut().enumerate().take(k) {
+                *xj = y[j] - eps * pr.tq[j].quad(a);
+            }
+            *b = Branch {
+                a: *a,
+                x,
+                fit: residual2(forms, rhs, a),
+            };
+        }
+        (nr, fallback)
+    }
+
+    /// `a` in frame `f` that reproduces the field of rate `w` (body): `a = V w` when `Γ` is
+    /// negligible (model G with `d ≈ Γ` terms absorbed by the solve), `a = w` in model F.
+    fn a_from_omega(&self, f: usize, _eps: T, w: &Vec3<T>) -> Vec3<T> {
+        mat_vec(&self.proj[f].frame, w)
+    }
+
+    /// Unsigned Ω (body) of a branch: model F `Ω = a`; model G from `ΩΩᵀ = (A − Γ) − ½ tr(A − Γ) I`.
+    fn omega_of(&self, f: usize, eps: T, b: &Branch<T>) -> Vec3<T> {
+        match self.model {
+            Model::FreeFloat => b.a,
+            Model::General => {
+                let v = &self.proj[f].frame;
+                mat_t_vec(v, &rank_one_factor(&self.centripetal(f, eps, b)))
+            }
+        }
+    }
+
+    /// `(A − Γ) − ½ tr(A − Γ) I` in frame `f` (= ΩΩᵀ for a rigid body).
+    fn centripetal(&self, f: usize, eps: T, b: &Branch<T>) -> Sym3<T> {
+        let mut a = Sym3::skew_squared(&b.a).scaled(eps);
+        a.0[0] += b.x[6];
+        a.0[1] += b.x[7];
+        a.0[2] += b.x[8];
+        let c = a.add_scaled(-T::ONE, &self.gamma_frame[f]);
+        let h = T::of(0.5) * c.trace();
+        let mut m = c;
+        m.0[0] -= h;
+        m.0[1] -= h;
+        m.0[2] -= h;
+        m
+    }
+
+    /// The full estimate of the chosen branch, with first-order standard deviations.
+    fn finish(&self, f: usize, eps: T, b: &Branch<T>, omega: &Vec3<T>) -> Estimate<T> {
+        let pr = &self.proj[f];
+        let v = &pr.frame;
+        let (k, m) = (pr.k, pr.m);
+        let sigma0 = mat_t_vec(v, &[b.x[0], b.x[1], b.x[2]]);
+        let domega = mat_t_vec(v, &[b.x[3], b.x[4], b.x[5]]);
+        let (field, d) = match self.model {
+            Model::General => {
+                let mut av = Sym3::skew_squared(&b.a).scaled(eps);
+                av.0[0] += b.x[6];
+                av.0[1] += b.x[7];
+                av.0[2] += b.x[8];
+                (av.rotate(&transpose(v)), [b.x[6], b.x[7], b.x[8]])
+            }
+            Model::FreeFloat => (self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&b.a)), [T::ZERO; 3]),
+        };
+        let mut flags = 0u16;
+        // cov(a) = (JᵀJ)⁻¹, J rows 2 ε M_k a (whitened equations: unit noise).
+        let mut jtj = Sym3::<T>::zero();
+        for mk in pr.mq.iter().take(m) {
+            let g = scale(T::of(2.0), &mk.mul_vec(&b.a));
+            jtj.0[0] += g[0] * g[0];
+            jtj.0[1] += g[1] * g[1];
+            jtj.0[2] += g[2] * g[2];
+            jtj.0[3] += g[0] * g[1];
+            jtj.0[4] += g[0] * g[2];
+            jtj.0[5] += g[1] * g[2];
+        }
+        let tr = jtj.trace();
+        let det = crate::linalg::det3(&jtj.to_mat());
+        let third = tr / T::of(3.0);
+        if !(det > T::of(1e-6) * third * third * third) {
+            flags |= Flags::ILL_CONDITIONED;
+        }
+        // Regularised so that a = 0 (no rotation) gives large but finite deviations.
+        let reg = T::of(1e-6) * third + T::of(1e-12);
+        let mut jr = jtj;
+        for i in 0..3 {
+            jr.0[i] += reg;
+        }
+        let cov_a = jr.inverse(T::ZERO).unwrap_or(Sym3([T::of(1e12), T::of(1e12), T::of(1e12), T::ZERO, T::ZERO, T::ZERO]));
+        // x = y − ε [aᵀ T_j a]: ∂x_j/∂a = −2 ε T_j a; cov(x) = cov0 + H cov(a) Hᵀ.
+        let mut h = [[T::ZERO; 3]; MAX_COLS];
+        for (j, hj) in h.iter_mut().enumerate().take(k) {
+            *hj = scale(-T::of(2.0) * eps, &pr.tq[j].mul_vec(&b.a));
+        }
+        let block = |bi: usize| -> Sym3<T> {
+            let mut c = pr.cov0[bi];
+            let idx = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+            for (slot, (r, s)) in idx.iter().enumerate() {
+                c.0[slot] += cov_a.bilinear(&h[3 * bi + r], &h[3 * bi + s]);
+            }
+            c
+        };
+        let vt = transpose(v);
+        let sd = |c: &Sym3<T>| {
+            let cb = c.rotate(&vt);
+            [cb.0[0].max(T::ZERO).sqrt(), cb.0[1].max(T::ZERO).sqrt(), cb.0[2].max(T::ZERO).sqrt()]
+        };
+        let sd_sigma0 = sd(&block(0));
+        let sd_domega = sd(&block(1));
+        let sd_omega = match self.model {
+            Model::FreeFloat => sd(&cov_a),
+            Model::General => {
+                let wv = mat_vec(v, omega);
+                let w2 = norm2(&wv);
+                if w2 > T::ZERO {
+                    // ∂Ω/∂(a, d) from dΩ = (dM Ω − Ω (Ωᵀ dM Ω)/(2|Ω|²))/|Ω|².
+                    let mut jac = [[T::ZERO; 6]; 3];
+                    let aw = dot(&b.a, &wv);
+                    for i in 0..3 {
+                        // da_i: dM = ε(e_i aᵀ + a e_iᵀ).
+                        let mut dmw = scale(eps * wv[i], &b.a);
+                        dmw[i] += eps * aw;
+                        let q = T::of(2.0) * eps * wv[i] * aw;
+                        for r in 0..3 {
+                            jac[r][i] = (dmw[r] - wv[r] * q / (T::of(2.0) * w2)) / w2;
+                        }
+                        // dd_i: dM = e_i e_iᵀ − ½ I.
+                        let mut dmw = scale(-T::of(0.5), &wv);
+                        dmw[i] += wv[i];
+                        let q = wv[i] * wv[i] - T::of(0.5) * w2;
+                        for r in 0..3 {
+                            jac[r][3 + i] = (dmw[r] - wv[r] * q / (T::of(2.0) * w2)) / w2;
+                        }
+                    }
+                    // Joint covariance of (a, d): d = y_d − ε aᵀT a.
+                    let cdd = block(2);
+                    let ca = cov_a.to_mat();
+                    let mut cda = [[T::ZERO; 3]; 3]; // cov(d, a) = H_d cov(a)
+                    for r in 0..3 {
+                        for c in 0..3 {
+                            cda[r][c] = dot(&h[6 + r], &ca[c]);
+                        }
+                    }
+                    let cd = cdd.to_mat();
+                    let cov6 = |i: usize, j: usize| -> T {
+                        match (i < 3, j < 3) {
+                            (true, true) => ca[i][j],
+                            (false, false) => cd[i - 3][j - 3],
+                            (false, true) => cda[i - 3][j],
+                            (true, false) => cda[j - 3][i],
+                        }
+                    };
+                    let mut cw = [[T::ZERO; 3]; 3];
+                    for r in 0..3 {
+                        for s in r..3 {
+                            let mut acc = T::ZERO;
+                            for i in 0..6 {
+                                let mut inner = T::ZERO;
+                                for j in 0..6 {
+                                    inner += cov6(i, j) * jac[s][j];
+                                }
+                                acc += jac[r][i] * inner;
+                            }
+                            cw[r][s] = acc;
+                            cw[s][r] = acc;
+                        }
+                    }
+                    sd(&Sym3::from_mat(&cw))
+                } else {
+                    [T::of(1e6); 3]
+                }
+            }
+        };
+        let chi2 = b.fit;
+        let dof = m.saturating_sub(3);
+        if dof > 0 && chi2.to_f64() > chi2_999(dof) {
+            flags |= Flags::RESIDUAL_HIGH;
+        }
+        let mut est = Estimate {
+            sigma0,
+            domega,
+            omega: *omega,
+            field,
+            a: b.a,
+            d,
+            frame: f as u8,
+            epsilon: if eps < T::ZERO { -1 } else { 1 },
+            flags: Flags(flags),
+            chi2,
+            dof: dof as u8,
+            branches: 0,
+            sd_sigma0,
+            sd_domega,
+            sd_omega,
+        };
+        if !est.is_finite() {
+            // Defensive: never emit NaN. Keep the previous estimate, flagged.
+            let mut prev = self.last.unwrap_or_default();
+            prev.flags = Flags(prev.flags.0 | Flags::ILL_CONDITIONED | Flags::FALLBACK);
+            est = prev;
+        }
+        est
+    }
+}
+
+/// `min_i |w_i| / |w|`: how well a frame separates the off-diagonals of `{w}²`.
+fn frame_score<T: Real>(w: &Vec3<T>) -> T {
+    let n = norm2(w).sqrt();
+    if !(n > T::ZERO) {
+        return T::ZERO;
+    }
+    w[0].abs().min(w[1].abs()).min(w[2].abs()) / n
+}
+
+fn transpose<T: Real>(m: &Mat3<T>) -> Mat3<T> {
+    [[m[0][0], m[1][0], m[2][0]], [m[0][1], m[1][1], m[2][1]], [m[0][2], m[1][2], m[2][2]]]
+}

@@ -1,0 +1,40 @@
+//! # estimator-core
+//!
+//! The mathematics of the ballistometer (J.P.B. Vreeburg, *Identification of the geometry of
+//! accelerometers in an arrangement*, NLR-TP-2000-585): from N single-axis accelerometer
+//! outputs, the specific force σ(0) at the instrument origin, the angular acceleration Ω′, the
+//! angular rate Ω and the field matrix `A = Γ + {Ω}²` — no gyro.
+//!
+//! `no_std`, no allocation, no panics on any input; generic over the scalar ([`Real`]): `f32`
+//! on the target, `f64` on the host. Precomputation (SVD per channel mask and frame) is done in
+//! `f64` whatever the sample-loop scalar.
+//!
+//! - [`arrangement`]: channels (position, axis, noise), the models, channel masks.
+//! - [`design`]: the precomputed matrices of paper eq. (10)–(11) per mask and frame.
+//! - [`quadratic`]: the quadratic forms for `a` (closed form for m = 3, Gauss–Newton).
+//! - [`tracker`]: branch and sign tracking by kinematic consistency.
+//! - [`filter`]: rate fusion (Ω′ integration + algebraic Ω).
+//! - [`estimator`]: the per-sample solve tying these together.
+//! - [`estimate`]: the outputs and their status flags.
+#![cfg_attr(not(feature = "std"), no_std)]
+#![deny(missing_docs)]
+#![deny(unsafe_op_in_unsafe_fn)]
+
+pub mod arrangement;
+pub mod design;
+pub mod error;
+pub mod estimate;
+pub mod estimator;
+pub mod filter;
+pub mod linalg;
+pub mod quadratic;
+pub mod real;
+pub mod svd;
+pub mod tracker;
+
+pub use arrangement::{Arrangement, Channel, ChannelMask, Model};
+pub use error::{ConfigError, Unknown};
+pub use estimate::{Estimate, Flags};
+pub use estimator::{Estimator, Options};
+pub use linalg::{Sym3, Vec3};
+pub use real::Real;

@@ -1,0 +1,297 @@
+//! Small fixed-size linear algebra: 3-vectors, 3×3 matrices, symmetric 3×3 matrices.
+//!
+//! Plain arrays and free functions: no allocation, no panics (all indices are constants).
+
+use crate::real::Real;
+
+/// A 3-vector.
+pub type Vec3<T> = [T; 3];
+/// A 3×3 matrix, row-major.
+pub type Mat3<T> = [[T; 3]; 3];
+
+/// `a · b`.
+#[inline]
+pub fn dot<T: Real>(a: &Vec3<T>, b: &Vec3<T>) -> T {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// `a × b`.
+#[inline]
+pub fn cross<T: Real>(a: &Vec3<T>, b: &Vec3<T>) -> Vec3<T> {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// `|a|²`.
+#[inline]
+pub fn norm2<T: Real>(a: &Vec3<T>) -> T {
+    dot(a, a)
+}
+
+/// `k a`.
+#[inline]
+pub fn scale<T: Real>(k: T, a: &Vec3<T>) -> Vec3<T> {
+    [k * a[0], k * a[1], k * a[2]]
+}
+
+/// `a + b`.
+#[inline]
+pub fn add<T: Real>(a: &Vec3<T>, b: &Vec3<T>) -> Vec3<T> {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+/// `a − b`.
+#[inline]
+pub fn sub<T: Real>(a: &Vec3<T>, b: &Vec3<T>) -> Vec3<T> {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// `M v`.
+#[inline]
+pub fn mat_vec<T: Real>(m: &Mat3<T>, v: &Vec3<T>) -> Vec3<T> {
+    [dot(&m[0], v), dot(&m[1], v), dot(&m[2], v)]
+}
+
+/// `Mᵀ v`.
+#[inline]
+pub fn mat_t_vec<T: Real>(m: &Mat3<T>, v: &Vec3<T>) -> Vec3<T> {
+    [
+        m[0][0] * v[0] + m[1][0] * v[1] + m[2][0] * v[2],
+        m[0][1] * v[0] + m[1][1] * v[1] + m[2][1] * v[2],
+        m[0][2] * v[0] + m[1][2] * v[1] + m[2][2] * v[2],
+    ]
+}
+
+/// Converts a vector between scalar types.
+#[inline]
+pub fn cast3<A: Real, B: Real>(v: &Vec3<A>) -> Vec3<B> {
+    [B::of(v[0].to_f64()), B::of(v[1].to_f64()), B::of(v[2].to_f64())]
+}
+
+/// Determinant of a 3×3 matrix.
+#[inline]
+pub fn det3<T: Real>(m: &Mat3<T>) -> T {
+    dot(&m[0], &cross(&m[1], &m[2]))
+}
+
+/// Adjugate (transposed cofactor matrix): `M adj(M) = det(M) I`.
+#[inline]
+pub fn adjugate<T: Real>(m: &Mat3<T>) -> Mat3<T> {
+    // Columns of adj are the cross products of rows.
+    let c0 = cross(&m[1], &m[2]);
+    let c1 = cross(&m[2], &m[0]);
+    let c2 = cross(&m[0], &m[1]);
+    [[c0[0], c1[0], c2[0]], [c0[1], c1[1], c2[1]], [c0[2], c1[2], c2[2]]]
+}
+
+/// A symmetric 3×3 matrix stored as `[xx, yy, zz, xy, xz, yz]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sym3<T>(pub [T; 6]);
+
+impl<T: Real> Sym3<T> {
+    /// The zero matrix.
+    pub const fn zero() -> Self {
+        Sym3([T::ZERO; 6])
+    }
+
+    /// Builds from a full matrix, averaging the off-diagonal pairs.
+    pub fn from_mat(m: &Mat3<T>) -> Self {
+        let h = T::of(0.5);
+        Sym3([
+            m[0][0],
+            m[1][1],
+            m[2][2],
+            h * (m[0][1] + m[1][0]),
+            h * (m[0][2] + m[2][0]),
+            h * (m[1][2] + m[2][1]),
+        ])
+    }
+
+    /// The full matrix.
+    pub fn to_mat(&self) -> Mat3<T> {
+        let s = &self.0;
+        [[s[0], s[3], s[4]], [s[3], s[1], s[5]], [s[4], s[5], s[2]]]
+    }
+
+    /// `aᵀ S a`.
+    #[inline]
+    pub fn quad(&self, a: &Vec3<T>) -> T {
+        let s = &self.0;
+        let two = T::of(2.0);
+        s[0] * a[0] * a[0]
+            + s[1] * a[1] * a[1]
+            + s[2] * a[2] * a[2]
+            + two * (s[3] * a[0] * a[1] + s[4] * a[0] * a[2] + s[5] * a[1] * a[2])
+    }
+
+    /// `aᵀ S b`.
+    #[inline]
+    pub fn bilinear(&self, a: &Vec3<T>, b: &Vec3<T>) -> T {
+        dot(a, &self.mul_vec(b))
+    }
+
+    /// `S a`.
+    #[inline]
+    pub fn mul_vec(&self, a: &Vec3<T>) -> Vec3<T> {
+        let s = &self.0;
+        [
+            s[0] * a[0] + s[3] * a[1] + s[4] * a[2],
+            s[3] * a[0] + s[1] * a[1] + s[5] * a[2],
+            s[4] * a[0] + s[5] * a[1] + s[2] * a[2],
+        ]
+    }
+
+    /// Trace.
+    #[inline]
+    pub fn trace(&self) -> T {
+        self.0[0] + self.0[1] + self.0[2]
+    }
+
+    /// `self + k other`.
+    #[inline]
+    pub fn add_scaled(&self, k: T, other: &Self) -> Self {
+        let mut r = *self;
+        for (ri, oi) in r.0.iter_mut().zip(other.0.iter()) {
+            *ri += k * *oi;
+        }
+        r
+    }
+
+    /// `k self`.
+    #[inline]
+    pub fn scaled(&self, k: T) -> Self {
+        let mut r = *self;
+        for ri in r.0.iter_mut() {
+            *ri *= k;
+        }
+        r
+    }
+
+    /// Converts between scalar types.
+    pub fn cast<B: Real>(&self) -> Sym3<B> {
+        let mut r = Sym3::<B>::zero();
+        for (ri, si) in r.0.iter_mut().zip(self.0.iter()) {
+            *ri = B::of(si.to_f64());
+        }
+        r
+    }
+
+    /// `{a}² = a aᵀ − |a|² I` (the paper's centripetal term for `a = Ω`).
+    pub fn skew_squared(a: &Vec3<T>) -> Self {
+        let n = norm2(a);
+        Sym3([
+            a[0] * a[0] - n,
+            a[1] * a[1] - n,
+            a[2] * a[2] - n,
+            a[0] * a[1],
+            a[0] * a[2],
+            a[1] * a[2],
+        ])
+    }
+
+    /// `V S Vᵀ` (`V` orthogonal: a change of basis).
+    pub fn rotate(&self, v: &Mat3<T>) -> Self {
+        let m = self.to_mat();
+        let mut vm = [[T::ZERO; 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                vm[i][j] = v[i][0] * m[0][j] + v[i][1] * m[1][j] + v[i][2] * m[2][j];
+            }
+        }
+        let mut r = [[T::ZERO; 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                r[i][j] = vm[i][0] * v[j][0] + vm[i][1] * v[j][1] + vm[i][2] * v[j][2];
+            }
+        }
+        Sym3::from_mat(&r)
+    }
+
+    /// The sensor form `Q = ½(s Rᵀ + R sᵀ) − (s·R) I`, so that `s·{a}² R = aᵀ Q a`
+    /// (paper section 7: `½ a·({s}{R} + {R}{s}) a`).
+    pub fn sensor_form(s: &Vec3<T>, r: &Vec3<T>) -> Self {
+        let h = T::of(0.5);
+        let sr = dot(s, r);
+        Sym3([
+            s[0] * r[0] - sr,
+            s[1] * r[1] - sr,
+            s[2] * r[2] - sr,
+            h * (s[0] * r[1] + r[0] * s[1]),
+            h * (s[0] * r[2] + r[0] * s[2]),
+            h * (s[1] * r[2] + r[1] * s[2]),
+        ])
+    }
+
+    /// Inverse by the adjugate; `None` when `|det|` is not above `tiny`.
+    pub fn inverse(&self, tiny: T) -> Option<Self> {
+        let m = self.to_mat();
+        let det = det3(&m);
+        if !(det.abs() > tiny) || !det.is_finite() {
+            return None;
+        }
+        let adj = adjugate(&m);
+        Some(Sym3::from_mat(&adj).scaled(T::ONE / det))
+    }
+}
+
+/// Solves `M x = b` for a general 3×3 `M` by Cramer's rule; `None` if (nearly) singular
+/// relative to the size of `M`.
+pub fn solve3<T: Real>(m: &Mat3<T>, b: &Vec3<T>) -> Option<Vec3<T>> {
+    let det = det3(m);
+    let mut big = T::ZERO;
+    for row in m {
+        big = big.max(norm2(row));
+    }
+    let scale3 = big * big.sqrt();
+    if !(det.abs() > T::of(1e-12) * scale3) || !det.is_finite() {
+        return None;
+    }
+    let adj = adjugate(m);
+    let x = scale(T::ONE / det, &mat_vec(&adj, b));
+    if x.iter().all(|v| v.is_finite()) {
+        Some(x)
+    } else {
+        None
+    }
+}
+
+/// Rotation matrix (rows = frame axes in body coordinates) of a unit quaternion `[w, x, y, z]`,
+/// normalised here.
+pub fn quat_to_mat(q: [f64; 4]) -> Mat3<f64> {
+    let n = libm::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    let (w, x, y, z) = (q[0] / n, q[1] / n, q[2] / n, q[3] / n);
+    [
+        [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+        [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
+        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sensor_form_matches_double_cross() {
+        let s = [0.3, -0.5, 0.81];
+        let r = [0.12, 0.07, -0.2];
+        let a = [1.3, -0.4, 2.2];
+        let q = Sym3::sensor_form(&s, &r).quad(&a);
+        let direct = dot(&s, &cross(&a, &cross(&a, &r)));
+        assert!((q - direct).abs() < 1e-12, "{q} vs {direct}");
+    }
+
+    #[test]
+    fn rotate_preserves_trace_and_quadratic() {
+        let m = Sym3([1.0, 2.0, -3.0, 0.5, -0.2, 0.7]);
+        let v = quat_to_mat([0.9, 0.1, -0.3, 0.2]);
+        let r = m.rotate(&v);
+        assert!((r.trace() - m.trace()).abs() < 1e-12);
+        let a = [0.3, 0.4, -1.0];
+        let va = mat_vec(&v, &a);
+        assert!((r.quad(&va) - m.quad(&a)).abs() < 1e-12);
+    }
+}
