@@ -23,7 +23,7 @@ pub fn residual2<T: Real>(m: &[Sym3<T>], p: &[T], a: &Vec3<T>) -> T {
 }
 
 /// Every real solution of `aᵀ M_k a = P_k`, `k = 0, 1, 2`, one of each `±a` pair, written to
-/// `out`; returns how many. Polished by two Newton steps.
+/// `out`; returns how many. Polished by Newton steps; kept only if they fit.
 ///
 /// Method (estimator.md): with `a = r u`, eliminating `r` against the equation with the
 /// largest `|P|` leaves two homogeneous conics `uᵀ C_j u = 0`; a degenerate member of the
@@ -97,15 +97,26 @@ pub fn closed_form<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], out: &mut [Vec3<T>; MA
         }
     }
 
+    // Directions where every form vanishes (uᵀ M_k u = 0 for all k) are solutions "at
+    // infinity": in model G the coordinate axes are always such directions, because {a}² with a
+    // along an axis is diagonal and absorbed by d. They are rejected through the pivot form.
+    let mj_norm = m[j].0.iter().fold(T::ZERO, |acc, v| acc.max(v.abs()));
+    let p2 = p[0].sq() + p[1].sq() + p[2].sq();
     let mut n = 0;
     for u in dirs.iter().take(nd) {
         let den = m[j].quad(u);
+        if !(den.abs() > T::of(1e-5) * mj_norm) {
+            continue;
+        }
         let r2 = p[j] / den;
         if !(r2 > T::ZERO) || !r2.is_finite() {
             continue;
         }
         let mut a = scale(r2.sqrt(), u);
         newton_polish(m, p, &mut a);
+        if !(residual2(m, p, &a) <= T::EPSILON.sqrt() * p2) {
+            continue;
+        }
         canonical_sign(&mut a);
         let duplicate = out[..n].iter().any(|b| {
             let d2 = norm2(&crate::linalg::sub(&a, b));
@@ -328,11 +339,11 @@ fn intersect_line_conic<T: Real>(l: &Vec3<T>, c: &Sym3<T>, out: &mut [Vec3<T>; 2
     n
 }
 
-/// Two Newton steps on the square system `aᵀ M_k a = P_k` (k = 0..3), kept only if they lower
+/// Up to four Newton steps on the square system `aᵀ M_k a = P_k` (k = 0..3), kept only if they lower
 /// the residual.
 fn newton_polish<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], a: &mut Vec3<T>) {
     let mut best = residual2(m, p, a);
-    for _ in 0..2 {
+    for _ in 0..4 {
         let mut jac = [[T::ZERO; 3]; 3];
         let mut r = [T::ZERO; 3];
         for k in 0..3 {
