@@ -9,11 +9,11 @@ use crate::arrangement::{Arrangement, ChannelMask, Model};
 use crate::design::{check_structural, Projection};
 use crate::error::ConfigError;
 use crate::estimate::{chi2_999, Estimate, Flags};
-use crate::filter::RateFilter;
 use crate::linalg::{dot, mat_t_vec, mat_vec, norm2, quat_to_mat, scale, Mat3, Sym3, Vec3};
 use crate::quadratic::{canonical_sign, closed_form, gauss_newton, rank_one_factor, residual2, MAX_ROOTS};
 use crate::real::Real;
 use crate::svd::MAX_COLS;
+use crate::smoother::StepRecord;
 use crate::tracker::{Candidate, Tracker, MAX_CANDIDATES};
 
 /// Number of precomputed frames `V` for model G.
@@ -51,6 +51,11 @@ impl Default for Options {
     }
 }
 
+/// Reciprocal condition (`det(JᵀJ)` over the cube of its mean eigenvalue) of the `a` solve
+/// below which an estimate is flagged ill-conditioned: the rate is then amplified from noise by
+/// more than about 30× its well-conditioned value.
+const ILL_RCOND: f64 = 1e-3;
+
 /// Gauss–Newton iterations per start (m > 3).
 const GN_ITERATIONS: usize = 6;
 
@@ -76,10 +81,9 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     gamma_offset: [T; CAP],
     options: Options,
     tracker: Tracker<T>,
-    filter: RateFilter<T>,
     last_t: Option<f64>,
     last: Option<Estimate<T>>,
-    step_var: T,
+    domega_var: T,
 }
 
 impl<T: Real, const CAP: usize> Estimator<T, CAP> {
@@ -99,10 +103,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             gamma_offset: [T::ZERO; CAP],
             options: Options::default(),
             tracker: Tracker::new(),
-            filter: RateFilter::new(),
             last_t: None,
             last: None,
-            step_var: T::ZERO,
+            domega_var: T::ZERO,
         };
         e.configure(arr, model, ChannelMask::all(arr.len()), options)?;
         Ok(e)
@@ -216,10 +219,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// Forgets the history (tracker, filter, time).
     pub fn reset(&mut self) {
         self.tracker.reset();
-        self.filter.reset();
         self.last_t = None;
         self.last = None;
-        self.step_var = T::ZERO;
+        self.domega_var = T::ZERO;
     }
 
     /// The model in use.
@@ -250,6 +252,12 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// One sample set: `p[i]` is channel `i`'s specific force (m/s²) at time `t` (s).
     /// Never panics; never returns NaN (a non-finite reading gives the prediction, flagged).
     pub fn update(&mut self, t: f64, p: &[T]) -> Estimate<T> {
+        self.update_with(t, p, None)
+    }
+
+    /// As [`Estimator::update`], and also fills `record` with every candidate branch and every
+    /// hypothesis of the tracker, for a fixed-lag smoother ([`crate::smoother::Smoother`]).
+    pub fn update_with(&mut self, t: f64, p: &[T], record: Option<&mut StepRecord<T>>) -> Estimate<T> {
         let n = self.arr.len();
         let input_ok = p.len() >= n && (0..n).all(|i| !self.mask.contains(i) || p[i].is_finite()) && t.is_finite();
         let dt = match self.last_t {
@@ -257,7 +265,11 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             _ => 0.0,
         };
         if !input_ok {
-            return self.prediction(T::of(dt));
+            let est = self.prediction(T::of(dt));
+            if let Some(rec) = record {
+                rec.invalidate(t, est);
+            }
+            return est;
         }
         let dt_t = T::of(dt);
         let excluded = self.mask.count(n) < n;
@@ -312,59 +324,66 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.frame = frame;
         let v = self.proj[frame].frame;
         for (c, b) in cands.iter_mut().zip(branches.iter()).take(nb) {
+            let (cov_a, _) = self.a_covariance(frame, eps, &b.a);
             *c = Candidate {
                 omega: self.omega_of(frame, eps, b),
+                omega_var: cov_a.trace() / T::of(3.0),
                 domega: mat_t_vec(&v, &[b.x[3], b.x[4], b.x[5]]),
                 fit: b.fit,
             };
         }
-        let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01) + self.step_var));
-        let step_var = self.step_var;
-        let Some(choice) = self.tracker.step(&cands[..nb], dt_t, step_var, hint_var) else {
-            return self.prediction(dt_t);
+        let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
+        let Some(choice) = self.tracker.step(&cands[..nb], dt_t, self.domega_var, hint_var) else {
+            let est = self.prediction(dt_t);
+            if let Some(rec) = record {
+                rec.invalidate(t, est);
+            }
+            return est;
+        };
+        let common = CommonFlags {
+            fallback,
+            excluded,
+            branches: nb as u8,
         };
         let b = branches[choice.candidate];
         let mut est = self.finish(frame, eps, &b, &choice.omega);
-        est.branches = nb as u8;
-        let mut flags = est.flags.0;
-        if choice.sign_unresolved {
-            flags |= Flags::SIGN_UNRESOLVED;
-        }
-        if choice.branch_ambiguous {
-            flags |= Flags::BRANCH_AMBIGUOUS;
-        }
-        if fallback {
-            flags |= Flags::FALLBACK;
-        }
-        if excluded {
-            flags |= Flags::CHANNELS_EXCLUDED;
-        }
-        est.flags = Flags(flags);
-
-        // Noise scale of the kinematic residual for the next step.
+        common.apply(&mut est, choice.sign_unresolved, choice.branch_ambiguous);
         let mean = |v: &Vec3<T>| (v[0].sq() + v[1].sq() + v[2].sq()) / T::of(3.0);
-        let dtn = T::of(dt.max(1e-3));
-        self.step_var = T::of(2.0) * mean(&est.sd_omega) + T::of(0.5) * dtn * dtn * mean(&est.sd_domega);
-
+        self.domega_var = mean(&est.sd_domega);
         if !self.options.raw {
-            let sq = |v: &Vec3<T>| [v[0].sq(), v[1].sq(), v[2].sq()];
-            let (w, var) = self.filter.update(
-                dt_t,
-                &est.omega,
-                &sq(&est.sd_omega),
-                &est.domega,
-                &sq(&est.sd_domega),
-                self.tracker.model_variance(),
-            );
-            est.omega = w;
-            est.sd_omega = [var[0].sqrt(), var[1].sqrt(), var[2].sqrt()];
-            if self.model == Model::FreeFloat {
-                est.field = self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&w));
+            self.apply_filtered(&mut est, choice.filtered);
+        }
+        if let Some(rec) = record {
+            rec.t = t;
+            rec.valid = true;
+            rec.raw = self.options.raw;
+            rec.n_candidates = nb as u8;
+            for (ci, b) in branches.iter().enumerate().take(nb) {
+                let mut e = self.finish(frame, eps, b, &cands[ci].omega);
+                common.apply(&mut e, false, false);
+                rec.candidates[ci] = e;
             }
+            let states = self.tracker.states();
+            rec.n_states = states.len() as u8;
+            rec.states[..states.len()].copy_from_slice(states);
+            rec.best = choice.state as u8;
+            rec.forward = est;
         }
         self.last_t = Some(t);
         self.last = Some(est);
         est
+    }
+
+    /// Replaces the algebraic Ω of `est` by a hypothesis' filtered Ω (∫Ω′ fused with the
+    /// algebraic Ω) and its deviation; in model F also `A = Γ + {Ω}²`.
+    pub fn apply_filtered(&self, est: &mut Estimate<T>, filtered: (Vec3<T>, T)) {
+        let (w, var) = filtered;
+        est.omega = w;
+        let sd = var.max(T::ZERO).sqrt();
+        est.sd_omega = [sd, sd, sd];
+        if self.model == Model::FreeFloat {
+            est.field = self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&w));
+        }
     }
 
     /// Output when a sample cannot be used: the last estimate propagated by Ω′, flagged.
@@ -576,6 +595,36 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         m
     }
 
+    /// `cov(a) = (JᵀJ)⁻¹` with `J` rows `2 ε M_k a` (whitened equations: unit noise), and
+    /// whether `JᵀJ` is nearly singular. Regularised so that `a = 0` (no rotation) gives large
+    /// but finite variances.
+    fn a_covariance(&self, f: usize, _eps: T, a: &Vec3<T>) -> (Sym3<T>, bool) {
+        let pr = &self.proj[f];
+        let mut jtj = Sym3::<T>::zero();
+        for mk in pr.mq.iter().take(pr.m) {
+            let g = scale(T::of(2.0), &mk.mul_vec(a));
+            jtj.0[0] += g[0] * g[0];
+            jtj.0[1] += g[1] * g[1];
+            jtj.0[2] += g[2] * g[2];
+            jtj.0[3] += g[0] * g[1];
+            jtj.0[4] += g[0] * g[2];
+            jtj.0[5] += g[1] * g[2];
+        }
+        let third = jtj.trace() / T::of(3.0);
+        let det = crate::linalg::det3(&jtj.to_mat());
+        let ill = !(det > T::of(ILL_RCOND) * third * third * third);
+        let reg = T::of(1e-6) * third + T::of(1e-12);
+        let mut jr = jtj;
+        for i in 0..3 {
+            jr.0[i] += reg;
+        }
+        let big = T::of(1e12);
+        let cov = jr
+            .inverse(T::ZERO)
+            .unwrap_or(Sym3([big, big, big, T::ZERO, T::ZERO, T::ZERO]));
+        (cov, ill)
+    }
+
     /// The full estimate of the chosen branch, with first-order standard deviations.
     fn finish(&self, f: usize, eps: T, b: &Branch<T>, omega: &Vec3<T>) -> Estimate<T> {
         let pr = &self.proj[f];
@@ -594,30 +643,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             Model::FreeFloat => (self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&b.a)), [T::ZERO; 3]),
         };
         let mut flags = 0u16;
-        // cov(a) = (JᵀJ)⁻¹, J rows 2 ε M_k a (whitened equations: unit noise).
-        let mut jtj = Sym3::<T>::zero();
-        for mk in pr.mq.iter().take(m) {
-            let g = scale(T::of(2.0), &mk.mul_vec(&b.a));
-            jtj.0[0] += g[0] * g[0];
-            jtj.0[1] += g[1] * g[1];
-            jtj.0[2] += g[2] * g[2];
-            jtj.0[3] += g[0] * g[1];
-            jtj.0[4] += g[0] * g[2];
-            jtj.0[5] += g[1] * g[2];
-        }
-        let tr = jtj.trace();
-        let det = crate::linalg::det3(&jtj.to_mat());
-        let third = tr / T::of(3.0);
-        if !(det > T::of(1e-6) * third * third * third) {
+        let (cov_a, ill) = self.a_covariance(f, eps, &b.a);
+        if ill {
             flags |= Flags::ILL_CONDITIONED;
         }
-        // Regularised so that a = 0 (no rotation) gives large but finite deviations.
-        let reg = T::of(1e-6) * third + T::of(1e-12);
-        let mut jr = jtj;
-        for i in 0..3 {
-            jr.0[i] += reg;
-        }
-        let cov_a = jr.inverse(T::ZERO).unwrap_or(Sym3([T::of(1e12), T::of(1e12), T::of(1e12), T::ZERO, T::ZERO, T::ZERO]));
         // x = y − ε [aᵀ T_j a]: ∂x_j/∂a = −2 ε T_j a; cov(x) = cov0 + H cov(a) Hᵀ.
         let mut h = [[T::ZERO; 3]; MAX_COLS];
         for (j, hj) in h.iter_mut().enumerate().take(k) {
@@ -731,6 +760,32 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             est = prev;
         }
         est
+    }
+}
+
+/// Flags shared by every branch of one sample.
+#[derive(Clone, Copy)]
+struct CommonFlags {
+    fallback: bool,
+    excluded: bool,
+    branches: u8,
+}
+
+impl CommonFlags {
+    fn apply<T: Real>(&self, est: &mut Estimate<T>, sign_unresolved: bool, branch_ambiguous: bool) {
+        est.branches = self.branches;
+        let mut flags = est.flags.0;
+        for (on, bit) in [
+            (sign_unresolved, Flags::SIGN_UNRESOLVED),
+            (branch_ambiguous, Flags::BRANCH_AMBIGUOUS),
+            (self.fallback, Flags::FALLBACK),
+            (self.excluded, Flags::CHANNELS_EXCLUDED),
+        ] {
+            if on {
+                flags |= bit;
+            }
+        }
+        est.flags = Flags(flags);
     }
 }
 

@@ -12,10 +12,11 @@
 //! - [`arrangement`]: channels (position, axis, noise), the models, channel masks.
 //! - [`design`]: the precomputed matrices of paper eq. (10)–(11) per mask and frame.
 //! - [`quadratic`]: the quadratic forms for `a` (closed form for m = 3, Gauss–Newton).
-//! - [`tracker`]: branch and sign tracking by kinematic consistency.
-//! - [`filter`]: rate fusion (Ω′ integration + algebraic Ω).
+//! - [`tracker`]: branch and sign tracking by kinematic consistency, with a rate filter per
+//!   hypothesis (Ω′ integration fused with the algebraic Ω).
 //! - [`estimator`]: the per-sample solve tying these together.
 //! - [`estimate`]: the outputs and their status flags.
+//! - [`smoother`]: fixed-lag smoothing of branch and sign decisions (host tools).
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
 #![deny(unsafe_op_in_unsafe_fn)]
@@ -25,10 +26,10 @@ pub mod design;
 pub mod error;
 pub mod estimate;
 pub mod estimator;
-pub mod filter;
 pub mod linalg;
 pub mod quadratic;
 pub mod real;
+pub mod smoother;
 pub mod svd;
 pub mod tracker;
 

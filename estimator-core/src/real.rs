@@ -45,6 +45,10 @@ pub trait Real:
     fn cos(self) -> Self;
     /// True unless NaN or infinite.
     fn is_finite(self) -> bool;
+    /// Natural logarithm to about 1e-4 absolute (exponent from the bit pattern, a short series
+    /// for the mantissa): cheap enough for the tracker's likelihood terms. Positive input only;
+    /// non-positive input gives a large negative number.
+    fn ln_approx(self) -> Self;
     /// The larger of two values (NaN-free inputs assumed).
     #[inline]
     fn max(self, other: Self) -> Self {
@@ -106,6 +110,26 @@ impl Real for f32 {
     fn is_finite(self) -> bool {
         f32::is_finite(self)
     }
+    #[inline]
+    fn ln_approx(self) -> Self {
+        if !(self > f32::MIN_POSITIVE) {
+            return -87.0;
+        }
+        let bits = self.to_bits();
+        let e = ((bits >> 23) & 0xff) as i32 - 127;
+        let m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000); // [1, 2)
+        (e as f32 + log2_mantissa(m)) * core::f32::consts::LN_2
+    }
+}
+
+/// `log2(m)` for `m` in [1, 2); error below 1e-4.
+#[inline]
+fn log2_mantissa<T: Real>(m: T) -> T {
+    // ln(m) = 2 atanh((m−1)/(m+1)), |y| ≤ 1/3: four terms of the series.
+    let y = (m - T::ONE) / (m + T::ONE);
+    let y2 = y * y;
+    let series = T::ONE + y2 * (T::of(1.0 / 3.0) + y2 * (T::of(0.2) + y2 * T::of(1.0 / 7.0)));
+    T::of(2.0 * core::f64::consts::LOG2_E) * y * series
 }
 
 /// `vsqrt.f32` on Cortex-M4F/M7 (one instruction), `libm` elsewhere.
@@ -162,5 +186,28 @@ impl Real for f64 {
     #[inline]
     fn is_finite(self) -> bool {
         f64::is_finite(self)
+    }
+    #[inline]
+    fn ln_approx(self) -> Self {
+        if !(self > f64::MIN_POSITIVE) {
+            return -708.0;
+        }
+        let bits = self.to_bits();
+        let e = ((bits >> 52) & 0x7ff) as i64 - 1023;
+        let m = f64::from_bits((bits & 0x000f_ffff_ffff_ffff) | 0x3ff0_0000_0000_0000);
+        (e as f64 + log2_mantissa(m)) * core::f64::consts::LN_2
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ln_approx_is_close() {
+        for &x in &[1e-12, 1e-3, 0.5, 1.0, 1.5, 1.999, 2.0, 3.7, 1e6] {
+            assert!((Real::ln_approx(x) - libm::log(x)).abs() < 1e-4, "{x}");
+            assert!(((x as f32).ln_approx() as f64 - libm::log(x)).abs() < 1e-4, "{x}");
+        }
     }
 }

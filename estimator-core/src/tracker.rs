@@ -3,17 +3,20 @@
 //!
 //! Each sample offers a few candidate branches (solutions of the quadratic forms); each branch
 //! has its own Ω′ (the linear solve depends on `a`) and an Ω known only up to sign. A signed
-//! candidate is a *state*. Along the true branch `Ω(t+Δ) − Ω(t) = ∫Ω′`; along a mirror branch
-//! it generally is not. The tracker keeps every state alive with a cumulative cost (a Viterbi
-//! recursion over the short history):
+//! candidate is a *state*. Along the true branch `dΩ/dt = Ω′`; along a mirror branch it
+//! generally is not. Every state carries its own rate filter — Ω predicted by integrating the
+//! branch's Ω′ (trapezoidal rule), corrected by the branch's algebraic Ω — and a cumulative cost,
+//! the negative log-likelihood of its innovations (a Viterbi recursion over hypotheses):
 //!
-//! `cost_j(t) = fit_j + min_i [cost_i(t−Δ) + min(c_ij, STEP_CAP)]`,
-//! `c_ij = |Ω_j − Ω_i − ½(Ω′_i + Ω′_j) Δ|² / s²`,
+//! `cost_j(t) = fit_j + min_i [cost_i(t−Δ) + min(|ν_ij|²/S_ij + 3 ln S_ij, STEP_CAP)]`,
+//! `ν_ij = Ω_j − (Ω̂_i + ½(Ω′_i + Ω′_j) Δ)`, `S_ij = P_i + q + R_j`.
 //!
+//! Because the filter integrates Ω′ over its whole memory, the innovations of a wrong sign or a
+//! mirror branch grow with time instead of being drowned in per-sample noise. Costs are
 //! normalised so the best state costs 0 and capped at [`COST_CAP`] (a rejected hypothesis can
-//! come back after `COST_CAP` of contrary evidence — the "window"). The output is the cheapest
-//! state; the sign is reported unresolved while the state with the same branch and opposite
-//! sign is within [`SIGN_MARGIN`].
+//! come back after `COST_CAP` of contrary evidence). The output is the cheapest state; the sign
+//! is reported unresolved while a state with the same branch and opposite sign is within
+//! [`SIGN_MARGIN`].
 
 use crate::linalg::{norm2, scale, sub, Vec3};
 use crate::real::Real;
@@ -24,7 +27,7 @@ pub const MAX_CANDIDATES: usize = 6;
 pub const MAX_STATES: usize = 2 * MAX_CANDIDATES;
 /// Cap of a state's cost above the best (the memory of the tracker).
 pub const COST_CAP: f64 = 200.0;
-/// Cap of one step's kinematic cost (robustness against a single bad sample).
+/// Cap of one step's cost (robustness against a single bad sample).
 pub const STEP_CAP: f64 = 60.0;
 /// Cost margin that settles the sign / the branch (≈ 4 σ).
 pub const SIGN_MARGIN: f64 = 16.0;
@@ -34,27 +37,44 @@ pub const SIGN_MARGIN: f64 = 16.0;
 pub struct Candidate<T> {
     /// Ω (body frame), either sign.
     pub omega: Vec3<T>,
+    /// Variance of one component of this branch's Ω (from its `a` solve).
+    pub omega_var: T,
     /// Ω′ of this branch (body frame).
     pub domega: Vec3<T>,
     /// Misfit of this branch to the sample (whitened χ²).
     pub fit: T,
 }
 
+/// A signed hypothesis with its own rate filter.
 #[derive(Clone, Copy, Debug, Default)]
-struct State<T> {
-    omega: Vec3<T>,
-    domega: Vec3<T>,
-    cost: T,
-    candidate: u8,
+pub struct State<T> {
+    /// Filtered Ω of this hypothesis.
+    pub omega: Vec3<T>,
+    /// Variance of one component of `omega`.
+    pub var: T,
+    /// Ω′ of the branch at this sample.
+    pub domega: Vec3<T>,
+    /// Cumulative cost above the best state.
+    pub cost: T,
+    /// Candidate index at this sample.
+    pub candidate: u8,
+    /// +1 or −1: the sign applied to the candidate's Ω.
+    pub sign: i8,
+    /// Index of the predecessor state at the previous sample (`u8::MAX`: none).
+    pub from: u8,
 }
 
 /// The result of one tracker step.
 #[derive(Clone, Copy, Debug)]
 pub struct Choice<T> {
+    /// Index of the chosen state.
+    pub state: usize,
     /// Index of the chosen candidate.
     pub candidate: usize,
-    /// Signed Ω of the chosen state.
+    /// Signed algebraic Ω of the chosen state (the candidate's Ω with the state's sign).
     pub omega: Vec3<T>,
+    /// Filtered Ω of the chosen state and its per-component variance.
+    pub filtered: (Vec3<T>, T),
     /// The sign is not settled.
     pub sign_unresolved: bool,
     /// Another branch is nearly as good.
@@ -67,8 +87,8 @@ pub struct Tracker<T> {
     states: [State<T>; MAX_STATES],
     n: usize,
     best: usize,
-    /// Running mean of the chosen path's squared kinematic residual per component (model error
-    /// of the trapezoidal rule: jerk, sampling).
+    /// Running variance of the trapezoidal model error per step (jerk, sampling), learnt from
+    /// the chosen hypothesis' innovations.
     model_var: T,
 }
 
@@ -100,27 +120,23 @@ impl<T: Real> Tracker<T> {
         self.n > 0
     }
 
-    /// The chosen state's Ω and Ω′ propagated by `dt` (the prediction), if any.
+    /// The states after the last step.
+    pub fn states(&self) -> &[State<T>] {
+        &self.states[..self.n]
+    }
+
+    /// The chosen state's filtered Ω propagated by `dt` (the prediction), if any.
     pub fn predicted_omega(&self, dt: T) -> Option<Vec3<T>> {
-        (self.n > 0).then(|| {
-            let s = &self.states[self.best];
-            [
-                s.omega[0] + s.domega[0] * dt,
-                s.omega[1] + s.domega[1] * dt,
-                s.omega[2] + s.domega[2] * dt,
-            ]
-        })
+        (self.n > 0).then(|| propagate(&self.states[self.best], dt))
     }
 
     /// Every distinct predicted Ω (one per surviving branch, sign dropped), cheapest first, for
     /// starting the `a` search (m > 3).
     pub fn predictions(&self, dt: T, out: &mut [Vec3<T>; MAX_CANDIDATES]) -> usize {
-        let mut k = 0;
         let mut order = [0usize; MAX_STATES];
         for (i, o) in order.iter_mut().enumerate().take(self.n) {
             *o = i;
         }
-        // Insertion sort by cost (n ≤ 12).
         for i in 1..self.n {
             let mut j = i;
             while j > 0 && self.states[order[j]].cost < self.states[order[j - 1]].cost {
@@ -128,20 +144,17 @@ impl<T: Real> Tracker<T> {
                 j -= 1;
             }
         }
+        let mut k = 0;
         for &i in order.iter().take(self.n) {
             let s = &self.states[i];
             if s.cost > T::of(COST_CAP * 0.5) {
                 continue;
             }
-            let p = [
-                s.omega[0] + s.domega[0] * dt,
-                s.omega[1] + s.domega[1] * dt,
-                s.omega[2] + s.domega[2] * dt,
-            ];
-            let dup = out[..k].iter().any(|q| {
-                let tol = T::of(1e-4) * norm2(&p).max(T::of(1e-12));
-                norm2(&sub(&p, q)) < tol || norm2(&crate::linalg::add(&p, q)) < tol
-            });
+            let p = propagate(s, dt);
+            let tol = T::of(1e-4) * norm2(&p).max(T::of(1e-12));
+            let dup = out[..k]
+                .iter()
+                .any(|q| norm2(&sub(&p, q)) < tol || norm2(&crate::linalg::add(&p, q)) < tol);
             if !dup && k < MAX_CANDIDATES {
                 out[k] = p;
                 k += 1;
@@ -156,13 +169,19 @@ impl<T: Real> Tracker<T> {
     }
 
     /// One step: `cands` are this sample's branches; `dt` the time since the previous step;
-    /// `step_var` the variance `s²` of one component of the kinematic residual from noise;
-    /// `hint` an approximate Ω with its variance (used only without history).
+    /// `domega_var` the variance of one component of Ω′; `hint` an approximate Ω with its
+    /// variance (used only without history).
+    ///
+    /// Every (previous hypothesis, candidate, sign) continuation is scored; the cheapest
+    /// [`MAX_STATES`] distinct ones survive. Two continuations are the same hypothesis when they
+    /// take the same candidate and sign and their filtered Ω agree to within their deviation,
+    /// so hypotheses with different histories outlive samples where branches merge (or where
+    /// only the least-squares fallback exists).
     pub fn step(
         &mut self,
         cands: &[Candidate<T>],
         dt: T,
-        step_var: T,
+        domega_var: T,
         hint: Option<(Vec3<T>, T)>,
     ) -> Option<Choice<T>> {
         let nc = cands.len().min(MAX_CANDIDATES);
@@ -171,85 +190,144 @@ impl<T: Real> Tracker<T> {
         }
         let cap = T::of(COST_CAP);
         let step_cap = T::of(STEP_CAP);
-        let s2 = (step_var + self.model_var).max(T::of(1e-30));
-        let inv_s2 = T::ONE / s2;
         let half_dt = T::of(0.5) * dt;
+        let q = half_dt * half_dt * T::of(2.0) * domega_var + self.model_var;
+        let three = T::of(3.0);
+        // All continuations, kept sorted by cost in a fixed-size list.
         let mut next = [State::<T>::default(); MAX_STATES];
-        let mut from = [usize::MAX; MAX_STATES];
-        let mut nn = 0;
-        for (ci, c) in cands.iter().enumerate().take(nc) {
-            for sign in [T::ONE, -T::ONE] {
-                let omega = scale(sign, &c.omega);
-                let mut cost = c.fit;
-                if self.n > 0 {
-                    let mut best = cap * T::of(4.0);
-                    let mut arg = usize::MAX;
-                    for (i, s) in self.states.iter().enumerate().take(self.n) {
-                        let mut r = [T::ZERO; 3];
+        let mut innov = [T::ZERO; MAX_STATES];
+        let mut nn = 0usize;
+        let prev = if self.n > 0 { self.n } else { 1 };
+        for i in 0..prev {
+            for (ci, c) in cands.iter().enumerate().take(nc) {
+                let r = c.omega_var.max(T::of(1e-30));
+                for sign in [1i8, -1i8] {
+                    let z = scale(T::of(sign as f64), &c.omega);
+                    let mut st = State {
+                        omega: z,
+                        var: r,
+                        domega: c.domega,
+                        cost: c.fit,
+                        candidate: ci as u8,
+                        sign,
+                        from: u8::MAX,
+                    };
+                    let mut excess = T::ZERO;
+                    if self.n > 0 {
+                        let s = &self.states[i];
+                        let mut pred = [T::ZERO; 3];
                         for k in 0..3 {
-                            r[k] = omega[k] - s.omega[k] - half_dt * (s.domega[k] + c.domega[k]);
+                            pred[k] = s.omega[k] + half_dt * (s.domega[k] + c.domega[k]);
                         }
-                        let trans = (norm2(&r) * inv_s2).min(step_cap);
-                        let total = s.cost + trans;
-                        if total < best {
-                            best = total;
-                            arg = i;
+                        let pvar = s.var + q;
+                        let sv = pvar + r;
+                        let nu2 = norm2(&sub(&z, &pred));
+                        let log_term = three * sv.ln_approx();
+                        st.cost += s.cost + (nu2 / sv).min(step_cap) + log_term;
+                        // Kalman update of the inherited filter.
+                        let gain = pvar / sv;
+                        for k in 0..3 {
+                            st.omega[k] = pred[k] + gain * (z[k] - pred[k]);
+                        }
+                        st.var = (T::ONE - gain) * pvar;
+                        st.from = i as u8;
+                        excess = nu2 / three - sv;
+                    } else if let Some((h, var)) = hint {
+                        let d = norm2(&sub(&z, &h)) / var.max(T::of(1e-30));
+                        st.cost += d.min(cap);
+                    }
+                    if !st.cost.is_finite() {
+                        continue;
+                    }
+                    // Same hypothesis already kept (same output, filters agree)?
+                    let dup = next[..nn].iter().position(|o| {
+                        o.candidate == st.candidate
+                            && o.sign == st.sign
+                            && norm2(&sub(&o.omega, &st.omega)) <= T::of(0.25) * (o.var + st.var)
+                    });
+                    match dup {
+                        Some(j) if next[j].cost <= st.cost => continue,
+                        Some(j) => {
+                            // Replace the worse duplicate, then restore the order.
+                            next[j] = st;
+                            innov[j] = excess;
+                            sort_by_cost(&mut next[..nn], &mut innov[..nn]);
+                        }
+                        None => {
+                            if nn < MAX_STATES {
+                                next[nn] = st;
+                                innov[nn] = excess;
+                                nn += 1;
+                            } else if st.cost < next[nn - 1].cost {
+                                next[nn - 1] = st;
+                                innov[nn - 1] = excess;
+                            } else {
+                                continue;
+                            }
+                            sort_by_cost(&mut next[..nn], &mut innov[..nn]);
                         }
                     }
-                    cost += best;
-                    from[nn] = arg;
-                } else if let Some((h, var)) = hint {
-                    let d = norm2(&sub(&omega, &h)) / var.max(T::of(1e-30));
-                    cost += d.min(cap);
                 }
-                next[nn] = State {
-                    omega,
-                    domega: c.domega,
-                    cost,
-                    candidate: ci as u8,
-                };
-                nn += 1;
             }
         }
-        // Normalise and cap.
-        let mut best = 0;
-        for j in 1..nn {
-            if next[j].cost < next[best].cost {
-                best = j;
-            }
+        if nn == 0 {
+            return None;
         }
-        let base = next[best].cost;
+        // next[0] is the cheapest. Normalise and cap.
+        let base = next[0].cost;
         for s in next.iter_mut().take(nn) {
             s.cost = (s.cost - base).min(cap);
-            if !s.cost.is_finite() {
-                s.cost = cap;
-            }
         }
-        // Learn the model error along the chosen path.
-        if self.n > 0 && from[best] != usize::MAX {
-            let p = &self.states[from[best]];
-            let c = &next[best];
-            let mut r2 = T::ZERO;
-            for k in 0..3 {
-                r2 += (c.omega[k] - p.omega[k] - half_dt * (p.domega[k] + c.domega[k])).sq();
-            }
-            let excess = (r2 / T::of(3.0) - step_var).max(T::ZERO);
-            // Bounded influence of one sample: at most 25 s² per update.
-            let excess = excess.min(T::of(25.0) * s2);
-            self.model_var += T::of(0.02) * (excess - self.model_var);
+        // Learn the model error along the chosen hypothesis (bounded influence per sample).
+        if self.n > 0 {
+            let e = innov[0].max(T::ZERO).min(T::of(25.0) * (q + next[0].var));
+            self.model_var += T::of(0.01) * (e - self.model_var);
         }
         let margin = T::of(SIGN_MARGIN);
-        let mirror = best ^ 1; // states are pushed in (+, −) pairs per candidate
-        let sign_unresolved = next[mirror].cost < margin;
-        let branch_ambiguous = (0..nn).any(|j| j / 2 != best / 2 && next[j].cost < margin);
+        let b = next[0];
+        let mut sign_unresolved = false;
+        let mut branch_ambiguous = false;
+        for s in next.iter().take(nn).skip(1) {
+            if s.cost < margin {
+                if s.candidate == b.candidate && s.sign != b.sign {
+                    sign_unresolved = true;
+                }
+                if s.candidate != b.candidate {
+                    branch_ambiguous = true;
+                }
+            }
+        }
         self.states = next;
         self.n = nn;
-        self.best = best;
+        self.best = 0;
         Some(Choice {
-            candidate: next[best].candidate as usize,
-            omega: next[best].omega,
+            state: 0,
+            candidate: b.candidate as usize,
+            omega: scale(T::of(b.sign as f64), &cands[b.candidate as usize].omega),
+            filtered: (b.omega, b.var),
             sign_unresolved,
             branch_ambiguous,
         })
     }
 }
+
+/// Insertion sort by cost (at most [`MAX_STATES`] entries), carrying the innovations along.
+fn sort_by_cost<T: Real>(states: &mut [State<T>], innov: &mut [T]) {
+    for i in 1..states.len() {
+        let mut j = i;
+        while j > 0 && states[j].cost < states[j - 1].cost {
+            states.swap(j, j - 1);
+            innov.swap(j, j - 1);
+            j -= 1;
+        }
+    }
+}
+
+fn propagate<T: Real>(s: &State<T>, dt: T) -> Vec3<T> {
+    [
+        s.omega[0] + s.domega[0] * dt,
+        s.omega[1] + s.domega[1] * dt,
+        s.omega[2] + s.domega[2] * dt,
+    ]
+}
+

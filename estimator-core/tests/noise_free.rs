@@ -37,10 +37,10 @@ use rand::Rng;
 /// Relative error bound for single precision through a well-conditioned solve.
 const TOL_F32: f64 = 1e-4;
 const TOL_F64: f64 = 1e-8;
-/// Channel noise of the random arrangements (sets the scale of the reported deviations).
+/// Channel noise of the random arrangements.
 const NOISE: f64 = 0.01;
 
-fn check<T: estimator_core::Real>(c: &Case, model: Model, tol: f64) -> Result<(), TestCaseError> {
+fn run<T: estimator_core::Real>(c: &Case, model: Model, p: &[f64]) -> estimator_core::Estimate<f64> {
     // The rate hint picks the branch and the sign. With m > 3 an approximate gyro reading
     // (10 % off) is enough; with m = 3 every branch fits a single sample exactly and mirror
     // branches can lie arbitrarily close to the truth, so the hint is the true rate (as the
@@ -49,26 +49,51 @@ fn check<T: estimator_core::Real>(c: &Case, model: Model, tol: f64) -> Result<()
     let hint = if m3 { c.omega } else { [c.omega[0] * 1.1, c.omega[1] * 0.95, c.omega[2] * 1.05] };
     let options = Options { raw: true, initial_omega: Some(hint), ..Default::default() };
     let mut est = Estimator::<T, CAP>::new(&c.arr, model, options).unwrap();
-    let p: Vec<T> = c.p.iter().map(|v| T::of(*v)).collect();
+    let p: Vec<T> = p.iter().map(|v| T::of(*v)).collect();
     let e = est.update(0.0, &p);
     let f = |v: [T; 3]| [v[0].to_f64(), v[1].to_f64(), v[2].to_f64()];
-    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    // Rounding of the inputs and of the products acts like noise of about eps·|p|; the solve
-    // amplifies it as it amplifies sensor noise (the reported standard deviations are per
-    // `NOISE`). Near a branch point (two branches meeting) the amplification is larger than
-    // first order, hence the factor 50.
+    let mut out = estimator_core::Estimate::<f64>::default();
+    out.sigma0 = f(e.sigma0);
+    out.domega = f(e.domega);
+    out.omega = f(e.omega);
+    out.field = e.field.cast();
+    out.flags = e.flags;
+    out
+}
+
+fn errors(e: &estimator_core::Estimate<f64>, c: &Case) -> [f64; 4] {
+    let fe = e.field.0.iter().zip(c.a.0.iter()).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    [dist(&e.sigma0, &c.sigma0), dist(&e.domega, &c.domega), dist(&e.omega, &c.omega), fe]
+}
+
+/// Runs the estimator in scalar `T` and checks every output against the truth within
+/// `tol` relative, plus what rounding at `T`'s precision costs on this arrangement and field:
+/// the error of the f64 estimator when the inputs are perturbed at the level of `T`'s rounding
+/// (relative `EPSILON`, times √N for the accumulation in `W p`), ×10. Near a branch point or an
+/// ill-conditioned geometry this allowance grows; on well-conditioned cases it is tiny.
+fn check<T: estimator_core::Real>(c: &Case, model: Model, tol: f64) -> Result<(), TestCaseError> {
+    let e = run::<T>(c, model, &c.p);
+    let mut rng = ChaCha8Rng::seed_from_u64(99);
     let pmax = c.p.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let rounding = T::EPSILON.to_f64() * pmax / NOISE;
-    let allow = |sd: [T; 3], truth: &[f64; 3]| tol * norm(truth).max(1.0) + 50.0 * rounding * norm(&f(sd));
-    prop_assert!(dist(&f(e.sigma0), &c.sigma0) <= allow(e.sd_sigma0, &c.sigma0), "σ0 {:?} vs {:?}", e.sigma0, c.sigma0);
-    prop_assert!(dist(&f(e.domega), &c.domega) <= allow(e.sd_domega, &c.domega), "Ω′ {:?} vs {:?}", e.domega, c.domega);
-    let omega_allow = allow(e.sd_omega, &c.omega);
-    prop_assert!(dist(&f(e.omega), &c.omega) <= omega_allow, "Ω {:?} vs {:?} flags {:?}", e.omega, c.omega, e.flags);
-    let an: f64 = c.a.0.iter().map(|v| v * v).sum::<f64>().sqrt();
-    let wn = norm(&c.omega);
-    for (got, want) in e.field.0.iter().zip(c.a.0.iter()) {
-        // A ~ |Ω|²: its error is about 2|Ω| times that of Ω.
-        prop_assert!((got.to_f64() - want).abs() <= tol * an.max(1.0) + 2.0 * wn * (omega_allow - tol * wn.max(1.0)) + 10.0 * tol * an, "A {:?} vs {:?}", e.field, c.a);
+    let level = T::EPSILON.to_f64() * pmax * (c.p.len() as f64).sqrt();
+    let mut rounding = [0.0f64; 4];
+    for _ in 0..4 {
+        let pp: Vec<f64> = c.p.iter().map(|v| v + level * rng.gen_range(-1.0..1.0)).collect();
+        let r = errors(&run::<f64>(c, model, &pp), c);
+        for (a, b) in rounding.iter_mut().zip(r.iter()) {
+            *a = a.max(*b);
+        }
+    }
+    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let an: f64 = c.a.0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let scales = [norm(&c.sigma0), norm(&c.domega), norm(&c.omega), an];
+    let err = errors(&e, c);
+    for (k, what) in ["σ0", "Ω′", "Ω", "A"].iter().enumerate() {
+        // Flagged ill-conditioned (the a solve nearly singular, e.g. near a branch point): the
+        // estimator says its answer is fragile; there, single precision is held to 1 %.
+        let fragile = if e.flags.has(Flags::ILL_CONDITIONED) { 1e-2 * scales[k].max(1.0) } else { 0.0 };
+        let allow = tol * scales[k].max(1.0) + 10.0 * rounding[k] + fragile;
+        prop_assert!(err[k] <= allow, "{what}: error {:.3e} > allowed {:.3e}; estimate {:?}", err[k], allow, e);
     }
     prop_assert!(!e.flags.has(Flags::SIGN_UNRESOLVED));
     Ok(())

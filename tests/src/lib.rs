@@ -1,1 +1,6 @@
-//! End-to-end tests.
+//! Shared pieces of the end-to-end tests: test cases (arrangement families × motions), a slow
+//! f64 multi-start maximum-likelihood reference, and error statistics.
+
+pub mod cases;
+pub mod ml;
+pub mod stats;

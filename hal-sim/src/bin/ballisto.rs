@@ -1,1 +1,134 @@
-fn main(){}
+//! `ballisto`: the host binary (interfaces.md).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use hal_sim::arrangement_file::parse_model;
+use hal_sim::run::{estimate_files, EstimateJob, Precision, FLAG_NAMES};
+
+const FLAGS_HELP: &str = "The flags column of estimates.csv is a bit set:
+  1   sign unresolved: Ω may be −Ω (steady spin, no hint yet)
+  2   no real solution for a: least-squares fallback used
+  4   ill-conditioned: the a solve is nearly singular (rate near zero or at a frame plane)
+  8   channel(s) excluded
+  16  branch ambiguous: another branch is nearly as consistent
+  32  input invalid: a reading was missing (empty field); the row is the prediction
+  64  residual high: χ² above its 99.9 % point (fault suspected)";
+
+#[derive(Parser)]
+#[command(name = "ballisto", version, about = "Ballistometer host tools: σ0, Ω′ and Ω from accelerometers alone")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Estimate σ0, Ω′, Ω and A for every row of a samples file.
+    #[command(after_help = FLAGS_HELP)]
+    Estimate {
+        /// Arrangement file (TOML).
+        #[arg(long, value_name = "FILE.toml")]
+        arrangement: PathBuf,
+        /// Samples file (CSV: t and one column per channel).
+        #[arg(long, value_name = "FILE.csv")]
+        samples: PathBuf,
+        /// Estimates file to write (CSV).
+        #[arg(long, value_name = "FILE.csv")]
+        out: PathBuf,
+        /// Model: general (9-column, N >= 12) or free-float (N >= 9); default: the file's, else general.
+        #[arg(long, value_name = "general|free-float")]
+        model: Option<String>,
+        /// Approximate angular rate at the first sample, rad/s, "X,Y,Z": settles the sign and the starting branch.
+        #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+        initial_omega: Option<String>,
+        /// Per-sample estimates without temporal filtering (continuity still picks sign and branch).
+        #[arg(long)]
+        raw: bool,
+        /// Scalar of the sample loop: f64 (default) or f32 (as on the target).
+        #[arg(long, value_name = "f32|f64", default_value = "f64")]
+        precision: String,
+    },
+}
+
+fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!("--initial-omega \"{s}\": expected three numbers X,Y,Z"));
+    }
+    let mut v = [0.0; 3];
+    for (o, p) in v.iter_mut().zip(parts.iter()) {
+        let x: f64 = p
+            .parse()
+            .map_err(|_| format!("--initial-omega \"{s}\": \"{p}\" is not a number"))?;
+        *o = x;
+        if !x.is_finite() {
+            return Err(format!("--initial-omega \"{s}\": \"{p}\" is not finite"));
+        }
+    }
+    Ok(v)
+}
+
+fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
+    match cli.command {
+        Command::Estimate {
+            arrangement,
+            samples,
+            out,
+            model,
+            initial_omega,
+            raw,
+            precision,
+        } => {
+            let model = match model {
+                None => None,
+                Some(m) => Some(parse_model(&m).ok_or_else(|| format!("--model \"{m}\": expected general or free-float"))?),
+            };
+            let initial_omega = initial_omega.as_deref().map(parse_vec3).transpose()?;
+            let precision = match precision.as_str() {
+                "f64" => Precision::F64,
+                "f32" => Precision::F32,
+                p => return Err(format!("--precision \"{p}\": expected f32 or f64").into()),
+            };
+            let job = EstimateJob {
+                arrangement: &arrangement,
+                samples: &samples,
+                out: &out,
+                model,
+                options: estimator_core::Options {
+                    raw,
+                    initial_omega,
+                    ..Default::default()
+                },
+                precision,
+            };
+            let s = estimate_files(&job)?;
+            eprintln!(
+                "ballisto estimate: {} rows, {} channels, model {} -> {}",
+                s.rows,
+                s.channels,
+                s.model.map(|m| m.name()).unwrap_or("?"),
+                out.display()
+            );
+            for (bit, name) in FLAG_NAMES {
+                let c = s.flag_counts[bit.trailing_zeros() as usize];
+                if c > 0 {
+                    eprintln!("  {c:>8} rows flagged {name} ({bit})");
+                }
+            }
+            Ok(())
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("ballisto: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,216 @@
+//! Fixed-lag smoothing of the branch and sign decisions: the output for sample `k` is decided
+//! at sample `k + LAG` by following the best hypothesis back through the tracker's Viterbi
+//! pointers. Continuity in both directions: the first samples of a record, where the sign has
+//! no history yet, get the sign that the following samples settle.
+//!
+//! For host tools (files); the firmware outputs the forward decision at once (flagged while
+//! unsettled). Memory is `O(LAG)`, not proportional to the record.
+
+use crate::estimate::{Estimate, Flags};
+use crate::real::Real;
+use crate::tracker::{State, MAX_CANDIDATES, MAX_STATES, SIGN_MARGIN};
+
+/// Everything about one sample that a later decision may need.
+#[derive(Clone, Copy, Debug)]
+pub struct StepRecord<T> {
+    /// Time of the sample.
+    pub t: f64,
+    /// False if the sample could not be used (the forward estimate is a prediction).
+    pub valid: bool,
+    /// Whether the estimator runs raw (no filtered Ω).
+    pub raw: bool,
+    /// Candidate branches (Ω with the + sign, algebraic).
+    pub candidates: [Estimate<T>; MAX_CANDIDATES],
+    /// Number of candidates.
+    pub n_candidates: u8,
+    /// The tracker's hypotheses after this sample.
+    pub states: [State<T>; MAX_STATES],
+    /// Number of hypotheses.
+    pub n_states: u8,
+    /// The forward choice.
+    pub best: u8,
+    /// The forward estimate (as output without smoothing).
+    pub forward: Estimate<T>,
+}
+
+impl<T: Real> Default for StepRecord<T> {
+    fn default() -> Self {
+        StepRecord {
+            t: 0.0,
+            valid: false,
+            raw: true,
+            candidates: [Estimate::default(); MAX_CANDIDATES],
+            n_candidates: 0,
+            states: [State::default(); MAX_STATES],
+            n_states: 0,
+            best: 0,
+            forward: Estimate::default(),
+        }
+    }
+}
+
+impl<T: Real> StepRecord<T> {
+    /// Marks the record as a prediction-only sample.
+    pub fn invalidate(&mut self, t: f64, forward: Estimate<T>) {
+        self.t = t;
+        self.valid = false;
+        self.n_states = 0;
+        self.n_candidates = 0;
+        self.forward = forward;
+    }
+}
+
+/// A fixed-lag smoother over [`StepRecord`]s.
+pub struct Smoother<T, const LAG: usize> {
+    ring: [StepRecord<T>; LAG],
+    head: usize,
+    len: usize,
+    gamma_free_float: Option<crate::linalg::Sym3<T>>,
+}
+
+impl<T: Real, const LAG: usize> Default for Smoother<T, LAG> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T: Real, const LAG: usize> Smoother<T, LAG> {
+    /// An empty smoother.
+    pub fn new() -> Self {
+        Smoother {
+            ring: core::array::from_fn(|_| StepRecord::default()),
+            head: 0,
+            len: 0,
+            gamma_free_float: None,
+        }
+    }
+
+    /// In model F the output `A` is `Γ + {Ω}²`: give Γ so that a smoothed sign or filtered Ω
+    /// rebuilds it consistently (`None` in model G).
+    pub fn set_free_float_gamma(&mut self, gamma: Option<crate::linalg::Sym3<T>>) {
+        self.gamma_free_float = gamma;
+    }
+
+    /// When the window is full, decides and returns the oldest sample and frees its slot.
+    /// Call before [`Smoother::slot`] for every new sample.
+    pub fn make_room(&mut self) -> Option<(f64, Estimate<T>)> {
+        if LAG == 0 || self.len < LAG {
+            return None;
+        }
+        let out = self.decide_oldest();
+        self.head = (self.head + 1) % LAG;
+        self.len -= 1;
+        Some(out)
+    }
+
+    /// The free slot for the next record: fill it with [`crate::Estimator::update_with`], then
+    /// call [`Smoother::commit`].
+    pub fn slot(&mut self) -> &mut StepRecord<T> {
+        let idx = (self.head + self.len) % LAG.max(1);
+        &mut self.ring[idx]
+    }
+
+    /// Commits the slot filled last.
+    pub fn commit(&mut self) {
+        self.len = (self.len + 1).min(LAG);
+    }
+
+    /// Emits the remaining samples at the end of a record, oldest first.
+    pub fn drain(&mut self, mut emit: impl FnMut(f64, Estimate<T>)) {
+        while self.len > 0 {
+            let out = self.decide_oldest();
+            emit(out.0, out.1);
+            self.head = (self.head + 1) % LAG.max(1);
+            self.len -= 1;
+        }
+    }
+
+    fn at(&self, i: usize) -> &StepRecord<T> {
+        &self.ring[(self.head + i) % LAG.max(1)]
+    }
+
+    /// Ancestor state index at record 0 of state `s` of record `from` (None if the chain
+    /// breaks at an invalid sample).
+    fn ancestor(&self, from: usize, mut s: usize) -> Option<usize> {
+        let mut i = from;
+        while i > 0 {
+            let r = self.at(i);
+            if !r.valid || s >= r.n_states as usize {
+                return None;
+            }
+            let f = r.states[s].from;
+            if f == u8::MAX {
+                return None;
+            }
+            s = f as usize;
+            i -= 1;
+        }
+        Some(s)
+    }
+
+    fn decide_oldest(&self) -> (f64, Estimate<T>) {
+        let oldest = self.at(0);
+        if !oldest.valid || oldest.n_states == 0 {
+            return (oldest.t, oldest.forward);
+        }
+        // The newest record whose chain reaches the oldest without a break.
+        let mut last = self.len - 1;
+        while last > 0 && !(self.at(last).valid && self.ancestor(last, 0).is_some()) {
+            last -= 1;
+        }
+        let newest = self.at(last);
+        let (choice, chosen_cost) = if last == 0 {
+            (oldest.best as usize, T::ZERO)
+        } else {
+            match self.ancestor(last, newest.best as usize) {
+                Some(a) => (a, newest.states[newest.best as usize].cost),
+                None => (oldest.best as usize, T::ZERO),
+            }
+        };
+        // Margins of the alternatives (opposite sign, other branch) at the newest record.
+        let margin = T::of(SIGN_MARGIN);
+        let mut sign_unresolved = false;
+        let mut branch_ambiguous = false;
+        if last == 0 {
+            sign_unresolved = oldest.forward.flags.has(Flags::SIGN_UNRESOLVED);
+            branch_ambiguous = oldest.forward.flags.has(Flags::BRANCH_AMBIGUOUS);
+        } else {
+            for j in 0..newest.n_states as usize {
+                if let Some(a) = self.ancestor(last, j) {
+                    let close = newest.states[j].cost - chosen_cost < margin;
+                    let (sa, sc) = (&oldest.states[a], &oldest.states[choice]);
+                    if close && sa.candidate == sc.candidate && sa.sign != sc.sign {
+                        sign_unresolved = true;
+                    }
+                    if close && sa.candidate != sc.candidate {
+                        branch_ambiguous = true;
+                    }
+                }
+            }
+        }
+        let st = &oldest.states[choice];
+        let mut est = oldest.candidates[st.candidate as usize];
+        let sign = T::of(st.sign as f64);
+        let mut flags = est.flags.0 & !(Flags::SIGN_UNRESOLVED | Flags::BRANCH_AMBIGUOUS);
+        if sign_unresolved {
+            flags |= Flags::SIGN_UNRESOLVED;
+        }
+        if branch_ambiguous {
+            flags |= Flags::BRANCH_AMBIGUOUS;
+        }
+        est.flags = Flags(flags);
+        if oldest.raw {
+            for v in est.omega.iter_mut() {
+                *v *= sign;
+            }
+        } else {
+            est.omega = st.omega;
+            let sd = st.var.max(T::ZERO).sqrt();
+            est.sd_omega = [sd, sd, sd];
+            if let Some(g) = self.gamma_free_float {
+                est.field = g.add_scaled(T::ONE, &crate::linalg::Sym3::skew_squared(&st.omega));
+            }
+        }
+        (oldest.t, est)
+    }
+}

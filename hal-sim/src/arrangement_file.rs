@@ -1,0 +1,272 @@
+//! The arrangement file (TOML) of interfaces.md: `[[channel]]` and `[[sensor]]` tables.
+
+use std::collections::HashSet;
+use std::fmt;
+use std::path::Path;
+
+use estimator_core::{Arrangement, Model};
+use serde::{Deserialize, Serialize};
+
+/// The capacity of host arrangements (channels).
+pub const HOST_CAP: usize = 32;
+
+/// One single-axis channel as written in the file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelSpec {
+    /// Unique name; matches a column of samples.csv.
+    pub name: String,
+    /// Seismic point R (m, body frame).
+    pub position: [f64; 3],
+    /// Sensitive axis s (body frame); normalised on load.
+    pub axis: [f64; 3],
+    /// White noise, m/s² RMS per sample.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<f64>,
+}
+
+/// A tri-axial part: expands to channels `<name>.x`, `<name>.y`, `<name>.z`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorSpec {
+    /// Part name.
+    pub name: String,
+    /// Position (m, body frame).
+    pub position: [f64; 3],
+    /// Sensor-to-body rotation, row by row (identity if absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub orientation: Option<[[f64; 3]; 3]>,
+    /// Noise: one value for all three axes, or one per axis.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<Noise>,
+    /// Part type (e.g. "ADXL355"); informational here.
+    #[serde(default, rename = "type", skip_serializing_if = "Option::is_none")]
+    pub part: Option<String>,
+    /// Bus address or chip select; informational here.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub address: Option<toml::Value>,
+}
+
+/// Noise of a tri-axial part.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Noise {
+    /// Same for all axes.
+    Same(f64),
+    /// Per axis.
+    PerAxis([f64; 3]),
+}
+
+/// The whole file.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArrangementFile {
+    /// Default model: "general" or "free-float".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
+    /// Single-axis channels.
+    #[serde(default, rename = "channel", skip_serializing_if = "Vec::is_empty")]
+    pub channels: Vec<ChannelSpec>,
+    /// Tri-axial parts.
+    #[serde(default, rename = "sensor", skip_serializing_if = "Vec::is_empty")]
+    pub sensors: Vec<SensorSpec>,
+}
+
+/// An error in an arrangement file, naming the file and what is wrong.
+#[derive(Debug)]
+pub struct ArrangementError {
+    /// File (or "<string>").
+    pub file: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl fmt::Display for ArrangementError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.file, self.message)
+    }
+}
+
+impl std::error::Error for ArrangementError {}
+
+/// A loaded arrangement: channel names and the validated estimator arrangement.
+#[derive(Clone, Debug)]
+pub struct LoadedArrangement {
+    /// Channel names, in estimator channel order.
+    pub names: Vec<String>,
+    /// The validated arrangement.
+    pub arrangement: Arrangement<HOST_CAP>,
+    /// Model given in the file, if any.
+    pub model: Option<Model>,
+    /// True if every channel had a noise value (otherwise equal weights were used).
+    pub noise_given: bool,
+}
+
+/// Parses a model name.
+pub fn parse_model(s: &str) -> Option<Model> {
+    match s {
+        "general" => Some(Model::General),
+        "free-float" => Some(Model::FreeFloat),
+        _ => None,
+    }
+}
+
+impl ArrangementFile {
+    /// Reads and parses a file.
+    pub fn read(path: &Path) -> Result<Self, ArrangementError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| ArrangementError {
+            file: file.clone(),
+            message: format!("cannot read: {e}"),
+        })?;
+        Self::parse(&text, &file)
+    }
+
+    /// Parses TOML text; `file` names it in errors.
+    pub fn parse(text: &str, file: &str) -> Result<Self, ArrangementError> {
+        toml::from_str(text).map_err(|e| ArrangementError {
+            file: file.to_string(),
+            message: one_line(&e.to_string()),
+        })
+    }
+
+    /// The file as TOML text.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).unwrap_or_default()
+    }
+
+    /// Expands sensors to channels (channels first, then sensors, in file order).
+    pub fn expanded_channels(&self, file: &str) -> Result<Vec<ChannelSpec>, ArrangementError> {
+        let err = |message: String| ArrangementError {
+            file: file.to_string(),
+            message,
+        };
+        let mut out = self.channels.clone();
+        for s in &self.sensors {
+            let m = s.orientation.unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+            if !m.iter().flatten().all(|v| v.is_finite()) {
+                return Err(err(format!("sensor \"{}\": orientation is not finite", s.name)));
+            }
+            // Must be a rotation: MᵀM = I within 1e-3, det > 0.
+            for i in 0..3 {
+                for j in 0..3 {
+                    let d: f64 = (0..3).map(|k| m[k][i] * m[k][j]).sum();
+                    let want = if i == j { 1.0 } else { 0.0 };
+                    if (d - want).abs() > 1e-3 {
+                        return Err(err(format!(
+                            "sensor \"{}\": orientation is not a rotation matrix (columns not orthonormal)",
+                            s.name
+                        )));
+                    }
+                }
+            }
+            let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+            if det <= 0.0 {
+                return Err(err(format!(
+                    "sensor \"{}\": orientation has determinant {det:.3}, not a proper rotation",
+                    s.name
+                )));
+            }
+            let noise = match &s.noise {
+                None => [None; 3],
+                Some(Noise::Same(v)) => [Some(*v); 3],
+                Some(Noise::PerAxis(v)) => [Some(v[0]), Some(v[1]), Some(v[2])],
+            };
+            for (j, suffix) in ["x", "y", "z"].iter().enumerate() {
+                out.push(ChannelSpec {
+                    name: format!("{}.{}", s.name, suffix),
+                    position: s.position,
+                    axis: [m[0][j], m[1][j], m[2][j]],
+                    noise: noise[j],
+                });
+            }
+        }
+        Ok(out)
+    }
+
+    /// Validates and converts to the estimator's arrangement.
+    pub fn load(&self, file: &str) -> Result<LoadedArrangement, ArrangementError> {
+        let err = |message: String| ArrangementError {
+            file: file.to_string(),
+            message,
+        };
+        let model = match &self.model {
+            None => None,
+            Some(m) => Some(parse_model(m).ok_or_else(|| {
+                err(format!("model = \"{m}\" is not one of \"general\", \"free-float\""))
+            })?),
+        };
+        let chans = self.expanded_channels(file)?;
+        if chans.is_empty() {
+            return Err(err("no [[channel]] or [[sensor]] tables".into()));
+        }
+        let mut seen = HashSet::new();
+        let noise_given = chans.iter().all(|c| c.noise.is_some());
+        let mut arr = Arrangement::<HOST_CAP>::new();
+        let mut names = Vec::new();
+        for c in &chans {
+            if c.name.is_empty() || c.name == "t" || c.name.contains(',') {
+                return Err(err(format!("channel name \"{}\" is not allowed (empty, \"t\" or contains a comma)", c.name)));
+            }
+            if !seen.insert(c.name.clone()) {
+                return Err(err(format!("channel \"{}\" is defined twice", c.name)));
+            }
+            let noise = if noise_given { c.noise.unwrap_or(1.0) } else { 1.0 };
+            arr.push(c.position, c.axis, noise).map_err(|e| {
+                let what = match e {
+                    estimator_core::ConfigError::TooManyChannels { capacity } => {
+                        format!("too many channels (at most {capacity})")
+                    }
+                    estimator_core::ConfigError::PositionNotFinite { .. } => "position is not finite".into(),
+                    estimator_core::ConfigError::AxisNotFinite { .. } => "axis is not finite".into(),
+                    estimator_core::ConfigError::AxisZero { .. } => "axis has zero length".into(),
+                    estimator_core::ConfigError::NoiseInvalid { .. } => {
+                        format!("noise = {} must be a positive finite number", c.noise.unwrap_or(f64::NAN))
+                    }
+                    other => other.to_string(),
+                };
+                err(format!("channel \"{}\": {what}", c.name))
+            })?;
+            names.push(c.name.clone());
+        }
+        Ok(LoadedArrangement {
+            names,
+            arrangement: arr,
+            model,
+            noise_given,
+        })
+    }
+}
+
+/// Reads, parses and validates an arrangement file.
+pub fn load_arrangement(path: &Path) -> Result<LoadedArrangement, ArrangementError> {
+    let f = ArrangementFile::read(path)?;
+    f.load(&path.display().to_string())
+}
+
+fn one_line(s: &str) -> String {
+    // toml errors span several lines (with a source excerpt); keep them readable on one line.
+    s.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sensor_expands_to_three_channels_with_orientation_columns() {
+        let text = r#"
+[[sensor]]
+name = "u0"
+position = [0.1, 0.0, 0.0]
+orientation = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
+noise = 0.01
+"#;
+        let f = ArrangementFile::parse(text, "x.toml").unwrap();
+        let l = f.load("x.toml").unwrap();
+        assert_eq!(l.names, ["u0.x", "u0.y", "u0.z"]);
+        assert_eq!(l.arrangement.channels()[0].axis, [0.0, 1.0, 0.0]);
+        assert_eq!(l.arrangement.channels()[1].axis, [-1.0, 0.0, 0.0]);
+    }
+}

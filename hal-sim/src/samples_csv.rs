@@ -1,0 +1,157 @@
+//! Streaming reader of the samples file (interfaces.md): header `t,<channel names...>` in any
+//! channel order, one row per sample set. Memory does not grow with the file.
+//!
+//! An empty field means "channel not available at this sample": it is passed on as NaN and the
+//! estimator outputs its prediction for that row, flagged `INPUT_INVALID` (bit 5).
+
+use std::fmt;
+use std::fs::File;
+use std::io::BufReader;
+use std::path::Path;
+
+/// An error in a samples file, naming the file and line.
+#[derive(Debug)]
+pub struct SamplesError {
+    /// File.
+    pub file: String,
+    /// Line (1-based), if known.
+    pub line: Option<u64>,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl fmt::Display for SamplesError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(l) => write!(f, "{} line {}: {}", self.file, l, self.message),
+            None => write!(f, "{}: {}", self.file, self.message),
+        }
+    }
+}
+
+impl std::error::Error for SamplesError {}
+
+/// Reads rows of a samples file into channel order.
+pub struct SamplesReader<R: std::io::Read> {
+    rdr: csv::Reader<R>,
+    /// For each channel (estimator order), its column in the file.
+    column: Vec<usize>,
+    t_column: usize,
+    file: String,
+    last_t: Option<(f64, u64)>,
+    record: csv::StringRecord,
+}
+
+impl SamplesReader<BufReader<File>> {
+    /// Opens `path` and matches its header against the channel `names`.
+    pub fn open(path: &Path, names: &[String]) -> Result<Self, SamplesError> {
+        let file = path.display().to_string();
+        let f = File::open(path).map_err(|e| SamplesError {
+            file: file.clone(),
+            line: None,
+            message: format!("cannot open: {e}"),
+        })?;
+        Self::new(BufReader::with_capacity(1 << 16, f), &file, names)
+    }
+}
+
+impl<R: std::io::Read> SamplesReader<R> {
+    /// Wraps a reader; `file` names it in errors.
+    pub fn new(reader: R, file: &str, names: &[String]) -> Result<Self, SamplesError> {
+        let mut rdr = csv::ReaderBuilder::new()
+            .has_headers(true)
+            .trim(csv::Trim::All)
+            .comment(Some(b'#'))
+            .from_reader(reader);
+        let err = |message: String| SamplesError {
+            file: file.to_string(),
+            line: Some(1),
+            message,
+        };
+        let header = rdr
+            .headers()
+            .map_err(|e| err(format!("cannot read the header: {e}")))?
+            .clone();
+        let mut t_column = None;
+        let mut column = vec![usize::MAX; names.len()];
+        for (i, h) in header.iter().enumerate() {
+            if h == "t" {
+                if t_column.replace(i).is_some() {
+                    return Err(err("column \"t\" appears twice".into()));
+                }
+                continue;
+            }
+            match names.iter().position(|n| n == h) {
+                Some(c) if column[c] == usize::MAX => column[c] = i,
+                Some(_) => return Err(err(format!("column \"{h}\" appears twice"))),
+                None => {
+                    return Err(err(format!(
+                        "column \"{h}\" is not a channel of the arrangement"
+                    )))
+                }
+            }
+        }
+        let t_column = t_column.ok_or_else(|| err("the header has no \"t\" column".into()))?;
+        if let Some(c) = column.iter().position(|&c| c == usize::MAX) {
+            return Err(err(format!("channel \"{}\" has no column in the header", names[c])));
+        }
+        Ok(SamplesReader {
+            rdr,
+            column,
+            t_column,
+            file: file.to_string(),
+            last_t: None,
+            record: csv::StringRecord::new(),
+        })
+    }
+
+    /// Reads the next row into `out` (channel order, NaN for empty fields); returns its time,
+    /// or `None` at the end of the file.
+    pub fn next_row(&mut self, out: &mut [f64]) -> Result<Option<f64>, SamplesError> {
+        let ok = self.rdr.read_record(&mut self.record).map_err(|e| SamplesError {
+            file: self.file.clone(),
+            line: e.position().map(|p| p.line()),
+            message: match e.kind() {
+                csv::ErrorKind::UnequalLengths { expected_len, len, .. } => {
+                    format!("{len} fields, the header has {expected_len}")
+                }
+                _ => e.to_string(),
+            },
+        })?;
+        if !ok {
+            return Ok(None);
+        }
+        let line = self.record.position().map(|p| p.line()).unwrap_or(0);
+        let err = |message: String| SamplesError {
+            file: self.file.clone(),
+            line: Some(line),
+            message,
+        };
+        let tf = &self.record[self.t_column];
+        let t: f64 = tf.parse().map_err(|_| err(format!("t = \"{tf}\" is not a number")))?;
+        if !t.is_finite() {
+            return Err(err(format!("t = \"{tf}\" is not finite")));
+        }
+        if let Some((t0, l0)) = self.last_t {
+            if t <= t0 {
+                return Err(err(format!("t = {t} does not increase (line {l0} has t = {t0})")));
+            }
+        }
+        self.last_t = Some((t, line));
+        for (o, &c) in out.iter_mut().zip(self.column.iter()) {
+            let field = &self.record[c];
+            *o = if field.is_empty() {
+                f64::NAN
+            } else {
+                let v: f64 = field.parse().map_err(|_| {
+                    err(format!("\"{field}\" in column {} is not a number", c + 1))
+                })?;
+                if !v.is_finite() {
+                    return Err(err(format!("\"{field}\" in column {} is not finite", c + 1)));
+                }
+                v
+            };
+        }
+        Ok(Some(t))
+    }
+}
