@@ -52,9 +52,9 @@ impl Default for Options {
 }
 
 /// Reciprocal condition (`det(JᵀJ)` over the cube of its mean eigenvalue) of the `a` solve
-/// below which an estimate is flagged ill-conditioned: the rate is then amplified from noise by
-/// more than about 30× its well-conditioned value.
-const ILL_RCOND: f64 = 1e-3;
+/// below which an estimate is flagged ill-conditioned: the Jacobian's condition number is then
+/// several hundred (noise, and rounding in f32, amplified accordingly).
+const ILL_RCOND: f64 = 1e-5;
 
 /// Gauss–Newton iterations per start (m > 3).
 const GN_ITERATIONS: usize = 6;
