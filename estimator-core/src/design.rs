@@ -43,6 +43,9 @@ pub struct Projection<T, const CAP: usize> {
     pub frame: Mat3<T>,
     /// Equilibrated condition number of the whitened design matrix.
     pub condition: f64,
+    /// 99.9 % point of χ² for the `m − 3` degrees of freedom of the residual (infinite when
+    /// `m = 3`): above it the fit is suspect.
+    pub chi2_gate: T,
 }
 
 impl<T: Real, const CAP: usize> Projection<T, CAP> {
@@ -59,6 +62,7 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             has_lin_s: false,
             frame: [[T::ONE, T::ZERO, T::ZERO], [T::ZERO, T::ONE, T::ZERO], [T::ZERO, T::ZERO, T::ONE]],
             condition: f64::INFINITY,
+            chi2_gate: T::of(f64::MAX),
         }
     }
 
@@ -143,6 +147,7 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
         self.k = k;
         self.m = m;
         self.condition = condition;
+        self.chi2_gate = T::of(crate::estimate::chi2_999(m - 3).min(f64::MAX));
         self.w = [[T::ZERO; CAP]; CAP];
         for (row, &i) in idx.iter().enumerate().take(n) {
             let inv_noise = 1.0 / arr.channels()[i].noise;

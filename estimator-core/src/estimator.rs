@@ -8,7 +8,7 @@
 use crate::arrangement::{Arrangement, ChannelMask, Model};
 use crate::design::{check_structural, Projection};
 use crate::error::ConfigError;
-use crate::estimate::{chi2_999, Estimate, Flags};
+use crate::estimate::{Estimate, Flags};
 use crate::linalg::{dot, mat_t_vec, mat_vec, norm2, quat_to_mat, scale, Mat3, Sym3, Vec3};
 use crate::quadratic::{canonical_sign, closed_form, gauss_newton, rank_one_factor, residual2, MAX_ROOTS};
 use crate::real::Real;
@@ -55,6 +55,10 @@ impl Default for Options {
 /// below which an estimate is flagged ill-conditioned: the Jacobian's condition number is then
 /// several hundred (noise, and rounding in f32, amplified accordingly).
 const ILL_RCOND: f64 = 1e-5;
+
+/// Most predictions used as Gauss–Newton starts (m > 3); with redundancy the global optimum
+/// is unique and the cheapest hypotheses' predictions find it.
+const MAX_STARTS: usize = 2;
 
 /// Gauss–Newton iterations per start (m > 3).
 const GN_ITERATIONS: usize = 6;
@@ -257,6 +261,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
 
     /// As [`Estimator::update`], and also fills `record` with every candidate branch and every
     /// hypothesis of the tracker, for a fixed-lag smoother ([`crate::smoother::Smoother`]).
+    #[inline(never)]
     pub fn update_with(&mut self, t: f64, p: &[T], record: Option<&mut StepRecord<T>>) -> Estimate<T> {
         let n = self.arr.len();
         let input_ok = p.len() >= n && (0..n).all(|i| !self.mask.contains(i) || p[i].is_finite()) && t.is_finite();
@@ -468,11 +473,14 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             nr = closed_form(&m3, &p3, &mut cf);
             roots[..nr].copy_from_slice(&cf[..nr]);
         } else {
-            // Starts: every surviving branch's prediction, and the linear S = a aᵀ solve.
-            let mut starts = [[T::ZERO; 3]; MAX_CANDIDATES + 1];
-            let mut preds = [[T::ZERO; 3]; MAX_CANDIDATES];
-            let np = self.tracker.predictions(dt, &mut preds);
+            // One Gauss–Newton run from the best start (the prediction, else the hint, else the
+            // linear S = a aᵀ solve) normally suffices: with redundancy the optimum is unique.
+            // Only if its residual fails the χ² gate are the other hypotheses' predictions and
+            // the linear solve tried as well.
+            let mut starts = [[T::ZERO; 3]; MAX_STARTS + MAX_ROOTS + 2];
             let mut ns = 0;
+            let mut preds = [[T::ZERO; 3]; MAX_CANDIDATES];
+            let np = self.tracker.predictions(dt, &mut preds).min(MAX_STARTS);
             for w in preds.iter().take(np) {
                 starts[ns] = self.a_from_omega(f, eps, w);
                 ns += 1;
@@ -483,7 +491,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                     ns += 1;
                 }
             }
-            if pr.has_lin_s && ns < starts.len() {
+            let lin_start = if pr.has_lin_s {
                 let mut s6 = [T::ZERO; 6];
                 for (c, s) in s6.iter_mut().enumerate() {
                     let mut acc = T::ZERO;
@@ -492,11 +500,13 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                     }
                     *s = acc;
                 }
-                let a0 = rank_one_factor(&Sym3(s6));
-                if norm2(&a0) > T::ZERO {
-                    starts[ns] = a0;
-                    ns += 1;
-                }
+                Some(rank_one_factor(&Sym3(s6))).filter(|a| norm2(a) > T::ZERO)
+            } else {
+                None
+            };
+            if let Some(a0) = lin_start {
+                starts[ns] = a0;
+                ns += 1;
             }
             if ns == 0 {
                 // No prediction and no linear start: closed form on the first three equations.
@@ -505,14 +515,12 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 let mut cf = [[T::ZERO; 3]; MAX_ROOTS];
                 let nc = closed_form(&m3, &p3, &mut cf);
                 for a in cf.iter().take(nc) {
-                    if ns < starts.len() {
-                        starts[ns] = *a;
-                        ns += 1;
-                    }
+                    starts[ns] = *a;
+                    ns += 1;
                 }
             }
-            for s in starts.iter().take(ns) {
-                let (mut a, _) = gauss_newton(forms, rhs, s, GN_ITERATIONS);
+            for (i, s) in starts.iter().enumerate().take(ns) {
+                let (mut a, res) = gauss_newton(forms, rhs, s, GN_ITERATIONS);
                 canonical_sign(&mut a);
                 let dup = roots[..nr]
                     .iter()
@@ -520,6 +528,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 if !dup && nr < MAX_CANDIDATES && a.iter().all(|v| v.is_finite()) {
                     roots[nr] = a;
                     nr += 1;
+                }
+                if i == 0 && res <= pr.chi2_gate {
+                    break;
                 }
             }
         }
@@ -570,6 +581,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     }
 
     /// Unsigned Ω (body) of a branch: model F `Ω = a`; model G from `ΩΩᵀ = (A − Γ) − ½ tr(A − Γ) I`.
+    #[inline(never)]
     fn omega_of(&self, f: usize, eps: T, b: &Branch<T>) -> Vec3<T> {
         match self.model {
             Model::FreeFloat => b.a,
@@ -598,6 +610,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// `cov(a) = (JᵀJ)⁻¹` with `J` rows `2 ε M_k a` (whitened equations: unit noise), and
     /// whether `JᵀJ` is nearly singular. Regularised so that `a = 0` (no rotation) gives large
     /// but finite variances.
+    #[inline(never)]
     fn a_covariance(&self, f: usize, _eps: T, a: &Vec3<T>) -> (Sym3<T>, bool) {
         let pr = &self.proj[f];
         let mut jtj = Sym3::<T>::zero();
@@ -626,6 +639,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     }
 
     /// The full estimate of the chosen branch, with first-order standard deviations.
+    #[inline(never)]
     fn finish(&self, f: usize, eps: T, b: &Branch<T>, omega: &Vec3<T>) -> Estimate<T> {
         let pr = &self.proj[f];
         let v = &pr.frame;
@@ -652,11 +666,17 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         for (j, hj) in h.iter_mut().enumerate().take(k) {
             *hj = scale(-T::of(2.0) * eps, &pr.tq[j].mul_vec(&b.a));
         }
+        // Block bi of cov(x): cov0 + H_b cov(a) H_bᵀ (H_b: rows 3bi..3bi+3 of H).
+        let ca = cov_a.to_mat();
         let block = |bi: usize| -> Sym3<T> {
+            let mut hc = [[T::ZERO; 3]; 3]; // H_b cov(a)
+            for (r, row) in hc.iter_mut().enumerate() {
+                *row = mat_t_vec(&ca, &h[3 * bi + r]);
+            }
             let mut c = pr.cov0[bi];
             let idx = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
             for (slot, (r, s)) in idx.iter().enumerate() {
-                c.0[slot] += cov_a.bilinear(&h[3 * bi + r], &h[3 * bi + s]);
+                c.0[slot] += dot(&hc[*r], &h[3 * bi + s]);
             }
             c
         };
@@ -692,34 +712,35 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                             jac[r][3 + i] = (dmw[r] - wv[r] * q / (T::of(2.0) * w2)) / w2;
                         }
                     }
-                    // Joint covariance of (a, d): d = y_d − ε aᵀT a.
-                    let cdd = block(2);
-                    let ca = cov_a.to_mat();
-                    let mut cda = [[T::ZERO; 3]; 3]; // cov(d, a) = H_d cov(a)
+                    // Joint covariance of (a, d): d = y_d − ε aᵀT a, so cov(d, a) = H_d cov(a).
+                    let cd = block(2).to_mat();
+                    let mut c6 = [[T::ZERO; 6]; 6];
                     for r in 0..3 {
+                        let cda = mat_t_vec(&ca, &h[6 + r]);
                         for c in 0..3 {
-                            cda[r][c] = dot(&h[6 + r], &ca[c]);
+                            c6[r][c] = ca[r][c];
+                            c6[3 + r][3 + c] = cd[r][c];
+                            c6[3 + r][c] = cda[c];
+                            c6[c][3 + r] = cda[c];
                         }
                     }
-                    let cd = cdd.to_mat();
-                    let cov6 = |i: usize, j: usize| -> T {
-                        match (i < 3, j < 3) {
-                            (true, true) => ca[i][j],
-                            (false, false) => cd[i - 3][j - 3],
-                            (false, true) => cda[i - 3][j],
-                            (true, false) => cda[j - 3][i],
+                    // cov(Ω) = J C Jᵀ.
+                    let mut jc = [[T::ZERO; 6]; 3];
+                    for r in 0..3 {
+                        for i in 0..6 {
+                            let mut acc = T::ZERO;
+                            for j in 0..6 {
+                                acc += jac[r][j] * c6[j][i];
+                            }
+                            jc[r][i] = acc;
                         }
-                    };
+                    }
                     let mut cw = [[T::ZERO; 3]; 3];
                     for r in 0..3 {
                         for s in r..3 {
                             let mut acc = T::ZERO;
                             for i in 0..6 {
-                                let mut inner = T::ZERO;
-                                for j in 0..6 {
-                                    inner += cov6(i, j) * jac[s][j];
-                                }
-                                acc += jac[r][i] * inner;
+                                acc += jc[r][i] * jac[s][i];
                             }
                             cw[r][s] = acc;
                             cw[s][r] = acc;
@@ -733,7 +754,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         };
         let chi2 = b.fit;
         let dof = m.saturating_sub(3);
-        if dof > 0 && chi2.to_f64() > chi2_999(dof) {
+        if dof > 0 && chi2 > pr.chi2_gate {
             flags |= Flags::RESIDUAL_HIGH;
         }
         let mut est = Estimate {

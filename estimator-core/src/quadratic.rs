@@ -188,13 +188,30 @@ fn cubic_roots<T: Real>(c3: T, c2: T, c1: T, c0: T, out: &mut [T; 3]) -> usize {
             out[0] = t + shift;
             1
         } else if p < T::ZERO {
-            let r = T::of(2.0) * (-p * third).sqrt();
-            let arg = (T::of(3.0) * q / (p * r)).max(-T::ONE).min(T::ONE);
-            let phi = arg.acos() * third;
-            let tau = T::of(2.0943951023931957); // 2π/3
-            out[0] = r * phi.cos() + shift;
-            out[1] = r * (phi - tau).cos() + shift;
-            out[2] = r * (phi + tau).cos() + shift;
+            // Three real roots. The largest lies in [√(−p/3), 2√(−p/3)] where the cubic is
+            // convex: Newton from the upper bound converges monotonically. Then deflate to a
+            // quadratic. No transcendental functions (costly in single precision on the target).
+            let mut t = T::of(2.0) * (-p * third).sqrt();
+            for _ in 0..12 {
+                let f = (t * t + p) * t + q;
+                let df = T::of(3.0) * t * t + p;
+                if !(df > T::ZERO) {
+                    break;
+                }
+                let step = f / df;
+                t -= step;
+                if !(step.abs() > T::EPSILON * t.abs()) {
+                    break;
+                }
+            }
+            // t³ + p t + q = (t − r)(t² + r t + r² + p).
+            let (bq, cq) = (t, t * t + p);
+            let disc2 = (bq * bq - T::of(4.0) * cq).max(T::ZERO);
+            let sd = disc2.sqrt();
+            let qq = if bq >= T::ZERO { -T::of(0.5) * (bq + sd) } else { -T::of(0.5) * (bq - sd) };
+            out[0] = t + shift;
+            out[1] = qq + shift;
+            out[2] = if qq.abs() > T::ZERO { cq / qq + shift } else { qq + shift };
             3
         } else {
             out[0] = shift;
@@ -406,10 +423,16 @@ pub fn gauss_newton<T: Real>(m: &[Sym3<T>], p: &[T], start: &Vec3<T>, iterations
             let improvement = res - tres;
             res = tres;
             mu = (mu * T::of(0.3)).max(T::of(1e-7));
-            if improvement <= T::of(1e-10) * (res + T::EPSILON) || norm2(&step) <= T::of(1e-14) * norm2(&a) {
+            // Converged: the step is at the scalar's resolution, or the cost stopped moving.
+            let tiny_step = norm2(&step) <= T::of(100.0) * T::EPSILON * T::EPSILON * norm2(&a);
+            if tiny_step || improvement <= T::of(1e-10) * (res + T::EPSILON) {
                 break;
             }
         } else {
+            // A step at the scalar's resolution that does not help: converged.
+            if norm2(&step) <= T::of(1e4) * T::EPSILON * T::EPSILON * norm2(&a) {
+                break;
+            }
             mu *= T::of(10.0);
             if mu > T::of(1e6) {
                 break;

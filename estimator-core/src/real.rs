@@ -92,7 +92,7 @@ impl Real for f32 {
     }
     #[inline]
     fn cbrt(self) -> Self {
-        libm::cbrtf(self)
+        cbrt_f32(self)
     }
     #[inline]
     fn abs(self) -> Self {
@@ -132,23 +132,57 @@ fn log2_mantissa<T: Real>(m: T) -> T {
     T::of(2.0 * core::f64::consts::LOG2_E) * y * series
 }
 
-/// `vsqrt.f32` on Cortex-M4F/M7 (one instruction), `libm` elsewhere.
+/// Cube root in single precision without the double-precision kernel of `libm::cbrtf` (soft
+/// double on a Cortex-M4F): an initial guess from the bit pattern (exponent divided by three),
+/// then three Newton steps.
+#[inline]
+fn cbrt_f32(x: f32) -> f32 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let a = libm::fabsf(x);
+    let mut y = f32::from_bits(a.to_bits() / 3 + 0x2a51_67a0);
+    for _ in 0..3 {
+        y -= (y * y * y - a) / (3.0 * y * y);
+    }
+    if x < 0.0 {
+        -y
+    } else {
+        y
+    }
+}
+
+/// `vsqrt.f32` on Cortex-M4F/M7 (one instruction behind a call), `libm` elsewhere.
 #[inline]
 fn sqrt_f32(x: f32) -> f32 {
-    #[cfg(all(target_arch = "arm", target_feature = "vfp2"))]
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
     {
-        let r: f32;
-        // SAFETY: `vsqrt.f32` reads one FPU register and writes one; no memory access.
-        unsafe {
-            core::arch::asm!("vsqrt.f32 {0}, {1}", out(sreg) r, in(sreg) x,
-                options(pure, nomem, nostack));
-        }
-        r
+        // SAFETY: `ballisto_vsqrtf` (below) follows the hard-float AAPCS: argument and result in
+        // s0, touches nothing else.
+        unsafe { ballisto_vsqrtf(x) }
     }
-    #[cfg(not(all(target_arch = "arm", target_feature = "vfp2")))]
+    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
     {
         libm::sqrtf(x)
     }
+}
+
+// The FPU's square root. `asm!` cannot name FPU registers without the unstable `vfp2` target
+// feature, so it is a two-instruction function in the hard-float calling convention.
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+core::arch::global_asm!(
+    ".section .text.ballisto_vsqrtf,\"ax\",%progbits",
+    ".fpu fpv4-sp-d16",
+    ".thumb_func",
+    ".global ballisto_vsqrtf",
+    "ballisto_vsqrtf:",
+    "vsqrt.f32 s0, s0",
+    "bx lr",
+);
+
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+extern "C" {
+    fn ballisto_vsqrtf(x: f32) -> f32;
 }
 
 impl Real for f64 {
@@ -208,6 +242,14 @@ mod tests {
         for &x in &[1e-12, 1e-3, 0.5, 1.0, 1.5, 1.999, 2.0, 3.7, 1e6] {
             assert!((Real::ln_approx(x) - libm::log(x)).abs() < 1e-4, "{x}");
             assert!(((x as f32).ln_approx() as f64 - libm::log(x)).abs() < 1e-4, "{x}");
+        }
+    }
+
+    #[test]
+    fn cbrt_f32_is_accurate() {
+        for &x in &[-27.0f32, -1e-6, 1e-30, 0.001, 0.5, 1.0, 2.0, 8.0, 123.456, 3e20] {
+            let want = libm::cbrt(x as f64);
+            assert!(((cbrt_f32(x) as f64 - want) / want).abs() < 1e-6, "{x}: {} vs {want}", cbrt_f32(x));
         }
     }
 }

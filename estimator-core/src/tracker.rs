@@ -13,8 +13,7 @@
 //!
 //! Because the filter integrates Ω′ over its whole memory, the innovations of a wrong sign or a
 //! mirror branch grow with time instead of being drowned in per-sample noise. Costs are
-//! normalised so the best state costs 0 and capped at [`COST_CAP`] (a rejected hypothesis can
-//! come back after `COST_CAP` of contrary evidence). The output is the cheapest state; the sign
+//! normalised so the best state costs 0; a hypothesis [`COST_CAP`] behind the best is dropped. The output is the cheapest state; the sign
 //! is reported unresolved while a state with the same branch and opposite sign is within
 //! [`SIGN_MARGIN`].
 
@@ -29,6 +28,8 @@ pub const MAX_STATES: usize = 2 * MAX_CANDIDATES;
 pub const COST_CAP: f64 = 200.0;
 /// Cap of one step's cost (robustness against a single bad sample).
 pub const STEP_CAP: f64 = 60.0;
+/// Most hypotheses (histories) kept per output (candidate and sign).
+pub const HISTORIES_PER_OUTPUT: usize = 2;
 /// Cost margin that settles the sign / the branch (≈ 4 σ).
 pub const SIGN_MARGIN: f64 = 16.0;
 
@@ -177,6 +178,7 @@ impl<T: Real> Tracker<T> {
     /// take the same candidate and sign and their filtered Ω agree to within their deviation,
     /// so hypotheses with different histories outlive samples where branches merge (or where
     /// only the least-squares fallback exists).
+    #[inline(never)]
     pub fn step(
         &mut self,
         cands: &[Candidate<T>],
@@ -193,7 +195,7 @@ impl<T: Real> Tracker<T> {
         let half_dt = T::of(0.5) * dt;
         let q = half_dt * half_dt * T::of(2.0) * domega_var + self.model_var;
         let three = T::of(3.0);
-        // All continuations, kept sorted by cost in a fixed-size list.
+        // All continuations; the cheapest MAX_STATES distinct ones are kept (unsorted).
         let mut next = [State::<T>::default(); MAX_STATES];
         let mut innov = [T::ZERO; MAX_STATES];
         let mut nn = 0usize;
@@ -201,33 +203,40 @@ impl<T: Real> Tracker<T> {
         for i in 0..prev {
             for (ci, c) in cands.iter().enumerate().take(nc) {
                 let r = c.omega_var.max(T::of(1e-30));
+                let neg = scale(-T::ONE, &c.omega);
+                // Per predecessor: prediction and variances are shared by both signs.
+                let (pred, pvar, sv, base_cost) = if self.n > 0 {
+                    let s = &self.states[i];
+                    let mut pred = [T::ZERO; 3];
+                    for k in 0..3 {
+                        pred[k] = s.omega[k] + half_dt * (s.domega[k] + c.domega[k]);
+                    }
+                    let pvar = s.var + q;
+                    let sv = pvar + r;
+                    (pred, pvar, sv, s.cost + c.fit + three * sv.ln_approx())
+                } else {
+                    ([T::ZERO; 3], T::ZERO, r, c.fit)
+                };
                 for sign in [1i8, -1i8] {
-                    let z = scale(T::of(sign as f64), &c.omega);
+                    let z = if sign > 0 { c.omega } else { neg };
                     let mut st = State {
                         omega: z,
                         var: r,
                         domega: c.domega,
-                        cost: c.fit,
+                        cost: base_cost,
                         candidate: ci as u8,
                         sign,
                         from: u8::MAX,
                     };
                     let mut excess = T::ZERO;
                     if self.n > 0 {
-                        let s = &self.states[i];
-                        let mut pred = [T::ZERO; 3];
-                        for k in 0..3 {
-                            pred[k] = s.omega[k] + half_dt * (s.domega[k] + c.domega[k]);
-                        }
-                        let pvar = s.var + q;
-                        let sv = pvar + r;
-                        let nu2 = norm2(&sub(&z, &pred));
-                        let log_term = three * sv.ln_approx();
-                        st.cost += s.cost + (nu2 / sv).min(step_cap) + log_term;
+                        let nu = sub(&z, &pred);
+                        let nu2 = norm2(&nu);
+                        st.cost += (nu2 / sv).min(step_cap);
                         // Kalman update of the inherited filter.
                         let gain = pvar / sv;
                         for k in 0..3 {
-                            st.omega[k] = pred[k] + gain * (z[k] - pred[k]);
+                            st.omega[k] = pred[k] + gain * nu[k];
                         }
                         st.var = (T::ONE - gain) * pvar;
                         st.from = i as u8;
@@ -239,56 +248,86 @@ impl<T: Real> Tracker<T> {
                     if !st.cost.is_finite() {
                         continue;
                     }
-                    // Same hypothesis already kept (same output, filters agree)?
-                    let dup = next[..nn].iter().position(|o| {
-                        o.candidate == st.candidate
-                            && o.sign == st.sign
-                            && norm2(&sub(&o.omega, &st.omega)) <= T::of(0.25) * (o.var + st.var)
-                    });
-                    match dup {
-                        Some(j) if next[j].cost <= st.cost => continue,
-                        Some(j) => {
-                            // Replace the worse duplicate, then restore the order.
-                            next[j] = st;
-                            innov[j] = excess;
-                            sort_by_cost(&mut next[..nn], &mut innov[..nn]);
-                        }
-                        None => {
-                            if nn < MAX_STATES {
-                                next[nn] = st;
-                                innov[nn] = excess;
-                                nn += 1;
-                            } else if st.cost < next[nn - 1].cost {
-                                next[nn - 1] = st;
-                                innov[nn - 1] = excess;
-                            } else {
-                                continue;
+                    // Same hypothesis already kept (same output, filters agree)? At most
+                    // HISTORIES_PER_OUTPUT histories per (candidate, sign): the cheapest.
+                    let mut same_output = 0;
+                    let mut worst_same: Option<usize> = None;
+                    let mut dup = None;
+                    for (j, o) in next[..nn].iter().enumerate() {
+                        if o.candidate == st.candidate && o.sign == st.sign {
+                            same_output += 1;
+                            if worst_same.is_none_or(|w| o.cost > next[w].cost) {
+                                worst_same = Some(j);
                             }
-                            sort_by_cost(&mut next[..nn], &mut innov[..nn]);
+                            if dup.is_none() && norm2(&sub(&o.omega, &st.omega)) <= T::of(0.25) * (o.var + st.var) {
+                                dup = Some(j);
+                            }
                         }
                     }
+                    if dup.is_none() && same_output >= HISTORIES_PER_OUTPUT {
+                        dup = worst_same;
+                    }
+                    let slot = match dup {
+                        Some(j) if next[j].cost <= st.cost => continue,
+                        Some(j) => j,
+                        None if nn < MAX_STATES => {
+                            nn += 1;
+                            nn - 1
+                        }
+                        None => {
+                            let mut worst = 0;
+                            for j in 1..nn {
+                                if next[j].cost > next[worst].cost {
+                                    worst = j;
+                                }
+                            }
+                            if st.cost >= next[worst].cost {
+                                continue;
+                            }
+                            worst
+                        }
+                    };
+                    next[slot] = st;
+                    innov[slot] = excess;
                 }
             }
         }
         if nn == 0 {
             return None;
         }
-        // next[0] is the cheapest. Normalise and cap.
-        let base = next[0].cost;
-        for s in next.iter_mut().take(nn) {
-            s.cost = (s.cost - base).min(cap);
+        let mut best = 0;
+        for j in 1..nn {
+            if next[j].cost < next[best].cost {
+                best = j;
+            }
         }
+        // Normalise; drop hypotheses that fell COST_CAP behind (dead).
+        let base = next[best].cost;
+        let mut kept = 0;
+        for j in 0..nn {
+            let mut st = next[j];
+            st.cost -= base;
+            if st.cost < cap || j == best {
+                if j == best {
+                    best = kept;
+                }
+                next[kept] = st;
+                innov[kept] = innov[j];
+                kept += 1;
+            }
+        }
+        let nn = kept;
         // Learn the model error along the chosen hypothesis (bounded influence per sample).
         if self.n > 0 {
-            let e = innov[0].max(T::ZERO).min(T::of(25.0) * (q + next[0].var));
+            let e = innov[best].max(T::ZERO).min(T::of(25.0) * (q + next[best].var));
             self.model_var += T::of(0.01) * (e - self.model_var);
         }
         let margin = T::of(SIGN_MARGIN);
-        let b = next[0];
+        let b = next[best];
         let mut sign_unresolved = false;
         let mut branch_ambiguous = false;
-        for s in next.iter().take(nn).skip(1) {
-            if s.cost < margin {
+        for (j, s) in next.iter().enumerate().take(nn) {
+            if j != best && s.cost < margin {
                 if s.candidate == b.candidate && s.sign != b.sign {
                     sign_unresolved = true;
                 }
@@ -297,29 +336,18 @@ impl<T: Real> Tracker<T> {
                 }
             }
         }
-        self.states = next;
+        self.states[..nn].copy_from_slice(&next[..nn]);
         self.n = nn;
-        self.best = 0;
+        self.best = best;
+        let omega = cands[b.candidate as usize].omega;
         Some(Choice {
-            state: 0,
+            state: best,
             candidate: b.candidate as usize,
-            omega: scale(T::of(b.sign as f64), &cands[b.candidate as usize].omega),
+            omega: if b.sign > 0 { omega } else { scale(-T::ONE, &omega) },
             filtered: (b.omega, b.var),
             sign_unresolved,
             branch_ambiguous,
         })
-    }
-}
-
-/// Insertion sort by cost (at most [`MAX_STATES`] entries), carrying the innovations along.
-fn sort_by_cost<T: Real>(states: &mut [State<T>], innov: &mut [T]) {
-    for i in 1..states.len() {
-        let mut j = i;
-        while j > 0 && states[j].cost < states[j - 1].cost {
-            states.swap(j, j - 1);
-            innov.swap(j, j - 1);
-            j -= 1;
-        }
     }
 }
 

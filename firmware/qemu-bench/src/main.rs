@@ -1,0 +1,239 @@
+//! Instruction counts of one per-sample estimate (and of the precomputation) on a Cortex-M4F,
+//! under QEMU mps2-an386 with `-icount shift=0`: one guest instruction advances virtual time
+//! by 1 ns, so SysTick counts instructions deterministically. The instructions per SysTick
+//! tick are calibrated here with a loop of known length.
+//!
+//! Run: `cargo qemu-bench` (see the README). Exits non-zero if the per-sample budget
+//! (4 000 instructions for N = 12) is exceeded.
+//!
+//! On the host the same program runs the same estimates (no counter) so that it builds and is
+//! linted with the workspace.
+#![cfg_attr(target_os = "none", no_std)]
+#![cfg_attr(target_os = "none", no_main)]
+
+mod scenario;
+
+use core::fmt::Write;
+
+use estimator_core::{ChannelMask, Estimator, Model, Options};
+
+/// Per-sample budget for N = 12 (instructions).
+const BUDGET: u64 = 4_000;
+/// Samples per model in the per-sample measurement.
+const SAMPLES: usize = match option_env!("QEMU_BENCH_SAMPLES") {
+    Some(s) => parse_usize(s),
+    None => 1_000,
+};
+
+/// `usize` from decimal digits at compile time (for `QEMU_BENCH_SAMPLES`, used when profiling).
+const fn parse_usize(s: &str) -> usize {
+    let b = s.as_bytes();
+    let mut i = 0;
+    let mut n = 0;
+    while i < b.len() {
+        n = n * 10 + (b[i] - b'0') as usize;
+        i += 1;
+    }
+    n
+}
+
+/// A cycle/instruction counter and a console.
+trait Platform: Write {
+    /// A free-running down-counter (24 bit) or `None` on the host.
+    fn ticks(&mut self) -> Option<u32>;
+    /// Instructions per tick, measured with a loop of known length.
+    fn calibrate(&mut self) -> f64;
+}
+
+fn elapsed(t0: u32, t1: u32) -> u64 {
+    (t0.wrapping_sub(t1) & 0x00ff_ffff) as u64
+}
+
+/// Measures `f` in instructions (0 on the host).
+fn measure<P: Platform, R>(p: &mut P, per_tick: f64, f: impl FnOnce() -> R) -> (R, u64) {
+    let t0 = p.ticks();
+    let r = f();
+    let t1 = p.ticks();
+    let n = match (t0, t1) {
+        (Some(a), Some(b)) => (elapsed(a, b) as f64 * per_tick) as u64,
+        _ => 0,
+    };
+    (r, n)
+}
+
+fn run_model<P: Platform>(p: &mut P, per_tick: f64, model: Model, channels: usize) -> u64 {
+    let arr = scenario::arrangement::<12>(channels);
+    let (est, setup) = measure(p, per_tick, || Estimator::<f32, 12>::new(&arr, model, Options::default()));
+    let mut est = match est {
+        Ok(e) => e,
+        Err(e) => {
+            let _ = writeln!(p, "configuration failed: {e}");
+            return u64::MAX;
+        }
+    };
+    let mut p64 = [0.0f64; 12];
+    let mut p32 = [0.0f32; 12];
+    let (mut total, mut worst, mut count) = (0u64, 0u64, 0u64);
+    let mut max_err = 0.0f64;
+    for k in 0..SAMPLES {
+        let t = k as f64 * scenario::DT;
+        scenario::outputs(&arr, t, 0.002, &mut p64);
+        for (a, b) in p32.iter_mut().zip(p64.iter()) {
+            *a = *b as f32;
+        }
+        let (e, n) = measure(p, per_tick, || est.update(t, &p32));
+        // The first sample has no prediction and tries every frame: reported apart.
+        if k > 0 {
+            total += n;
+            worst = worst.max(n);
+            count += 1;
+        }
+        if k > 50 {
+            let w = scenario::field(t).2;
+            let d = (0..3).map(|i| (e.omega[i] as f64 - w[i]) * (e.omega[i] as f64 - w[i])).sum::<f64>();
+            max_err = max_err.max(libm::sqrt(d));
+        }
+    }
+    // Reconfiguration: exclude one channel (new SVD for the new mask), model F only (model G
+    // needs all 12).
+    let reconf = if model == Model::FreeFloat {
+        measure(p, per_tick, || est.set_mask(ChannelMask::all(channels).without(5))).1
+    } else {
+        0
+    };
+    let mean = total / count.max(1);
+    let _ = writeln!(
+        p,
+        "model {:<10} N = {channels}: per-sample estimate mean {mean} instructions, max {worst}; \
+         precomputation (all frames) {setup}; mask change {reconf}; max |Ω error| after 0.5 s {max_err:.4} rad/s",
+        model.name()
+    );
+    mean
+}
+
+fn run<P: Platform>(p: &mut P) -> i32 {
+    let per_tick = p.calibrate();
+    let _ = writeln!(p, "qemu-bench: {per_tick:.3} instructions per SysTick tick (calibrated)");
+    let g = run_model(p, per_tick, Model::General, 12);
+    let f = run_model(p, per_tick, Model::FreeFloat, 12);
+    let measured = p.ticks().is_some();
+    let over = measured && (g > BUDGET || f > BUDGET);
+    let verdict = if !measured {
+        "not measured on the host"
+    } else if over {
+        "EXCEEDED"
+    } else {
+        "met"
+    };
+    let _ = writeln!(p, "budget {BUDGET} instructions per estimate (N = 12): {verdict}");
+    if over {
+        1
+    } else {
+        0
+    }
+}
+
+#[cfg(target_os = "none")]
+mod target {
+    use cortex_m::peripheral::syst::SystClkSource;
+    use cortex_m::peripheral::SYST;
+    use cortex_m_semihosting::{debug, hio};
+
+    pub struct Target {
+        syst: SYST,
+        out: Option<hio::HostStream>,
+    }
+
+    impl core::fmt::Write for Target {
+        fn write_str(&mut self, s: &str) -> core::fmt::Result {
+            match self.out.as_mut() {
+                Some(o) => o.write_str(s),
+                None => Ok(()),
+            }
+        }
+    }
+
+    impl super::Platform for Target {
+        fn ticks(&mut self) -> Option<u32> {
+            Some(SYST::get_current())
+        }
+        fn calibrate(&mut self) -> f64 {
+            const LOOPS: u32 = 200_000;
+            let t0 = SYST::get_current();
+            // 2 instructions per iteration plus one: `subs`, `bne`.
+            // SAFETY: a register-only countdown loop; no memory is touched.
+            unsafe {
+                core::arch::asm!(
+                    "2:",
+                    "subs {n}, {n}, #1",
+                    "bne 2b",
+                    n = inout(reg) LOOPS => _,
+                    options(nomem, nostack)
+                );
+            }
+            let t1 = SYST::get_current();
+            let ticks = super::elapsed(t0, t1).max(1);
+            (2 * LOOPS as u64) as f64 / ticks as f64
+        }
+    }
+
+    #[cortex_m_rt::entry]
+    fn main() -> ! {
+        let mut cp = cortex_m::Peripherals::take().unwrap();
+        cp.SYST.set_clock_source(SystClkSource::Core);
+        cp.SYST.set_reload(0x00ff_ffff);
+        cp.SYST.clear_current();
+        cp.SYST.enable_counter();
+        let mut t = Target {
+            syst: cp.SYST,
+            out: hio::hstdout().ok(),
+        };
+        let _ = &t.syst;
+        let code = super::run(&mut t);
+        if code == 0 {
+            debug::exit(debug::EXIT_SUCCESS);
+        } else {
+            debug::exit(debug::EXIT_FAILURE);
+        }
+        loop {}
+    }
+
+    #[panic_handler]
+    fn panic(info: &core::panic::PanicInfo) -> ! {
+        if let Ok(mut o) = hio::hstderr() {
+            use core::fmt::Write;
+            let _ = writeln!(o, "qemu-bench panicked: {info}");
+        }
+        debug::exit(debug::EXIT_FAILURE);
+        loop {}
+    }
+}
+
+#[cfg(not(target_os = "none"))]
+struct Host(String);
+
+#[cfg(not(target_os = "none"))]
+impl Write for Host {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        self.0.push_str(s);
+        Ok(())
+    }
+}
+
+#[cfg(not(target_os = "none"))]
+impl Platform for Host {
+    fn ticks(&mut self) -> Option<u32> {
+        None
+    }
+    fn calibrate(&mut self) -> f64 {
+        0.0
+    }
+}
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    let mut h = Host(String::new());
+    let code = run(&mut h);
+    print!("{}", h.0);
+    std::process::exit(code);
+}
