@@ -76,7 +76,12 @@ impl<const CAP: usize> Arrangement<CAP> {
     ///
     /// Errors: capacity exceeded, non-finite position, zero or non-finite axis, noise not a
     /// positive finite number. On error nothing is added.
-    pub fn push(&mut self, position: [f64; 3], axis: [f64; 3], noise: f64) -> Result<usize, ConfigError> {
+    pub fn push(
+        &mut self,
+        position: [f64; 3],
+        axis: [f64; 3],
+        noise: f64,
+    ) -> Result<usize, ConfigError> {
         let channel = self.len;
         if channel >= CAP {
             return Err(ConfigError::TooManyChannels { capacity: CAP });

@@ -60,7 +60,11 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             cov0: [Sym3::zero(); 3],
             lin_s: [[T::ZERO; CAP]; 6],
             has_lin_s: false,
-            frame: [[T::ONE, T::ZERO, T::ZERO], [T::ZERO, T::ONE, T::ZERO], [T::ZERO, T::ZERO, T::ONE]],
+            frame: [
+                [T::ONE, T::ZERO, T::ZERO],
+                [T::ZERO, T::ONE, T::ZERO],
+                [T::ZERO, T::ZERO, T::ONE],
+            ],
             condition: f64::INFINITY,
             chi2_gate: T::of(f64::MAX),
         }
@@ -100,7 +104,17 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             let s = mat_vec(v, &ch.axis);
             let r = mat_vec(v, &ch.position);
             let rxs = cross(&r, &s);
-            let g = [s[0], s[1], s[2], rxs[0], rxs[1], rxs[2], s[0] * r[0], s[1] * r[1], s[2] * r[2]];
+            let g = [
+                s[0],
+                s[1],
+                s[2],
+                rxs[0],
+                rxs[1],
+                rxs[2],
+                s[0] * r[0],
+                s[1] * r[1],
+                s[2] * r[2],
+            ];
             for c in 0..k {
                 cols[c][row] = g[c] / ch.noise;
             }
@@ -181,7 +195,9 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             if 3 * b + 2 < k {
                 for (i, blk_row) in blk.iter_mut().enumerate() {
                     for (j, cell) in blk_row.iter_mut().enumerate() {
-                        *cell = (0..n).map(|row| pinv[3 * b + i][row] * pinv[3 * b + j][row]).sum();
+                        *cell = (0..n)
+                            .map(|row| pinv[3 * b + i][row] * pinv[3 * b + j][row])
+                            .sum();
                     }
                 }
             }
@@ -243,7 +259,17 @@ pub fn check_structural<const CAP: usize>(
         }
         let (s, r) = (ch.axis, ch.position);
         let rxs = cross(&r, &s);
-        let g = [s[0], s[1], s[2], rxs[0], rxs[1], rxs[2], s[0] * r[0], s[1] * r[1], s[2] * r[2]];
+        let g = [
+            s[0],
+            s[1],
+            s[2],
+            rxs[0],
+            rxs[1],
+            rxs[2],
+            s[0] * r[0],
+            s[1] * r[1],
+            s[2] * r[2],
+        ];
         for c in 0..k {
             colmax[c] = colmax[c].max(libm::fabs(g[c]));
         }

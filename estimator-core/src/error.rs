@@ -114,10 +114,17 @@ impl fmt::Display for ConfigError {
             ConfigError::PositionNotFinite { channel } => {
                 write!(f, "channel {channel}: position is not finite")
             }
-            ConfigError::AxisNotFinite { channel } => write!(f, "channel {channel}: axis is not finite"),
-            ConfigError::AxisZero { channel } => write!(f, "channel {channel}: axis has zero length"),
+            ConfigError::AxisNotFinite { channel } => {
+                write!(f, "channel {channel}: axis is not finite")
+            }
+            ConfigError::AxisZero { channel } => {
+                write!(f, "channel {channel}: axis has zero length")
+            }
             ConfigError::NoiseInvalid { channel } => {
-                write!(f, "channel {channel}: noise must be a positive finite number")
+                write!(
+                    f,
+                    "channel {channel}: noise must be a positive finite number"
+                )
             }
             ConfigError::TooFewChannels { model, have, need } => write!(
                 f,
@@ -139,7 +146,10 @@ impl fmt::Display for ConfigError {
                         f,
                         "{unknown} is not observable: every channel has s_{axis}·R_{axis} = 0"
                     ),
-                    _ => write!(f, "{unknown} is not observable: every channel has {expr_is}{axis} = 0"),
+                    _ => write!(
+                        f,
+                        "{unknown} is not observable: every channel has {expr_is}{axis} = 0"
+                    ),
                 }
             }
             ConfigError::Degenerate {

@@ -10,10 +10,12 @@ use crate::design::{check_structural, Projection};
 use crate::error::ConfigError;
 use crate::estimate::{Estimate, Flags};
 use crate::linalg::{dot, mat_t_vec, mat_vec, norm2, quat_to_mat, scale, Mat3, Sym3, Vec3};
-use crate::quadratic::{canonical_sign, closed_form, gauss_newton, rank_one_factor, residual2, MAX_ROOTS};
+use crate::quadratic::{
+    canonical_sign, closed_form, gauss_newton, rank_one_factor, residual2, MAX_ROOTS,
+};
 use crate::real::Real;
-use crate::svd::MAX_COLS;
 use crate::smoother::StepRecord;
+use crate::svd::MAX_COLS;
 use crate::tracker::{Candidate, Tracker, MAX_CANDIDATES};
 
 /// Number of precomputed frames `V` for model G.
@@ -25,9 +27,24 @@ pub const NUM_FRAMES: usize = 4;
 /// predicted A so that the off-diagonals are large").
 pub const FRAME_QUATERNIONS: [[f64; 4]; NUM_FRAMES] = [
     [1.0, 0.0, 0.0, 0.0],
-    [0.8178638641141279, -0.5425542429903757, 0.1674932673596002, 0.09316436324396377],
-    [0.24923937382434666, -0.8844306211486356, -0.14682476352409543, -0.36620308535890217],
-    [-0.6856432616288827, -0.614718901601607, -0.37747774290860625, 0.09759376724589237],
+    [
+        0.8178638641141279,
+        -0.5425542429903757,
+        0.1674932673596002,
+        0.09316436324396377,
+    ],
+    [
+        0.24923937382434666,
+        -0.8844306211486356,
+        -0.14682476352409543,
+        -0.36620308535890217,
+    ],
+    [
+        -0.6856432616288827,
+        -0.614718901601607,
+        -0.37747774290860625,
+        0.09759376724589237,
+    ],
 ];
 
 /// Options of the estimator.
@@ -93,7 +110,11 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
 impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// Builds an estimator: validates the arrangement for the model and precomputes every
     /// frame (paper eq. 10–11).
-    pub fn new(arr: &Arrangement<CAP>, model: Model, options: Options) -> Result<Self, ConfigError> {
+    pub fn new(
+        arr: &Arrangement<CAP>,
+        model: Model,
+        options: Options,
+    ) -> Result<Self, ConfigError> {
         let mut e = Estimator {
             arr: Arrangement::new(),
             model,
@@ -126,7 +147,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     ) -> Result<(), ConfigError> {
         if let Some(w) = options.initial_omega {
             if !w.iter().all(|v| v.is_finite()) {
-                return Err(ConfigError::NotFinite { what: "initial omega" });
+                return Err(ConfigError::NotFinite {
+                    what: "initial omega",
+                });
             }
         }
         if !options.gamma.0.iter().all(|v| v.is_finite()) {
@@ -150,7 +173,13 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.usable[0] = true;
         for f in 1..frames {
             self.usable[f] = self.proj[f]
-                .build(arr, mask, model, &quat_to_mat(FRAME_QUATERNIONS[f]), f as u8)
+                .build(
+                    arr,
+                    mask,
+                    model,
+                    &quat_to_mat(FRAME_QUATERNIONS[f]),
+                    f as u8,
+                )
                 .is_ok();
         }
         self.arr = arr.clone();
@@ -262,9 +291,16 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// As [`Estimator::update`], and also fills `record` with every candidate branch and every
     /// hypothesis of the tracker, for a fixed-lag smoother ([`crate::smoother::Smoother`]).
     #[inline(never)]
-    pub fn update_with(&mut self, t: f64, p: &[T], record: Option<&mut StepRecord<T>>) -> Estimate<T> {
+    pub fn update_with(
+        &mut self,
+        t: f64,
+        p: &[T],
+        record: Option<&mut StepRecord<T>>,
+    ) -> Estimate<T> {
         let n = self.arr.len();
-        let input_ok = p.len() >= n && (0..n).all(|i| !self.mask.contains(i) || p[i].is_finite()) && t.is_finite();
+        let input_ok = p.len() >= n
+            && (0..n).all(|i| !self.mask.contains(i) || p[i].is_finite())
+            && t.is_finite();
         let dt = match self.last_t {
             Some(t0) if t > t0 && (t - t0).is_finite() => t - t0,
             _ => 0.0,
@@ -287,8 +323,15 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         let mut eps = T::ONE;
         let mut frame = self.frame;
         let pred = self.tracker.predicted_omega(dt_t);
-        let hint: Option<Vec3<T>> = self.options.initial_omega.map(|w| [T::of(w[0]), T::of(w[1]), T::of(w[2])]);
-        let steer = pred.or(if self.tracker.has_history() { None } else { hint });
+        let hint: Option<Vec3<T>> = self
+            .options
+            .initial_omega
+            .map(|w| [T::of(w[0]), T::of(w[1]), T::of(w[2])]);
+        let steer = pred.or(if self.tracker.has_history() {
+            None
+        } else {
+            hint
+        });
         match (self.model, steer) {
             (Model::General, Some(w)) if norm2(&w) > T::ZERO => {
                 frame = self.choose_frame(&w);
@@ -338,7 +381,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             };
         }
         let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
-        let Some(choice) = self.tracker.step(&cands[..nb], dt_t, self.domega_var, hint_var) else {
+        let Some(choice) = self
+            .tracker
+            .step(&cands[..nb], dt_t, self.domega_var, hint_var)
+        else {
             let est = self.prediction(dt_t);
             if let Some(rec) = record {
                 rec.invalidate(t, est);
@@ -353,8 +399,8 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         let b = branches[choice.candidate];
         let mut est = self.finish(frame, eps, &b, &choice.omega);
         common.apply(&mut est, choice.sign_unresolved, choice.branch_ambiguous);
-        let mean = |v: &Vec3<T>| (v[0].sq() + v[1].sq() + v[2].sq()) / T::of(3.0);
-        self.domega_var = mean(&est.sd_domega);
+        let sd = &est.sd_domega;
+        self.domega_var = (sd[0].sq() + sd[1].sq() + sd[2].sq()) / T::of(3.0);
         if !self.options.raw {
             self.apply_filtered(&mut est, choice.filtered);
         }
@@ -409,7 +455,11 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// Frame whose axes see every component of `w` largest (with hysteresis).
     fn choose_frame(&self, w: &Vec3<T>) -> usize {
         let score = |f: usize| frame_score(&mat_vec(&self.proj[f].frame, w));
-        let current = if self.usable[self.frame] { score(self.frame) } else { -T::ONE };
+        let current = if self.usable[self.frame] {
+            score(self.frame)
+        } else {
+            -T::ONE
+        };
         let mut best = self.frame;
         let mut best_score = current;
         for f in 0..self.frames {
@@ -444,7 +494,14 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
 
     /// The candidate branches in frame `f`; returns their number and whether the fallback
     /// (least squares without an exact real solution) was used.
-    fn solve_frame(&self, f: usize, p: &[T], eps: T, dt: T, out: &mut [Branch<T>; MAX_CANDIDATES]) -> (usize, bool) {
+    fn solve_frame(
+        &self,
+        f: usize,
+        p: &[T],
+        eps: T,
+        dt: T,
+        out: &mut [Branch<T>; MAX_CANDIDATES],
+    ) -> (usize, bool) {
         let pr = &self.proj[f];
         let (k, m) = (pr.k, pr.m);
         let n = self.arr.len();
@@ -487,7 +544,8 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             }
             if !self.tracker.has_history() {
                 if let Some(h) = self.options.initial_omega {
-                    starts[ns] = self.a_from_omega(f, eps, &[T::of(h[0]), T::of(h[1]), T::of(h[2])]);
+                    starts[ns] =
+                        self.a_from_omega(f, eps, &[T::of(h[0]), T::of(h[1]), T::of(h[2])]);
                     ns += 1;
                 }
             }
@@ -522,9 +580,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             for (i, s) in starts.iter().enumerate().take(ns) {
                 let (mut a, res) = gauss_newton(forms, rhs, s, GN_ITERATIONS);
                 canonical_sign(&mut a);
-                let dup = roots[..nr]
-                    .iter()
-                    .any(|b| norm2(&crate::linalg::sub(&a, b)) <= T::of(1e-6) * norm2(&a).max(T::EPSILON));
+                let dup = roots[..nr].iter().any(|b| {
+                    norm2(&crate::linalg::sub(&a, b)) <= T::of(1e-6) * norm2(&a).max(T::EPSILON)
+                });
                 if !dup && nr < MAX_CANDIDATES && a.iter().all(|v| v.is_finite()) {
                     roots[nr] = a;
                     nr += 1;
@@ -548,7 +606,11 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                         big = big.max(rhs[e].abs());
                         mnorm = mnorm.max(forms[e].0.iter().fold(T::ZERO, |a, v| a.max(v.abs())));
                     }
-                    let r = if mnorm > T::ZERO { (big / mnorm).sqrt() } else { T::ZERO };
+                    let r = if mnorm > T::ZERO {
+                        (big / mnorm).sqrt()
+                    } else {
+                        T::ZERO
+                    };
                     let c = r * T::of(0.577_350_269_189_625_8);
                     [c, c, c]
                 }
@@ -654,7 +716,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 av.0[2] += b.x[8];
                 (av.rotate(&transpose(v)), [b.x[6], b.x[7], b.x[8]])
             }
-            Model::FreeFloat => (self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&b.a)), [T::ZERO; 3]),
+            Model::FreeFloat => (
+                self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&b.a)),
+                [T::ZERO; 3],
+            ),
         };
         let mut flags = 0u16;
         let (cov_a, ill) = self.a_covariance(f, eps, &b.a);
@@ -683,7 +748,11 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         let vt = transpose(v);
         let sd = |c: &Sym3<T>| {
             let cb = c.rotate(&vt);
-            [cb.0[0].max(T::ZERO).sqrt(), cb.0[1].max(T::ZERO).sqrt(), cb.0[2].max(T::ZERO).sqrt()]
+            [
+                cb.0[0].max(T::ZERO).sqrt(),
+                cb.0[1].max(T::ZERO).sqrt(),
+                cb.0[2].max(T::ZERO).sqrt(),
+            ]
         };
         let sd_sigma0 = sd(&block(0));
         let sd_domega = sd(&block(1));
@@ -820,5 +889,9 @@ fn frame_score<T: Real>(w: &Vec3<T>) -> T {
 }
 
 fn transpose<T: Real>(m: &Mat3<T>) -> Mat3<T> {
-    [[m[0][0], m[1][0], m[2][0]], [m[0][1], m[1][1], m[2][1]], [m[0][2], m[1][2], m[2][2]]]
+    [
+        [m[0][0], m[1][0], m[2][0]],
+        [m[0][1], m[1][1], m[2][1]],
+        [m[0][2], m[1][2], m[2][2]],
+    ]
 }

@@ -20,6 +20,10 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
 #![deny(unsafe_op_in_unsafe_fn)]
+// `!(x > y)` is how this crate rejects NaN along with the out-of-range values: intentional.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Matrix code indexes rows and columns by number; iterator chains would hide the algebra.
+#![allow(clippy::needless_range_loop)]
 
 pub mod arrangement;
 pub mod design;

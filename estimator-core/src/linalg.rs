@@ -68,7 +68,11 @@ pub fn mat_t_vec<T: Real>(m: &Mat3<T>, v: &Vec3<T>) -> Vec3<T> {
 /// Converts a vector between scalar types.
 #[inline]
 pub fn cast3<A: Real, B: Real>(v: &Vec3<A>) -> Vec3<B> {
-    [B::of(v[0].to_f64()), B::of(v[1].to_f64()), B::of(v[2].to_f64())]
+    [
+        B::of(v[0].to_f64()),
+        B::of(v[1].to_f64()),
+        B::of(v[2].to_f64()),
+    ]
 }
 
 /// Determinant of a 3×3 matrix.
@@ -84,7 +88,11 @@ pub fn adjugate<T: Real>(m: &Mat3<T>) -> Mat3<T> {
     let c0 = cross(&m[1], &m[2]);
     let c1 = cross(&m[2], &m[0]);
     let c2 = cross(&m[0], &m[1]);
-    [[c0[0], c1[0], c2[0]], [c0[1], c1[1], c2[1]], [c0[2], c1[2], c2[2]]]
+    [
+        [c0[0], c1[0], c2[0]],
+        [c0[1], c1[1], c2[1]],
+        [c0[2], c1[2], c2[2]],
+    ]
 }
 
 /// A symmetric 3×3 matrix stored as `[xx, yy, zz, xy, xz, yz]`.
@@ -264,9 +272,21 @@ pub fn quat_to_mat(q: [f64; 4]) -> Mat3<f64> {
     let n = libm::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
     let (w, x, y, z) = (q[0] / n, q[1] / n, q[2] / n, q[3] / n);
     [
-        [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-        [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
-        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
+        [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            1.0 - 2.0 * (x * x + y * y),
+        ],
     ]
 }
 

@@ -73,9 +73,15 @@ pub fn closed_form<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], out: &mut [Vec3<T>; MA
     for &root in roots.iter().take(nr) {
         // D = C1 + λ C2 or μ C1 + C2; intersect with the pencil member farthest from D.
         let (d, other) = if in_lambda {
-            (c1.add_scaled(root, &c2), if root.abs() <= one { &c2 } else { &c1 })
+            (
+                c1.add_scaled(root, &c2),
+                if root.abs() <= one { &c2 } else { &c1 },
+            )
         } else {
-            (c2.add_scaled(root, &c1), if root.abs() <= one { &c1 } else { &c2 })
+            (
+                c2.add_scaled(root, &c1),
+                if root.abs() <= one { &c1 } else { &c2 },
+            )
         };
         let mut lines = [[T::ZERO; 3]; 2];
         let nl = split_lines(&d, &mut lines);
@@ -184,7 +190,11 @@ fn cubic_roots<T: Real>(c3: T, c2: T, c1: T, c0: T, out: &mut [T; 3]) -> usize {
             } else {
                 (-half_q + sd).cbrt()
             };
-            let t = if u.abs() > T::ZERO { u - p / (T::of(3.0) * u) } else { T::ZERO };
+            let t = if u.abs() > T::ZERO {
+                u - p / (T::of(3.0) * u)
+            } else {
+                T::ZERO
+            };
             out[0] = t + shift;
             1
         } else if p < T::ZERO {
@@ -208,10 +218,18 @@ fn cubic_roots<T: Real>(c3: T, c2: T, c1: T, c0: T, out: &mut [T; 3]) -> usize {
             let (bq, cq) = (t, t * t + p);
             let disc2 = (bq * bq - T::of(4.0) * cq).max(T::ZERO);
             let sd = disc2.sqrt();
-            let qq = if bq >= T::ZERO { -T::of(0.5) * (bq + sd) } else { -T::of(0.5) * (bq - sd) };
+            let qq = if bq >= T::ZERO {
+                -T::of(0.5) * (bq + sd)
+            } else {
+                -T::of(0.5) * (bq - sd)
+            };
             out[0] = t + shift;
             out[1] = qq + shift;
-            out[2] = if qq.abs() > T::ZERO { cq / qq + shift } else { qq + shift };
+            out[2] = if qq.abs() > T::ZERO {
+                cq / qq + shift
+            } else {
+                qq + shift
+            };
             3
         } else {
             out[0] = shift;
@@ -223,7 +241,11 @@ fn cubic_roots<T: Real>(c3: T, c2: T, c1: T, c0: T, out: &mut [T; 3]) -> usize {
             return 0;
         }
         let sd = disc.sqrt();
-        let qq = if c1 >= T::ZERO { -T::of(0.5) * (c1 + sd) } else { -T::of(0.5) * (c1 - sd) };
+        let qq = if c1 >= T::ZERO {
+            -T::of(0.5) * (c1 + sd)
+        } else {
+            -T::of(0.5) * (c1 - sd)
+        };
         out[0] = qq / c2;
         out[1] = if qq.abs() > T::ZERO { c0 / qq } else { out[0] };
         2
@@ -342,7 +364,11 @@ fn intersect_line_conic<T: Real>(l: &Vec3<T>, c: &Sym3<T>, out: &mut [Vec3<T>; 2
     }
     let sd = disc.sqrt();
     // Roots of c11 α² + 2 c12 α β + c22 β² = 0 as (α, β) pairs, stable form.
-    let q = if c12 >= T::ZERO { -(c12 + sd) } else { -(c12 - sd) };
+    let q = if c12 >= T::ZERO {
+        -(c12 + sd)
+    } else {
+        -(c12 - sd)
+    };
     // α/β = q / c11 and α/β = c22 / q.
     let pairs = [(q, c11), (c22, q)];
     let mut n = 0;
@@ -387,7 +413,12 @@ fn newton_polish<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], a: &mut Vec3<T>) {
 
 /// Levenberg–Marquardt on `Σ_k (P_k − aᵀ M_k a)²` from `start` (Jacobian rows `2 M_k a`).
 /// Returns the solution and its residual.
-pub fn gauss_newton<T: Real>(m: &[Sym3<T>], p: &[T], start: &Vec3<T>, iterations: usize) -> (Vec3<T>, T) {
+pub fn gauss_newton<T: Real>(
+    m: &[Sym3<T>],
+    p: &[T],
+    start: &Vec3<T>,
+    iterations: usize,
+) -> (Vec3<T>, T) {
     let mut a = *start;
     let mut res = residual2(m, p, &a);
     let mut mu = T::of(1e-3);
@@ -415,7 +446,9 @@ pub fn gauss_newton<T: Real>(m: &[Sym3<T>], p: &[T], start: &Vec3<T>, iterations
         for i in 0..3 {
             damped.0[i] += mu * diag;
         }
-        let Some(step) = solve3(&damped.to_mat(), &jtr) else { break };
+        let Some(step) = solve3(&damped.to_mat(), &jtr) else {
+            break;
+        };
         let trial = [a[0] + step[0], a[1] + step[1], a[2] + step[2]];
         let tres = residual2(m, p, &trial);
         if tres < res {

@@ -241,15 +241,24 @@ mod tests {
     fn ln_approx_is_close() {
         for &x in &[1e-12, 1e-3, 0.5, 1.0, 1.5, 1.999, 2.0, 3.7, 1e6] {
             assert!((Real::ln_approx(x) - libm::log(x)).abs() < 1e-4, "{x}");
-            assert!(((x as f32).ln_approx() as f64 - libm::log(x)).abs() < 1e-4, "{x}");
+            assert!(
+                ((x as f32).ln_approx() as f64 - libm::log(x)).abs() < 1e-4,
+                "{x}"
+            );
         }
     }
 
     #[test]
     fn cbrt_f32_is_accurate() {
-        for &x in &[-27.0f32, -1e-6, 1e-30, 0.001, 0.5, 1.0, 2.0, 8.0, 123.456, 3e20] {
+        for &x in &[
+            -27.0f32, -1e-6, 1e-30, 0.001, 0.5, 1.0, 2.0, 8.0, 123.456, 3e20,
+        ] {
             let want = libm::cbrt(x as f64);
-            assert!(((cbrt_f32(x) as f64 - want) / want).abs() < 1e-6, "{x}: {} vs {want}", cbrt_f32(x));
+            assert!(
+                ((cbrt_f32(x) as f64 - want) / want).abs() < 1e-6,
+                "{x}: {} vs {want}",
+                cbrt_f32(x)
+            );
         }
     }
 }

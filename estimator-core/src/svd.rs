@@ -45,7 +45,8 @@ impl<const CAP: usize> Svd<CAP> {
                     }
                     rotated = true;
                     let zeta = (beta - alpha) / (2.0 * gamma);
-                    let t = libm::copysign(1.0, zeta) / (libm::fabs(zeta) + libm::sqrt(1.0 + zeta * zeta));
+                    let t = libm::copysign(1.0, zeta)
+                        / (libm::fabs(zeta) + libm::sqrt(1.0 + zeta * zeta));
                     let c = 1.0 / libm::sqrt(1.0 + t * t);
                     let s = c * t;
                     for i in 0..n {
@@ -174,7 +175,9 @@ mod tests {
         let mut seed = 12345u64;
         for col in cols.iter_mut().take(k) {
             for x in col.iter_mut().take(n) {
-                seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 *x = ((seed >> 33) as f64 / (1u64 << 31) as f64) - 0.5;
             }
         }

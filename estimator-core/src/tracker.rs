@@ -259,7 +259,10 @@ impl<T: Real> Tracker<T> {
                             if worst_same.is_none_or(|w| o.cost > next[w].cost) {
                                 worst_same = Some(j);
                             }
-                            if dup.is_none() && norm2(&sub(&o.omega, &st.omega)) <= T::of(0.25) * (o.var + st.var) {
+                            if dup.is_none()
+                                && norm2(&sub(&o.omega, &st.omega))
+                                    <= T::of(0.25) * (o.var + st.var)
+                            {
                                 dup = Some(j);
                             }
                         }
@@ -319,7 +322,9 @@ impl<T: Real> Tracker<T> {
         let nn = kept;
         // Learn the model error along the chosen hypothesis (bounded influence per sample).
         if self.n > 0 {
-            let e = innov[best].max(T::ZERO).min(T::of(25.0) * (q + next[best].var));
+            let e = innov[best]
+                .max(T::ZERO)
+                .min(T::of(25.0) * (q + next[best].var));
             self.model_var += T::of(0.01) * (e - self.model_var);
         }
         let margin = T::of(SIGN_MARGIN);
@@ -343,7 +348,11 @@ impl<T: Real> Tracker<T> {
         Some(Choice {
             state: best,
             candidate: b.candidate as usize,
-            omega: if b.sign > 0 { omega } else { scale(-T::ONE, &omega) },
+            omega: if b.sign > 0 {
+                omega
+            } else {
+                scale(-T::ONE, &omega)
+            },
             filtered: (b.omega, b.var),
             sign_unresolved,
             branch_ambiguous,
@@ -358,4 +367,3 @@ fn propagate<T: Real>(s: &State<T>, dt: T) -> Vec3<T> {
         s.omega[2] + s.domega[2] * dt,
     ]
 }
-

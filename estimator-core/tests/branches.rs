@@ -1,7 +1,7 @@
 //! The closed form finds every real branch: compared with a brute-force multi-start search
 //! (Gauss–Newton from a dense set of starting points on spheres of several radii).
 
-use estimator_core::linalg::{norm2, sub, add, Sym3};
+use estimator_core::linalg::{add, norm2, sub, Sym3};
 use estimator_core::quadratic::{closed_form, gauss_newton, residual2, MAX_ROOTS};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -19,11 +19,18 @@ fn brute_force(m: &[Sym3<f64>; 3], p: &[f64; 3], scale: f64) -> Vec<[f64; 3]> {
             for j in 0..2 * k {
                 let th = std::f64::consts::PI * (i as f64 + 0.5) / k as f64;
                 let ph = std::f64::consts::PI * j as f64 / k as f64;
-                let s = [r * scale * th.sin() * ph.cos(), r * scale * th.sin() * ph.sin(), r * scale * th.cos()];
+                let s = [
+                    r * scale * th.sin() * ph.cos(),
+                    r * scale * th.sin() * ph.sin(),
+                    r * scale * th.cos(),
+                ];
                 let (a, res) = gauss_newton(m, p, &s, 200);
                 if res < 1e-20 * (1.0 + p.iter().map(|x| x * x).sum::<f64>()) {
                     let tol = 1e-8 * norm2(&a).max(1e-30);
-                    if !found.iter().any(|b| norm2(&sub(&a, b)) < tol || norm2(&add(&a, b)) < tol) {
+                    if !found
+                        .iter()
+                        .any(|b| norm2(&sub(&a, b)) < tol || norm2(&add(&a, b)) < tol)
+                    {
                         found.push(a);
                     }
                 }
@@ -47,11 +54,20 @@ fn closed_form_finds_every_branch_found_by_brute_force() {
         let brute = brute_force(&m, &p, norm2(&a).sqrt());
         for b in &brute {
             let tol = 1e-6 * norm2(b);
-            let hit = out[..n].iter().any(|c| norm2(&sub(b, c)) < tol || norm2(&add(b, c)) < tol);
-            assert!(hit, "trial {trial}: brute-force root {b:?} missing from closed form {:?}", &out[..n]);
+            let hit = out[..n]
+                .iter()
+                .any(|c| norm2(&sub(b, c)) < tol || norm2(&add(b, c)) < tol);
+            assert!(
+                hit,
+                "trial {trial}: brute-force root {b:?} missing from closed form {:?}",
+                &out[..n]
+            );
         }
         for c in &out[..n] {
-            assert!(residual2(&m, &p, c) < 1e-16 * (1.0 + norm2(&p)), "trial {trial}: closed-form root {c:?} does not fit");
+            assert!(
+                residual2(&m, &p, c) < 1e-16 * (1.0 + norm2(&p)),
+                "trial {trial}: closed-form root {c:?} does not fit"
+            );
         }
         total_roots += brute.len();
         if brute.len() > 1 {
@@ -59,5 +75,8 @@ fn closed_form_finds_every_branch_found_by_brute_force() {
         }
     }
     // The comparison must have had something to find: many cases with several branches.
-    assert!(multi > 50, "only {multi} cases with several branches ({total_roots} roots)");
+    assert!(
+        multi > 50,
+        "only {multi} cases with several branches ({total_roots} roots)"
+    );
 }

@@ -19,8 +19,16 @@ fn general_model_matches_twelve_unknown_least_squares_with_noise() {
         let n = rng.gen_range(13..=24);
         let noise = 0.01;
         let arr = random_arrangement(&mut rng, n, Model::General, noise);
-        let sigma0 = [rng.gen_range(-5.0..5.0), rng.gen_range(-5.0..5.0), rng.gen_range(-5.0..5.0)];
-        let domega = [rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0)];
+        let sigma0 = [
+            rng.gen_range(-5.0..5.0),
+            rng.gen_range(-5.0..5.0),
+            rng.gen_range(-5.0..5.0),
+        ];
+        let domega = [
+            rng.gen_range(-3.0..3.0),
+            rng.gen_range(-3.0..3.0),
+            rng.gen_range(-3.0..3.0),
+        ];
         let d = unit(&mut rng);
         let omega = [d[0] * 3.0, d[1] * 3.0, d[2] * 3.0];
         let a = Sym3::skew_squared(&omega);
@@ -35,8 +43,18 @@ fn general_model_matches_twelve_unknown_least_squares_with_noise() {
             let (s, r) = (c.axis, c.position);
             let rxs = cross(&r, &s);
             let row = [
-                s[0], s[1], s[2], rxs[0], rxs[1], rxs[2], s[0] * r[0], s[1] * r[1], s[2] * r[2],
-                s[0] * r[1] + s[1] * r[0], s[0] * r[2] + s[2] * r[0], s[1] * r[2] + s[2] * r[1],
+                s[0],
+                s[1],
+                s[2],
+                rxs[0],
+                rxs[1],
+                rxs[2],
+                s[0] * r[0],
+                s[1] * r[1],
+                s[2] * r[2],
+                s[0] * r[1] + s[1] * r[0],
+                s[0] * r[2] + s[2] * r[0],
+                s[1] * r[2] + s[2] * r[1],
             ];
             for (j, v) in row.iter().enumerate() {
                 g[(i, j)] = v / c.noise;
@@ -46,7 +64,11 @@ fn general_model_matches_twelve_unknown_least_squares_with_noise() {
         let x = g.svd(true, true).solve(&y, 1e-12).unwrap();
         let lsq = [x[6], x[7], x[8], x[9], x[10], x[11]];
 
-        let options = Options { raw: true, initial_omega: Some(omega), ..Default::default() };
+        let options = Options {
+            raw: true,
+            initial_omega: Some(omega),
+            ..Default::default()
+        };
         let mut est = Estimator::<f64, CAP>::new(&arr, Model::General, options).unwrap();
         let e = est.update(0.0, &p);
         let scale = lsq.iter().fold(1.0f64, |m, v| m.max(v.abs()));
@@ -57,8 +79,14 @@ fn general_model_matches_twelve_unknown_least_squares_with_noise() {
             );
         }
         for k in 0..3 {
-            assert!((e.sigma0[k] - x[k]).abs() <= 1e-7 * scale, "trial {trial}: σ0 differs");
-            assert!((e.domega[k] - x[3 + k]).abs() <= 1e-7 * scale, "trial {trial}: Ω′ differs");
+            assert!(
+                (e.sigma0[k] - x[k]).abs() <= 1e-7 * scale,
+                "trial {trial}: σ0 differs"
+            );
+            assert!(
+                (e.domega[k] - x[3 + k]).abs() <= 1e-7 * scale,
+                "trial {trial}: Ω′ differs"
+            );
         }
         checked += 1;
     }

@@ -22,14 +22,29 @@ struct Case {
 fn case(seed: u64, n: usize, model: Model) -> Case {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let arr = random_arrangement(&mut rng, n, model, NOISE);
-    let sigma0 = [rng.gen_range(-10.0..10.0), rng.gen_range(-10.0..10.0), rng.gen_range(-10.0..10.0)];
-    let domega = [rng.gen_range(-5.0..5.0), rng.gen_range(-5.0..5.0), rng.gen_range(-5.0..5.0)];
+    let sigma0 = [
+        rng.gen_range(-10.0..10.0),
+        rng.gen_range(-10.0..10.0),
+        rng.gen_range(-10.0..10.0),
+    ];
+    let domega = [
+        rng.gen_range(-5.0..5.0),
+        rng.gen_range(-5.0..5.0),
+        rng.gen_range(-5.0..5.0),
+    ];
     let dir = unit(&mut rng);
     let mag = rng.gen_range(0.5..6.0);
     let omega = [dir[0] * mag, dir[1] * mag, dir[2] * mag];
     let a = Sym3::skew_squared(&omega);
     let p = outputs(&arr, &sigma0, &domega, &a);
-    Case { arr, sigma0, domega, omega, a, p }
+    Case {
+        arr,
+        sigma0,
+        domega,
+        omega,
+        a,
+        p,
+    }
 }
 
 use rand::Rng;
@@ -40,30 +55,53 @@ const TOL_F64: f64 = 1e-8;
 /// Channel noise of the random arrangements.
 const NOISE: f64 = 0.01;
 
-fn run<T: estimator_core::Real>(c: &Case, model: Model, p: &[f64]) -> estimator_core::Estimate<f64> {
+fn run<T: estimator_core::Real>(
+    c: &Case,
+    model: Model,
+    p: &[f64],
+) -> estimator_core::Estimate<f64> {
     // The rate hint picks the branch and the sign. With m > 3 an approximate gyro reading
     // (10 % off) is enough; with m = 3 every branch fits a single sample exactly and mirror
     // branches can lie arbitrarily close to the truth, so the hint is the true rate (as the
     // tracker's prediction would be): branch *tracking* is tested on sequences elsewhere.
     let m3 = c.arr.len() == model.min_channels();
-    let hint = if m3 { c.omega } else { [c.omega[0] * 1.1, c.omega[1] * 0.95, c.omega[2] * 1.05] };
-    let options = Options { raw: true, initial_omega: Some(hint), ..Default::default() };
+    let hint = if m3 {
+        c.omega
+    } else {
+        [c.omega[0] * 1.1, c.omega[1] * 0.95, c.omega[2] * 1.05]
+    };
+    let options = Options {
+        raw: true,
+        initial_omega: Some(hint),
+        ..Default::default()
+    };
     let mut est = Estimator::<T, CAP>::new(&c.arr, model, options).unwrap();
     let p: Vec<T> = p.iter().map(|v| T::of(*v)).collect();
     let e = est.update(0.0, &p);
     let f = |v: [T; 3]| [v[0].to_f64(), v[1].to_f64(), v[2].to_f64()];
-    let mut out = estimator_core::Estimate::<f64>::default();
-    out.sigma0 = f(e.sigma0);
-    out.domega = f(e.domega);
-    out.omega = f(e.omega);
-    out.field = e.field.cast();
-    out.flags = e.flags;
-    out
+    estimator_core::Estimate::<f64> {
+        sigma0: f(e.sigma0),
+        domega: f(e.domega),
+        omega: f(e.omega),
+        field: e.field.cast(),
+        flags: e.flags,
+        ..Default::default()
+    }
 }
 
 fn errors(e: &estimator_core::Estimate<f64>, c: &Case) -> [f64; 4] {
-    let fe = e.field.0.iter().zip(c.a.0.iter()).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-    [dist(&e.sigma0, &c.sigma0), dist(&e.domega, &c.domega), dist(&e.omega, &c.omega), fe]
+    let fe = e
+        .field
+        .0
+        .iter()
+        .zip(c.a.0.iter())
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    [
+        dist(&e.sigma0, &c.sigma0),
+        dist(&e.domega, &c.domega),
+        dist(&e.omega, &c.omega),
+        fe,
+    ]
 }
 
 /// Runs the estimator in scalar `T` and checks every output against the truth within
@@ -78,7 +116,10 @@ fn check<T: estimator_core::Real>(c: &Case, model: Model, tol: f64) -> Result<()
     let level = T::EPSILON.to_f64() * pmax * (c.p.len() as f64).sqrt();
     let mut rounding = [0.0f64; 4];
     for _ in 0..4 {
-        let pp: Vec<f64> = c.p.iter().map(|v| v + level * rng.gen_range(-1.0..1.0)).collect();
+        let pp: Vec<f64> =
+            c.p.iter()
+                .map(|v| v + level * rng.gen_range(-1.0..1.0))
+                .collect();
         let r = errors(&run::<f64>(c, model, &pp), c);
         for (a, b) in rounding.iter_mut().zip(r.iter()) {
             *a = a.max(*b);
@@ -96,7 +137,13 @@ fn check<T: estimator_core::Real>(c: &Case, model: Model, tol: f64) -> Result<()
             return Ok(());
         }
         let allow = tol * scales[k].max(1.0) + 10.0 * rounding[k];
-        prop_assert!(err[k] <= allow, "{what}: error {:.3e} > allowed {:.3e}; estimate {:?}", err[k], allow, e);
+        prop_assert!(
+            err[k] <= allow,
+            "{what}: error {:.3e} > allowed {:.3e}; estimate {:?}",
+            err[k],
+            allow,
+            e
+        );
     }
     prop_assert!(!e.flags.has(Flags::SIGN_UNRESOLVED));
     Ok(())
@@ -127,17 +174,32 @@ proptest! {
 /// those are exempt from the accuracy claim above, so they must stay rare.
 #[test]
 fn ill_conditioned_cases_are_rare() {
-    for (n, model) in [(12, Model::General), (9, Model::FreeFloat), (16, Model::General), (12, Model::FreeFloat)] {
+    for (n, model) in [
+        (12, Model::General),
+        (9, Model::FreeFloat),
+        (16, Model::General),
+        (12, Model::FreeFloat),
+    ] {
         let trials = 400;
         let mut flagged = 0;
         for seed in 0..trials {
             let c = case(seed, n, model);
-            if run::<f32>(&c, model, &c.p).flags.has(Flags::ILL_CONDITIONED) {
+            if run::<f32>(&c, model, &c.p)
+                .flags
+                .has(Flags::ILL_CONDITIONED)
+            {
                 flagged += 1;
             }
         }
         let frac = flagged as f64 / trials as f64;
-        println!("N = {n}, {model:?}: {flagged}/{trials} flagged ill-conditioned ({:.1} %)", 100.0 * frac);
-        assert!(frac < 0.05, "N = {n}, {model:?}: {:.1} % of random cases flagged ill-conditioned", 100.0 * frac);
+        println!(
+            "N = {n}, {model:?}: {flagged}/{trials} flagged ill-conditioned ({:.1} %)",
+            100.0 * frac
+        );
+        assert!(
+            frac < 0.05,
+            "N = {n}, {model:?}: {:.1} % of random cases flagged ill-conditioned",
+            100.0 * frac
+        );
     }
 }

@@ -143,9 +143,14 @@ impl ArrangementFile {
         };
         let mut out = self.channels.clone();
         for s in &self.sensors {
-            let m = s.orientation.unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+            let m = s
+                .orientation
+                .unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
             if !m.iter().flatten().all(|v| v.is_finite()) {
-                return Err(err(format!("sensor \"{}\": orientation is not finite", s.name)));
+                return Err(err(format!(
+                    "sensor \"{}\": orientation is not finite",
+                    s.name
+                )));
             }
             // Must be a rotation: MᵀM = I within 1e-3, det > 0.
             for i in 0..3 {
@@ -160,7 +165,8 @@ impl ArrangementFile {
                     }
                 }
             }
-            let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
                 + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
             if det <= 0.0 {
                 return Err(err(format!(
@@ -194,7 +200,9 @@ impl ArrangementFile {
         let model = match &self.model {
             None => None,
             Some(m) => Some(parse_model(m).ok_or_else(|| {
-                err(format!("model = \"{m}\" is not one of \"general\", \"free-float\""))
+                err(format!(
+                    "model = \"{m}\" is not one of \"general\", \"free-float\""
+                ))
             })?),
         };
         let chans = self.expanded_channels(file)?;
@@ -207,22 +215,36 @@ impl ArrangementFile {
         let mut names = Vec::new();
         for c in &chans {
             if c.name.is_empty() || c.name == "t" || c.name.contains(',') {
-                return Err(err(format!("channel name \"{}\" is not allowed (empty, \"t\" or contains a comma)", c.name)));
+                return Err(err(format!(
+                    "channel name \"{}\" is not allowed (empty, \"t\" or contains a comma)",
+                    c.name
+                )));
             }
             if !seen.insert(c.name.clone()) {
                 return Err(err(format!("channel \"{}\" is defined twice", c.name)));
             }
-            let noise = if noise_given { c.noise.unwrap_or(1.0) } else { 1.0 };
+            let noise = if noise_given {
+                c.noise.unwrap_or(1.0)
+            } else {
+                1.0
+            };
             arr.push(c.position, c.axis, noise).map_err(|e| {
                 let what = match e {
                     estimator_core::ConfigError::TooManyChannels { capacity } => {
                         format!("too many channels (at most {capacity})")
                     }
-                    estimator_core::ConfigError::PositionNotFinite { .. } => "position is not finite".into(),
-                    estimator_core::ConfigError::AxisNotFinite { .. } => "axis is not finite".into(),
+                    estimator_core::ConfigError::PositionNotFinite { .. } => {
+                        "position is not finite".into()
+                    }
+                    estimator_core::ConfigError::AxisNotFinite { .. } => {
+                        "axis is not finite".into()
+                    }
                     estimator_core::ConfigError::AxisZero { .. } => "axis has zero length".into(),
                     estimator_core::ConfigError::NoiseInvalid { .. } => {
-                        format!("noise = {} must be a positive finite number", c.noise.unwrap_or(f64::NAN))
+                        format!(
+                            "noise = {} must be a positive finite number",
+                            c.noise.unwrap_or(f64::NAN)
+                        )
                     }
                     other => other.to_string(),
                 };
@@ -247,7 +269,11 @@ pub fn load_arrangement(path: &Path) -> Result<LoadedArrangement, ArrangementErr
 
 fn one_line(s: &str) -> String {
     // toml errors span several lines (with a source excerpt); keep them readable on one line.
-    s.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" ")
+    s.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 #[cfg(test)]

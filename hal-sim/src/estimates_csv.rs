@@ -6,14 +6,26 @@ use estimator_core::{Estimate, Real};
 
 /// The contract columns, in order (interfaces.md).
 pub const COLUMNS: [&str; 17] = [
-    "t", "sigma0_x", "sigma0_y", "sigma0_z", "domega_x", "domega_y", "domega_z", "omega_x", "omega_y", "omega_z",
-    "A_xx", "A_yy", "A_zz", "A_xy", "A_xz", "A_yz", "flags",
+    "t", "sigma0_x", "sigma0_y", "sigma0_z", "domega_x", "domega_y", "domega_z", "omega_x",
+    "omega_y", "omega_z", "A_xx", "A_yy", "A_zz", "A_xy", "A_xz", "A_yz", "flags",
 ];
 
 /// Extra columns that follow the contract ones.
 pub const EXTRA_COLUMNS: [&str; 14] = [
-    "chi2", "dof", "branches", "frame", "sd_sigma0_x", "sd_sigma0_y", "sd_sigma0_z", "sd_domega_x", "sd_domega_y",
-    "sd_domega_z", "sd_omega_x", "sd_omega_y", "sd_omega_z", "epsilon",
+    "chi2",
+    "dof",
+    "branches",
+    "frame",
+    "sd_sigma0_x",
+    "sd_sigma0_y",
+    "sd_sigma0_z",
+    "sd_domega_x",
+    "sd_domega_y",
+    "sd_domega_z",
+    "sd_omega_x",
+    "sd_omega_y",
+    "sd_omega_z",
+    "epsilon",
 ];
 
 /// Writes the header line.
@@ -34,7 +46,12 @@ pub fn write_row<W: Write, T: Real>(w: &mut W, t: f64, e: &Estimate<T>) -> std::
     }
     write!(w, ",{}", e.flags.0)?;
     write!(w, ",{},{},{},{}", f(e.chi2), e.dof, e.branches, e.frame)?;
-    for v in e.sd_sigma0.iter().chain(e.sd_domega.iter()).chain(e.sd_omega.iter()) {
+    for v in e
+        .sd_sigma0
+        .iter()
+        .chain(e.sd_domega.iter())
+        .chain(e.sd_omega.iter())
+    {
         write!(w, ",{}", f(*v))?;
     }
     writeln!(w, ",{}", e.epsilon)

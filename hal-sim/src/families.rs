@@ -107,7 +107,13 @@ pub fn nine_channel(r: f64, noise: f64) -> ArrangementFile {
 }
 
 /// Irregular parts with mixed noise: every other part is `ratio` times noisier.
-pub fn mixed_noise<R: Rng>(rng: &mut R, parts: usize, extent: f64, noise: f64, ratio: f64) -> ArrangementFile {
+pub fn mixed_noise<R: Rng>(
+    rng: &mut R,
+    parts: usize,
+    extent: f64,
+    noise: f64,
+    ratio: f64,
+) -> ArrangementFile {
     let mut f = irregular(rng, parts, extent, noise);
     for (i, s) in f.sensors.iter_mut().enumerate() {
         if i % 2 == 1 {

@@ -5,6 +5,7 @@
 #![deny(missing_docs)]
 
 pub mod arrangement_file;
+pub mod compare;
 pub mod estimates_csv;
 pub mod families;
 pub mod motion;

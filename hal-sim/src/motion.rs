@@ -34,7 +34,11 @@ impl Torque {
     pub fn at(&self, t: f64) -> Vec3<f64> {
         match self {
             Torque::None => [0.0; 3],
-            Torque::Sinusoid { amplitude, frequency, phase } => {
+            Torque::Sinusoid {
+                amplitude,
+                frequency,
+                phase,
+            } => {
                 let w = 2.0 * std::f64::consts::PI * frequency * t;
                 [
                     amplitude[0] * (w + phase[0]).sin(),
@@ -42,7 +46,12 @@ impl Torque {
                     amplitude[2] * (w + phase[2]).sin(),
                 ]
             }
-            Torque::Steps(steps) => steps.iter().rev().find(|(t0, _)| t >= *t0).map(|s| s.1).unwrap_or([0.0; 3]),
+            Torque::Steps(steps) => steps
+                .iter()
+                .rev()
+                .find(|(t0, _)| t >= *t0)
+                .map(|s| s.1)
+                .unwrap_or([0.0; 3]),
         }
     }
 }
@@ -123,7 +132,9 @@ impl Truth {
     /// Ideal output of a channel (paper eq. 4): `s·σ0 + (R × s)·Ω′ + s·A R`.
     pub fn channel(&self, position: &Vec3<f64>, axis: &Vec3<f64>) -> f64 {
         let d = |a: &Vec3<f64>, b: &Vec3<f64>| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-        d(axis, &self.sigma0) + d(&cross(position, axis), &self.domega) + d(axis, &self.field.mul_vec(position))
+        d(axis, &self.sigma0)
+            + d(&cross(position, axis), &self.domega)
+            + d(axis, &self.field.mul_vec(position))
     }
 }
 
@@ -147,7 +158,11 @@ impl Motion {
         match &self.rotation {
             Rotation::Euler { inertia, torque } => {
                 let tau = torque.at(t);
-                let iw = [inertia[0] * omega[0], inertia[1] * omega[1], inertia[2] * omega[2]];
+                let iw = [
+                    inertia[0] * omega[0],
+                    inertia[1] * omega[1],
+                    inertia[2] * omega[2],
+                ];
                 let gyro = cross(omega, &iw);
                 [
                     (tau[0] - gyro[0]) / inertia[0],
@@ -155,8 +170,16 @@ impl Motion {
                     (tau[2] - gyro[2]) / inertia[2],
                 ]
             }
-            Rotation::Turntable { axis, rate, spin_up } => {
-                let acc = if *spin_up > 0.0 && t < *spin_up { rate / spin_up } else { 0.0 };
+            Rotation::Turntable {
+                axis,
+                rate,
+                spin_up,
+            } => {
+                let acc = if *spin_up > 0.0 && t < *spin_up {
+                    rate / spin_up
+                } else {
+                    0.0
+                };
                 [axis[0] * acc, axis[1] * acc, axis[2] * acc]
             }
         }
@@ -165,7 +188,11 @@ impl Motion {
     fn initial_omega(&self) -> Vec3<f64> {
         match &self.rotation {
             Rotation::Euler { .. } => self.omega0,
-            Rotation::Turntable { axis, rate, spin_up } => {
+            Rotation::Turntable {
+                axis,
+                rate,
+                spin_up,
+            } => {
                 let r = if *spin_up > 0.0 { 0.0 } else { *rate };
                 [axis[0] * r, axis[1] * r, axis[2] * r]
             }
@@ -202,12 +229,24 @@ impl Motion {
 
     fn deriv(&self, t: f64, q: &[f64; 4], w: &Vec3<f64>) -> ([f64; 4], Vec3<f64>) {
         let dq = quat_mul(q, &[0.0, w[0], w[1], w[2]]);
-        ([0.5 * dq[0], 0.5 * dq[1], 0.5 * dq[2], 0.5 * dq[3]], self.angular_acceleration(t, w))
+        (
+            [0.5 * dq[0], 0.5 * dq[1], 0.5 * dq[2], 0.5 * dq[3]],
+            self.angular_acceleration(t, w),
+        )
     }
 
     fn rk4(&self, t: f64, q: &[f64; 4], w: &Vec3<f64>, h: f64) -> ([f64; 4], Vec3<f64>) {
-        let add4 = |a: &[f64; 4], b: &[f64; 4], k: f64| [a[0] + k * b[0], a[1] + k * b[1], a[2] + k * b[2], a[3] + k * b[3]];
-        let add3 = |a: &Vec3<f64>, b: &Vec3<f64>, k: f64| [a[0] + k * b[0], a[1] + k * b[1], a[2] + k * b[2]];
+        let add4 = |a: &[f64; 4], b: &[f64; 4], k: f64| {
+            [
+                a[0] + k * b[0],
+                a[1] + k * b[1],
+                a[2] + k * b[2],
+                a[3] + k * b[3],
+            ]
+        };
+        let add3 = |a: &Vec3<f64>, b: &Vec3<f64>, k: f64| {
+            [a[0] + k * b[0], a[1] + k * b[1], a[2] + k * b[2]]
+        };
         let (q1, w1) = self.deriv(t, q, w);
         let (q2, w2) = self.deriv(t + h / 2.0, &add4(q, &q1, h / 2.0), &add3(w, &w1, h / 2.0));
         let (q3, w3) = self.deriv(t + h / 2.0, &add4(q, &q2, h / 2.0), &add3(w, &w2, h / 2.0));
@@ -271,7 +310,11 @@ impl Motion {
         let rho = &self.origin_offset;
         let lever = cross(&domega, rho);
         let fr = field.mul_vec(rho);
-        let sigma0 = [base[0] + lever[0] + fr[0], base[1] + lever[1] + fr[1], base[2] + lever[2] + fr[2]];
+        let sigma0 = [
+            base[0] + lever[0] + fr[0],
+            base[1] + lever[1] + fr[1],
+            base[2] + lever[2] + fr[2],
+        ];
         Truth {
             t,
             sigma0,
@@ -303,7 +346,10 @@ mod tests {
     fn torque_free_conserves_energy_and_momentum_over_100_s() {
         let inertia = [1.0, 2.0, 3.0];
         let m = Motion {
-            rotation: Rotation::Euler { inertia, torque: Torque::None },
+            rotation: Rotation::Euler {
+                inertia,
+                torque: Torque::None,
+            },
             environment: Environment::Space,
             omega0: [0.3, 1.5, 0.4],
             attitude0: [1.0, 0.0, 0.0, 0.0],
@@ -313,12 +359,23 @@ mod tests {
         let tr = m.run(0.01, 10_001, 4);
         let (e0, h0) = energy_momentum(&inertia, &tr[0].omega);
         let (e1, h1) = energy_momentum(&inertia, &tr[10_000].omega);
-        assert!(((e1 - e0) / e0).abs() < 1e-9, "energy drift {}", (e1 - e0) / e0);
-        assert!(((h1 - h0) / h0).abs() < 1e-9, "momentum drift {}", (h1 - h0) / h0);
+        assert!(
+            ((e1 - e0) / e0).abs() < 1e-9,
+            "energy drift {}",
+            (e1 - e0) / e0
+        );
+        assert!(
+            ((h1 - h0) / h0).abs() < 1e-9,
+            "momentum drift {}",
+            (h1 - h0) / h0
+        );
         // Inertial angular momentum vector is constant too.
         let hi = |k: usize| {
             let w = tr[k].omega;
-            to_inertial(&tr[k].attitude, &[inertia[0] * w[0], inertia[1] * w[1], inertia[2] * w[2]])
+            to_inertial(
+                &tr[k].attitude,
+                &[inertia[0] * w[0], inertia[1] * w[1], inertia[2] * w[2]],
+            )
         };
         let (a, b) = (hi(0), hi(10_000));
         let d = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();

@@ -84,7 +84,11 @@ pub struct HostEstimator<T: Real> {
 
 impl<T: Real> HostEstimator<T> {
     /// Builds the estimator; errors name what is wrong with the arrangement.
-    pub fn new(loaded: &LoadedArrangement, model: Model, options: Options) -> Result<Self, estimator_core::ConfigError> {
+    pub fn new(
+        loaded: &LoadedArrangement,
+        model: Model,
+        options: Options,
+    ) -> Result<Self, estimator_core::ConfigError> {
         let est = Estimator::<T, HOST_CAP>::new(&loaded.arrangement, model, options)?;
         let mut smoother = Box::new(Smoother::new());
         if model == Model::FreeFloat {
@@ -108,11 +112,16 @@ impl<T: Real> HostEstimator<T> {
     }
 }
 
-fn run_typed<T: Real>(job: &EstimateJob, loaded: &LoadedArrangement, model: Model) -> Result<Summary, Box<dyn Error>> {
+fn run_typed<T: Real>(
+    job: &EstimateJob,
+    loaded: &LoadedArrangement,
+    model: Model,
+) -> Result<Summary, Box<dyn Error>> {
     let mut est = HostEstimator::<T>::new(loaded, model, job.options)
         .map_err(|e| format!("{}: {e}", job.arrangement.display()))?;
     let mut reader = SamplesReader::open(job.samples, &loaded.names)?;
-    let out = File::create(job.out).map_err(|e| format!("{}: cannot create: {e}", job.out.display()))?;
+    let out =
+        File::create(job.out).map_err(|e| format!("{}: cannot create: {e}", job.out.display()))?;
     let mut w = BufWriter::with_capacity(1 << 16, out);
     estimates_csv::write_header(&mut w)?;
     let mut row = vec![0.0f64; loaded.names.len()];
@@ -172,7 +181,12 @@ pub const FLAG_NAMES: [(u16, &str); 7] = [
 
 /// Simulated channel outputs: truth through paper eq. (4) plus white noise of each channel's
 /// `noise` (seeded).
-pub fn simulate_outputs(loaded: &LoadedArrangement, truth: &[Truth], noisy: bool, seed: u64) -> Vec<Vec<f64>> {
+pub fn simulate_outputs(
+    loaded: &LoadedArrangement,
+    truth: &[Truth],
+    noisy: bool,
+    seed: u64,
+) -> Vec<Vec<f64>> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     truth
         .iter()
@@ -195,7 +209,12 @@ pub fn simulate_outputs(loaded: &LoadedArrangement, truth: &[Truth], noisy: bool
 }
 
 /// Writes a samples file.
-pub fn write_samples(path: &Path, names: &[String], truth: &[Truth], outputs: &[Vec<f64>]) -> std::io::Result<()> {
+pub fn write_samples(
+    path: &Path,
+    names: &[String],
+    truth: &[Truth],
+    outputs: &[Vec<f64>],
+) -> std::io::Result<()> {
     let mut w = BufWriter::new(File::create(path)?);
     writeln!(w, "t,{}", names.join(","))?;
     for (tr, row) in truth.iter().zip(outputs.iter()) {
@@ -214,7 +233,13 @@ pub fn write_truth(path: &Path, truth: &[Truth]) -> std::io::Result<()> {
     writeln!(w, "{}", estimates_csv::COLUMNS[..16].join(","))?;
     for tr in truth {
         write!(w, "{}", tr.t)?;
-        for v in tr.sigma0.iter().chain(tr.domega.iter()).chain(tr.omega.iter()).chain(tr.field.0.iter()) {
+        for v in tr
+            .sigma0
+            .iter()
+            .chain(tr.domega.iter())
+            .chain(tr.omega.iter())
+            .chain(tr.field.0.iter())
+        {
             write!(w, ",{v}")?;
         }
         writeln!(w)?;

@@ -93,7 +93,10 @@ impl<R: std::io::Read> SamplesReader<R> {
         }
         let t_column = t_column.ok_or_else(|| err("the header has no \"t\" column".into()))?;
         if let Some(c) = column.iter().position(|&c| c == usize::MAX) {
-            return Err(err(format!("channel \"{}\" has no column in the header", names[c])));
+            return Err(err(format!(
+                "channel \"{}\" has no column in the header",
+                names[c]
+            )));
         }
         Ok(SamplesReader {
             rdr,
@@ -108,16 +111,21 @@ impl<R: std::io::Read> SamplesReader<R> {
     /// Reads the next row into `out` (channel order, NaN for empty fields); returns its time,
     /// or `None` at the end of the file.
     pub fn next_row(&mut self, out: &mut [f64]) -> Result<Option<f64>, SamplesError> {
-        let ok = self.rdr.read_record(&mut self.record).map_err(|e| SamplesError {
-            file: self.file.clone(),
-            line: e.position().map(|p| p.line()),
-            message: match e.kind() {
-                csv::ErrorKind::UnequalLengths { expected_len, len, .. } => {
-                    format!("{len} fields, the header has {expected_len}")
-                }
-                _ => e.to_string(),
-            },
-        })?;
+        let ok = self
+            .rdr
+            .read_record(&mut self.record)
+            .map_err(|e| SamplesError {
+                file: self.file.clone(),
+                line: e.position().map(|p| p.line()),
+                message: match e.kind() {
+                    csv::ErrorKind::UnequalLengths {
+                        expected_len, len, ..
+                    } => {
+                        format!("{len} fields, the header has {expected_len}")
+                    }
+                    _ => e.to_string(),
+                },
+            })?;
         if !ok {
             return Ok(None);
         }
@@ -128,13 +136,17 @@ impl<R: std::io::Read> SamplesReader<R> {
             message,
         };
         let tf = &self.record[self.t_column];
-        let t: f64 = tf.parse().map_err(|_| err(format!("t = \"{tf}\" is not a number")))?;
+        let t: f64 = tf
+            .parse()
+            .map_err(|_| err(format!("t = \"{tf}\" is not a number")))?;
         if !t.is_finite() {
             return Err(err(format!("t = \"{tf}\" is not finite")));
         }
         if let Some((t0, l0)) = self.last_t {
             if t <= t0 {
-                return Err(err(format!("t = {t} does not increase (line {l0} has t = {t0})")));
+                return Err(err(format!(
+                    "t = {t} does not increase (line {l0} has t = {t0})"
+                )));
             }
         }
         self.last_t = Some((t, line));
@@ -143,11 +155,14 @@ impl<R: std::io::Read> SamplesReader<R> {
             *o = if field.is_empty() {
                 f64::NAN
             } else {
-                let v: f64 = field.parse().map_err(|_| {
-                    err(format!("\"{field}\" in column {} is not a number", c + 1))
-                })?;
+                let v: f64 = field
+                    .parse()
+                    .map_err(|_| err(format!("\"{field}\" in column {} is not a number", c + 1)))?;
                 if !v.is_finite() {
-                    return Err(err(format!("\"{field}\" in column {} is not finite", c + 1)));
+                    return Err(err(format!(
+                        "\"{field}\" in column {} is not finite",
+                        c + 1
+                    )));
                 }
                 v
             };

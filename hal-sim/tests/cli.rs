@@ -27,7 +27,10 @@ fn scenario(dir: &Path, samples: usize) -> Vec<hal_sim::motion::Truth> {
     std::fs::write(dir.join("arrangement.toml"), file.to_toml()).unwrap();
     let loaded = file.load("arrangement.toml").unwrap();
     let motion = Motion {
-        rotation: Rotation::Euler { inertia: [1.0, 1.8, 2.5], torque: Torque::None },
+        rotation: Rotation::Euler {
+            inertia: [1.0, 1.8, 2.5],
+            torque: Torque::None,
+        },
         environment: Environment::Space,
         omega0: [0.4, 1.6, -0.7],
         attitude0: [1.0, 0.0, 0.0, 0.0],
@@ -44,8 +47,15 @@ fn scenario(dir: &Path, samples: usize) -> Vec<hal_sim::motion::Truth> {
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
-    let header = lines.next().unwrap().split(',').map(str::to_string).collect();
-    let rows = lines.map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+    let header = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let rows = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
     (header, rows)
 }
 
@@ -63,7 +73,11 @@ fn estimate_writes_the_contract_columns_one_row_per_sample() {
         .arg(&out)
         .output()
         .unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
     let (header, rows) = read_csv(&out);
     let want = "t,sigma0_x,sigma0_y,sigma0_z,domega_x,domega_y,domega_z,omega_x,omega_y,omega_z,A_xx,A_yy,A_zz,A_xy,A_xz,A_yz,flags";
     assert_eq!(header[..17].join(","), want);
@@ -72,7 +86,9 @@ fn estimate_writes_the_contract_columns_one_row_per_sample() {
     for (r, tr) in rows.iter().zip(truth.iter()) {
         assert_eq!(r[0], tr.t);
         assert!(r.iter().all(|v| v.is_finite()));
-        se += (0..3).map(|k| (r[7 + k] - tr.omega[k]).powi(2)).sum::<f64>();
+        se += (0..3)
+            .map(|k| (r[7 + k] - tr.omega[k]).powi(2))
+            .sum::<f64>();
     }
     let rms = (se / rows.len() as f64).sqrt();
     assert!(rms < 0.01, "Ω RMS error {rms} rad/s");
@@ -85,7 +101,10 @@ fn estimate_writes_the_contract_columns_one_row_per_sample() {
 fn initial_omega_accepts_a_leading_minus_in_both_spellings() {
     let d = tmpdir("minus");
     scenario(&d, 50);
-    for args in [vec!["--initial-omega", "-1,0,2"], vec!["--initial-omega=-1,0,2"]] {
+    for args in [
+        vec!["--initial-omega", "-1,0,2"],
+        vec!["--initial-omega=-1,0,2"],
+    ] {
         let st = ballisto()
             .arg("estimate")
             .arg("--arrangement")
@@ -98,7 +117,11 @@ fn initial_omega_accepts_a_leading_minus_in_both_spellings() {
             .arg("--raw")
             .output()
             .unwrap();
-        assert!(st.status.success(), "{args:?}: {}", String::from_utf8_lossy(&st.stderr));
+        assert!(
+            st.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&st.stderr)
+        );
     }
 }
 
@@ -121,7 +144,9 @@ fn run_expect_error(d: &Path, arrangement: &str, samples: &str, extra: &[&str]) 
     assert!(!st.status.success(), "expected failure");
     let err = String::from_utf8_lossy(&st.stderr).to_string();
     assert_eq!(err.trim().lines().count(), 1, "one sentence: {err}");
-    let rows = std::fs::read_to_string(&out).map(|t| t.lines().count().saturating_sub(1)).unwrap_or(0);
+    let rows = std::fs::read_to_string(&out)
+        .map(|t| t.lines().count().saturating_sub(1))
+        .unwrap_or(0);
     (err, rows)
 }
 
@@ -150,21 +175,33 @@ fn bad_samples_are_named_and_accepted_rows_kept() {
     let a = good_arrangement();
     let s = good_samples(10);
     // Missing channel column.
-    let mut lines: Vec<String> = s.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string()).collect();
+    let mut lines: Vec<String> = s
+        .lines()
+        .map(|l| l.rsplit_once(',').unwrap().0.to_string())
+        .collect();
     lines.push(String::new());
     let (err, _) = run_expect_error(&d, &a, &lines.join("\n"), &[]);
-    assert!(err.contains("s.csv line 1") && err.contains("channel \"u3.z\" has no column"), "{err}");
+    assert!(
+        err.contains("s.csv line 1") && err.contains("channel \"u3.z\" has no column"),
+        "{err}"
+    );
     // Non-numeric field on line 6: the four rows before it are written.
     let mut l: Vec<String> = s.lines().map(str::to_string).collect();
     l[5] = l[5].replacen(",0.", ",zero", 1);
     let (err, rows) = run_expect_error(&d, &a, &(l.join("\n") + "\n"), &[]);
-    assert!(err.contains("line 6") && err.contains("is not a number"), "{err}");
+    assert!(
+        err.contains("line 6") && err.contains("is not a number"),
+        "{err}"
+    );
     assert_eq!(rows, 4, "rows accepted before the error are written");
     // Non-increasing t on line 4.
     let mut l: Vec<String> = s.lines().map(str::to_string).collect();
     l[3] = l[3].replacen("0.02", "0.005", 1);
     let (err, rows) = run_expect_error(&d, &a, &(l.join("\n") + "\n"), &[]);
-    assert!(err.contains("line 4") && err.contains("does not increase"), "{err}");
+    assert!(
+        err.contains("line 4") && err.contains("does not increase"),
+        "{err}"
+    );
     assert_eq!(rows, 2);
     // Wrong number of fields.
     let mut l: Vec<String> = s.lines().map(str::to_string).collect();
@@ -184,7 +221,10 @@ fn bad_arrangements_and_options_are_named() {
     let (err, _) = run_expect_error(&d, zero, "t,c\n0,1\n", &[]);
     assert!(err.contains("channel \"c\": axis has zero length"), "{err}");
     let (err, _) = run_expect_error(&d, &a.replacen("noise = 0.003", "noise = -1.0", 1), &s, &[]);
-    assert!(err.contains("noise = -1 must be a positive finite number"), "{err}");
+    assert!(
+        err.contains("noise = -1 must be a positive finite number"),
+        "{err}"
+    );
     let (err, _) = run_expect_error(&d, &a, &s, &["--model", "ballistic"]);
     assert!(err.contains("--model \"ballistic\""), "{err}");
     let (err, _) = run_expect_error(&d, &a, &s, &["--initial-omega", "1,x,2"]);
@@ -193,13 +233,27 @@ fn bad_arrangements_and_options_are_named() {
     assert!(err.contains("expected three numbers"), "{err}");
     // Too few channels for the model, named.
     let nine = families::nine_channel(0.1, 0.01).to_toml();
-    let f9 = ArrangementFile::parse(&nine, "a").unwrap().load("a").unwrap();
-    let s9 = format!("t,{}\n0,{}\n", f9.names.join(","), vec!["0.5"; 9].join(","));
+    let f9 = ArrangementFile::parse(&nine, "a")
+        .unwrap()
+        .load("a")
+        .unwrap();
+    let s9 = format!("t,{}\n0,{}\n", f9.names.join(","), ["0.5"; 9].join(","));
     let (err, _) = run_expect_error(&d, &nine, &s9, &["--model", "general"]);
-    assert!(err.contains("model general needs at least 12 channels, 9 are included"), "{err}");
+    assert!(
+        err.contains("model general needs at least 12 channels, 9 are included"),
+        "{err}"
+    );
     // Duplicate channel names.
-    let dup = format!("{zero}{}", zero.replace("[0.0, 0.0, 0.0]", "[1.0, 0.0, 0.0]"));
-    let (err, _) = run_expect_error(&d, &dup.replacen("[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", 1), "t,c\n", &[]);
+    let dup = format!(
+        "{zero}{}",
+        zero.replace("[0.0, 0.0, 0.0]", "[1.0, 0.0, 0.0]")
+    );
+    let (err, _) = run_expect_error(
+        &d,
+        &dup.replacen("[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", 1),
+        "t,c\n",
+        &[],
+    );
     assert!(err.contains("channel \"c\" is defined twice"), "{err}");
 }
 
@@ -256,5 +310,9 @@ fn estimate_streams_memory_does_not_grow_with_the_file() {
     let file_kib = std::fs::metadata(d.join("s.csv")).unwrap().len() as i64 / 1024;
     let out_kib = std::fs::metadata(d.join("e.csv")).unwrap().len() as i64 / 1024;
     println!("max RSS: {small} KiB for 2 000 rows, {big} KiB for {big_rows} rows (input {file_kib} KiB, output {out_kib} KiB)");
-    assert!(big - small < file_kib / 10, "memory grew by {} KiB for a {file_kib} KiB input", big - small);
+    assert!(
+        big - small < file_kib / 10,
+        "memory grew by {} KiB for a {file_kib} KiB input",
+        big - small
+    );
 }

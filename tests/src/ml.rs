@@ -92,7 +92,11 @@ impl MlReference {
         let u = full.u.expect("U");
         // Columns of U whose singular value is zero span the left null space.
         let mut idx: Vec<usize> = (0..n).collect();
-        idx.sort_by(|&a, &b| full.singular_values[b].partial_cmp(&full.singular_values[a]).unwrap());
+        idx.sort_by(|&a, &b| {
+            full.singular_values[b]
+                .partial_cmp(&full.singular_values[a])
+                .unwrap()
+        });
         let null_cols: Vec<usize> = idx[k..].to_vec();
         let mut null_t = DMatrix::<f64>::zeros(n - k, n);
         for (row, &c) in null_cols.iter().enumerate() {
@@ -100,7 +104,13 @@ impl MlReference {
                 null_t[(row, i)] = u[(i, c)];
             }
         }
-        MlReference { model, w, qs, pinv, null_t }
+        MlReference {
+            model,
+            w,
+            qs,
+            pinv,
+            null_t,
+        }
     }
 
     /// The ML estimate for one sample; `truth_omega` only breaks exact ties and fixes the sign.
@@ -180,7 +190,9 @@ impl MlReference {
                             for i in 0..3 {
                                 damped[(i, i)] += mu * jtj[(i, i)].max(1e-12);
                             }
-                            let Some(step) = damped.lu().solve(&(-jtr)) else { break };
+                            let Some(step) = damped.lu().solve(&(-jtr)) else {
+                                break;
+                            };
                             let trial = om + Vector3::new(step[0], step[1], step[2]);
                             let (r2, j2) = cost_and_jac(&trial);
                             let c2 = r2.norm_squared();
@@ -209,7 +221,13 @@ impl MlReference {
                 let mut omega = minima
                     .iter()
                     .filter(|m| m.0 <= best_cost + 1e-6)
-                    .map(|m| if (m.1 - truth).norm() <= (-m.1 - truth).norm() { m.1 } else { -m.1 })
+                    .map(|m| {
+                        if (m.1 - truth).norm() <= (-m.1 - truth).norm() {
+                            m.1
+                        } else {
+                            -m.1
+                        }
+                    })
                     .min_by(|a, b| (a - truth).norm().partial_cmp(&(b - truth).norm()).unwrap())
                     .unwrap();
                 if !omega.iter().all(|v| v.is_finite()) {
@@ -222,7 +240,14 @@ impl MlReference {
                     sigma0: [x[0], x[1], x[2]],
                     domega: [x[3], x[4], x[5]],
                     omega: [omega.x, omega.y, omega.z],
-                    field: [a[(0, 0)], a[(1, 1)], a[(2, 2)], a[(0, 1)], a[(0, 2)], a[(1, 2)]],
+                    field: [
+                        a[(0, 0)],
+                        a[(1, 1)],
+                        a[(2, 2)],
+                        a[(0, 1)],
+                        a[(0, 2)],
+                        a[(1, 2)],
+                    ],
                 }
             }
         }

@@ -18,7 +18,8 @@ pub fn rms_sym(est: &[[f64; 6]], truth: &[[f64; 6]]) -> f64 {
         .iter()
         .zip(truth.iter())
         .map(|(a, b)| {
-            (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>() + 2.0 * (3..6).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>()
+            (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>()
+                + 2.0 * (3..6).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>()
         })
         .sum();
     (s / n as f64).sqrt()

@@ -19,24 +19,47 @@ struct Errors {
     field: f64,
 }
 
-fn errors_of(est: &[([f64; 3], [f64; 3], [f64; 3], [f64; 6])], case: &Case) -> Errors {
+/// σ0, Ω′, Ω and A of one estimate.
+type Row = ([f64; 3], [f64; 3], [f64; 3], [f64; 6]);
+
+fn errors_of(est: &[Row], case: &Case) -> Errors {
     let t = &case.truth;
     Errors {
-        sigma0: rms3(&est.iter().map(|e| e.0).collect::<Vec<_>>(), &t.iter().map(|x| x.sigma0).collect::<Vec<_>>()),
-        domega: rms3(&est.iter().map(|e| e.1).collect::<Vec<_>>(), &t.iter().map(|x| x.domega).collect::<Vec<_>>()),
-        omega: rms3(&est.iter().map(|e| e.2).collect::<Vec<_>>(), &t.iter().map(|x| x.omega).collect::<Vec<_>>()),
-        field: rms_sym(&est.iter().map(|e| e.3).collect::<Vec<_>>(), &t.iter().map(|x| x.field.0).collect::<Vec<_>>()),
+        sigma0: rms3(
+            &est.iter().map(|e| e.0).collect::<Vec<_>>(),
+            &t.iter().map(|x| x.sigma0).collect::<Vec<_>>(),
+        ),
+        domega: rms3(
+            &est.iter().map(|e| e.1).collect::<Vec<_>>(),
+            &t.iter().map(|x| x.domega).collect::<Vec<_>>(),
+        ),
+        omega: rms3(
+            &est.iter().map(|e| e.2).collect::<Vec<_>>(),
+            &t.iter().map(|x| x.omega).collect::<Vec<_>>(),
+        ),
+        field: rms_sym(
+            &est.iter().map(|e| e.3).collect::<Vec<_>>(),
+            &t.iter().map(|x| x.field.0).collect::<Vec<_>>(),
+        ),
     }
 }
 
 /// The host path (`ballisto estimate`): per-sample estimator plus fixed-lag smoothing of the
 /// branch and sign decisions.
 fn run_estimator(case: &Case, raw: bool, hint: Option<[f64; 3]>) -> Errors {
-    let options = Options { raw, initial_omega: hint, ..Default::default() };
+    let options = Options {
+        raw,
+        initial_omega: hint,
+        ..Default::default()
+    };
     let mut e = HostEstimator::<f64>::new(&case.loaded, case.model, options).unwrap();
     let mut out = Vec::new();
     let mut emit = |t: f64, r: &estimator_core::Estimate<f64>| {
-        assert!(r.is_finite(), "{}: non-finite estimate at t = {t}", case.name);
+        assert!(
+            r.is_finite(),
+            "{}: non-finite estimate at t = {t}",
+            case.name
+        );
         out.push((r.sigma0, r.domega, r.omega, r.field.0));
     };
     for (tr, p) in case.truth.iter().zip(case.outputs.iter()) {
@@ -50,8 +73,13 @@ fn run_estimator(case: &Case, raw: bool, hint: Option<[f64; 3]>) -> Errors {
 /// The forward (firmware) path: decisions without look-ahead. Reported, not bounded by the ML
 /// oracle: its first samples cannot know the sign the reference takes from the truth.
 fn run_forward(case: &Case, hint: Option<[f64; 3]>) -> Errors {
-    let options = Options { raw: true, initial_omega: hint, ..Default::default() };
-    let mut e = Estimator::<f64, HOST_CAP>::new(&case.loaded.arrangement, case.model, options).unwrap();
+    let options = Options {
+        raw: true,
+        initial_omega: hint,
+        ..Default::default()
+    };
+    let mut e =
+        Estimator::<f64, HOST_CAP>::new(&case.loaded.arrangement, case.model, options).unwrap();
     let out: Vec<_> = case
         .truth
         .iter()
@@ -123,11 +151,21 @@ fn tetrahedron_tumble_free_float() {
 }
 #[test]
 fn tetrahedron_manoeuvre_general() {
-    check(Family::Tetrahedron, MotionKind::Manoeuvre, Model::General, 3);
+    check(
+        Family::Tetrahedron,
+        MotionKind::Manoeuvre,
+        Model::General,
+        3,
+    );
 }
 #[test]
 fn tetrahedron_ground_spin_general() {
-    check(Family::Tetrahedron, MotionKind::GroundSpin, Model::General, 4);
+    check(
+        Family::Tetrahedron,
+        MotionKind::GroundSpin,
+        Model::General,
+        4,
+    );
 }
 #[test]
 fn irregular_tumble_general() {
@@ -135,11 +173,21 @@ fn irregular_tumble_general() {
 }
 #[test]
 fn irregular_manoeuvre_free_float() {
-    check(Family::Irregular, MotionKind::Manoeuvre, Model::FreeFloat, 6);
+    check(
+        Family::Irregular,
+        MotionKind::Manoeuvre,
+        Model::FreeFloat,
+        6,
+    );
 }
 #[test]
 fn irregular_ground_spin_free_float() {
-    check(Family::Irregular, MotionKind::GroundSpin, Model::FreeFloat, 7);
+    check(
+        Family::Irregular,
+        MotionKind::GroundSpin,
+        Model::FreeFloat,
+        7,
+    );
 }
 #[test]
 fn nine_channel_tumble_free_float() {
@@ -147,11 +195,21 @@ fn nine_channel_tumble_free_float() {
 }
 #[test]
 fn nine_channel_manoeuvre_free_float() {
-    check(Family::NineChannel, MotionKind::Manoeuvre, Model::FreeFloat, 9);
+    check(
+        Family::NineChannel,
+        MotionKind::Manoeuvre,
+        Model::FreeFloat,
+        9,
+    );
 }
 #[test]
 fn nine_channel_ground_spin_free_float() {
-    check(Family::NineChannel, MotionKind::GroundSpin, Model::FreeFloat, 10);
+    check(
+        Family::NineChannel,
+        MotionKind::GroundSpin,
+        Model::FreeFloat,
+        10,
+    );
 }
 #[test]
 fn mixed_noise_tumble_general() {
@@ -159,9 +217,19 @@ fn mixed_noise_tumble_general() {
 }
 #[test]
 fn mixed_noise_manoeuvre_general() {
-    check(Family::MixedNoise, MotionKind::Manoeuvre, Model::General, 12);
+    check(
+        Family::MixedNoise,
+        MotionKind::Manoeuvre,
+        Model::General,
+        12,
+    );
 }
 #[test]
 fn mixed_noise_ground_spin_free_float() {
-    check(Family::MixedNoise, MotionKind::GroundSpin, Model::FreeFloat, 13);
+    check(
+        Family::MixedNoise,
+        MotionKind::GroundSpin,
+        Model::FreeFloat,
+        13,
+    );
 }

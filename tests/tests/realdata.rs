@@ -18,7 +18,10 @@ fn read_columns(path: &PathBuf, cols: &[&str]) -> Vec<Vec<f64>> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let idx: Vec<usize> = cols.iter().map(|c| header.iter().position(|h| h == c).unwrap()).collect();
+    let idx: Vec<usize> = cols
+        .iter()
+        .map(|c| header.iter().position(|h| h == c).unwrap())
+        .collect();
     lines
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
@@ -38,7 +41,15 @@ fn run(model: Model, raw: bool) -> Figures {
     let dir = data_dir();
     let loaded = load_arrangement(&dir.join("arrangement.toml")).unwrap();
     let mut reader = SamplesReader::open(&dir.join("samples.csv"), &loaded.names).unwrap();
-    let mut est = HostEstimator::<f64>::new(&loaded, model, Options { raw, ..Default::default() }).unwrap();
+    let mut est = HostEstimator::<f64>::new(
+        &loaded,
+        model,
+        Options {
+            raw,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let mut out = Vec::new();
     let mut row = vec![0.0; loaded.names.len()];
     let mut emit = |_t: f64, e: &estimator_core::Estimate<f64>| {
@@ -49,7 +60,10 @@ fn run(model: Model, raw: bool) -> Figures {
         est.push(t, &row, &mut emit);
     }
     est.finish(&mut emit);
-    let reference = read_columns(&dir.join("reference.csv"), &["omega_x", "omega_y", "omega_z"]);
+    let reference = read_columns(
+        &dir.join("reference.csv"),
+        &["omega_x", "omega_y", "omega_z"],
+    );
     let flags = read_columns(&dir.join("reference_flags.csv"), &["gyro_saturated"]);
     assert_eq!(out.len(), reference.len());
     let (mut e, mut r) = (Vec::new(), Vec::new());
@@ -62,7 +76,9 @@ fn run(model: Model, raw: bool) -> Figures {
     let mut errs: Vec<f64> = e
         .iter()
         .zip(r.iter())
-        .map(|(a, b)| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt())
+        .map(|(a, b)| {
+            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+        })
         .collect();
     errs.sort_by(|a, b| a.partial_cmp(b).unwrap());
     Figures {
@@ -75,7 +91,11 @@ fn run(model: Model, raw: bool) -> Figures {
 
 #[test]
 fn mimu4444_rate_error_against_gyros() {
-    for (model, raw) in [(Model::FreeFloat, false), (Model::FreeFloat, true), (Model::General, false)] {
+    for (model, raw) in [
+        (Model::FreeFloat, false),
+        (Model::FreeFloat, true),
+        (Model::General, false),
+    ] {
         let f = run(model, raw);
         println!(
             "mimu4444_exp6 {} {}: Ω RMS error {:.2} rad/s, median {:.2} rad/s over {} unsaturated rows (|Ω| RMS {:.1} rad/s)",
@@ -90,7 +110,10 @@ fn mimu4444_rate_error_against_gyros() {
         // Regression guards at about 1.5× the figures measured when this test was written
         // (README): free float 5.6 rad/s RMS / 2.0 median, general 12.3 / 7.8.
         match model {
-            Model::FreeFloat => assert!(f.rms < 8.5 && f.median < 3.0, "free-float figures regressed"),
+            Model::FreeFloat => assert!(
+                f.rms < 8.5 && f.median < 3.0,
+                "free-float figures regressed"
+            ),
             Model::General => assert!(f.rms < 18.5 && f.median < 12.0, "general figures regressed"),
         }
         assert!(f.rms < f.reference_rms, "no better than answering zero");

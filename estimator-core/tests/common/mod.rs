@@ -9,13 +9,23 @@ use rand::Rng;
 pub const CAP: usize = 32;
 
 /// Ideal output of a channel (paper eq. 4): `p = s·σ0 + (R × s)·Ω′ + s·A R`.
-pub fn ideal(pos: &[f64; 3], axis: &[f64; 3], sigma0: &[f64; 3], domega: &[f64; 3], a: &Sym3<f64>) -> f64 {
+pub fn ideal(
+    pos: &[f64; 3],
+    axis: &[f64; 3],
+    sigma0: &[f64; 3],
+    domega: &[f64; 3],
+    a: &Sym3<f64>,
+) -> f64 {
     dot(axis, sigma0) + dot(&cross(pos, axis), domega) + dot(axis, &a.mul_vec(pos))
 }
 
 pub fn unit<R: Rng>(rng: &mut R) -> [f64; 3] {
     loop {
-        let v = [rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)];
+        let v = [
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+        ];
         let n: f64 = dot(&v, &v);
         if n > 0.05 && n <= 1.0 {
             let n = n.sqrt();
@@ -26,11 +36,20 @@ pub fn unit<R: Rng>(rng: &mut R) -> [f64; 3] {
 
 /// A random arrangement of `n` channels (positions within ±0.2 m, random axes) that the model
 /// accepts.
-pub fn random_arrangement<R: Rng>(rng: &mut R, n: usize, model: Model, noise: f64) -> Arrangement<CAP> {
+pub fn random_arrangement<R: Rng>(
+    rng: &mut R,
+    n: usize,
+    model: Model,
+    noise: f64,
+) -> Arrangement<CAP> {
     loop {
         let mut arr = Arrangement::<CAP>::new();
         for _ in 0..n {
-            let pos = [rng.gen_range(-0.2..0.2), rng.gen_range(-0.2..0.2), rng.gen_range(-0.2..0.2)];
+            let pos = [
+                rng.gen_range(-0.2..0.2),
+                rng.gen_range(-0.2..0.2),
+                rng.gen_range(-0.2..0.2),
+            ];
             arr.push(pos, unit(rng), noise).unwrap();
         }
         if estimator_core::Estimator::<f64, CAP>::new(&arr, model, Default::default()).is_ok() {
@@ -40,8 +59,16 @@ pub fn random_arrangement<R: Rng>(rng: &mut R, n: usize, model: Model, noise: f6
 }
 
 /// Outputs of every channel for a field.
-pub fn outputs(arr: &Arrangement<CAP>, sigma0: &[f64; 3], domega: &[f64; 3], a: &Sym3<f64>) -> Vec<f64> {
-    arr.channels().iter().map(|c| ideal(&c.position, &c.axis, sigma0, domega, a)).collect()
+pub fn outputs(
+    arr: &Arrangement<CAP>,
+    sigma0: &[f64; 3],
+    domega: &[f64; 3],
+    a: &Sym3<f64>,
+) -> Vec<f64> {
+    arr.channels()
+        .iter()
+        .map(|c| ideal(&c.position, &c.axis, sigma0, domega, a))
+        .collect()
 }
 
 pub fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {

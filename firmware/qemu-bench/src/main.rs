@@ -63,7 +63,9 @@ fn measure<P: Platform, R>(p: &mut P, per_tick: f64, f: impl FnOnce() -> R) -> (
 
 fn run_model<P: Platform>(p: &mut P, per_tick: f64, model: Model, channels: usize) -> u64 {
     let arr = scenario::arrangement::<12>(channels);
-    let (est, setup) = measure(p, per_tick, || Estimator::<f32, 12>::new(&arr, model, Options::default()));
+    let (est, setup) = measure(p, per_tick, || {
+        Estimator::<f32, 12>::new(&arr, model, Options::default())
+    });
     let mut est = match est {
         Ok(e) => e,
         Err(e) => {
@@ -90,14 +92,19 @@ fn run_model<P: Platform>(p: &mut P, per_tick: f64, model: Model, channels: usiz
         }
         if k > 50 {
             let w = scenario::field(t).2;
-            let d = (0..3).map(|i| (e.omega[i] as f64 - w[i]) * (e.omega[i] as f64 - w[i])).sum::<f64>();
+            let d = (0..3)
+                .map(|i| (e.omega[i] as f64 - w[i]) * (e.omega[i] as f64 - w[i]))
+                .sum::<f64>();
             max_err = max_err.max(libm::sqrt(d));
         }
     }
     // Reconfiguration: exclude one channel (new SVD for the new mask), model F only (model G
     // needs all 12).
     let reconf = if model == Model::FreeFloat {
-        measure(p, per_tick, || est.set_mask(ChannelMask::all(channels).without(5))).1
+        measure(p, per_tick, || {
+            est.set_mask(ChannelMask::all(channels).without(5))
+        })
+        .1
     } else {
         0
     };
@@ -113,7 +120,10 @@ fn run_model<P: Platform>(p: &mut P, per_tick: f64, model: Model, channels: usiz
 
 fn run<P: Platform>(p: &mut P) -> i32 {
     let per_tick = p.calibrate();
-    let _ = writeln!(p, "qemu-bench: {per_tick:.3} instructions per SysTick tick (calibrated)");
+    let _ = writeln!(
+        p,
+        "qemu-bench: {per_tick:.3} instructions per SysTick tick (calibrated)"
+    );
     let g = run_model(p, per_tick, Model::General, 12);
     let f = run_model(p, per_tick, Model::FreeFloat, 12);
     let measured = p.ticks().is_some();
@@ -125,7 +135,10 @@ fn run<P: Platform>(p: &mut P) -> i32 {
     } else {
         "met"
     };
-    let _ = writeln!(p, "budget {BUDGET} instructions per estimate (N = 12): {verdict}");
+    let _ = writeln!(
+        p,
+        "budget {BUDGET} instructions per estimate (N = 12): {verdict}"
+    );
     if over {
         1
     } else {
@@ -195,7 +208,9 @@ mod target {
         } else {
             debug::exit(debug::EXIT_FAILURE);
         }
-        loop {}
+        loop {
+            cortex_m::asm::wfi();
+        }
     }
 
     #[panic_handler]
@@ -205,7 +220,9 @@ mod target {
             let _ = writeln!(o, "qemu-bench panicked: {info}");
         }
         debug::exit(debug::EXIT_FAILURE);
-        loop {}
+        loop {
+            cortex_m::asm::wfi();
+        }
     }
 }
 

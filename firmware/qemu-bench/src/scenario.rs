@@ -14,8 +14,16 @@ pub fn arrangement<const CAP: usize>(channels: usize) -> Arrangement<CAP> {
     while a.len() < channels {
         let v = vertices[part % 4];
         // Every second tetrahedron is rotated and scaled so 24 channels are not duplicates.
-        let (s, c) = if part >= 4 { (0.6f64, 0.8f64) } else { (0.0, 1.0) };
-        let pos = [v[0] * (1.0 + 0.5 * s), c * v[1] - s * v[2], s * v[1] + c * v[2]];
+        let (s, c) = if part >= 4 {
+            (0.6f64, 0.8f64)
+        } else {
+            (0.0, 1.0)
+        };
+        let pos = [
+            v[0] * (1.0 + 0.5 * s),
+            c * v[1] - s * v[2],
+            s * v[1] + c * v[2],
+        ];
         for axis in [[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]] {
             if a.len() < channels {
                 // Positions and axes are valid by construction.
@@ -47,7 +55,9 @@ pub fn field(t: f64) -> ([f64; 3], [f64; 3], [f64; 3], Sym3<f64>) {
 pub fn outputs<const CAP: usize>(arr: &Arrangement<CAP>, t: f64, noise: f64, out: &mut [f64]) {
     let (s0, dw, _w, a) = field(t);
     for (i, (ch, o)) in arr.channels().iter().zip(out.iter_mut()).enumerate() {
-        let ideal = dot(&ch.axis, &s0) + dot(&cross(&ch.position, &ch.axis), &dw) + dot(&ch.axis, &a.mul_vec(&ch.position));
+        let ideal = dot(&ch.axis, &s0)
+            + dot(&cross(&ch.position, &ch.axis), &dw)
+            + dot(&ch.axis, &a.mul_vec(&ch.position));
         // Cheap deterministic noise in [-1, 1).
         let h = libm::sin((i as f64 + 1.0) * 12.9898 + t * 78.233) * 43758.5453;
         let r = 2.0 * (h - libm::floor(h)) - 1.0;

@@ -17,7 +17,11 @@ const FLAGS_HELP: &str = "The flags column of estimates.csv is a bit set:
   64  residual high: χ² above its 99.9 % point (fault suspected)";
 
 #[derive(Parser)]
-#[command(name = "ballisto", version, about = "Ballistometer host tools: σ0, Ω′ and Ω from accelerometers alone")]
+#[command(
+    name = "ballisto",
+    version,
+    about = "Ballistometer host tools: σ0, Ω′ and Ω from accelerometers alone"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -50,12 +54,21 @@ enum Command {
         #[arg(long, value_name = "f32|f64", default_value = "f64")]
         precision: String,
     },
+    /// RMS errors of an estimates file against a truth file (matched by column name and t).
+    Compare {
+        /// Truth file (CSV, as written by the simulator).
+        truth: PathBuf,
+        /// Estimates file (CSV, as written by `ballisto estimate`).
+        estimates: PathBuf,
+    },
 }
 
 fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     if parts.len() != 3 {
-        return Err(format!("--initial-omega \"{s}\": expected three numbers X,Y,Z"));
+        return Err(format!(
+            "--initial-omega \"{s}\": expected three numbers X,Y,Z"
+        ));
     }
     let mut v = [0.0; 3];
     for (o, p) in v.iter_mut().zip(parts.iter()) {
@@ -81,10 +94,13 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             raw,
             precision,
         } => {
-            let model = match model {
-                None => None,
-                Some(m) => Some(parse_model(&m).ok_or_else(|| format!("--model \"{m}\": expected general or free-float"))?),
-            };
+            let model =
+                match model {
+                    None => None,
+                    Some(m) => Some(parse_model(&m).ok_or_else(|| {
+                        format!("--model \"{m}\": expected general or free-float")
+                    })?),
+                };
             let initial_omega = initial_omega.as_deref().map(parse_vec3).transpose()?;
             let precision = match precision.as_str() {
                 "f64" => Precision::F64,
@@ -117,6 +133,15 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                     eprintln!("  {c:>8} rows flagged {name} ({bit})");
                 }
             }
+            Ok(())
+        }
+        Command::Compare { truth, estimates } => {
+            let c = hal_sim::compare::compare(&truth, &estimates)?;
+            println!("rows compared: {}", c.rows);
+            println!("RMS error  sigma0 {:.3e} m/s^2", c.sigma0);
+            println!("RMS error  domega {:.3e} rad/s^2", c.domega);
+            println!("RMS error  omega  {:.3e} rad/s", c.omega);
+            println!("RMS error  A      {:.3e} 1/s^2", c.field);
             Ok(())
         }
     }
