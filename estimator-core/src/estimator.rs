@@ -86,6 +86,9 @@ struct Branch<T> {
     a: Vec3<T>,
     x: [T; MAX_COLS],
     fit: T,
+    /// `cov(a)` and whether its solve is ill-conditioned (filled after the solve).
+    cov_a: Sym3<T>,
+    ill: bool,
 }
 
 /// The estimator for up to `CAP` channels.
@@ -371,8 +374,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         }
         self.frame = frame;
         let v = self.proj[frame].frame;
-        for (c, b) in cands.iter_mut().zip(branches.iter()).take(nb) {
-            let (cov_a, _) = self.a_covariance(frame, eps, &b.a);
+        for (c, b) in cands.iter_mut().zip(branches.iter_mut()).take(nb) {
+            let (cov_a, ill) = self.a_covariance(frame, eps, &b.a);
+            b.cov_a = cov_a;
+            b.ill = ill;
             *c = Candidate {
                 omega: self.omega_of(frame, eps, b),
                 omega_var: cov_a.trace() / T::of(3.0),
@@ -631,6 +636,8 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 a: *a,
                 x,
                 fit: residual2(forms, rhs, a),
+                cov_a: Sym3::zero(),
+                ill: false,
             };
         }
         (nr, fallback)
@@ -722,8 +729,8 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             ),
         };
         let mut flags = 0u16;
-        let (cov_a, ill) = self.a_covariance(f, eps, &b.a);
-        if ill {
+        let cov_a = b.cov_a;
+        if b.ill {
             flags |= Flags::ILL_CONDITIONED;
         }
         // x = y − ε [aᵀ T_j a]: ∂x_j/∂a = −2 ε T_j a; cov(x) = cov0 + H cov(a) Hᵀ.

@@ -119,11 +119,12 @@ pub fn closed_form<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], out: &mut [Vec3<T>; MA
             continue;
         }
         let mut a = scale(r2.sqrt(), u);
-        newton_polish(m, p, &mut a);
+        let converged = T::EPSILON * T::EPSILON * T::of(1e4) * p2;
+        newton_polish(m, p, &mut a, converged);
         // Newton stalls when the Jacobian is nearly singular (close to a branch point):
         // continue with damped Gauss–Newton.
-        if !(residual2(m, p, &a) <= T::EPSILON * T::EPSILON * T::of(1e4) * p2) {
-            a = gauss_newton(m, p, &a, 10).0;
+        if !(residual2(m, p, &a) <= converged) {
+            a = gauss_newton(m, p, &a, 6).0;
         }
         if !(residual2(m, p, &a) <= T::EPSILON.sqrt() * p2) {
             continue;
@@ -387,11 +388,14 @@ fn intersect_line_conic<T: Real>(l: &Vec3<T>, c: &Sym3<T>, out: &mut [Vec3<T>; 2
     n
 }
 
-/// Up to eight Newton steps on the square system `aᵀ M_k a = P_k` (k = 0..3), kept only if they lower
-/// the residual.
-fn newton_polish<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], a: &mut Vec3<T>) {
+/// Up to four Newton steps on the square system `aᵀ M_k a = P_k` (k = 0..3), each kept only if
+/// it lowers the residual; stops once the residual is at most `converged`.
+fn newton_polish<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], a: &mut Vec3<T>, converged: T) {
     let mut best = residual2(m, p, a);
-    for _ in 0..8 {
+    for _ in 0..4 {
+        if best <= converged {
+            return;
+        }
         let mut jac = [[T::ZERO; 3]; 3];
         let mut r = [T::ZERO; 3];
         for k in 0..3 {

@@ -21,9 +21,9 @@ use crate::linalg::{norm2, scale, sub, Vec3};
 use crate::real::Real;
 
 /// Most candidate branches per sample.
-pub const MAX_CANDIDATES: usize = 6;
+pub const MAX_CANDIDATES: usize = 4;
 /// Most states (signed candidates).
-pub const MAX_STATES: usize = 2 * MAX_CANDIDATES;
+pub const MAX_STATES: usize = 8;
 /// Cap of a state's cost above the best (the memory of the tracker).
 pub const COST_CAP: f64 = 200.0;
 /// Cap of one step's cost (robustness against a single bad sample).
