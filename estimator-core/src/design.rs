@@ -39,6 +39,13 @@ pub struct Projection<T, const CAP: usize> {
     pub lin_s: [[T; CAP]; 6],
     /// Whether `lin_s` is valid.
     pub has_lin_s: bool,
+    /// Model G: `L_o` (3 × m), the solve of the null-space equations for the off-diagonals
+    /// `o = (A₁₂, A₁₃, A₂₃)` of `A` in frame `V`. Every `M_k` has a zero diagonal in model G
+    /// (a diagonal `{a}²` is absorbed by `d`), so `ε aᵀ M_k a = 2 (M₁₂ o₁₂ + M₁₃ o₁₃ + M₂₃ o₂₃)`:
+    /// linear in `o`.
+    pub lin_o: [[T; CAP]; 3],
+    /// Whether `lin_o` is valid.
+    pub has_lin_o: bool,
     /// Frame `V` (rows: frame axes in body coordinates).
     pub frame: Mat3<T>,
     /// Equilibrated condition number of the whitened design matrix.
@@ -60,6 +67,8 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             cov0: [Sym3::zero(); 3],
             lin_s: [[T::ZERO; CAP]; 6],
             has_lin_s: false,
+            lin_o: [[T::ZERO; CAP]; 3],
+            has_lin_o: false,
             frame: [
                 [T::ONE, T::ZERO, T::ZERO],
                 [T::ZERO, T::ONE, T::ZERO],
@@ -204,12 +213,41 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             self.cov0[b] = Sym3::from_mat(&blk).cast();
         }
         self.build_linear_s(&mq, m);
+        self.build_linear_o(&mq, m, model);
         for (dst, src) in self.frame.iter_mut().zip(v.iter()) {
             for (d, s) in dst.iter_mut().zip(src.iter()) {
                 *d = T::of(*s);
             }
         }
         Ok(())
+    }
+
+    /// `L_o` for model G (see [`Projection::lin_o`]).
+    fn build_linear_o(&mut self, mq: &[Sym3<f64>; CAP], m: usize, model: Model) {
+        self.has_lin_o = false;
+        self.lin_o = [[T::ZERO; CAP]; 3];
+        if model != Model::General || m < 3 {
+            return;
+        }
+        let mut cols = [[0.0f64; CAP]; MAX_COLS];
+        for e in 0..m {
+            let mk = mq[e].0;
+            cols[0][e] = 2.0 * mk[3];
+            cols[1][e] = 2.0 * mk[4];
+            cols[2][e] = 2.0 * mk[5];
+        }
+        let svd = Svd::<CAP>::new(&cols, m, 3);
+        if !(svd.condition() <= MAX_CONDITION) {
+            return;
+        }
+        let mut l = [[0.0f64; CAP]; MAX_COLS];
+        svd.pseudo_inverse(&mut l);
+        for c in 0..3 {
+            for e in 0..m {
+                self.lin_o[c][e] = T::of(l[c][e]);
+            }
+        }
+        self.has_lin_o = true;
     }
 
     /// `L` for `tr(M_k S) = P_k` when `m ≥ 6` and the 6 columns are well conditioned.

@@ -338,10 +338,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         match (self.model, steer) {
             (Model::General, Some(w)) if norm2(&w) > T::ZERO => {
                 frame = self.choose_frame(&w);
-                eps = self.epsilon(frame, &w);
-                let (k, fb) = self.solve_frame(frame, p, eps, dt_t, &mut branches);
+                let (k, fb, e) = self.solve_frame(frame, p, self.epsilon(frame, &w), dt_t, &mut branches);
                 nb = k;
                 fallback = fb;
+                eps = e;
             }
             (Model::General, _) => {
                 // No prediction: try every frame, keep the best-conditioned decomposition.
@@ -351,7 +351,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                         continue;
                     }
                     let mut trial = [Branch::<T>::default(); MAX_CANDIDATES];
-                    let (k, fb) = self.solve_frame(f, p, T::ONE, dt_t, &mut trial);
+                    let (k, fb, e) = self.solve_frame(f, p, T::ONE, dt_t, &mut trial);
                     let mut score = if fb { -T::of(0.5) } else { T::ZERO };
                     for b in trial.iter().take(k) {
                         score = score.max(frame_score(&b.a) - if fb { T::ONE } else { T::ZERO });
@@ -362,12 +362,13 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                         branches = trial;
                         nb = k;
                         fallback = fb;
+                        eps = e;
                     }
                 }
             }
             (Model::FreeFloat, _) => {
                 frame = 0;
-                let (k, fb) = self.solve_frame(0, p, T::ONE, dt_t, &mut branches);
+                let (k, fb, _) = self.solve_frame(0, p, T::ONE, dt_t, &mut branches);
                 nb = k;
                 fallback = fb;
             }
@@ -506,7 +507,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         eps: T,
         dt: T,
         out: &mut [Branch<T>; MAX_CANDIDATES],
-    ) -> (usize, bool) {
+    ) -> (usize, bool, T) {
         let pr = &self.proj[f];
         let (k, m) = (pr.k, pr.m);
         let n = self.arr.len();
@@ -521,14 +522,34 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             y[r] = acc - self.gamma_offset[r];
         }
         let mut pe = [T::ZERO; CAP];
+        let forms = &pr.mq[..m];
+        let mut roots = [[T::ZERO; 3]; MAX_CANDIDATES];
+        let mut nr = 0;
+        let mut eps = eps;
+        if pr.has_lin_o {
+            // Model G: the null-space equations are linear in the off-diagonals of A (frame V);
+            // Kelvin's decomposition gives a and ε. One branch (±a), no iteration.
+            let mut o = [T::ZERO; 3];
+            for (c, oc) in o.iter_mut().enumerate() {
+                let mut acc = T::ZERO;
+                for e in 0..m {
+                    acc += pr.lin_o[c][e] * y[k + e];
+                }
+                *oc = acc;
+            }
+            if let Some((a, e)) = crate::quadratic::kelvin(&o) {
+                eps = e;
+                roots[0] = a;
+                nr = 1;
+            }
+        }
         for e in 0..m {
             pe[e] = eps * y[k + e];
         }
-        let forms = &pr.mq[..m];
         let rhs = &pe[..m];
-        let mut roots = [[T::ZERO; 3]; MAX_CANDIDATES];
-        let mut nr = 0;
-        if m == 3 {
+        if nr > 0 {
+            // Solved above.
+        } else if m == 3 {
             let m3 = [pr.mq[0], pr.mq[1], pr.mq[2]];
             let p3 = [pe[0], pe[1], pe[2]];
             let mut cf = [[T::ZERO; 3]; MAX_ROOTS];
@@ -640,7 +661,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 ill: false,
             };
         }
-        (nr, fallback)
+        (nr, fallback, eps)
     }
 
     /// `a` in frame `f` that reproduces the field of rate `w` (body): `a = V w` when `Γ` is

@@ -142,6 +142,27 @@ pub fn closed_form<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], out: &mut [Vec3<T>; MA
     n
 }
 
+/// Kelvin's decomposition (paper Appendix): from the off-diagonals `o = (A₁₂, A₁₃, A₂₃)` of a
+/// symmetric `A = ε{a}² + diag(d)`, the vector `a` (one of `±a`) and `ε = sign(A₁₂ A₁₃ A₂₃)`:
+/// `ε a_i a_j = A_ij`, so `a₁² = ε A₁₂ A₁₃ / A₂₃` and so on. `None` when an off-diagonal is
+/// zero (the decomposition does not exist in this frame).
+pub fn kelvin<T: Real>(o: &Vec3<T>) -> Option<(Vec3<T>, T)> {
+    let prod = o[0] * o[1] * o[2];
+    if !(prod.abs() > T::ZERO) || !prod.is_finite() {
+        return None;
+    }
+    let eps = if prod > T::ZERO { T::ONE } else { -T::ONE };
+    // a₁² = ε o₁₂ o₁₃ / o₂₃ > 0 because ε o₁₂ o₁₃ o₂₃ > 0.
+    let a1sq = eps * o[0] * o[1] / o[2];
+    let a1 = a1sq.sqrt();
+    if !(a1 > T::ZERO) || !a1.is_finite() {
+        return None;
+    }
+    let mut a = [a1, eps * o[0] / a1, eps * o[1] / a1];
+    canonical_sign(&mut a);
+    Some((a, eps))
+}
+
 /// Flips `a` so that its largest-magnitude component is positive (`a` and `−a` fit equally).
 pub fn canonical_sign<T: Real>(a: &mut Vec3<T>) {
     let mut big = a[0];
