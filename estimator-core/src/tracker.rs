@@ -85,7 +85,9 @@ pub struct Choice<T> {
 /// The multi-hypothesis branch and sign tracker.
 #[derive(Clone, Debug)]
 pub struct Tracker<T> {
-    states: [State<T>; MAX_STATES],
+    /// Two state buffers: the current one and the one the next step writes.
+    buf: [[State<T>; MAX_STATES]; 2],
+    cur: usize,
     n: usize,
     best: usize,
     /// Running variance of the trapezoidal model error per step (jerk, sampling), learnt from
@@ -103,7 +105,8 @@ impl<T: Real> Tracker<T> {
     /// A tracker with no history.
     pub fn new() -> Self {
         Tracker {
-            states: [State::default(); MAX_STATES],
+            buf: [[State::default(); MAX_STATES]; 2],
+            cur: 0,
             n: 0,
             best: 0,
             model_var: T::ZERO,
@@ -123,31 +126,32 @@ impl<T: Real> Tracker<T> {
 
     /// The states after the last step.
     pub fn states(&self) -> &[State<T>] {
-        &self.states[..self.n]
+        &self.buf[self.cur][..self.n]
     }
 
     /// The chosen state's filtered Ω propagated by `dt` (the prediction), if any.
     pub fn predicted_omega(&self, dt: T) -> Option<Vec3<T>> {
-        (self.n > 0).then(|| propagate(&self.states[self.best], dt))
+        (self.n > 0).then(|| propagate(&self.buf[self.cur][self.best], dt))
     }
 
     /// Every distinct predicted Ω (one per surviving branch, sign dropped), cheapest first, for
     /// starting the `a` search (m > 3).
     pub fn predictions(&self, dt: T, out: &mut [Vec3<T>; MAX_CANDIDATES]) -> usize {
+        let states = &self.buf[self.cur];
         let mut order = [0usize; MAX_STATES];
         for (i, o) in order.iter_mut().enumerate().take(self.n) {
             *o = i;
         }
         for i in 1..self.n {
             let mut j = i;
-            while j > 0 && self.states[order[j]].cost < self.states[order[j - 1]].cost {
+            while j > 0 && states[order[j]].cost < states[order[j - 1]].cost {
                 order.swap(j, j - 1);
                 j -= 1;
             }
         }
         let mut k = 0;
         for &i in order.iter().take(self.n) {
-            let s = &self.states[i];
+            let s = &states[i];
             if s.cost > T::of(COST_CAP * 0.5) {
                 continue;
             }
@@ -173,11 +177,10 @@ impl<T: Real> Tracker<T> {
     /// `domega_var` the variance of one component of Ω′; `hint` an approximate Ω with its
     /// variance (used only without history).
     ///
-    /// Every (previous hypothesis, candidate, sign) continuation is scored; the cheapest
-    /// [`MAX_STATES`] distinct ones survive. Two continuations are the same hypothesis when they
-    /// take the same candidate and sign and their filtered Ω agree to within their deviation,
-    /// so hypotheses with different histories outlive samples where branches merge (or where
-    /// only the least-squares fallback exists).
+    /// For every output (candidate and sign) the two cheapest continuations of distinct
+    /// histories survive (two continuations are the same history when their filtered Ω agree
+    /// to within their deviation), so hypotheses outlive samples where branches merge or only
+    /// the least-squares fallback exists; at most [`MAX_STATES`] overall, the cheapest.
     #[inline(never)]
     pub fn step(
         &mut self,
@@ -195,103 +198,89 @@ impl<T: Real> Tracker<T> {
         let half_dt = T::of(0.5) * dt;
         let q = half_dt * half_dt * T::of(2.0) * domega_var + self.model_var;
         let three = T::of(3.0);
-        // All continuations; the cheapest MAX_STATES distinct ones are kept (unsorted).
-        let mut next = [State::<T>::default(); MAX_STATES];
+        let (lo, hi) = self.buf.split_at_mut(1);
+        let (prev, next) = if self.cur == 0 { (&lo[0], &mut hi[0]) } else { (&hi[0], &mut lo[0]) };
+        let np = self.n;
         let mut innov = [T::ZERO; MAX_STATES];
         let mut nn = 0usize;
-        let prev = if self.n > 0 { self.n } else { 1 };
-        for i in 0..prev {
-            for (ci, c) in cands.iter().enumerate().take(nc) {
-                let r = c.omega_var.max(T::of(1e-30));
-                let neg = scale(-T::ONE, &c.omega);
-                // Per predecessor: prediction and variances are shared by both signs.
-                let (pred, pvar, sv, base_cost) = if self.n > 0 {
-                    let s = &self.states[i];
+        for (ci, c) in cands.iter().enumerate().take(nc) {
+            let r = c.omega_var.max(T::of(1e-30));
+            for sign in [1i8, -1i8] {
+                let z = if sign > 0 { c.omega } else { scale(-T::ONE, &c.omega) };
+                // The two cheapest distinct histories for this output: (state, innovation excess).
+                let mut top: [(State<T>, T); HISTORIES_PER_OUTPUT] = [(State::default(), T::ZERO); HISTORIES_PER_OUTPUT];
+                let mut nt = 0usize;
+                if np == 0 {
+                    let mut cost = c.fit;
+                    if let Some((h, var)) = hint {
+                        cost += (norm2(&sub(&z, &h)) / var.max(T::of(1e-30))).min(cap);
+                    }
+                    top[0] = (
+                        State { omega: z, var: r, domega: c.domega, cost, candidate: ci as u8, sign, from: u8::MAX },
+                        T::ZERO,
+                    );
+                    nt = 1;
+                }
+                for (i, s) in prev.iter().enumerate().take(np) {
                     let mut pred = [T::ZERO; 3];
                     for k in 0..3 {
                         pred[k] = s.omega[k] + half_dt * (s.domega[k] + c.domega[k]);
                     }
                     let pvar = s.var + q;
                     let sv = pvar + r;
-                    (pred, pvar, sv, s.cost + c.fit + three * sv.ln_approx())
-                } else {
-                    ([T::ZERO; 3], T::ZERO, r, c.fit)
-                };
-                for sign in [1i8, -1i8] {
-                    let z = if sign > 0 { c.omega } else { neg };
-                    let mut st = State {
-                        omega: z,
-                        var: r,
+                    let nu = sub(&z, &pred);
+                    let nu2 = norm2(&nu);
+                    let cost = s.cost + c.fit + (nu2 / sv).min(step_cap) + three * sv.ln_approx();
+                    if nt == HISTORIES_PER_OUTPUT && cost >= top[nt - 1].0.cost {
+                        continue;
+                    }
+                    let gain = pvar / sv;
+                    let st = State {
+                        omega: [pred[0] + gain * nu[0], pred[1] + gain * nu[1], pred[2] + gain * nu[2]],
+                        var: (T::ONE - gain) * pvar,
                         domega: c.domega,
-                        cost: base_cost,
+                        cost,
                         candidate: ci as u8,
                         sign,
-                        from: u8::MAX,
+                        from: i as u8,
                     };
-                    let mut excess = T::ZERO;
-                    if self.n > 0 {
-                        let nu = sub(&z, &pred);
-                        let nu2 = norm2(&nu);
-                        st.cost += (nu2 / sv).min(step_cap);
-                        // Kalman update of the inherited filter.
-                        let gain = pvar / sv;
-                        for k in 0..3 {
-                            st.omega[k] = pred[k] + gain * nu[k];
+                    let entry = (st, nu2 / three - sv);
+                    // Same history as a kept one? Keep the cheaper.
+                    if let Some(j) = (0..nt).find(|&j| norm2(&sub(&top[j].0.omega, &st.omega)) <= T::of(0.25) * (top[j].0.var + st.var)) {
+                        if cost < top[j].0.cost {
+                            top[j] = entry;
                         }
-                        st.var = (T::ONE - gain) * pvar;
-                        st.from = i as u8;
-                        excess = nu2 / three - sv;
-                    } else if let Some((h, var)) = hint {
-                        let d = norm2(&sub(&z, &h)) / var.max(T::of(1e-30));
-                        st.cost += d.min(cap);
+                    } else if nt < HISTORIES_PER_OUTPUT {
+                        top[nt] = entry;
+                        nt += 1;
+                    } else {
+                        top[nt - 1] = entry;
                     }
+                    if nt == 2 && top[1].0.cost < top[0].0.cost {
+                        top.swap(0, 1);
+                    }
+                }
+                for (st, ex) in top.iter().take(nt) {
                     if !st.cost.is_finite() {
                         continue;
                     }
-                    // Same hypothesis already kept (same output, filters agree)? At most
-                    // HISTORIES_PER_OUTPUT histories per (candidate, sign): the cheapest.
-                    let mut same_output = 0;
-                    let mut worst_same: Option<usize> = None;
-                    let mut dup = None;
-                    for (j, o) in next[..nn].iter().enumerate() {
-                        if o.candidate == st.candidate && o.sign == st.sign {
-                            same_output += 1;
-                            if worst_same.is_none_or(|w| o.cost > next[w].cost) {
-                                worst_same = Some(j);
-                            }
-                            if dup.is_none()
-                                && norm2(&sub(&o.omega, &st.omega))
-                                    <= T::of(0.25) * (o.var + st.var)
-                            {
-                                dup = Some(j);
+                    let slot = if nn < MAX_STATES {
+                        nn += 1;
+                        nn - 1
+                    } else {
+                        let mut worst = 0;
+                        for j in 1..nn {
+                            if next[j].cost > next[worst].cost {
+                                worst = j;
                             }
                         }
-                    }
-                    if dup.is_none() && same_output >= HISTORIES_PER_OUTPUT {
-                        dup = worst_same;
-                    }
-                    let slot = match dup {
-                        Some(j) if next[j].cost <= st.cost => continue,
-                        Some(j) => j,
-                        None if nn < MAX_STATES => {
-                            nn += 1;
-                            nn - 1
+                        if st.cost >= next[worst].cost {
+                            continue;
                         }
-                        None => {
-                            let mut worst = 0;
-                            for j in 1..nn {
-                                if next[j].cost > next[worst].cost {
-                                    worst = j;
-                                }
-                            }
-                            if st.cost >= next[worst].cost {
-                                continue;
-                            }
-                            worst
-                        }
+                        worst
                     };
-                    next[slot] = st;
-                    innov[slot] = excess;
+                    next[slot] = *st;
+                    innov[slot] = *ex;
                 }
             }
         }
@@ -321,10 +310,8 @@ impl<T: Real> Tracker<T> {
         }
         let nn = kept;
         // Learn the model error along the chosen hypothesis (bounded influence per sample).
-        if self.n > 0 {
-            let e = innov[best]
-                .max(T::ZERO)
-                .min(T::of(25.0) * (q + next[best].var));
+        if np > 0 {
+            let e = innov[best].max(T::ZERO).min(T::of(25.0) * (q + next[best].var));
             self.model_var += T::of(0.01) * (e - self.model_var);
         }
         let margin = T::of(SIGN_MARGIN);
@@ -341,18 +328,14 @@ impl<T: Real> Tracker<T> {
                 }
             }
         }
-        self.states[..nn].copy_from_slice(&next[..nn]);
+        self.cur ^= 1;
         self.n = nn;
         self.best = best;
         let omega = cands[b.candidate as usize].omega;
         Some(Choice {
             state: best,
             candidate: b.candidate as usize,
-            omega: if b.sign > 0 {
-                omega
-            } else {
-                scale(-T::ONE, &omega)
-            },
+            omega: if b.sign > 0 { omega } else { scale(-T::ONE, &omega) },
             filtered: (b.omega, b.var),
             sign_unresolved,
             branch_ambiguous,
