@@ -338,7 +338,8 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         match (self.model, steer) {
             (Model::General, Some(w)) if norm2(&w) > T::ZERO => {
                 frame = self.choose_frame(&w);
-                let (k, fb, e) = self.solve_frame(frame, p, self.epsilon(frame, &w), dt_t, &mut branches);
+                let (k, fb, e) =
+                    self.solve_frame(frame, p, self.epsilon(frame, &w), dt_t, &mut branches);
                 nb = k;
                 fallback = fb;
                 eps = e;
@@ -773,13 +774,17 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             }
             c
         };
-        let vt = transpose(v);
+        // Standard deviations in the body frame: diag(Vᵀ C V)_k = v_kᵀ C v_k, v_k = column k of V.
+        let vcols = [
+            [v[0][0], v[1][0], v[2][0]],
+            [v[0][1], v[1][1], v[2][1]],
+            [v[0][2], v[1][2], v[2][2]],
+        ];
         let sd = |c: &Sym3<T>| {
-            let cb = c.rotate(&vt);
             [
-                cb.0[0].max(T::ZERO).sqrt(),
-                cb.0[1].max(T::ZERO).sqrt(),
-                cb.0[2].max(T::ZERO).sqrt(),
+                c.quad(&vcols[0]).max(T::ZERO).sqrt(),
+                c.quad(&vcols[1]).max(T::ZERO).sqrt(),
+                c.quad(&vcols[2]).max(T::ZERO).sqrt(),
             ]
         };
         let sd_sigma0 = sd(&block(0));

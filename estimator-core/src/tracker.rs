@@ -199,16 +199,25 @@ impl<T: Real> Tracker<T> {
         let q = half_dt * half_dt * T::of(2.0) * domega_var + self.model_var;
         let three = T::of(3.0);
         let (lo, hi) = self.buf.split_at_mut(1);
-        let (prev, next) = if self.cur == 0 { (&lo[0], &mut hi[0]) } else { (&hi[0], &mut lo[0]) };
+        let (prev, next) = if self.cur == 0 {
+            (&lo[0], &mut hi[0])
+        } else {
+            (&hi[0], &mut lo[0])
+        };
         let np = self.n;
         let mut innov = [T::ZERO; MAX_STATES];
         let mut nn = 0usize;
         for (ci, c) in cands.iter().enumerate().take(nc) {
             let r = c.omega_var.max(T::of(1e-30));
             for sign in [1i8, -1i8] {
-                let z = if sign > 0 { c.omega } else { scale(-T::ONE, &c.omega) };
+                let z = if sign > 0 {
+                    c.omega
+                } else {
+                    scale(-T::ONE, &c.omega)
+                };
                 // The two cheapest distinct histories for this output: (state, innovation excess).
-                let mut top: [(State<T>, T); HISTORIES_PER_OUTPUT] = [(State::default(), T::ZERO); HISTORIES_PER_OUTPUT];
+                let mut top: [(State<T>, T); HISTORIES_PER_OUTPUT] =
+                    [(State::default(), T::ZERO); HISTORIES_PER_OUTPUT];
                 let mut nt = 0usize;
                 if np == 0 {
                     let mut cost = c.fit;
@@ -216,7 +225,15 @@ impl<T: Real> Tracker<T> {
                         cost += (norm2(&sub(&z, &h)) / var.max(T::of(1e-30))).min(cap);
                     }
                     top[0] = (
-                        State { omega: z, var: r, domega: c.domega, cost, candidate: ci as u8, sign, from: u8::MAX },
+                        State {
+                            omega: z,
+                            var: r,
+                            domega: c.domega,
+                            cost,
+                            candidate: ci as u8,
+                            sign,
+                            from: u8::MAX,
+                        },
                         T::ZERO,
                     );
                     nt = 1;
@@ -236,7 +253,11 @@ impl<T: Real> Tracker<T> {
                     }
                     let gain = pvar / sv;
                     let st = State {
-                        omega: [pred[0] + gain * nu[0], pred[1] + gain * nu[1], pred[2] + gain * nu[2]],
+                        omega: [
+                            pred[0] + gain * nu[0],
+                            pred[1] + gain * nu[1],
+                            pred[2] + gain * nu[2],
+                        ],
                         var: (T::ONE - gain) * pvar,
                         domega: c.domega,
                         cost,
@@ -246,7 +267,10 @@ impl<T: Real> Tracker<T> {
                     };
                     let entry = (st, nu2 / three - sv);
                     // Same history as a kept one? Keep the cheaper.
-                    if let Some(j) = (0..nt).find(|&j| norm2(&sub(&top[j].0.omega, &st.omega)) <= T::of(0.25) * (top[j].0.var + st.var)) {
+                    if let Some(j) = (0..nt).find(|&j| {
+                        norm2(&sub(&top[j].0.omega, &st.omega))
+                            <= T::of(0.25) * (top[j].0.var + st.var)
+                    }) {
                         if cost < top[j].0.cost {
                             top[j] = entry;
                         }
@@ -311,7 +335,9 @@ impl<T: Real> Tracker<T> {
         let nn = kept;
         // Learn the model error along the chosen hypothesis (bounded influence per sample).
         if np > 0 {
-            let e = innov[best].max(T::ZERO).min(T::of(25.0) * (q + next[best].var));
+            let e = innov[best]
+                .max(T::ZERO)
+                .min(T::of(25.0) * (q + next[best].var));
             self.model_var += T::of(0.01) * (e - self.model_var);
         }
         let margin = T::of(SIGN_MARGIN);
@@ -335,7 +361,11 @@ impl<T: Real> Tracker<T> {
         Some(Choice {
             state: best,
             candidate: b.candidate as usize,
-            omega: if b.sign > 0 { omega } else { scale(-T::ONE, &omega) },
+            omega: if b.sign > 0 {
+                omega
+            } else {
+                scale(-T::ONE, &omega)
+            },
             filtered: (b.omega, b.var),
             sign_unresolved,
             branch_ambiguous,
