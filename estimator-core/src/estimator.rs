@@ -388,10 +388,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             };
         }
         let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
-        let Some(choice) = self
-            .tracker
-            .step(&cands[..nb], dt_t, self.domega_var, hint_var)
-        else {
+        // Several histories per output only where mirror branches exist and can merge.
+        let histories = if self.model == Model::FreeFloat && self.proj[0].m == 3 { 2 } else { 1 };
+        let Some(choice) = self.tracker.step(&cands[..nb], dt_t, self.domega_var, hint_var, histories) else {
             let est = self.prediction(dt_t);
             if let Some(rec) = record {
                 rec.invalidate(t, est);

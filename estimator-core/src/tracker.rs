@@ -175,7 +175,8 @@ impl<T: Real> Tracker<T> {
 
     /// One step: `cands` are this sample's branches; `dt` the time since the previous step;
     /// `domega_var` the variance of one component of Ω′; `hint` an approximate Ω with its
-    /// variance (used only without history).
+    /// variance (used only without history); `histories` how many histories to keep per output
+    /// (1 ..= [`HISTORIES_PER_OUTPUT`]: 2 where branches can merge, i.e. m = 3 in model F).
     ///
     /// For every output (candidate and sign) the two cheapest continuations of distinct
     /// histories survive (two continuations are the same history when their filtered Ω agree
@@ -188,7 +189,9 @@ impl<T: Real> Tracker<T> {
         dt: T,
         domega_var: T,
         hint: Option<(Vec3<T>, T)>,
+        histories: usize,
     ) -> Option<Choice<T>> {
+        let histories = histories.clamp(1, HISTORIES_PER_OUTPUT);
         let nc = cands.len().min(MAX_CANDIDATES);
         if nc == 0 {
             return None;
@@ -248,7 +251,7 @@ impl<T: Real> Tracker<T> {
                     let nu = sub(&z, &pred);
                     let nu2 = norm2(&nu);
                     let cost = s.cost + c.fit + (nu2 / sv).min(step_cap) + three * sv.ln_approx();
-                    if nt == HISTORIES_PER_OUTPUT && cost >= top[nt - 1].0.cost {
+                    if nt == histories && cost >= top[nt - 1].0.cost {
                         continue;
                     }
                     let gain = pvar / sv;
@@ -274,7 +277,7 @@ impl<T: Real> Tracker<T> {
                         if cost < top[j].0.cost {
                             top[j] = entry;
                         }
-                    } else if nt < HISTORIES_PER_OUTPUT {
+                    } else if nt < histories {
                         top[nt] = entry;
                         nt += 1;
                     } else {
@@ -321,14 +324,15 @@ impl<T: Real> Tracker<T> {
         let base = next[best].cost;
         let mut kept = 0;
         for j in 0..nn {
-            let mut st = next[j];
-            st.cost -= base;
-            if st.cost < cap || j == best {
+            next[j].cost -= base;
+            if next[j].cost < cap || j == best {
+                if j != kept {
+                    next[kept] = next[j];
+                    innov[kept] = innov[j];
+                }
                 if j == best {
                     best = kept;
                 }
-                next[kept] = st;
-                innov[kept] = innov[j];
                 kept += 1;
             }
         }
