@@ -575,7 +575,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                     ns += 1;
                 }
             }
-            let lin_start = if pr.has_lin_s {
+            let lin_start = || {
+                if !pr.has_lin_s {
+                    return None;
+                }
                 let mut s6 = [T::ZERO; 6];
                 for (c, s) in s6.iter_mut().enumerate() {
                     let mut acc = T::ZERO;
@@ -585,12 +588,15 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                     *s = acc;
                 }
                 Some(rank_one_factor(&Sym3(s6))).filter(|a| norm2(a) > T::ZERO)
-            } else {
-                None
             };
-            if let Some(a0) = lin_start {
-                starts[ns] = a0;
-                ns += 1;
+            // The linear start only when there is no prediction (it is added below otherwise,
+            // if the prediction's solution fails the gate).
+            let mut lin_tried = ns == 0;
+            if ns == 0 {
+                if let Some(a0) = lin_start() {
+                    starts[ns] = a0;
+                    ns += 1;
+                }
             }
             if ns == 0 {
                 // No prediction and no linear start: closed form on the first three equations.
@@ -603,12 +609,13 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                     ns += 1;
                 }
             }
-            for (i, s) in starts.iter().enumerate().take(ns) {
-                let (mut a, res) = gauss_newton(forms, rhs, s, GN_ITERATIONS);
+            let mut i = 0;
+            while i < ns {
+                let (mut a, res) = gauss_newton(forms, rhs, &starts[i], GN_ITERATIONS);
                 canonical_sign(&mut a);
-                let dup = roots[..nr].iter().any(|b| {
-                    norm2(&crate::linalg::sub(&a, b)) <= T::of(1e-6) * norm2(&a).max(T::EPSILON)
-                });
+                let dup = roots[..nr]
+                    .iter()
+                    .any(|b| norm2(&crate::linalg::sub(&a, b)) <= T::of(1e-6) * norm2(&a).max(T::EPSILON));
                 if !dup && nr < MAX_CANDIDATES && a.iter().all(|v| v.is_finite()) {
                     roots[nr] = a;
                     nr += 1;
@@ -616,6 +623,14 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 if i == 0 && res <= pr.chi2_gate {
                     break;
                 }
+                if !lin_tried && i + 1 == ns {
+                    lin_tried = true;
+                    if let Some(a0) = lin_start() {
+                        starts[ns] = a0;
+                        ns += 1;
+                    }
+                }
+                i += 1;
             }
         }
         let mut fallback = false;

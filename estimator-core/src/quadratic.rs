@@ -481,8 +481,9 @@ pub fn gauss_newton<T: Real>(
             let improvement = res - tres;
             res = tres;
             mu = (mu * T::of(0.3)).max(T::of(1e-7));
-            // Converged: the step is at the scalar's resolution, or the cost stopped moving.
-            let tiny_step = norm2(&step) <= T::of(100.0) * T::EPSILON * T::EPSILON * norm2(&a);
+            // Converged: with quadratic convergence a step below √ε relative leaves an error
+            // below ε; or the cost stopped moving.
+            let tiny_step = norm2(&step) <= T::EPSILON * norm2(&a);
             if tiny_step || improvement <= T::of(1e-10) * (res + T::EPSILON) {
                 break;
             }
