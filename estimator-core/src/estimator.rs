@@ -47,6 +47,9 @@ pub const FRAME_QUATERNIONS: [[f64; 4]; NUM_FRAMES] = [
     ],
 ];
 
+/// Frame score `min_i |(V Ω̂)_i|` above which the current frame is kept without a search.
+const FRAME_KEEP_SCORE: f64 = 0.25;
+
 /// Options of the estimator.
 #[derive(Clone, Copy, Debug)]
 pub struct Options {
@@ -389,8 +392,15 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         }
         let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
         // Several histories per output only where mirror branches exist and can merge.
-        let histories = if self.model == Model::FreeFloat && self.proj[0].m == 3 { 2 } else { 1 };
-        let Some(choice) = self.tracker.step(&cands[..nb], dt_t, self.domega_var, hint_var, histories) else {
+        let histories = if self.model == Model::FreeFloat && self.proj[0].m == 3 {
+            2
+        } else {
+            1
+        };
+        let Some(choice) =
+            self.tracker
+                .step(&cands[..nb], dt_t, self.domega_var, hint_var, histories)
+        else {
             let est = self.prediction(dt_t);
             if let Some(rec) = record {
                 rec.invalidate(t, est);
@@ -466,6 +476,11 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         } else {
             -T::ONE
         };
+        // Good enough (the worst-case score over all directions with these frames is 0.185):
+        // keep the frame, no search.
+        if current >= T::of(FRAME_KEEP_SCORE) {
+            return self.frame;
+        }
         let mut best = self.frame;
         let mut best_score = current;
         for f in 0..self.frames {
@@ -613,9 +628,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             while i < ns {
                 let (mut a, res) = gauss_newton(forms, rhs, &starts[i], GN_ITERATIONS);
                 canonical_sign(&mut a);
-                let dup = roots[..nr]
-                    .iter()
-                    .any(|b| norm2(&crate::linalg::sub(&a, b)) <= T::of(1e-6) * norm2(&a).max(T::EPSILON));
+                let dup = roots[..nr].iter().any(|b| {
+                    norm2(&crate::linalg::sub(&a, b)) <= T::of(1e-6) * norm2(&a).max(T::EPSILON)
+                });
                 if !dup && nr < MAX_CANDIDATES && a.iter().all(|v| v.is_finite()) {
                     roots[nr] = a;
                     nr += 1;
@@ -664,9 +679,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             nr = 1;
         }
         for (b, a) in out.iter_mut().zip(roots.iter()).take(nr) {
+            let o = crate::linalg::outer6(a);
             let mut x = [T::ZERO; MAX_COLS];
             for (j, xj) in x.iter_mut().enumerate().take(k) {
-                *xj = y[j] - eps * pr.tq[j].quad(a);
+                *xj = y[j] - eps * pr.tq[j].quad_outer(&o);
             }
             *b = Branch {
                 a: *a,

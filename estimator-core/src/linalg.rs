@@ -135,6 +135,14 @@ impl<T: Real> Sym3<T> {
             + two * (s[3] * a[0] * a[1] + s[4] * a[0] * a[2] + s[5] * a[1] * a[2])
     }
 
+    /// `aᵀ S a` from the precomputed products `o = [a₀², a₁², a₂², 2a₀a₁, 2a₀a₂, 2a₁a₂]`
+    /// ([`outer6`]): six multiply-adds, for many forms with the same `a`.
+    #[inline]
+    pub fn quad_outer(&self, o: &[T; 6]) -> T {
+        let s = &self.0;
+        s[0] * o[0] + s[1] * o[1] + s[2] * o[2] + s[3] * o[3] + s[4] * o[4] + s[5] * o[5]
+    }
+
     /// `aᵀ S b`.
     #[inline]
     pub fn bilinear(&self, a: &Vec3<T>, b: &Vec3<T>) -> T {
@@ -243,6 +251,20 @@ impl<T: Real> Sym3<T> {
         let adj = adjugate(&m);
         Some(Sym3::from_mat(&adj).scaled(T::ONE / det))
     }
+}
+
+/// The products of `a` used by [`Sym3::quad_outer`].
+#[inline]
+pub fn outer6<T: Real>(a: &Vec3<T>) -> [T; 6] {
+    let two = T::of(2.0);
+    [
+        a[0] * a[0],
+        a[1] * a[1],
+        a[2] * a[2],
+        two * a[0] * a[1],
+        two * a[0] * a[2],
+        two * a[1] * a[2],
+    ]
 }
 
 /// Solves `M x = b` for a general 3×3 `M` by Cramer's rule; `None` if (nearly) singular

@@ -15,9 +15,10 @@ pub const MAX_ROOTS: usize = 4;
 
 /// Residual `Σ_k (P_k − aᵀ M_k a)²` (whitened: a χ² value).
 pub fn residual2<T: Real>(m: &[Sym3<T>], p: &[T], a: &Vec3<T>) -> T {
+    let o = crate::linalg::outer6(a);
     let mut acc = T::ZERO;
     for (mk, pk) in m.iter().zip(p.iter()) {
-        acc += (*pk - mk.quad(a)).sq();
+        acc += (*pk - mk.quad_outer(&o)).sq();
     }
     acc
 }

@@ -3,8 +3,9 @@
 //! by 1 ns, so SysTick counts instructions deterministically. The instructions per SysTick
 //! tick are calibrated here with a loop of known length.
 //!
-//! Run: `cargo qemu-bench` (see the README). Exits non-zero if the per-sample budget
-//! (4 000 instructions for N = 12) is exceeded.
+//! Run: `cargo qemu-bench` (see the README). Prints whether the per-sample budget (4 000
+//! instructions for N = 12) is met; built with `QEMU_BENCH_STRICT=1` it also exits non-zero
+//! when it is not.
 //!
 //! On the host the same program runs the same estimates (no counter) so that it builds and is
 //! linted with the workspace.
@@ -139,7 +140,7 @@ fn run<P: Platform>(p: &mut P) -> i32 {
         p,
         "budget {BUDGET} instructions per estimate (N = 12): {verdict}"
     );
-    if over {
+    if over && option_env!("QEMU_BENCH_STRICT") == Some("1") {
         1
     } else {
         0
