@@ -80,3 +80,61 @@ fn closed_form_finds_every_branch_found_by_brute_force() {
         "only {multi} cases with several branches ({total_roots} roots)"
     );
 }
+
+/// Model G: every null-space form `M_k` has a zero diagonal (a diagonal `{a}²` is absorbed by
+/// `d`), which is what makes the off-diagonals of A a linear solve; and Kelvin's decomposition
+/// inverts `o = ε (a₁a₂, a₁a₃, a₂a₃)`.
+#[test]
+fn general_model_forms_have_zero_diagonal_and_kelvin_inverts() {
+    use estimator_core::design::Projection;
+    use estimator_core::estimator::FRAME_QUATERNIONS;
+    use estimator_core::linalg::quat_to_mat;
+    use estimator_core::quadratic::kelvin;
+    use estimator_core::{Arrangement, ChannelMask, Model};
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for _ in 0..20 {
+        let mut arr = Arrangement::<32>::new();
+        for _ in 0..15 {
+            let p = [
+                rng.gen_range(-0.2..0.2),
+                rng.gen_range(-0.2..0.2),
+                rng.gen_range(-0.2..0.2),
+            ];
+            let s = [
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+            ];
+            arr.push(p, s, 0.01).unwrap();
+        }
+        for (f, q) in FRAME_QUATERNIONS.iter().enumerate() {
+            let mut pr = Projection::<f64, 32>::empty();
+            pr.build(
+                &arr,
+                ChannelMask::all(15),
+                Model::General,
+                &quat_to_mat(*q),
+                f as u8,
+            )
+            .unwrap();
+            assert!(pr.has_lin_o);
+            for mk in &pr.mq[..pr.m] {
+                let scale = mk.0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                for d in &mk.0[..3] {
+                    assert!(d.abs() <= 1e-12 * scale.max(1.0), "diagonal {d} vs {scale}");
+                }
+            }
+        }
+    }
+    for _ in 0..100 {
+        let a: [f64; 3] = core::array::from_fn(|_| rng.gen_range(-2.0..2.0));
+        for eps in [1.0, -1.0] {
+            let o = [eps * a[0] * a[1], eps * a[0] * a[2], eps * a[1] * a[2]];
+            let (b, e) = kelvin(&o).unwrap();
+            assert_eq!(e, eps);
+            let d1 = norm2(&sub(&a, &b)).min(norm2(&add(&a, &b)));
+            assert!(d1 < 1e-20, "{a:?} vs {b:?}");
+        }
+    }
+    assert!(kelvin(&[1.0, 0.0, 2.0]).is_none());
+}
