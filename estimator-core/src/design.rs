@@ -222,62 +222,50 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
         Ok(())
     }
 
-    /// `L_o` for model G (see [`Projection::lin_o`]).
+    /// `L_o` for model G (see [`Projection::lin_o`]): columns `2 (M₁₂, M₁₃, M₂₃)` of the forms.
     fn build_linear_o(&mut self, mq: &[Sym3<f64>; CAP], m: usize, model: Model) {
-        self.has_lin_o = false;
         self.lin_o = [[T::ZERO; CAP]; 3];
-        if model != Model::General || m < 3 {
-            return;
-        }
-        let mut cols = [[0.0f64; CAP]; MAX_COLS];
-        for e in 0..m {
-            let mk = mq[e].0;
-            cols[0][e] = 2.0 * mk[3];
-            cols[1][e] = 2.0 * mk[4];
-            cols[2][e] = 2.0 * mk[5];
-        }
-        let svd = Svd::<CAP>::new(&cols, m, 3);
-        if !(svd.condition() <= MAX_CONDITION) {
-            return;
-        }
-        let mut l = [[0.0f64; CAP]; MAX_COLS];
-        svd.pseudo_inverse(&mut l);
-        for c in 0..3 {
-            for e in 0..m {
-                self.lin_o[c][e] = T::of(l[c][e]);
-            }
-        }
-        self.has_lin_o = true;
+        self.has_lin_o = model == Model::General
+            && m >= 3
+            && forms_pseudo_inverse(mq, m, &[3, 4, 5], &mut self.lin_o);
     }
 
-    /// `L` for `tr(M_k S) = P_k` when `m ≥ 6` and the 6 columns are well conditioned.
+    /// `L` for `tr(M_k S) = P_k` when `m ≥ 6`: columns `(M₁₁, M₂₂, M₃₃, 2M₁₂, 2M₁₃, 2M₂₃)`.
     fn build_linear_s(&mut self, mq: &[Sym3<f64>; CAP], m: usize) {
-        self.has_lin_s = false;
         self.lin_s = [[T::ZERO; CAP]; 6];
-        if m < 6 {
-            return;
-        }
-        let mut cols = [[0.0f64; CAP]; MAX_COLS];
-        for e in 0..m {
-            let mk = mq[e].0;
-            let row = [mk[0], mk[1], mk[2], 2.0 * mk[3], 2.0 * mk[4], 2.0 * mk[5]];
-            for (c, v) in row.iter().enumerate() {
-                cols[c][e] = *v;
-            }
-        }
-        let svd = Svd::<CAP>::new(&cols, m, 6);
-        if !(svd.condition() <= MAX_CONDITION) {
-            return;
-        }
-        let mut l = [[0.0f64; CAP]; MAX_COLS];
-        svd.pseudo_inverse(&mut l);
-        for c in 0..6 {
-            for e in 0..m {
-                self.lin_s[c][e] = T::of(l[c][e]);
-            }
-        }
-        self.has_lin_s = true;
+        self.has_lin_s =
+            m >= 6 && forms_pseudo_inverse(mq, m, &[0, 1, 2, 3, 4, 5], &mut self.lin_s);
     }
+}
+
+/// The pseudo-inverse (written to `out`, `entries.len()` rows × `m`) of the `m × entries.len()`
+/// matrix whose row `k` holds the entries `entries` of the form `M_k` (off-diagonals doubled,
+/// as they enter `aᵀ M a`). False, with `out` untouched, if it is too ill-conditioned.
+fn forms_pseudo_inverse<T: Real, const CAP: usize>(
+    mq: &[Sym3<f64>; CAP],
+    m: usize,
+    entries: &[usize],
+    out: &mut [[T; CAP]],
+) -> bool {
+    let mut cols = [[0.0f64; CAP]; MAX_COLS];
+    for (c, &entry) in entries.iter().enumerate() {
+        let weight = if entry >= 3 { 2.0 } else { 1.0 };
+        for e in 0..m {
+            cols[c][e] = weight * mq[e].0[entry];
+        }
+    }
+    let svd = Svd::<CAP>::new(&cols, m, entries.len());
+    if !(svd.condition() <= MAX_CONDITION) {
+        return false;
+    }
+    let mut l = [[0.0f64; CAP]; MAX_COLS];
+    svd.pseudo_inverse(&mut l);
+    for (row, lrow) in out.iter_mut().zip(l.iter()).take(entries.len()) {
+        for e in 0..m {
+            row[e] = T::of(lrow[e]);
+        }
+    }
+    true
 }
 
 /// Checks that no design-matrix column (body frame) is zero over the included channels, naming

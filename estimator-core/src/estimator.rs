@@ -736,13 +736,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         let pr = &self.proj[f];
         let mut jtj = Sym3::<T>::zero();
         for mk in pr.mq.iter().take(pr.m) {
-            let g = scale(T::of(2.0), &mk.mul_vec(a));
-            jtj.0[0] += g[0] * g[0];
-            jtj.0[1] += g[1] * g[1];
-            jtj.0[2] += g[2] * g[2];
-            jtj.0[3] += g[0] * g[1];
-            jtj.0[4] += g[0] * g[2];
-            jtj.0[5] += g[1] * g[2];
+            jtj.add_outer(&scale(T::of(2.0), &mk.mul_vec(a)));
         }
         let third = jtj.trace() / T::of(3.0);
         let det = crate::linalg::det3(&jtj.to_mat());

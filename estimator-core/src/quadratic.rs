@@ -454,12 +454,7 @@ pub fn gauss_newton<T: Real>(
         for (mk, pk) in m.iter().zip(p.iter()) {
             let g = scale(T::of(2.0), &mk.mul_vec(&a));
             let r = *pk - T::of(0.5) * dot(&a, &g);
-            jtj.0[0] += g[0] * g[0];
-            jtj.0[1] += g[1] * g[1];
-            jtj.0[2] += g[2] * g[2];
-            jtj.0[3] += g[0] * g[1];
-            jtj.0[4] += g[0] * g[2];
-            jtj.0[5] += g[1] * g[2];
+            jtj.add_outer(&g);
             for i in 0..3 {
                 jtr[i] += g[i] * r;
             }
