@@ -34,6 +34,8 @@ pub struct Projection<T, const CAP: usize> {
     pub tq: [Sym3<T>; MAX_COLS],
     /// Diagonal 3×3 blocks of `G⁺ G⁺ᵀ` (σ0, Ω′, d): the covariance of `x` for known `a`.
     pub cov0: [Sym3<T>; 3],
+    /// Model G: the constant covariances of its (linear) estimates, body frame.
+    pub general_cov: Option<GeneralCovariance<T>>,
     /// With `m ≥ 6`: `L` (6 × m), the least-squares solve of `tr(M_k S) = P_k` for
     /// `S = a aᵀ` stored as `[xx, yy, zz, xy, xz, yz]`.
     pub lin_s: [[T; CAP]; 6],
@@ -65,6 +67,7 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             mq: [Sym3::zero(); CAP],
             tq: [Sym3::zero(); MAX_COLS],
             cov0: [Sym3::zero(); 3],
+            general_cov: None,
             lin_s: [[T::ZERO; CAP]; 6],
             has_lin_s: false,
             lin_o: [[T::ZERO; CAP]; 3],
@@ -190,14 +193,14 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
         for (dst, src) in self.mq.iter_mut().zip(mq.iter()) {
             *dst = src.cast();
         }
-        for c in 0..MAX_COLS {
-            let mut acc = Sym3::<f64>::zero();
-            if c < k {
-                for row in 0..n {
-                    acc = acc.add_scaled(pinv[c][row], &q[row]);
-                }
+        let mut tq = [Sym3::<f64>::zero(); MAX_COLS];
+        for (c, tqc) in tq.iter_mut().enumerate().take(k) {
+            for row in 0..n {
+                *tqc = tqc.add_scaled(pinv[c][row], &q[row]);
             }
-            self.tq[c] = acc.cast();
+        }
+        for (dst, src) in self.tq.iter_mut().zip(tq.iter()) {
+            *dst = src.cast();
         }
         for b in 0..3 {
             let mut blk = [[0.0f64; 3]; 3];
@@ -214,6 +217,12 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
         }
         self.build_linear_s(&mq, m);
         self.build_linear_o(&mq, m, model);
+        self.general_cov = None;
+        if model == Model::General {
+            if let Some(gc) = general_covariance(&pinv, n, &mq, &tq, m, v) {
+                self.general_cov = Some(gc.cast());
+            }
+        }
         for (dst, src) in self.frame.iter_mut().zip(v.iter()) {
             for (d, s) in dst.iter_mut().zip(src.iter()) {
                 *d = T::of(*s);
@@ -266,6 +275,159 @@ fn forms_pseudo_inverse<T: Real, const CAP: usize>(
         }
     }
     true
+}
+
+/// Model G's estimates of σ0, Ω′ and A are linear in the outputs p (the decomposition
+/// `A = ε{a}² + diag(d)` only reparametrises the six components of A), so their covariances are
+/// constants of the arrangement and mask: computed once, by first-order propagation through
+/// `(a, x)` at any point where it is regular (exact for a linear map).
+#[derive(Clone, Copy, Debug)]
+pub struct GeneralCovariance<T> {
+    /// Standard deviations of σ0 (body frame), per unit whitened noise.
+    pub sd_sigma0: [T; 3],
+    /// Standard deviations of Ω′ (body frame).
+    pub sd_domega: [T; 3],
+    /// Covariance of A (body frame, components `[xx, yy, zz, xy, xz, yz]`).
+    pub field: [[T; 6]; 6],
+}
+
+impl GeneralCovariance<f64> {
+    fn cast<T: Real>(&self) -> GeneralCovariance<T> {
+        let c3 = |v: &[f64; 3]| [T::of(v[0]), T::of(v[1]), T::of(v[2])];
+        let mut field = [[T::ZERO; 6]; 6];
+        for (d, s) in field.iter_mut().zip(self.field.iter()) {
+            for (dd, ss) in d.iter_mut().zip(s.iter()) {
+                *dd = T::of(*ss);
+            }
+        }
+        GeneralCovariance {
+            sd_sigma0: c3(&self.sd_sigma0),
+            sd_domega: c3(&self.sd_domega),
+            field,
+        }
+    }
+}
+
+/// See [`GeneralCovariance`]. Evaluated at `a = (1, 1, 1)`, `ε = +1` in frame `v`.
+fn general_covariance<const CAP: usize>(
+    pinv: &[[f64; CAP]; MAX_COLS],
+    n: usize,
+    mq: &[Sym3<f64>; CAP],
+    tq: &[Sym3<f64>; MAX_COLS],
+    m: usize,
+    v: &Mat3<f64>,
+) -> Option<GeneralCovariance<f64>> {
+    let a = [1.0, 1.0, 1.0];
+    // cov(a) = (JᵀJ)⁻¹, J rows 2 M_k a.
+    let mut jtj = Sym3::<f64>::zero();
+    for mk in mq.iter().take(m) {
+        let g = mk.mul_vec(&a);
+        jtj.add_outer(&[2.0 * g[0], 2.0 * g[1], 2.0 * g[2]]);
+    }
+    let ca = jtj.inverse(1e-300)?.to_mat();
+    // x = y − [aᵀ T_j a]: H rows −2 T_j a; cov(x) = G⁺G⁺ᵀ + H cov(a) Hᵀ, cov(x, a) = H cov(a).
+    let mut h = [[0.0f64; 3]; MAX_COLS];
+    for (hj, tj) in h.iter_mut().zip(tq.iter()) {
+        let t = tj.mul_vec(&a);
+        *hj = [-2.0 * t[0], -2.0 * t[1], -2.0 * t[2]];
+    }
+    let mut z = [[0.0f64; 12]; 12]; // covariance of (a, x)
+    for i in 0..3 {
+        for j in 0..3 {
+            z[i][j] = ca[i][j];
+        }
+    }
+    for r in 0..MAX_COLS {
+        let hc = mat_t_vec3(&ca, &h[r]);
+        for j in 0..3 {
+            z[3 + r][j] = hc[j];
+            z[j][3 + r] = hc[j];
+        }
+        for c in 0..MAX_COLS {
+            let g0: f64 = (0..n).map(|i| pinv[r][i] * pinv[c][i]).sum();
+            z[3 + r][3 + c] = g0 + hc[0] * h[c][0] + hc[1] * h[c][1] + hc[2] * h[c][2];
+        }
+    }
+    // A_V = {a}² + diag(d) (ε = +1): K = ∂A_V/∂(a, x), rows [xx, yy, zz, xy, xz, yz].
+    let mut kmat = [[0.0f64; 12]; 6];
+    for i in 0..3 {
+        // ∂(a_i² − |a|²)/∂a_j = −2 a_j for j ≠ i.
+        for j in 0..3 {
+            if j != i {
+                kmat[i][j] = -2.0 * a[j];
+            }
+        }
+        kmat[i][3 + 6 + i] = 1.0; // d_i
+    }
+    for (row, (p, q)) in [(3, (0, 1)), (4, (0, 2)), (5, (1, 2))] {
+        kmat[row][p] = a[q];
+        kmat[row][q] = a[p];
+    }
+    let cav = sandwich::<6, 12>(&kmat, &z);
+    // Rotate to the body frame: A_b = Vᵀ A_V V, a linear map R on the six components.
+    let idx = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+    let mut rot = [[0.0f64; 6]; 6];
+    for (col, &(p, q)) in idx.iter().enumerate() {
+        let mut e = [[0.0f64; 3]; 3];
+        e[p][q] = 1.0;
+        e[q][p] = 1.0;
+        for (row, &(r, c)) in idx.iter().enumerate() {
+            let mut acc = 0.0;
+            for k in 0..3 {
+                for l in 0..3 {
+                    acc += v[k][r] * e[k][l] * v[l][c];
+                }
+            }
+            rot[row][col] = acc;
+        }
+    }
+    let field = sandwich::<6, 6>(&rot, &cav);
+    let body_sd = |b: usize| {
+        let mut out = [0.0f64; 3];
+        for (k, o) in out.iter_mut().enumerate() {
+            let mut acc = 0.0;
+            for i in 0..3 {
+                for j in 0..3 {
+                    acc += v[i][k] * z[3 + 3 * b + i][3 + 3 * b + j] * v[j][k];
+                }
+            }
+            *o = libm::sqrt(acc.max(0.0));
+        }
+        out
+    };
+    let gc = GeneralCovariance {
+        sd_sigma0: body_sd(0),
+        sd_domega: body_sd(1),
+        field,
+    };
+    let finite = gc
+        .sd_sigma0
+        .iter()
+        .chain(gc.sd_domega.iter())
+        .chain(gc.field.iter().flatten())
+        .all(|x| x.is_finite());
+    finite.then_some(gc)
+}
+
+/// `K C Kᵀ` for `K` (R × C) and symmetric `C` (C × C).
+fn sandwich<const R: usize, const C: usize>(k: &[[f64; C]; R], c: &[[f64; C]; C]) -> [[f64; R]; R] {
+    let mut kc = [[0.0f64; C]; R];
+    for r in 0..R {
+        for j in 0..C {
+            kc[r][j] = (0..C).map(|i| k[r][i] * c[i][j]).sum();
+        }
+    }
+    let mut out = [[0.0f64; R]; R];
+    for r in 0..R {
+        for s in 0..R {
+            out[r][s] = (0..C).map(|j| kc[r][j] * k[s][j]).sum();
+        }
+    }
+    out
+}
+
+fn mat_t_vec3(m: &Mat3<f64>, v: &[f64; 3]) -> [f64; 3] {
+    crate::linalg::mat_t_vec(m, v)
 }
 
 /// Checks that no design-matrix column (body frame) is zero over the included channels, naming

@@ -92,6 +92,8 @@ struct Branch<T> {
     /// `cov(a)` and whether its solve is ill-conditioned (filled after the solve).
     cov_a: Sym3<T>,
     ill: bool,
+    /// Model G: standard deviations of Ω (body frame), from the constant covariance of A.
+    omega_sd: Vec3<T>,
 }
 
 /// The estimator for up to `CAP` channels.
@@ -380,12 +382,25 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.frame = frame;
         let v = self.proj[frame].frame;
         for (c, b) in cands.iter_mut().zip(branches.iter_mut()).take(nb) {
-            let (cov_a, ill) = self.a_covariance(frame, eps, &b.a);
-            b.cov_a = cov_a;
-            b.ill = ill;
+            let omega = self.omega_of(frame, eps, b);
+            let omega_var = match &self.proj[frame].general_cov {
+                Some(gc) => {
+                    // Model G: A is linear in p, its covariance a constant; Ω's follows from it.
+                    let var = omega_variances(&gc.field, &omega);
+                    b.omega_sd = [var[0].sqrt(), var[1].sqrt(), var[2].sqrt()];
+                    b.ill = frame_score(&b.a) < T::of(KELVIN_MIN_SCORE);
+                    (var[0] + var[1] + var[2]) / T::of(3.0)
+                }
+                None => {
+                    let (cov_a, ill) = self.a_covariance(frame, eps, &b.a);
+                    b.cov_a = cov_a;
+                    b.ill = ill;
+                    cov_a.trace() / T::of(3.0)
+                }
+            };
             *c = Candidate {
-                omega: self.omega_of(frame, eps, b),
-                omega_var: cov_a.trace() / T::of(3.0),
+                omega,
+                omega_var,
                 domega: mat_t_vec(&v, &[b.x[3], b.x[4], b.x[5]]),
                 fit: b.fit,
             };
@@ -690,6 +705,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 fit: residual2(forms, rhs, a),
                 cov_a: Sym3::zero(),
                 ill: false,
+                omega_sd: [T::ZERO; 3],
             };
         }
         (nr, fallback, eps)
@@ -753,32 +769,19 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         (cov, ill)
     }
 
-    /// The full estimate of the chosen branch, with first-order standard deviations.
-    #[inline(never)]
-    fn finish(&self, f: usize, eps: T, b: &Branch<T>, omega: &Vec3<T>) -> Estimate<T> {
+    /// First-order standard deviations of σ0, Ω′ and Ω (body frame) through `cov(a)`:
+    /// `cov(x) = cov0 + H cov(a) Hᵀ` with `H = ∂x/∂a = −2 ε T_j a`.
+    fn deviations_linearised(
+        &self,
+        f: usize,
+        eps: T,
+        b: &Branch<T>,
+        omega: &Vec3<T>,
+    ) -> (Vec3<T>, Vec3<T>, Vec3<T>) {
         let pr = &self.proj[f];
         let v = &pr.frame;
-        let (k, m) = (pr.k, pr.m);
-        let sigma0 = mat_t_vec(v, &[b.x[0], b.x[1], b.x[2]]);
-        let domega = mat_t_vec(v, &[b.x[3], b.x[4], b.x[5]]);
-        let (field, d) = match self.model {
-            Model::General => {
-                let mut av = Sym3::skew_squared(&b.a).scaled(eps);
-                av.0[0] += b.x[6];
-                av.0[1] += b.x[7];
-                av.0[2] += b.x[8];
-                (av.rotate(&transpose(v)), [b.x[6], b.x[7], b.x[8]])
-            }
-            Model::FreeFloat => (
-                self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&b.a)),
-                [T::ZERO; 3],
-            ),
-        };
-        let mut flags = 0u16;
+        let k = pr.k;
         let cov_a = b.cov_a;
-        if b.ill {
-            flags |= Flags::ILL_CONDITIONED;
-        }
         // x = y − ε [aᵀ T_j a]: ∂x_j/∂a = −2 ε T_j a; cov(x) = cov0 + H cov(a) Hᵀ.
         let mut h = [[T::ZERO; 3]; MAX_COLS];
         for (j, hj) in h.iter_mut().enumerate().take(k) {
@@ -878,6 +881,38 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 }
             }
         };
+        (sd_sigma0, sd_domega, sd_omega)
+    }
+
+    /// The full estimate of the chosen branch, with first-order standard deviations.
+    #[inline(never)]
+    fn finish(&self, f: usize, eps: T, b: &Branch<T>, omega: &Vec3<T>) -> Estimate<T> {
+        let pr = &self.proj[f];
+        let v = &pr.frame;
+        let m = pr.m;
+        let sigma0 = mat_t_vec(v, &[b.x[0], b.x[1], b.x[2]]);
+        let domega = mat_t_vec(v, &[b.x[3], b.x[4], b.x[5]]);
+        let (field, d) = match self.model {
+            Model::General => {
+                let mut av = Sym3::skew_squared(&b.a).scaled(eps);
+                av.0[0] += b.x[6];
+                av.0[1] += b.x[7];
+                av.0[2] += b.x[8];
+                (av.rotate(&transpose(v)), [b.x[6], b.x[7], b.x[8]])
+            }
+            Model::FreeFloat => (
+                self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&b.a)),
+                [T::ZERO; 3],
+            ),
+        };
+        let mut flags = 0u16;
+        if b.ill {
+            flags |= Flags::ILL_CONDITIONED;
+        }
+        let (sd_sigma0, sd_domega, sd_omega) = match &pr.general_cov {
+            Some(gc) => (gc.sd_sigma0, gc.sd_domega, b.omega_sd),
+            None => self.deviations_linearised(f, eps, b, omega),
+        };
         let chi2 = b.fit;
         let dof = m.saturating_sub(3);
         if dof > 0 && chi2 > pr.chi2_gate {
@@ -934,6 +969,60 @@ impl CommonFlags {
         }
         est.flags = Flags(flags);
     }
+}
+
+/// Frame score of `a` below which Kelvin's decomposition is flagged ill-conditioned.
+const KELVIN_MIN_SCORE: f64 = 0.02;
+
+/// Variances of Ω (body frame) from the covariance of A (`[xx, yy, zz, xy, xz, yz]`), by
+/// `dΩ = (dM Ω − Ω (Ωᵀ dM Ω)/(2|Ω|²)) / |Ω|²` with `dM = dA − ½ tr(dA) I` (first order of
+/// `ΩΩᵀ = A − ½ tr A I`). Large but finite at Ω = 0.
+fn omega_variances<T: Real>(c: &[[T; 6]; 6], w: &Vec3<T>) -> Vec3<T> {
+    let w2 = norm2(w);
+    if !(w2 > T::ZERO) {
+        return [T::of(1e12); 3];
+    }
+    let half = T::of(0.5);
+    let two = T::of(2.0);
+    // Columns of ∂Ω/∂A for the six components.
+    let mut jac = [[T::ZERO; 6]; 3];
+    let dmw: [(Vec3<T>, T); 6] = [
+        (
+            [half * w[0], -half * w[1], -half * w[2]],
+            w[0] * w[0] - half * w2,
+        ),
+        (
+            [-half * w[0], half * w[1], -half * w[2]],
+            w[1] * w[1] - half * w2,
+        ),
+        (
+            [-half * w[0], -half * w[1], half * w[2]],
+            w[2] * w[2] - half * w2,
+        ),
+        ([w[1], w[0], T::ZERO], two * w[0] * w[1]),
+        ([w[2], T::ZERO, w[0]], two * w[0] * w[2]),
+        ([T::ZERO, w[2], w[1]], two * w[1] * w[2]),
+    ];
+    let inv = T::ONE / w2;
+    for (col, (d, q)) in dmw.iter().enumerate() {
+        let k = *q * half * inv;
+        for r in 0..3 {
+            jac[r][col] = (d[r] - w[r] * k) * inv;
+        }
+    }
+    let mut var = [T::ZERO; 3];
+    for r in 0..3 {
+        let mut acc = T::ZERO;
+        for i in 0..6 {
+            let mut inner = T::ZERO;
+            for j in 0..6 {
+                inner += c[i][j] * jac[r][j];
+            }
+            acc += jac[r][i] * inner;
+        }
+        var[r] = acc.max(T::ZERO);
+    }
+    var
 }
 
 /// `min_i |w_i| / |w|`: how well a frame separates the off-diagonals of `{w}²`.

@@ -1,0 +1,69 @@
+//! The reported standard deviations are calibrated: the RMS of error / deviation (per
+//! component, raw output) is close to 1 on the families of the accuracy tests.
+
+use e2e_tests::cases::{make, Family, MotionKind};
+use estimator_core::{Estimator, Model, Options};
+use hal_sim::arrangement_file::HOST_CAP;
+
+/// RMS of the normalised errors of σ0, Ω′, Ω.
+fn z_rms(f: Family, m: MotionKind, model: Model, seed: u64) -> [f64; 3] {
+    let case = make(f, m, model, seed, 1500);
+    let options = Options {
+        raw: true,
+        initial_omega: Some(case.truth[0].omega),
+        ..Default::default()
+    };
+    let mut e =
+        Estimator::<f64, HOST_CAP>::new(&case.loaded.arrangement, case.model, options).unwrap();
+    let mut z = [0.0f64; 3];
+    let mut n = 0.0;
+    for (tr, p) in case.truth.iter().zip(case.outputs.iter()) {
+        let r = e.update(tr.t, p);
+        for k in 0..3 {
+            z[0] += ((r.sigma0[k] - tr.sigma0[k]) / r.sd_sigma0[k]).powi(2);
+            z[1] += ((r.domega[k] - tr.domega[k]) / r.sd_domega[k]).powi(2);
+            z[2] += ((r.omega[k] - tr.omega[k]) / r.sd_omega[k]).powi(2);
+        }
+        n += 3.0;
+    }
+    let out = z.map(|v| (v / n).sqrt());
+    println!(
+        "{}: RMS(error/sd) σ0 {:.2}  Ω′ {:.2}  Ω {:.2}",
+        case.name, out[0], out[1], out[2]
+    );
+    out
+}
+
+#[test]
+fn deviations_match_the_errors() {
+    for (f, m, model, seed) in [
+        (Family::Tetrahedron, MotionKind::Tumble, Model::General, 1),
+        (Family::Irregular, MotionKind::Tumble, Model::General, 5),
+        (
+            Family::MixedNoise,
+            MotionKind::Manoeuvre,
+            Model::General,
+            12,
+        ),
+        (Family::Tetrahedron, MotionKind::Tumble, Model::FreeFloat, 2),
+        (
+            Family::Irregular,
+            MotionKind::Manoeuvre,
+            Model::FreeFloat,
+            6,
+        ),
+    ] {
+        for z in z_rms(f, m, model, seed) {
+            assert!((0.85..1.2).contains(&z), "RMS(error/sd) = {z}");
+        }
+    }
+}
+
+/// With m = 3 (9 channels, model F) the solve is close to branch points now and then, where
+/// first-order deviations are too small: reported, and bounded loosely.
+#[test]
+fn nine_channel_deviations_are_reported() {
+    for z in z_rms(Family::NineChannel, MotionKind::Tumble, Model::FreeFloat, 8) {
+        assert!((0.85..2.0).contains(&z), "RMS(error/sd) = {z}");
+    }
+}
