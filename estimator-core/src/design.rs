@@ -115,18 +115,7 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             let ch = &arr.channels()[i];
             let s = mat_vec(v, &ch.axis);
             let r = mat_vec(v, &ch.position);
-            let rxs = cross(&r, &s);
-            let g = [
-                s[0],
-                s[1],
-                s[2],
-                rxs[0],
-                rxs[1],
-                rxs[2],
-                s[0] * r[0],
-                s[1] * r[1],
-                s[2] * r[2],
-            ];
+            let g = design_row(&s, &r);
             for c in 0..k {
                 cols[c][row] = g[c] / ch.noise;
             }
@@ -430,6 +419,23 @@ fn mat_t_vec3(m: &Mat3<f64>, v: &[f64; 3]) -> [f64; 3] {
     crate::linalg::mat_t_vec(m, v)
 }
 
+/// Row of paper eq. (11) for a channel with axis `s` and position `r` (same frame):
+/// `[s; R × s; s∘R]` (σ0, Ω′, d).
+fn design_row(s: &[f64; 3], r: &[f64; 3]) -> [f64; MAX_COLS] {
+    let rxs = cross(r, s);
+    [
+        s[0],
+        s[1],
+        s[2],
+        rxs[0],
+        rxs[1],
+        rxs[2],
+        s[0] * r[0],
+        s[1] * r[1],
+        s[2] * r[2],
+    ]
+}
+
 /// Checks that no design-matrix column (body frame) is zero over the included channels, naming
 /// the unknown that could not be seen (for example "d_z is not observable: every channel has
 /// s_z·R_z = 0").
@@ -446,18 +452,7 @@ pub fn check_structural<const CAP: usize>(
             continue;
         }
         let (s, r) = (ch.axis, ch.position);
-        let rxs = cross(&r, &s);
-        let g = [
-            s[0],
-            s[1],
-            s[2],
-            rxs[0],
-            rxs[1],
-            rxs[2],
-            s[0] * r[0],
-            s[1] * r[1],
-            s[2] * r[2],
-        ];
+        let g = design_row(&s, &r);
         for c in 0..k {
             colmax[c] = colmax[c].max(libm::fabs(g[c]));
         }
