@@ -285,6 +285,12 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         (f < self.frames && self.usable[f]).then(|| self.proj[f].condition)
     }
 
+    /// Variance per step of the rate model error learnt by the tracker (trapezoidal integration
+    /// of Ω′: jerk, sampling), rad²/s² — a health figure for telemetry.
+    pub fn rate_model_variance(&self) -> T {
+        self.tracker.model_variance()
+    }
+
     /// Degrees of freedom of the residual (`N − 12` in model G, `N − 9` in model F).
     pub fn dof(&self) -> usize {
         self.proj[0].m.saturating_sub(3)

@@ -268,7 +268,10 @@ impl<T: Real> Tracker<T> {
                         sign,
                         from: i as u8,
                     };
-                    let entry = (st, nu2 / three - sv);
+                    // Innovation variance not explained by the filter, the measurement and the
+                    // Ω′ noise: an unbiased sample of the model error (the learnt part of q is
+                    // not subtracted, so the running mean converges to it).
+                    let entry = (st, nu2 / three - (sv - self.model_var));
                     // Same history as a kept one? Keep the cheaper.
                     if let Some(j) = (0..nt).find(|&j| {
                         norm2(&sub(&top[j].0.omega, &st.omega))
@@ -339,10 +342,10 @@ impl<T: Real> Tracker<T> {
         let nn = kept;
         // Learn the model error along the chosen hypothesis (bounded influence per sample).
         if np > 0 {
-            let e = innov[best]
-                .max(T::ZERO)
-                .min(T::of(25.0) * (q + next[best].var));
-            self.model_var += T::of(0.01) * (e - self.model_var);
+            // Per-sample samples may be negative (no clamp: clamping would bias the mean up);
+            // bounded influence above; the running mean is kept non-negative.
+            let e = innov[best].min(T::of(25.0) * (q + next[best].var));
+            self.model_var = (self.model_var + T::of(0.01) * (e - self.model_var)).max(T::ZERO);
         }
         let margin = T::of(SIGN_MARGIN);
         let b = next[best];
