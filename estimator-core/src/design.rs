@@ -278,6 +278,8 @@ pub struct GeneralCovariance<T> {
     pub sd_domega: [T; 3],
     /// Covariance of A (body frame, components `[xx, yy, zz, xy, xz, yz]`).
     pub field: [[T; 6]; 6],
+    /// Standard deviations of A's components (the square roots of `field`'s diagonal).
+    pub sd_field: Sym3<T>,
 }
 
 impl GeneralCovariance<f64> {
@@ -293,6 +295,7 @@ impl GeneralCovariance<f64> {
             sd_sigma0: c3(&self.sd_sigma0),
             sd_domega: c3(&self.sd_domega),
             field,
+            sd_field: self.sd_field.cast(),
         }
     }
 }
@@ -384,10 +387,15 @@ fn general_covariance<const CAP: usize>(
         }
         out
     };
+    let mut sd_field = Sym3::<f64>::zero();
+    for (i, o) in sd_field.0.iter_mut().enumerate() {
+        *o = libm::sqrt(field[i][i].max(0.0));
+    }
     let gc = GeneralCovariance {
         sd_sigma0: body_sd(0),
         sd_domega: body_sd(1),
         field,
+        sd_field,
     };
     let finite = gc
         .sd_sigma0

@@ -64,6 +64,8 @@ pub struct Estimate<T> {
     pub sd_domega: Vec3<T>,
     /// Standard deviations of Ω.
     pub sd_omega: Vec3<T>,
+    /// Standard deviations of the components of A (`[xx, yy, zz, xy, xz, yz]`).
+    pub sd_field: Sym3<T>,
 }
 
 /// 99.9 % points of χ² for 1..=30 degrees of freedom (beyond: Wilson–Hilferty).
@@ -99,5 +101,6 @@ impl<T: Real> Estimate<T> {
             && v(&self.sd_sigma0)
             && v(&self.sd_domega)
             && v(&self.sd_omega)
+            && self.sd_field.0.iter().all(|c| c.is_finite())
     }
 }

@@ -471,6 +471,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         est.sd_omega = [sd, sd, sd];
         if self.model == Model::FreeFloat {
             est.field = self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&w));
+            let v = var.max(T::ZERO);
+            est.sd_field =
+                crate::linalg::skew_squared_sd(&w, &Sym3([v, v, v, T::ZERO, T::ZERO, T::ZERO]));
         }
     }
 
@@ -919,6 +922,13 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             Some(gc) => (gc.sd_sigma0, gc.sd_domega, b.omega_sd),
             None => self.deviations_linearised(f, eps, b, omega),
         };
+        let sd_field = match (&pr.general_cov, self.model) {
+            (Some(gc), _) => gc.sd_field,
+            // Model F: A = Γ + {Ω}², Ω = a with cov(a) (body frame: V = I).
+            (None, Model::FreeFloat) => crate::linalg::skew_squared_sd(omega, &b.cov_a),
+            // Model G without the constant covariance (degenerate frame): not available.
+            (None, Model::General) => Sym3([T::of(1e12); 6]),
+        };
         let chi2 = b.fit;
         let dof = m.saturating_sub(3);
         if dof > 0 && chi2 > pr.chi2_gate {
@@ -940,6 +950,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             sd_sigma0,
             sd_domega,
             sd_omega,
+            sd_field,
         };
         if !est.is_finite() {
             // Defensive: never emit NaN. Keep the previous estimate, flagged.

@@ -264,6 +264,27 @@ impl<T: Real> Sym3<T> {
     }
 }
 
+/// Standard deviations of the components of `{w}²` (`[xx, yy, zz, xy, xz, yz]`) for a rate `w`
+/// with covariance `c` (first order: `d{w}² = dw wᵀ + w dwᵀ − 2 (w·dw) I`).
+pub fn skew_squared_sd<T: Real>(w: &Vec3<T>, c: &Sym3<T>) -> Sym3<T> {
+    let two = T::of(2.0);
+    let z = T::ZERO;
+    // Rows of ∂{w}²/∂w.
+    let rows = [
+        [z, -two * w[1], -two * w[2]],
+        [-two * w[0], z, -two * w[2]],
+        [-two * w[0], -two * w[1], z],
+        [w[1], w[0], z],
+        [w[2], z, w[0]],
+        [z, w[2], w[1]],
+    ];
+    let mut out = Sym3::zero();
+    for (o, r) in out.0.iter_mut().zip(rows.iter()) {
+        *o = c.quad(r).max(T::ZERO).sqrt();
+    }
+    out
+}
+
 /// The products of `a` used by [`Sym3::quad_outer`].
 #[inline]
 pub fn outer6<T: Real>(a: &Vec3<T>) -> [T; 6] {

@@ -209,6 +209,9 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
             est.sd_omega = [sd, sd, sd];
             if let Some(g) = self.gamma_free_float {
                 est.field = g.add_scaled(T::ONE, &crate::linalg::Sym3::skew_squared(&st.omega));
+                let v = st.var.max(T::ZERO);
+                let iso = crate::linalg::Sym3([v, v, v, T::ZERO, T::ZERO, T::ZERO]);
+                est.sd_field = crate::linalg::skew_squared_sd(&st.omega, &iso);
             }
         }
         (oldest.t, est)

@@ -11,7 +11,7 @@ pub const COLUMNS: [&str; 17] = [
 ];
 
 /// Extra columns that follow the contract ones.
-pub const EXTRA_COLUMNS: [&str; 14] = [
+pub const EXTRA_COLUMNS: [&str; 20] = [
     "chi2",
     "dof",
     "branches",
@@ -26,6 +26,12 @@ pub const EXTRA_COLUMNS: [&str; 14] = [
     "sd_omega_y",
     "sd_omega_z",
     "epsilon",
+    "sd_A_xx",
+    "sd_A_yy",
+    "sd_A_zz",
+    "sd_A_xy",
+    "sd_A_xz",
+    "sd_A_yz",
 ];
 
 /// Writes the header line.
@@ -54,5 +60,9 @@ pub fn write_row<W: Write, T: Real>(w: &mut W, t: f64, e: &Estimate<T>) -> std::
     {
         write!(w, ",{}", f(*v))?;
     }
-    writeln!(w, ",{}", e.epsilon)
+    write!(w, ",{}", e.epsilon)?;
+    for v in e.sd_field.0.iter() {
+        write!(w, ",{}", f(*v))?;
+    }
+    writeln!(w)
 }

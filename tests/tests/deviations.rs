@@ -1,17 +1,18 @@
 //! The reported standard deviations are calibrated: the RMS of error / deviation (per
-//! component, raw output) is close to 1 on the families of the accuracy tests.
+//! component, raw output) is close to 1 on the families of the accuracy tests, for σ0, Ω′, Ω
+//! and the components of A.
 
 use e2e_tests::cases::{make, Family, MotionKind};
 use estimator_core::{Estimator, Model, Options};
 use hal_sim::arrangement_file::HOST_CAP;
 
 /// RMS of the normalised errors of σ0, Ω′, Ω (raw output).
-fn z_rms(f: Family, m: MotionKind, model: Model, seed: u64) -> [f64; 3] {
+fn z_rms(f: Family, m: MotionKind, model: Model, seed: u64) -> [f64; 4] {
     z_rms_mode(f, m, model, seed, true)
 }
 
 /// RMS of the normalised errors of σ0, Ω′, Ω; `raw = false`: Ω is the filtered rate.
-fn z_rms_mode(f: Family, m: MotionKind, model: Model, seed: u64, raw: bool) -> [f64; 3] {
+fn z_rms_mode(f: Family, m: MotionKind, model: Model, seed: u64, raw: bool) -> [f64; 4] {
     let case = make(f, m, model, seed, 1500);
     let options = Options {
         raw,
@@ -20,7 +21,8 @@ fn z_rms_mode(f: Family, m: MotionKind, model: Model, seed: u64, raw: bool) -> [
     };
     let mut e =
         Estimator::<f64, HOST_CAP>::new(&case.loaded.arrangement, case.model, options).unwrap();
-    let mut z = [0.0f64; 3];
+    let mut z = [0.0f64; 4];
+    let mut na = 0.0;
     let mut n = 0.0;
     for (tr, p) in case.truth.iter().zip(case.outputs.iter()) {
         let r = e.update(tr.t, p);
@@ -29,12 +31,21 @@ fn z_rms_mode(f: Family, m: MotionKind, model: Model, seed: u64, raw: bool) -> [
             z[1] += ((r.domega[k] - tr.domega[k]) / r.sd_domega[k]).powi(2);
             z[2] += ((r.omega[k] - tr.omega[k]) / r.sd_omega[k]).powi(2);
         }
+        for k in 0..6 {
+            z[3] += ((r.field.0[k] - tr.field.0[k]) / r.sd_field.0[k]).powi(2);
+        }
         n += 3.0;
+        na += 6.0;
     }
-    let out = z.map(|v| (v / n).sqrt());
+    let out = [
+        (z[0] / n).sqrt(),
+        (z[1] / n).sqrt(),
+        (z[2] / n).sqrt(),
+        (z[3] / na).sqrt(),
+    ];
     println!(
-        "{} raw={raw}: RMS(error/sd) σ0 {:.2}  Ω′ {:.2}  Ω {:.2}",
-        case.name, out[0], out[1], out[2]
+        "{} raw={raw}: RMS(error/sd) σ0 {:.2}  Ω′ {:.2}  Ω {:.2}  A {:.2}",
+        case.name, out[0], out[1], out[2], out[3]
     );
     out
 }
