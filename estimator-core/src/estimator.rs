@@ -108,6 +108,7 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     gamma: Sym3<T>,
     gamma_frame: [Sym3<T>; NUM_FRAMES],
     gamma_offset: [T; CAP],
+    gamma_offset_nonzero: bool,
     options: Options,
     tracker: Tracker<T>,
     last_t: Option<f64>,
@@ -134,6 +135,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             gamma: Sym3::zero(),
             gamma_frame: [Sym3::zero(); NUM_FRAMES],
             gamma_offset: [T::ZERO; CAP],
+            gamma_offset_nonzero: false,
             options: Options::default(),
             tracker: Tracker::new(),
             last_t: None,
@@ -243,6 +245,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 self.gamma_offset[r] = T::of(acc);
             }
         }
+        self.gamma_offset_nonzero = self.gamma_offset.iter().any(|g| *g != T::ZERO);
     }
 
     /// Sets (or clears) the rate hint and restarts branch and sign tracking.
@@ -552,13 +555,32 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         let n = self.arr.len();
         // y = W p (paper eq. 11 reduced by the SVD), minus the known-Γ term of model F.
         let mut y = [T::ZERO; CAP];
-        for r in 0..(k + m) {
-            let row = &pr.w[r];
+        let rows = k + m;
+        // Two rows at a time: each reading is loaded once for both.
+        let mut r = 0;
+        while r + 1 < rows {
+            let (ra, rb) = (&pr.w[r], &pr.w[r + 1]);
+            let (mut acc_a, mut acc_b) = (T::ZERO, T::ZERO);
+            for i in 0..n {
+                let pi = p[i];
+                acc_a += ra[i] * pi;
+                acc_b += rb[i] * pi;
+            }
+            y[r] = acc_a;
+            y[r + 1] = acc_b;
+            r += 2;
+        }
+        if r < rows {
             let mut acc = T::ZERO;
             for i in 0..n {
-                acc += row[i] * p[i];
+                acc += pr.w[r][i] * p[i];
             }
-            y[r] = acc - self.gamma_offset[r];
+            y[r] = acc;
+        }
+        if self.gamma_offset_nonzero {
+            for (yr, g) in y.iter_mut().zip(self.gamma_offset.iter()).take(rows) {
+                *yr -= *g;
+            }
         }
         let mut pe = [T::ZERO; CAP];
         let forms = &pr.mq[..m];
@@ -1027,17 +1049,19 @@ fn omega_variances<T: Real>(c: &[[T; 6]; 6], w: &Vec3<T>) -> Vec3<T> {
             jac[r][col] = (d[r] - w[r] * k) * inv;
         }
     }
+    // jᵀ C j with C symmetric: the diagonal once, the upper triangle twice.
     let mut var = [T::ZERO; 3];
     for r in 0..3 {
+        let j = &jac[r];
         let mut acc = T::ZERO;
         for i in 0..6 {
-            let mut inner = T::ZERO;
-            for j in 0..6 {
-                inner += c[i][j] * jac[r][j];
+            let mut inner = T::of(0.5) * c[i][i] * j[i];
+            for l in (i + 1)..6 {
+                inner += c[i][l] * j[l];
             }
-            acc += jac[r][i] * inner;
+            acc += j[i] * inner;
         }
-        var[r] = acc.max(T::ZERO);
+        var[r] = (T::of(2.0) * acc).max(T::ZERO);
     }
     var
 }

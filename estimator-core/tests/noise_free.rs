@@ -203,3 +203,38 @@ fn ill_conditioned_cases_are_rare() {
         );
     }
 }
+
+/// Model F with a known gravity-gradient tensor Γ (exaggerated so it matters): the field
+/// `A = Γ + {Ω}²` and every output are reproduced; ignoring Γ biases them.
+#[test]
+fn free_float_with_known_gamma() {
+    let mut rng = ChaCha8Rng::seed_from_u64(77);
+    let arr = random_arrangement(&mut rng, 12, Model::FreeFloat, NOISE);
+    let gamma = Sym3([0.4, -0.1, -0.3, 0.05, -0.02, 0.07]); // traceless
+    let omega = [0.8, -1.1, 0.6];
+    let sigma0 = [0.2, -0.1, 9.0];
+    let domega = [0.3, 0.1, -0.2];
+    let a = gamma.add_scaled(1.0, &Sym3::skew_squared(&omega));
+    let p = outputs(&arr, &sigma0, &domega, &a);
+    let run = |g: Sym3<f64>| {
+        let options = Options {
+            raw: true,
+            initial_omega: Some(omega),
+            gamma: g,
+            ..Default::default()
+        };
+        let mut est = Estimator::<f64, CAP>::new(&arr, Model::FreeFloat, options).unwrap();
+        est.update(0.0, &p)
+    };
+    let e = run(gamma);
+    assert!(dist(&e.omega, &omega) < 1e-8, "{:?}", e.omega);
+    assert!(dist(&e.sigma0, &sigma0) < 1e-8 && dist(&e.domega, &domega) < 1e-8);
+    for (got, want) in e.field.0.iter().zip(a.0.iter()) {
+        assert!((got - want).abs() < 1e-8);
+    }
+    let biased = run(Sym3::zero());
+    assert!(
+        dist(&biased.omega, &omega) > 1e-3,
+        "Γ must matter in this test"
+    );
+}
