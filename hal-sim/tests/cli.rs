@@ -13,6 +13,19 @@ fn ballisto() -> Command {
     Command::new(env!("CARGO_BIN_EXE_ballisto"))
 }
 
+/// `ballisto estimate --arrangement A --samples S --out O` (more arguments to be added).
+fn estimate(arrangement: &Path, samples: &Path, out: &Path) -> Command {
+    let mut c = ballisto();
+    c.arg("estimate")
+        .arg("--arrangement")
+        .arg(arrangement)
+        .arg("--samples")
+        .arg(samples)
+        .arg("--out")
+        .arg(out);
+    c
+}
+
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("ballisto-cli-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -105,18 +118,15 @@ fn initial_omega_accepts_a_leading_minus_in_both_spellings() {
         vec!["--initial-omega", "-1,0,2"],
         vec!["--initial-omega=-1,0,2"],
     ] {
-        let st = ballisto()
-            .arg("estimate")
-            .arg("--arrangement")
-            .arg(d.join("arrangement.toml"))
-            .arg("--samples")
-            .arg(d.join("samples.csv"))
-            .arg("--out")
-            .arg(d.join("e.csv"))
-            .args(&args)
-            .arg("--raw")
-            .output()
-            .unwrap();
+        let st = estimate(
+            &d.join("arrangement.toml"),
+            &d.join("samples.csv"),
+            &d.join("e.csv"),
+        )
+        .args(&args)
+        .arg("--raw")
+        .output()
+        .unwrap();
         assert!(
             st.status.success(),
             "{args:?}: {}",
@@ -130,14 +140,7 @@ fn run_expect_error(d: &Path, arrangement: &str, samples: &str, extra: &[&str]) 
     std::fs::write(d.join("s.csv"), samples).unwrap();
     let out = d.join("e.csv");
     let _ = std::fs::remove_file(&out);
-    let st = ballisto()
-        .arg("estimate")
-        .arg("--arrangement")
-        .arg(d.join("a.toml"))
-        .arg("--samples")
-        .arg(d.join("s.csv"))
-        .arg("--out")
-        .arg(&out)
+    let st = estimate(&d.join("a.toml"), &d.join("s.csv"), &out)
         .args(extra)
         .output()
         .unwrap();
@@ -290,14 +293,7 @@ fn estimate_streams_memory_does_not_grow_with_the_file() {
                 writeln!(w).unwrap();
             }
         }
-        let st = ballisto()
-            .arg("estimate")
-            .arg("--arrangement")
-            .arg(d.join("a.toml"))
-            .arg("--samples")
-            .arg(d.join("s.csv"))
-            .arg("--out")
-            .arg(d.join("e.csv"))
+        let st = estimate(&d.join("a.toml"), &d.join("s.csv"), &d.join("e.csv"))
             .arg("--raw")
             .status()
             .unwrap();
