@@ -330,7 +330,7 @@ fn general_covariance<const CAP: usize>(
         }
     }
     for r in 0..MAX_COLS {
-        let hc = mat_t_vec3(&ca, &h[r]);
+        let hc = crate::linalg::mat_t_vec(&ca, &h[r]);
         for j in 0..3 {
             z[3 + r][j] = hc[j];
             z[j][3 + r] = hc[j];
@@ -421,10 +421,6 @@ fn sandwich<const R: usize, const C: usize>(k: &[[f64; C]; R], c: &[[f64; C]; C]
         }
     }
     out
-}
-
-fn mat_t_vec3(m: &Mat3<f64>, v: &[f64; 3]) -> [f64; 3] {
-    crate::linalg::mat_t_vec(m, v)
 }
 
 /// Row of paper eq. (11) for a channel with axis `s` and position `r` (same frame):

@@ -401,7 +401,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                     (var[0] + var[1] + var[2]) / T::of(3.0)
                 }
                 None => {
-                    let (cov_a, ill) = self.a_covariance(frame, eps, &b.a);
+                    let (cov_a, ill) = self.a_covariance(frame, &b.a);
                     b.cov_a = cov_a;
                     b.ill = ill;
                     cov_a.trace() / T::of(3.0)
@@ -626,13 +626,12 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             let mut preds = [[T::ZERO; 3]; MAX_CANDIDATES];
             let np = self.tracker.predictions(dt, &mut preds).min(MAX_STARTS);
             for w in preds.iter().take(np) {
-                starts[ns] = self.a_from_omega(f, eps, w);
+                starts[ns] = self.a_from_omega(f, w);
                 ns += 1;
             }
             if !self.tracker.has_history() {
                 if let Some(h) = self.options.initial_omega {
-                    starts[ns] =
-                        self.a_from_omega(f, eps, &[T::of(h[0]), T::of(h[1]), T::of(h[2])]);
+                    starts[ns] = self.a_from_omega(f, &[T::of(h[0]), T::of(h[1]), T::of(h[2])]);
                     ns += 1;
                 }
             }
@@ -700,7 +699,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             // start of the right size.
             fallback = true;
             let start = match self.tracker.predicted_omega(dt) {
-                Some(w) if norm2(&w) > T::ZERO => self.a_from_omega(f, eps, &w),
+                Some(w) if norm2(&w) > T::ZERO => self.a_from_omega(f, &w),
                 _ => {
                     let mut big = T::ZERO;
                     let mut mnorm = T::ZERO;
@@ -744,7 +743,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
 
     /// `a` in frame `f` that reproduces the field of rate `w` (body): `a = V w` when `Γ` is
     /// negligible (model G with `d ≈ Γ` terms absorbed by the solve), `a = w` in model F.
-    fn a_from_omega(&self, f: usize, _eps: T, w: &Vec3<T>) -> Vec3<T> {
+    fn a_from_omega(&self, f: usize, w: &Vec3<T>) -> Vec3<T> {
         mat_vec(&self.proj[f].frame, w)
     }
 
@@ -762,11 +761,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
 
     /// `(A − Γ) − ½ tr(A − Γ) I` in frame `f` (= ΩΩᵀ for a rigid body).
     fn centripetal(&self, f: usize, eps: T, b: &Branch<T>) -> Sym3<T> {
-        let mut a = Sym3::skew_squared(&b.a).scaled(eps);
-        a.0[0] += b.x[6];
-        a.0[1] += b.x[7];
-        a.0[2] += b.x[8];
-        let c = a.add_scaled(-T::ONE, &self.gamma_frame[f]);
+        let c = field_in_frame(eps, b).add_scaled(-T::ONE, &self.gamma_frame[f]);
         let h = T::of(0.5) * c.trace();
         let mut m = c;
         m.0[0] -= h;
@@ -779,7 +774,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// whether `JᵀJ` is nearly singular. Regularised so that `a = 0` (no rotation) gives large
     /// but finite variances.
     #[inline(never)]
-    fn a_covariance(&self, f: usize, _eps: T, a: &Vec3<T>) -> (Sym3<T>, bool) {
+    fn a_covariance(&self, f: usize, a: &Vec3<T>) -> (Sym3<T>, bool) {
         let pr = &self.proj[f];
         let mut jtj = Sym3::<T>::zero();
         for mk in pr.mq.iter().take(pr.m) {
@@ -924,13 +919,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         let sigma0 = mat_t_vec(v, &[b.x[0], b.x[1], b.x[2]]);
         let domega = mat_t_vec(v, &[b.x[3], b.x[4], b.x[5]]);
         let (field, d) = match self.model {
-            Model::General => {
-                let mut av = Sym3::skew_squared(&b.a).scaled(eps);
-                av.0[0] += b.x[6];
-                av.0[1] += b.x[7];
-                av.0[2] += b.x[8];
-                (av.rotate(&transpose(v)), [b.x[6], b.x[7], b.x[8]])
-            }
+            Model::General => (
+                field_in_frame(eps, b).rotate(&transpose(v)),
+                [b.x[6], b.x[7], b.x[8]],
+            ),
             Model::FreeFloat => (
                 self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&b.a)),
                 [T::ZERO; 3],
@@ -1008,6 +1000,15 @@ impl CommonFlags {
         }
         est.flags = Flags(flags);
     }
+}
+
+/// Model G's field in the branch's frame: `A_V = ε{a}² + diag(d)` (paper section 7).
+fn field_in_frame<T: Real>(eps: T, b: &Branch<T>) -> Sym3<T> {
+    let mut a = Sym3::skew_squared(&b.a).scaled(eps);
+    a.0[0] += b.x[6];
+    a.0[1] += b.x[7];
+    a.0[2] += b.x[8];
+    a
 }
 
 /// Frame score of `a` below which Kelvin's decomposition is flagged ill-conditioned.

@@ -65,16 +65,6 @@ pub fn mat_t_vec<T: Real>(m: &Mat3<T>, v: &Vec3<T>) -> Vec3<T> {
     ]
 }
 
-/// Converts a vector between scalar types.
-#[inline]
-pub fn cast3<A: Real, B: Real>(v: &Vec3<A>) -> Vec3<B> {
-    [
-        B::of(v[0].to_f64()),
-        B::of(v[1].to_f64()),
-        B::of(v[2].to_f64()),
-    ]
-}
-
 /// Determinant of a 3×3 matrix.
 #[inline]
 pub fn det3<T: Real>(m: &Mat3<T>) -> T {
