@@ -50,7 +50,7 @@ fn bench_typed<T: Real>(c: &mut Criterion, scalar: &str) {
                         }
                         let (t, p) = &data[k];
                         k += 1;
-                        black_box(est.update(t + t_off, black_box(p)))
+                        black_box(est.update(t + t_off, black_box(p)).omega)
                     })
                 },
             );

@@ -98,22 +98,65 @@ struct Branch<T> {
 
 /// The estimator for up to `CAP` channels.
 pub struct Estimator<T: Real, const CAP: usize = 32> {
+    cfg: Config<T, CAP>,
+    /// Frame in use.
+    frame: usize,
+    tracker: Tracker<T>,
+    last_t: Option<f64>,
+    /// The last estimate from a usable sample (valid when `has_last`).
+    last: Estimate<T>,
+    has_last: bool,
+    /// The output for an unusable sample (the prediction), kept apart from `last`.
+    held: Estimate<T>,
+    domega_var: T,
+    work: Work<T, CAP>,
+}
+
+/// The configuration and everything precomputed from it (paper eq. 10–11): read-only in the
+/// sample loop.
+struct Config<T: Real, const CAP: usize> {
     arr: Arrangement<CAP>,
     model: Model,
     mask: ChannelMask,
     proj: [Projection<T, CAP>; NUM_FRAMES],
     usable: [bool; NUM_FRAMES],
     frames: usize,
-    frame: usize,
     gamma: Sym3<T>,
     gamma_frame: [Sym3<T>; NUM_FRAMES],
     gamma_offset: [T; CAP],
     gamma_offset_nonzero: bool,
     options: Options,
-    tracker: Tracker<T>,
-    last_t: Option<f64>,
-    last: Option<Estimate<T>>,
-    domega_var: T,
+}
+
+/// Per-sample working storage, kept in the estimator so that the sample loop neither zeroes
+/// nor copies it (every slot is written before it is read).
+struct Work<T: Real, const CAP: usize> {
+    branches: [Branch<T>; MAX_CANDIDATES],
+    trial: [Branch<T>; MAX_CANDIDATES],
+    cands: [Candidate<T>; MAX_CANDIDATES],
+    scratch: Scratch<T, CAP>,
+}
+
+/// Working vectors of one frame's solve.
+struct Scratch<T: Real, const CAP: usize> {
+    /// `y = W p`.
+    y: [T; CAP],
+    /// `ε P`, the right-hand sides of the quadratic forms.
+    pe: [T; CAP],
+}
+
+impl<T: Real, const CAP: usize> Work<T, CAP> {
+    fn new() -> Self {
+        Work {
+            branches: [Branch::default(); MAX_CANDIDATES],
+            trial: [Branch::default(); MAX_CANDIDATES],
+            cands: [Candidate::default(); MAX_CANDIDATES],
+            scratch: Scratch {
+                y: [T::ZERO; CAP],
+                pe: [T::ZERO; CAP],
+            },
+        }
+    }
 }
 
 impl<T: Real, const CAP: usize> Estimator<T, CAP> {
@@ -125,22 +168,27 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         options: Options,
     ) -> Result<Self, ConfigError> {
         let mut e = Estimator {
-            arr: Arrangement::new(),
-            model,
-            mask: ChannelMask::all(0),
-            proj: core::array::from_fn(|_| Projection::empty()),
-            usable: [false; NUM_FRAMES],
-            frames: 0,
+            cfg: Config {
+                arr: Arrangement::new(),
+                model,
+                mask: ChannelMask::all(0),
+                proj: core::array::from_fn(|_| Projection::empty()),
+                usable: [false; NUM_FRAMES],
+                frames: 0,
+                gamma: Sym3::zero(),
+                gamma_frame: [Sym3::zero(); NUM_FRAMES],
+                gamma_offset: [T::ZERO; CAP],
+                gamma_offset_nonzero: false,
+                options: Options::default(),
+            },
             frame: 0,
-            gamma: Sym3::zero(),
-            gamma_frame: [Sym3::zero(); NUM_FRAMES],
-            gamma_offset: [T::ZERO; CAP],
-            gamma_offset_nonzero: false,
-            options: Options::default(),
             tracker: Tracker::new(),
             last_t: None,
-            last: None,
+            last: Estimate::default(),
+            has_last: false,
+            held: Estimate::default(),
             domega_var: T::ZERO,
+            work: Work::new(),
         };
         e.configure(arr, model, ChannelMask::all(arr.len()), options)?;
         Ok(e)
@@ -149,6 +197,291 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// Reconfigures (new arrangement, model, channel mask or options). On error the previous
     /// configuration stays in force, untouched.
     pub fn configure(
+        &mut self,
+        arr: &Arrangement<CAP>,
+        model: Model,
+        mask: ChannelMask,
+        options: Options,
+    ) -> Result<(), ConfigError> {
+        self.cfg.configure(arr, model, mask, options)?;
+        self.frame = 0;
+        self.reset();
+        Ok(())
+    }
+
+    /// Excludes or includes channels (new precomputation); on error nothing changes.
+    pub fn set_mask(&mut self, mask: ChannelMask) -> Result<(), ConfigError> {
+        let arr = self.cfg.arr.clone();
+        self.configure(&arr, self.cfg.model, mask, self.cfg.options)
+    }
+
+    /// Sets the known gravity-gradient tensor Γ (body frame). Cheap (no SVD).
+    pub fn set_gamma(&mut self, gamma: &Sym3<f64>) -> Result<(), ConfigError> {
+        if !gamma.0.iter().all(|v| v.is_finite()) {
+            return Err(ConfigError::NotFinite {
+                what: "gravity gradient Γ",
+            });
+        }
+        self.cfg.options.gamma = *gamma;
+        self.cfg.set_gamma(gamma);
+        Ok(())
+    }
+
+    /// Sets (or clears) the rate hint and restarts branch and sign tracking.
+    pub fn set_hint(&mut self, omega: Option<[f64; 3]>) -> Result<(), ConfigError> {
+        if let Some(w) = omega {
+            if !w.iter().all(|v| v.is_finite()) {
+                return Err(ConfigError::NotFinite { what: "rate hint" });
+            }
+        }
+        self.cfg.options.initial_omega = omega;
+        self.reset();
+        Ok(())
+    }
+
+    /// Forgets the history (tracker, filter, time).
+    pub fn reset(&mut self) {
+        self.tracker.reset();
+        self.last_t = None;
+        self.has_last = false;
+        self.domega_var = T::ZERO;
+    }
+
+    /// The model in use.
+    pub fn model(&self) -> Model {
+        self.cfg.model
+    }
+
+    /// The arrangement in use.
+    pub fn arrangement(&self) -> &Arrangement<CAP> {
+        &self.cfg.arr
+    }
+
+    /// The channel mask in use.
+    pub fn mask(&self) -> ChannelMask {
+        self.cfg.mask
+    }
+
+    /// Equilibrated condition number of the design matrix of frame `f` (None if unusable).
+    pub fn condition(&self, f: usize) -> Option<f64> {
+        (f < self.cfg.frames && self.cfg.usable[f]).then(|| self.cfg.proj[f].condition)
+    }
+
+    /// Variance per step of the rate model error learnt by the tracker (trapezoidal integration
+    /// of Ω′: jerk, sampling), rad²/s² — a health figure for telemetry.
+    pub fn rate_model_variance(&self) -> T {
+        self.tracker.model_variance()
+    }
+
+    /// Degrees of freedom of the residual (`N − 12` in model G, `N − 9` in model F).
+    pub fn dof(&self) -> usize {
+        self.cfg.proj[0].m.saturating_sub(3)
+    }
+
+    /// One sample set: `p[i]` is channel `i`'s specific force (m/s²) at time `t` (s).
+    /// Never panics; never returns NaN (a non-finite reading gives the prediction, flagged).
+    pub fn update(&mut self, t: f64, p: &[T]) -> &Estimate<T> {
+        self.update_with(t, p, None)
+    }
+
+    /// As [`Estimator::update`], and also fills `record` with every candidate branch and every
+    /// hypothesis of the tracker, for a fixed-lag smoother ([`crate::smoother::Smoother`]).
+    #[inline(never)]
+    pub fn update_with(
+        &mut self,
+        t: f64,
+        p: &[T],
+        record: Option<&mut StepRecord<T>>,
+    ) -> &Estimate<T> {
+        let cfg = &self.cfg;
+        let n = cfg.arr.len();
+        let input_ok = p.len() >= n
+            && (0..n).all(|i| !cfg.mask.contains(i) || p[i].is_finite())
+            && t.is_finite();
+        let dt = match self.last_t {
+            Some(t0) if t > t0 && (t - t0).is_finite() => t - t0,
+            _ => 0.0,
+        };
+        let dt_t = T::of(dt);
+        if !input_ok {
+            return self.hold(t, dt_t, record);
+        }
+        let excluded = cfg.mask.count(n) < n;
+        let Work {
+            branches,
+            trial,
+            cands,
+            scratch,
+        } = &mut self.work;
+        let tracker = &self.tracker;
+
+        // Candidate branches.
+        let mut fallback = false;
+        let mut nb = 0;
+        let mut eps = T::ONE;
+        let mut frame = self.frame;
+        let pred = tracker.predicted_omega(dt_t);
+        let hint: Option<Vec3<T>> = cfg
+            .options
+            .initial_omega
+            .map(|w| [T::of(w[0]), T::of(w[1]), T::of(w[2])]);
+        let steer = pred.or(if tracker.has_history() { None } else { hint });
+        match (cfg.model, steer) {
+            (Model::General, Some(w)) if norm2(&w) > T::ZERO => {
+                frame = cfg.choose_frame(frame, &w);
+                let e0 = cfg.epsilon(frame, &w);
+                let (k, fb, e) = cfg.solve_frame(frame, p, e0, dt_t, tracker, scratch, branches);
+                nb = k;
+                fallback = fb;
+                eps = e;
+            }
+            (Model::General, _) => {
+                // No prediction: try every frame, keep the best-conditioned decomposition.
+                let mut best_score = -T::ONE;
+                for f in 0..cfg.frames {
+                    if !cfg.usable[f] {
+                        continue;
+                    }
+                    let (k, fb, e) = cfg.solve_frame(f, p, T::ONE, dt_t, tracker, scratch, trial);
+                    let mut score = if fb { -T::of(0.5) } else { T::ZERO };
+                    for b in trial.iter().take(k) {
+                        score = score.max(frame_score(&b.a) - if fb { T::ONE } else { T::ZERO });
+                    }
+                    if score > best_score {
+                        best_score = score;
+                        frame = f;
+                        branches[..k].copy_from_slice(&trial[..k]);
+                        nb = k;
+                        fallback = fb;
+                        eps = e;
+                    }
+                }
+            }
+            (Model::FreeFloat, _) => {
+                frame = 0;
+                let (k, fb, _) = cfg.solve_frame(0, p, T::ONE, dt_t, tracker, scratch, branches);
+                nb = k;
+                fallback = fb;
+            }
+        }
+        self.frame = frame;
+        let v = cfg.proj[frame].frame;
+        for (c, b) in cands.iter_mut().zip(branches.iter_mut()).take(nb) {
+            let omega = cfg.omega_of(frame, eps, b);
+            let omega_var = match &cfg.proj[frame].general_cov {
+                Some(gc) => {
+                    // Model G: A is linear in p, its covariance a constant; Ω's follows from it.
+                    let var = omega_variances(&gc.field, &omega);
+                    b.omega_sd = [var[0].sqrt(), var[1].sqrt(), var[2].sqrt()];
+                    b.ill = frame_score(&b.a) < T::of(KELVIN_MIN_SCORE);
+                    (var[0] + var[1] + var[2]) / T::of(3.0)
+                }
+                None => {
+                    let (cov_a, ill) = cfg.a_covariance(frame, &b.a);
+                    b.cov_a = cov_a;
+                    b.ill = ill;
+                    cov_a.trace() / T::of(3.0)
+                }
+            };
+            *c = Candidate {
+                omega,
+                omega_var,
+                domega: mat_t_vec(&v, &[b.x[3], b.x[4], b.x[5]]),
+                fit: b.fit,
+            };
+        }
+        let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
+        // Several histories per output only where mirror branches exist and can merge.
+        let histories = if cfg.model == Model::FreeFloat && cfg.proj[0].m == 3 {
+            2
+        } else {
+            1
+        };
+        let Some(choice) =
+            self.tracker
+                .step(&cands[..nb], dt_t, self.domega_var, hint_var, histories)
+        else {
+            return self.hold(t, dt_t, record);
+        };
+        let common = CommonFlags {
+            fallback,
+            excluded,
+            branches: nb as u8,
+        };
+        let b = &branches[choice.candidate];
+        let prev = self.has_last.then_some(&self.last);
+        let mut est = Estimate::default();
+        cfg.finish(
+            frame,
+            eps,
+            b,
+            &choice.omega,
+            !cfg.options.raw,
+            prev,
+            &mut est,
+        );
+        common.apply(&mut est, choice.sign_unresolved, choice.branch_ambiguous);
+        let sd = &est.sd_domega;
+        self.domega_var = (sd[0].sq() + sd[1].sq() + sd[2].sq()) / T::of(3.0);
+        if !cfg.options.raw {
+            cfg.apply_filtered(&mut est, choice.filtered);
+        }
+        if let Some(rec) = record {
+            rec.t = t;
+            rec.valid = true;
+            rec.raw = cfg.options.raw;
+            rec.n_candidates = nb as u8;
+            for (ci, b) in branches.iter().enumerate().take(nb) {
+                let e = &mut rec.candidates[ci];
+                cfg.finish(frame, eps, b, &cands[ci].omega, false, prev, e);
+                common.apply(e, false, false);
+            }
+            let states = self.tracker.states();
+            rec.n_states = states.len() as u8;
+            rec.states[..states.len()].copy_from_slice(states);
+            rec.best = choice.state as u8;
+            rec.forward = est;
+        }
+        self.last_t = Some(t);
+        self.last = est;
+        self.has_last = true;
+        &self.last
+    }
+
+    /// Replaces the algebraic Ω of `est` by a hypothesis' filtered Ω (∫Ω′ fused with the
+    /// algebraic Ω) and its deviation; in model F also `A = Γ + {Ω}²`.
+    pub fn apply_filtered(&self, est: &mut Estimate<T>, filtered: (Vec3<T>, T)) {
+        self.cfg.apply_filtered(est, filtered);
+    }
+
+    /// Output when a sample cannot be used: the last estimate propagated by Ω′ over `dt`,
+    /// flagged; recorded as invalid for the smoother.
+    fn hold(&mut self, t: f64, dt: T, record: Option<&mut StepRecord<T>>) -> &Estimate<T> {
+        let est = &mut self.held;
+        *est = if self.has_last {
+            self.last
+        } else {
+            Estimate::default()
+        };
+        est.omega = [
+            est.omega[0] + est.domega[0] * dt,
+            est.omega[1] + est.domega[1] * dt,
+            est.omega[2] + est.domega[2] * dt,
+        ];
+        est.flags = Flags(est.flags.0 | Flags::INPUT_INVALID);
+        if !self.has_last {
+            est.flags = Flags(est.flags.0 | Flags::SIGN_UNRESOLVED);
+        }
+        if let Some(rec) = record {
+            rec.invalidate(t, *est);
+        }
+        &self.held
+    }
+}
+
+impl<T: Real, const CAP: usize> Config<T, CAP> {
+    /// Validates and precomputes a configuration; on error `self` is unchanged.
+    fn configure(
         &mut self,
         arr: &Arrangement<CAP>,
         model: Model,
@@ -196,32 +529,13 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.model = model;
         self.mask = mask;
         self.frames = frames;
-        self.frame = 0;
         self.options = options;
-        self.set_gamma_internal(&options.gamma);
-        self.reset();
+        self.set_gamma(&options.gamma);
         Ok(())
     }
 
-    /// Excludes or includes channels (new precomputation); on error nothing changes.
-    pub fn set_mask(&mut self, mask: ChannelMask) -> Result<(), ConfigError> {
-        let arr = self.arr.clone();
-        self.configure(&arr, self.model, mask, self.options)
-    }
-
-    /// Sets the known gravity-gradient tensor Γ (body frame). Cheap (no SVD).
-    pub fn set_gamma(&mut self, gamma: &Sym3<f64>) -> Result<(), ConfigError> {
-        if !gamma.0.iter().all(|v| v.is_finite()) {
-            return Err(ConfigError::NotFinite {
-                what: "gravity gradient Γ",
-            });
-        }
-        self.options.gamma = *gamma;
-        self.set_gamma_internal(gamma);
-        Ok(())
-    }
-
-    fn set_gamma_internal(&mut self, gamma: &Sym3<f64>) {
+    /// Γ in the body frame, in every frame `V`, and (model F) its offset `W (s·Γ R)`.
+    fn set_gamma(&mut self, gamma: &Sym3<f64>) {
         self.gamma = gamma.cast();
         for f in 0..NUM_FRAMES {
             let v = quat_to_mat(FRAME_QUATERNIONS[f]);
@@ -248,226 +562,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.gamma_offset_nonzero = self.gamma_offset.iter().any(|g| *g != T::ZERO);
     }
 
-    /// Sets (or clears) the rate hint and restarts branch and sign tracking.
-    pub fn set_hint(&mut self, omega: Option<[f64; 3]>) -> Result<(), ConfigError> {
-        if let Some(w) = omega {
-            if !w.iter().all(|v| v.is_finite()) {
-                return Err(ConfigError::NotFinite { what: "rate hint" });
-            }
-        }
-        self.options.initial_omega = omega;
-        self.reset();
-        Ok(())
-    }
-
-    /// Forgets the history (tracker, filter, time).
-    pub fn reset(&mut self) {
-        self.tracker.reset();
-        self.last_t = None;
-        self.last = None;
-        self.domega_var = T::ZERO;
-    }
-
-    /// The model in use.
-    pub fn model(&self) -> Model {
-        self.model
-    }
-
-    /// The arrangement in use.
-    pub fn arrangement(&self) -> &Arrangement<CAP> {
-        &self.arr
-    }
-
-    /// The channel mask in use.
-    pub fn mask(&self) -> ChannelMask {
-        self.mask
-    }
-
-    /// Equilibrated condition number of the design matrix of frame `f` (None if unusable).
-    pub fn condition(&self, f: usize) -> Option<f64> {
-        (f < self.frames && self.usable[f]).then(|| self.proj[f].condition)
-    }
-
-    /// Variance per step of the rate model error learnt by the tracker (trapezoidal integration
-    /// of Ω′: jerk, sampling), rad²/s² — a health figure for telemetry.
-    pub fn rate_model_variance(&self) -> T {
-        self.tracker.model_variance()
-    }
-
-    /// Degrees of freedom of the residual (`N − 12` in model G, `N − 9` in model F).
-    pub fn dof(&self) -> usize {
-        self.proj[0].m.saturating_sub(3)
-    }
-
-    /// One sample set: `p[i]` is channel `i`'s specific force (m/s²) at time `t` (s).
-    /// Never panics; never returns NaN (a non-finite reading gives the prediction, flagged).
-    pub fn update(&mut self, t: f64, p: &[T]) -> Estimate<T> {
-        self.update_with(t, p, None)
-    }
-
-    /// As [`Estimator::update`], and also fills `record` with every candidate branch and every
-    /// hypothesis of the tracker, for a fixed-lag smoother ([`crate::smoother::Smoother`]).
-    #[inline(never)]
-    pub fn update_with(
-        &mut self,
-        t: f64,
-        p: &[T],
-        record: Option<&mut StepRecord<T>>,
-    ) -> Estimate<T> {
-        let n = self.arr.len();
-        let input_ok = p.len() >= n
-            && (0..n).all(|i| !self.mask.contains(i) || p[i].is_finite())
-            && t.is_finite();
-        let dt = match self.last_t {
-            Some(t0) if t > t0 && (t - t0).is_finite() => t - t0,
-            _ => 0.0,
-        };
-        if !input_ok {
-            let est = self.prediction(T::of(dt));
-            if let Some(rec) = record {
-                rec.invalidate(t, est);
-            }
-            return est;
-        }
-        let dt_t = T::of(dt);
-        let excluded = self.mask.count(n) < n;
-
-        // Candidate branches.
-        let mut branches = [Branch::<T>::default(); MAX_CANDIDATES];
-        let mut cands = [Candidate::<T>::default(); MAX_CANDIDATES];
-        let mut fallback = false;
-        let mut nb = 0;
-        let mut eps = T::ONE;
-        let mut frame = self.frame;
-        let pred = self.tracker.predicted_omega(dt_t);
-        let hint: Option<Vec3<T>> = self
-            .options
-            .initial_omega
-            .map(|w| [T::of(w[0]), T::of(w[1]), T::of(w[2])]);
-        let steer = pred.or(if self.tracker.has_history() {
-            None
-        } else {
-            hint
-        });
-        match (self.model, steer) {
-            (Model::General, Some(w)) if norm2(&w) > T::ZERO => {
-                frame = self.choose_frame(&w);
-                let (k, fb, e) =
-                    self.solve_frame(frame, p, self.epsilon(frame, &w), dt_t, &mut branches);
-                nb = k;
-                fallback = fb;
-                eps = e;
-            }
-            (Model::General, _) => {
-                // No prediction: try every frame, keep the best-conditioned decomposition.
-                let mut best_score = -T::ONE;
-                for f in 0..self.frames {
-                    if !self.usable[f] {
-                        continue;
-                    }
-                    let mut trial = [Branch::<T>::default(); MAX_CANDIDATES];
-                    let (k, fb, e) = self.solve_frame(f, p, T::ONE, dt_t, &mut trial);
-                    let mut score = if fb { -T::of(0.5) } else { T::ZERO };
-                    for b in trial.iter().take(k) {
-                        score = score.max(frame_score(&b.a) - if fb { T::ONE } else { T::ZERO });
-                    }
-                    if score > best_score {
-                        best_score = score;
-                        frame = f;
-                        branches = trial;
-                        nb = k;
-                        fallback = fb;
-                        eps = e;
-                    }
-                }
-            }
-            (Model::FreeFloat, _) => {
-                frame = 0;
-                let (k, fb, _) = self.solve_frame(0, p, T::ONE, dt_t, &mut branches);
-                nb = k;
-                fallback = fb;
-            }
-        }
-        self.frame = frame;
-        let v = self.proj[frame].frame;
-        for (c, b) in cands.iter_mut().zip(branches.iter_mut()).take(nb) {
-            let omega = self.omega_of(frame, eps, b);
-            let omega_var = match &self.proj[frame].general_cov {
-                Some(gc) => {
-                    // Model G: A is linear in p, its covariance a constant; Ω's follows from it.
-                    let var = omega_variances(&gc.field, &omega);
-                    b.omega_sd = [var[0].sqrt(), var[1].sqrt(), var[2].sqrt()];
-                    b.ill = frame_score(&b.a) < T::of(KELVIN_MIN_SCORE);
-                    (var[0] + var[1] + var[2]) / T::of(3.0)
-                }
-                None => {
-                    let (cov_a, ill) = self.a_covariance(frame, &b.a);
-                    b.cov_a = cov_a;
-                    b.ill = ill;
-                    cov_a.trace() / T::of(3.0)
-                }
-            };
-            *c = Candidate {
-                omega,
-                omega_var,
-                domega: mat_t_vec(&v, &[b.x[3], b.x[4], b.x[5]]),
-                fit: b.fit,
-            };
-        }
-        let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
-        // Several histories per output only where mirror branches exist and can merge.
-        let histories = if self.model == Model::FreeFloat && self.proj[0].m == 3 {
-            2
-        } else {
-            1
-        };
-        let Some(choice) =
-            self.tracker
-                .step(&cands[..nb], dt_t, self.domega_var, hint_var, histories)
-        else {
-            let est = self.prediction(dt_t);
-            if let Some(rec) = record {
-                rec.invalidate(t, est);
-            }
-            return est;
-        };
-        let common = CommonFlags {
-            fallback,
-            excluded,
-            branches: nb as u8,
-        };
-        let b = branches[choice.candidate];
-        let mut est = self.finish(frame, eps, &b, &choice.omega);
-        common.apply(&mut est, choice.sign_unresolved, choice.branch_ambiguous);
-        let sd = &est.sd_domega;
-        self.domega_var = (sd[0].sq() + sd[1].sq() + sd[2].sq()) / T::of(3.0);
-        if !self.options.raw {
-            self.apply_filtered(&mut est, choice.filtered);
-        }
-        if let Some(rec) = record {
-            rec.t = t;
-            rec.valid = true;
-            rec.raw = self.options.raw;
-            rec.n_candidates = nb as u8;
-            for (ci, b) in branches.iter().enumerate().take(nb) {
-                let mut e = self.finish(frame, eps, b, &cands[ci].omega);
-                common.apply(&mut e, false, false);
-                rec.candidates[ci] = e;
-            }
-            let states = self.tracker.states();
-            rec.n_states = states.len() as u8;
-            rec.states[..states.len()].copy_from_slice(states);
-            rec.best = choice.state as u8;
-            rec.forward = est;
-        }
-        self.last_t = Some(t);
-        self.last = Some(est);
-        est
-    }
-
-    /// Replaces the algebraic Ω of `est` by a hypothesis' filtered Ω (∫Ω′ fused with the
-    /// algebraic Ω) and its deviation; in model F also `A = Γ + {Ω}²`.
-    pub fn apply_filtered(&self, est: &mut Estimate<T>, filtered: (Vec3<T>, T)) {
+    /// Replaces the algebraic Ω of `est` by a hypothesis' filtered Ω and its deviation; in
+    /// model F also `A = Γ + {Ω}²` and its deviations.
+    fn apply_filtered(&self, est: &mut Estimate<T>, filtered: (Vec3<T>, T)) {
         let (w, var) = filtered;
         est.omega = w;
         let sd = var.max(T::ZERO).sqrt();
@@ -480,35 +577,20 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         }
     }
 
-    /// Output when a sample cannot be used: the last estimate propagated by Ω′, flagged.
-    fn prediction(&mut self, dt: T) -> Estimate<T> {
-        let mut est = self.last.unwrap_or_default();
-        est.omega = [
-            est.omega[0] + est.domega[0] * dt,
-            est.omega[1] + est.domega[1] * dt,
-            est.omega[2] + est.domega[2] * dt,
-        ];
-        est.flags = Flags(est.flags.0 | Flags::INPUT_INVALID);
-        if self.last.is_none() {
-            est.flags = Flags(est.flags.0 | Flags::SIGN_UNRESOLVED);
-        }
-        est
-    }
-
     /// Frame whose axes see every component of `w` largest (with hysteresis).
-    fn choose_frame(&self, w: &Vec3<T>) -> usize {
+    fn choose_frame(&self, current_frame: usize, w: &Vec3<T>) -> usize {
         let score = |f: usize| frame_score(&mat_vec(&self.proj[f].frame, w));
-        let current = if self.usable[self.frame] {
-            score(self.frame)
+        let current = if self.usable[current_frame] {
+            score(current_frame)
         } else {
             -T::ONE
         };
         // Good enough (the worst-case score over all directions with these frames is 0.185):
         // keep the frame, no search.
         if current >= T::of(FRAME_KEEP_SCORE) {
-            return self.frame;
+            return current_frame;
         }
-        let mut best = self.frame;
+        let mut best = current_frame;
         let mut best_score = current;
         for f in 0..self.frames {
             if self.usable[f] {
@@ -519,10 +601,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 }
             }
         }
-        if best != self.frame && best_score > T::of(1.15) * current {
+        if best != current_frame && best_score > T::of(1.15) * current {
             best
-        } else if self.usable[self.frame] {
-            self.frame
+        } else if self.usable[current_frame] {
+            current_frame
         } else {
             best
         }
@@ -548,13 +630,15 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         p: &[T],
         eps: T,
         dt: T,
+        tracker: &Tracker<T>,
+        scratch: &mut Scratch<T, CAP>,
         out: &mut [Branch<T>; MAX_CANDIDATES],
     ) -> (usize, bool, T) {
         let pr = &self.proj[f];
         let (k, m) = (pr.k, pr.m);
         let n = self.arr.len();
         // y = W p (paper eq. 11 reduced by the SVD), minus the known-Γ term of model F.
-        let mut y = [T::ZERO; CAP];
+        let y = &mut scratch.y;
         let rows = k + m;
         // Two rows at a time: each reading is loaded once for both.
         let mut r = 0;
@@ -582,7 +666,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 *yr -= *g;
             }
         }
-        let mut pe = [T::ZERO; CAP];
+        let pe = &mut scratch.pe;
         let forms = &pr.mq[..m];
         let mut roots = [[T::ZERO; 3]; MAX_CANDIDATES];
         let mut nr = 0;
@@ -624,12 +708,12 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             let mut starts = [[T::ZERO; 3]; MAX_STARTS + MAX_ROOTS + 2];
             let mut ns = 0;
             let mut preds = [[T::ZERO; 3]; MAX_CANDIDATES];
-            let np = self.tracker.predictions(dt, &mut preds).min(MAX_STARTS);
+            let np = tracker.predictions(dt, &mut preds).min(MAX_STARTS);
             for w in preds.iter().take(np) {
                 starts[ns] = self.a_from_omega(f, w);
                 ns += 1;
             }
-            if !self.tracker.has_history() {
+            if !tracker.has_history() {
                 if let Some(h) = self.options.initial_omega {
                     starts[ns] = self.a_from_omega(f, &[T::of(h[0]), T::of(h[1]), T::of(h[2])]);
                     ns += 1;
@@ -698,7 +782,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             // No real solution (noise at low rate): least squares from the prediction or a
             // start of the right size.
             fallback = true;
-            let start = match self.tracker.predicted_omega(dt) {
+            let start = match tracker.predicted_omega(dt) {
                 Some(w) if norm2(&w) > T::ZERO => self.a_from_omega(f, &w),
                 _ => {
                     let mut big = T::ZERO;
@@ -797,12 +881,14 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
 
     /// First-order standard deviations of σ0, Ω′ and Ω (body frame) through `cov(a)`:
     /// `cov(x) = cov0 + H cov(a) Hᵀ` with `H = ∂x/∂a = −2 ε T_j a`.
+    /// Ω's deviation only `with_omega` (zero otherwise).
     fn deviations_linearised(
         &self,
         f: usize,
         eps: T,
         b: &Branch<T>,
         omega: &Vec3<T>,
+        with_omega: bool,
     ) -> (Vec3<T>, Vec3<T>, Vec3<T>) {
         let pr = &self.proj[f];
         let v = &pr.frame;
@@ -843,6 +929,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         let sd_sigma0 = sd(&block(0));
         let sd_domega = sd(&block(1));
         let sd_omega = match self.model {
+            _ if !with_omega => [T::ZERO; 3],
             Model::FreeFloat => sd(&cov_a),
             Model::General => {
                 let wv = mat_vec(v, omega);
@@ -910,69 +997,84 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         (sd_sigma0, sd_domega, sd_omega)
     }
 
-    /// The full estimate of the chosen branch, with first-order standard deviations.
+    /// The full estimate of the chosen branch, with first-order standard deviations, written
+    /// to `out`. With `rate_filtered` the parts the rate filter replaces
+    /// ([`Config::apply_filtered`]: Ω's deviation, model F's field) are left out. `prev` is
+    /// the last estimate, output (flagged) if this one were not finite.
+    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
-    fn finish(&self, f: usize, eps: T, b: &Branch<T>, omega: &Vec3<T>) -> Estimate<T> {
+    fn finish(
+        &self,
+        f: usize,
+        eps: T,
+        b: &Branch<T>,
+        omega: &Vec3<T>,
+        rate_filtered: bool,
+        prev: Option<&Estimate<T>>,
+        out: &mut Estimate<T>,
+    ) {
         let pr = &self.proj[f];
         let v = &pr.frame;
         let m = pr.m;
-        let sigma0 = mat_t_vec(v, &[b.x[0], b.x[1], b.x[2]]);
-        let domega = mat_t_vec(v, &[b.x[3], b.x[4], b.x[5]]);
-        let (field, d) = match self.model {
-            Model::General => (
-                field_in_frame(eps, b).rotate(&transpose(v)),
-                [b.x[6], b.x[7], b.x[8]],
-            ),
-            Model::FreeFloat => (
-                self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&b.a)),
-                [T::ZERO; 3],
-            ),
-        };
+        out.sigma0 = mat_t_vec(v, &[b.x[0], b.x[1], b.x[2]]);
+        out.domega = mat_t_vec(v, &[b.x[3], b.x[4], b.x[5]]);
+        out.omega = *omega;
+        match self.model {
+            Model::General => {
+                out.field = field_in_frame(eps, b).rotate(&transpose(v));
+                out.d = [b.x[6], b.x[7], b.x[8]];
+            }
+            Model::FreeFloat => {
+                if !rate_filtered {
+                    out.field = self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&b.a));
+                }
+                out.d = [T::ZERO; 3];
+            }
+        }
         let mut flags = 0u16;
         if b.ill {
             flags |= Flags::ILL_CONDITIONED;
         }
-        let (sd_sigma0, sd_domega, sd_omega) = match &pr.general_cov {
-            Some(gc) => (gc.sd_sigma0, gc.sd_domega, b.omega_sd),
-            None => self.deviations_linearised(f, eps, b, omega),
-        };
-        let sd_field = match (&pr.general_cov, self.model) {
-            (Some(gc), _) => gc.sd_field,
-            // Model F: A = Γ + {Ω}², Ω = a with cov(a) (body frame: V = I).
-            (None, Model::FreeFloat) => crate::linalg::skew_squared_sd(omega, &b.cov_a),
-            // Model G without the constant covariance (degenerate frame): not available.
-            (None, Model::General) => Sym3([T::of(1e12); 6]),
-        };
+        match &pr.general_cov {
+            Some(gc) => {
+                out.sd_sigma0 = gc.sd_sigma0;
+                out.sd_domega = gc.sd_domega;
+                out.sd_omega = b.omega_sd;
+                out.sd_field = gc.sd_field;
+            }
+            None => {
+                let (s0, sdw, sw) = self.deviations_linearised(f, eps, b, omega, !rate_filtered);
+                out.sd_sigma0 = s0;
+                out.sd_domega = sdw;
+                out.sd_omega = sw;
+                out.sd_field = match self.model {
+                    // Model F: A = Γ + {Ω}², Ω = a with cov(a) (body frame: V = I).
+                    Model::FreeFloat if !rate_filtered => {
+                        crate::linalg::skew_squared_sd(omega, &b.cov_a)
+                    }
+                    Model::FreeFloat => out.sd_field,
+                    // Model G without the constant covariance (degenerate frame): not available.
+                    Model::General => Sym3([T::of(1e12); 6]),
+                };
+            }
+        }
         let chi2 = b.fit;
         let dof = m.saturating_sub(3);
         if dof > 0 && chi2 > pr.chi2_gate {
             flags |= Flags::RESIDUAL_HIGH;
         }
-        let mut est = Estimate {
-            sigma0,
-            domega,
-            omega: *omega,
-            field,
-            a: b.a,
-            d,
-            frame: f as u8,
-            epsilon: if eps < T::ZERO { -1 } else { 1 },
-            flags: Flags(flags),
-            chi2,
-            dof: dof as u8,
-            branches: 0,
-            sd_sigma0,
-            sd_domega,
-            sd_omega,
-            sd_field,
-        };
-        if !est.is_finite() {
+        out.a = b.a;
+        out.frame = f as u8;
+        out.epsilon = if eps < T::ZERO { -1 } else { 1 };
+        out.flags = Flags(flags);
+        out.chi2 = chi2;
+        out.dof = dof as u8;
+        out.branches = 0;
+        if !out.is_finite() {
             // Defensive: never emit NaN. Keep the previous estimate, flagged.
-            let mut prev = self.last.unwrap_or_default();
-            prev.flags = Flags(prev.flags.0 | Flags::ILL_CONDITIONED | Flags::FALLBACK);
-            est = prev;
+            *out = prev.copied().unwrap_or_default();
+            out.flags = Flags(out.flags.0 | Flags::ILL_CONDITIONED | Flags::FALLBACK);
         }
-        est
     }
 }
 

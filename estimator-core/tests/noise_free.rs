@@ -223,7 +223,7 @@ fn free_float_with_known_gamma() {
             gamma: g,
         };
         let mut est = Estimator::<f64, CAP>::new(&arr, Model::FreeFloat, options).unwrap();
-        est.update(0.0, &p)
+        *est.update(0.0, &p)
     };
     let e = run(gamma);
     assert!(dist(&e.omega, &omega) < 1e-8, "{:?}", e.omega);

@@ -125,8 +125,16 @@ fn run<P: Platform>(p: &mut P) -> i32 {
         p,
         "qemu-bench: {per_tick:.3} instructions per SysTick tick (calibrated)"
     );
-    let g = run_model(p, per_tick, Model::General, 12);
-    let f = run_model(p, per_tick, Model::FreeFloat, 12);
+    // `QEMU_BENCH_ONLY=general|free-float` (compile time) runs one model, for profiling.
+    let only = option_env!("QEMU_BENCH_ONLY");
+    let g = match only {
+        Some("free-float") => 0,
+        _ => run_model(p, per_tick, Model::General, 12),
+    };
+    let f = match only {
+        Some("general") => 0,
+        _ => run_model(p, per_tick, Model::FreeFloat, 12),
+    };
     let measured = p.ticks().is_some();
     let over = measured && (g > BUDGET || f > BUDGET);
     let verdict = if !measured {
