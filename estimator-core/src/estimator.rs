@@ -137,6 +137,14 @@ struct Work<T: Real, const CAP: usize> {
     scratch: Scratch<T, CAP>,
 }
 
+/// What one frame's solve reads: the readings, the time step and the tracker's predictions.
+#[derive(Clone, Copy)]
+struct Sample<'a, T> {
+    p: &'a [T],
+    dt: T,
+    tracker: &'a Tracker<T>,
+}
+
 /// Working vectors of one frame's solve.
 struct Scratch<T: Real, const CAP: usize> {
     /// `y = W p`.
@@ -314,6 +322,11 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             scratch,
         } = &mut self.work;
         let tracker = &self.tracker;
+        let sample = Sample {
+            p,
+            dt: dt_t,
+            tracker,
+        };
 
         // Candidate branches.
         let mut fallback = false;
@@ -330,7 +343,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             (Model::General, Some(w)) if norm2(&w) > T::ZERO => {
                 frame = cfg.choose_frame(frame, &w);
                 let e0 = cfg.epsilon(frame, &w);
-                let (k, fb, e) = cfg.solve_frame(frame, p, e0, dt_t, tracker, scratch, branches);
+                let (k, fb, e) = cfg.solve_frame(frame, &sample, e0, scratch, branches);
                 nb = k;
                 fallback = fb;
                 eps = e;
@@ -342,7 +355,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                     if !cfg.usable[f] {
                         continue;
                     }
-                    let (k, fb, e) = cfg.solve_frame(f, p, T::ONE, dt_t, tracker, scratch, trial);
+                    let (k, fb, e) = cfg.solve_frame(f, &sample, T::ONE, scratch, trial);
                     let mut score = if fb { -T::of(0.5) } else { T::ZERO };
                     for b in trial.iter().take(k) {
                         score = score.max(frame_score(&b.a) - if fb { T::ONE } else { T::ZERO });
@@ -359,7 +372,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             }
             (Model::FreeFloat, _) => {
                 frame = 0;
-                let (k, fb, _) = cfg.solve_frame(0, p, T::ONE, dt_t, tracker, scratch, branches);
+                let (k, fb, _) = cfg.solve_frame(0, &sample, T::ONE, scratch, branches);
                 nb = k;
                 fallback = fb;
             }
@@ -627,13 +640,12 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
     fn solve_frame(
         &self,
         f: usize,
-        p: &[T],
+        sample: &Sample<'_, T>,
         eps: T,
-        dt: T,
-        tracker: &Tracker<T>,
         scratch: &mut Scratch<T, CAP>,
         out: &mut [Branch<T>; MAX_CANDIDATES],
     ) -> (usize, bool, T) {
+        let Sample { p, dt, tracker } = *sample;
         let pr = &self.proj[f];
         let (k, m) = (pr.k, pr.m);
         let n = self.arr.len();
