@@ -103,11 +103,12 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     frame: usize,
     tracker: Tracker<T>,
     last_t: Option<f64>,
-    /// The last estimate from a usable sample (valid when `has_last`).
-    last: Estimate<T>,
+    /// Two estimate slots, written in place: `out[last]` is the last estimate from a usable
+    /// sample (valid when `has_last`); the other slot receives the next output (a new estimate,
+    /// which then becomes the last, or the prediction for an unusable sample, which does not).
+    out: [Estimate<T>; 2],
+    last: usize,
     has_last: bool,
-    /// The output for an unusable sample (the prediction), kept apart from `last`.
-    held: Estimate<T>,
     domega_var: T,
     work: Work<T, CAP>,
 }
@@ -192,9 +193,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             frame: 0,
             tracker: Tracker::new(),
             last_t: None,
-            last: Estimate::default(),
+            out: [Estimate::default(); 2],
+            last: 0,
             has_last: false,
-            held: Estimate::default(),
             domega_var: T::ZERO,
             work: Work::new(),
         };
@@ -422,22 +423,19 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             branches: nb as u8,
         };
         let b = &branches[choice.candidate];
-        let prev = self.has_last.then_some(&self.last);
-        let mut est = Estimate::default();
-        cfg.finish(
-            frame,
-            eps,
-            b,
-            &choice.omega,
-            !cfg.options.raw,
-            prev,
-            &mut est,
-        );
-        common.apply(&mut est, choice.sign_unresolved, choice.branch_ambiguous);
+        let (lo, hi) = self.out.split_at_mut(1);
+        let (prev, est) = if self.last == 0 {
+            (&lo[0], &mut hi[0])
+        } else {
+            (&hi[0], &mut lo[0])
+        };
+        let prev = self.has_last.then_some(&*prev);
+        cfg.finish(frame, eps, b, &choice.omega, !cfg.options.raw, prev, est);
+        common.apply(est, choice.sign_unresolved, choice.branch_ambiguous);
         let sd = &est.sd_domega;
         self.domega_var = (sd[0].sq() + sd[1].sq() + sd[2].sq()) / T::of(3.0);
         if !cfg.options.raw {
-            cfg.apply_filtered(&mut est, choice.filtered);
+            cfg.apply_filtered(est, choice.filtered);
         }
         if let Some(rec) = record {
             rec.t = t;
@@ -453,12 +451,12 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             rec.n_states = states.len() as u8;
             rec.states[..states.len()].copy_from_slice(states);
             rec.best = choice.state as u8;
-            rec.forward = est;
+            rec.forward = *est;
         }
         self.last_t = Some(t);
-        self.last = est;
+        self.last ^= 1;
         self.has_last = true;
-        &self.last
+        &self.out[self.last]
     }
 
     /// Replaces the algebraic Ω of `est` by a hypothesis' filtered Ω (∫Ω′ fused with the
@@ -470,9 +468,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// Output when a sample cannot be used: the last estimate propagated by Ω′ over `dt`,
     /// flagged; recorded as invalid for the smoother.
     fn hold(&mut self, t: f64, dt: T, record: Option<&mut StepRecord<T>>) -> &Estimate<T> {
-        let est = &mut self.held;
+        let last = self.out[self.last];
+        let est = &mut self.out[self.last ^ 1];
         *est = if self.has_last {
-            self.last
+            last
         } else {
             Estimate::default()
         };
@@ -488,7 +487,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         if let Some(rec) = record {
             rec.invalidate(t, *est);
         }
-        &self.held
+        &self.out[self.last ^ 1]
     }
 }
 

@@ -93,6 +93,10 @@ pub struct Tracker<T> {
     /// Running variance of the trapezoidal model error per step (jerk, sampling), learnt from
     /// the chosen hypothesis' innovations.
     model_var: T,
+    /// Working storage of [`Tracker::step`] (not zeroed per step; written before read): the
+    /// kept histories of one output and each new state's model-error sample.
+    top: [(State<T>, T); HISTORIES_PER_OUTPUT],
+    innov: [T; MAX_STATES],
 }
 
 impl<T: Real> Default for Tracker<T> {
@@ -110,6 +114,8 @@ impl<T: Real> Tracker<T> {
             n: 0,
             best: 0,
             model_var: T::ZERO,
+            top: [(State::default(), T::ZERO); HISTORIES_PER_OUTPUT],
+            innov: [T::ZERO; MAX_STATES],
         }
     }
 
@@ -201,6 +207,8 @@ impl<T: Real> Tracker<T> {
         let half_dt = T::of(0.5) * dt;
         let q = half_dt * half_dt * T::of(2.0) * domega_var + self.model_var;
         let three = T::of(3.0);
+        let top = &mut self.top;
+        let innov = &mut self.innov;
         let (lo, hi) = self.buf.split_at_mut(1);
         let (prev, next) = if self.cur == 0 {
             (&lo[0], &mut hi[0])
@@ -208,7 +216,6 @@ impl<T: Real> Tracker<T> {
             (&hi[0], &mut lo[0])
         };
         let np = self.n;
-        let mut innov = [T::ZERO; MAX_STATES];
         let mut nn = 0usize;
         for (ci, c) in cands.iter().enumerate().take(nc) {
             let r = c.omega_var.max(T::of(1e-30));
@@ -218,9 +225,8 @@ impl<T: Real> Tracker<T> {
                 } else {
                     scale(-T::ONE, &c.omega)
                 };
-                // The two cheapest distinct histories for this output: (state, innovation excess).
-                let mut top: [(State<T>, T); HISTORIES_PER_OUTPUT] =
-                    [(State::default(), T::ZERO); HISTORIES_PER_OUTPUT];
+                // The two cheapest distinct histories for this output: (state, innovation excess)
+                // in `top[..nt]`.
                 let mut nt = 0usize;
                 if np == 0 {
                     let mut cost = c.fit;
