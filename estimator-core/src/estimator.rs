@@ -429,7 +429,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         } else {
             (&hi[0], &mut lo[0])
         };
-        let prev = self.has_last.then_some(&*prev);
+        let prev = self.has_last.then_some(prev);
         cfg.finish(frame, eps, b, &choice.omega, !cfg.options.raw, prev, est);
         common.apply(est, choice.sign_unresolved, choice.branch_ambiguous);
         let sd = &est.sd_domega;
