@@ -11,7 +11,7 @@ use crate::error::ConfigError;
 use crate::estimate::{Estimate, Flags};
 use crate::linalg::{dot, mat_t_vec, mat_vec, norm2, quat_to_mat, scale, Mat3, Sym3, Vec3};
 use crate::quadratic::{
-    canonical_sign, closed_form, gauss_newton, rank_one_factor, residual2, MAX_ROOTS,
+    canonical_sign, closed_form, gauss_newton, rank_one_factor, refine, residual2, MAX_ROOTS,
 };
 use crate::real::Real;
 use crate::smoother::StepRecord;
@@ -89,6 +89,8 @@ struct Branch<T> {
     a: Vec3<T>,
     x: [T; MAX_COLS],
     fit: T,
+    /// `JᵀJ` of the `a` solve when the solver formed it (else computed for `cov_a`).
+    jtj: Option<Sym3<T>>,
     /// `cov(a)` and whether its solve is ill-conditioned (filled after the solve).
     cov_a: Sym3<T>,
     ill: bool,
@@ -152,6 +154,9 @@ struct Scratch<T: Real, const CAP: usize> {
     y: [T; CAP],
     /// `ε P`, the right-hand sides of the quadratic forms.
     pe: [T; CAP],
+    /// Residual and `JᵀJ` of each root found by [`refine`].
+    fit: [T; MAX_CANDIDATES],
+    jtj: [Sym3<T>; MAX_CANDIDATES],
 }
 
 impl<T: Real, const CAP: usize> Work<T, CAP> {
@@ -163,6 +168,8 @@ impl<T: Real, const CAP: usize> Work<T, CAP> {
             scratch: Scratch {
                 y: [T::ZERO; CAP],
                 pe: [T::ZERO; CAP],
+                fit: [T::ZERO; MAX_CANDIDATES],
+                jtj: [Sym3::zero(); MAX_CANDIDATES],
             },
         }
     }
@@ -391,7 +398,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                     (var[0] + var[1] + var[2]) / T::of(3.0)
                 }
                 None => {
-                    let (cov_a, ill) = cfg.a_covariance(frame, &b.a);
+                    let (cov_a, ill) = cfg.a_covariance(frame, &b.a, b.jtj.as_ref());
                     b.cov_a = cov_a;
                     b.ill = ill;
                     cov_a.trace() / T::of(3.0)
@@ -680,6 +687,8 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         let pe = &mut scratch.pe;
         let forms = &pr.mq[..m];
         let mut roots = [[T::ZERO; 3]; MAX_CANDIDATES];
+        // Roots from `refine` carry their residual and JᵀJ in `scratch`.
+        let mut refined = [false; MAX_CANDIDATES];
         let mut nr = 0;
         let mut eps = eps;
         if pr.has_lin_o {
@@ -766,13 +775,17 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
             }
             let mut i = 0;
             while i < ns {
-                let (mut a, res) = gauss_newton(forms, rhs, &starts[i], GN_ITERATIONS);
+                let sol = refine(forms, rhs, &starts[i], GN_ITERATIONS);
+                let (mut a, res) = (sol.a, sol.fit);
                 canonical_sign(&mut a);
                 let dup = roots[..nr].iter().any(|b| {
                     norm2(&crate::linalg::sub(&a, b)) <= T::of(1e-6) * norm2(&a).max(T::EPSILON)
                 });
                 if !dup && nr < MAX_CANDIDATES && a.iter().all(|v| v.is_finite()) {
                     roots[nr] = a;
+                    scratch.fit[nr] = res;
+                    scratch.jtj[nr] = sol.jtj;
+                    refined[nr] = true;
                     nr += 1;
                 }
                 if i == 0 && res <= pr.chi2_gate {
@@ -818,20 +831,20 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
             roots[0] = a;
             nr = 1;
         }
-        for (b, a) in out.iter_mut().zip(roots.iter()).take(nr) {
+        for (i, (b, a)) in out.iter_mut().zip(roots.iter()).take(nr).enumerate() {
             let o = crate::linalg::outer6(a);
-            let mut x = [T::ZERO; MAX_COLS];
-            for (j, xj) in x.iter_mut().enumerate().take(k) {
-                *xj = y[j] - eps * pr.tq[j].quad_outer(&o);
+            b.a = *a;
+            for j in 0..k {
+                b.x[j] = y[j] - eps * pr.tq[j].quad_outer(&o);
             }
-            *b = Branch {
-                a: *a,
-                x,
-                fit: residual2(forms, rhs, a),
-                cov_a: Sym3::zero(),
-                ill: false,
-                omega_sd: [T::ZERO; 3],
-            };
+            if refined[i] {
+                b.fit = scratch.fit[i];
+                b.jtj = Some(scratch.jtj[i]);
+            } else {
+                b.fit = residual2(forms, rhs, a);
+                b.jtj = None;
+            }
+            b.ill = false;
         }
         (nr, fallback, eps)
     }
@@ -867,14 +880,20 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
 
     /// `cov(a) = (JᵀJ)⁻¹` with `J` rows `2 ε M_k a` (whitened equations: unit noise), and
     /// whether `JᵀJ` is nearly singular. Regularised so that `a = 0` (no rotation) gives large
-    /// but finite variances.
+    /// but finite variances. `jtj`: `JᵀJ` if the solver already formed it.
     #[inline(never)]
-    fn a_covariance(&self, f: usize, a: &Vec3<T>) -> (Sym3<T>, bool) {
+    fn a_covariance(&self, f: usize, a: &Vec3<T>, jtj: Option<&Sym3<T>>) -> (Sym3<T>, bool) {
         let pr = &self.proj[f];
-        let mut jtj = Sym3::<T>::zero();
-        for mk in pr.mq.iter().take(pr.m) {
-            jtj.add_outer(&scale(T::of(2.0), &mk.mul_vec(a)));
-        }
+        let jtj = match jtj {
+            Some(j) => *j,
+            None => {
+                let mut jtj = Sym3::<T>::zero();
+                for mk in pr.mq.iter().take(pr.m) {
+                    jtj.add_outer(&scale(T::of(2.0), &mk.mul_vec(a)));
+                }
+                jtj
+            }
+        };
         let third = jtj.trace() / T::of(3.0);
         let det = crate::linalg::det3(&jtj.to_mat());
         let ill = !(det > T::of(ILL_RCOND) * third * third * third);

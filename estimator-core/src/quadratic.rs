@@ -4,6 +4,8 @@
 //! The equations are `aᵀ M_k a = P_k`, `k = 1..m` (the sign `ε` already folded into `P`).
 //! - [`closed_form`]: `m = 3`, every real solution, fixed cost (pencil of conics).
 //! - [`gauss_newton`]: `m ≥ 3`, least squares from a starting point (Levenberg–Marquardt damped).
+//! - [`refine`]: the same from a close prediction, stopped by the Newton decrement (the sample
+//!   loop's path for `m > 3`).
 //! - [`rank_one_factor`]: `a` from `S ≈ a aᵀ` (with `m ≥ 6`, `S` is solved linearly from
 //!   `tr(M_k S) = P_k`, a starting point that needs no prediction).
 
@@ -437,6 +439,89 @@ fn newton_polish<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], a: &mut Vec3<T>, converg
     }
 }
 
+/// Newton decrement (predicted fall of the whitened χ²) below which [`refine`] stops: the
+/// estimate then moves by less than 1 % of its standard deviation.
+pub const DECREMENT_TOL: f64 = 1e-4;
+
+/// The result of [`refine`].
+#[derive(Clone, Copy, Debug)]
+pub struct Refined<T> {
+    /// The solution.
+    pub a: Vec3<T>,
+    /// Its residual `Σ_k (P_k − aᵀ M_k a)²` (whitened χ²; first order after the last step).
+    pub fit: T,
+    /// `JᵀJ` (rows `2 M_k a`) at the last point where it was formed: the inverse covariance
+    /// of `a` for whitened equations.
+    pub jtj: Sym3<T>,
+}
+
+/// Residual, `JᵀJ` and `Jᵀr` of the whitened equations at `a` (one pass over the forms).
+fn normal_equations<T: Real>(m: &[Sym3<T>], p: &[T], a: &Vec3<T>) -> (T, Sym3<T>, Vec3<T>) {
+    let mut res = T::ZERO;
+    let mut jtj = Sym3::<T>::zero();
+    let mut jtr = [T::ZERO; 3];
+    for (mk, pk) in m.iter().zip(p.iter()) {
+        let ma = mk.mul_vec(a);
+        let r = *pk - dot(a, &ma);
+        let g = scale(T::of(2.0), &ma);
+        res += r * r;
+        jtj.add_outer(&g);
+        for i in 0..3 {
+            jtr[i] += g[i] * r;
+        }
+    }
+    (res, jtj, jtr)
+}
+
+/// Gauss–Newton (Levenberg–Marquardt damped) on `Σ_k (P_k − aᵀ M_k a)²` from a close start,
+/// for whitened equations (unit noise). Each pass over the forms gives the residual at the
+/// current point together with its normal equations, so a step is accepted or rejected
+/// without an extra residual evaluation; iteration stops once the Newton decrement
+/// `2 sᵀJᵀr − sᵀJᵀJ s` of the step `s` falls below [`DECREMENT_TOL`] (that last step is
+/// taken). From a prediction at sample rate this is normally two passes.
+pub fn refine<T: Real>(m: &[Sym3<T>], p: &[T], start: &Vec3<T>, iterations: usize) -> Refined<T> {
+    let mut a = *start;
+    let (mut res, mut jtj, mut jtr) = normal_equations(m, p, &a);
+    let mut mu = T::of(1e-3);
+    let tol = T::of(DECREMENT_TOL);
+    for _ in 0..iterations {
+        let diag = jtj.trace() / T::of(3.0);
+        if !(diag > T::ZERO) {
+            break;
+        }
+        let mut damped = jtj;
+        for i in 0..3 {
+            damped.0[i] += mu * diag;
+        }
+        let Some(step) = solve3(&damped.to_mat(), &jtr) else {
+            break;
+        };
+        let trial = [a[0] + step[0], a[1] + step[1], a[2] + step[2]];
+        let decrement = T::of(2.0) * dot(&step, &jtr) - jtj.quad(&step);
+        if decrement <= tol {
+            if decrement >= T::ZERO && trial.iter().all(|v| v.is_finite()) {
+                a = trial;
+                res = (res - decrement).max(T::ZERO);
+            }
+            break;
+        }
+        let (tres, tjtj, tjtr) = normal_equations(m, p, &trial);
+        if tres < res {
+            a = trial;
+            res = tres;
+            jtj = tjtj;
+            jtr = tjtr;
+            mu = (mu * T::of(0.3)).max(T::of(1e-7));
+        } else {
+            mu *= T::of(10.0);
+            if mu > T::of(1e6) {
+                break;
+            }
+        }
+    }
+    Refined { a, fit: res, jtj }
+}
+
 /// Levenberg–Marquardt on `Σ_k (P_k − aᵀ M_k a)²` from `start` (Jacobian rows `2 M_k a`).
 /// Returns the solution and its residual.
 pub fn gauss_newton<T: Real>(
@@ -567,6 +652,56 @@ mod tests {
         let (b, res) = gauss_newton(&m, &p, &[0.8, -1.2, 0.5], 30);
         assert!(res < 1e-20, "{res}");
         assert!(norm2(&crate::linalg::sub(&a, &b)) < 1e-16);
+    }
+
+    /// Six whitened forms with noisy right-hand sides (scaled so one unit is one σ).
+    fn noisy_six() -> ([Sym3<f64>; 6], [f64; 6], Vec3<f64>) {
+        let base = forms();
+        let mut m = [Sym3::zero(); 6];
+        for (k, mk) in m.iter_mut().enumerate() {
+            let s = if k < 3 { 1.0 } else { -0.7 };
+            let mut f = base[k % 3].scaled(s * 200.0);
+            f.0[(k + 1) % 6] += 30.0;
+            *mk = f;
+        }
+        let a = [0.7, -1.3, 0.4];
+        let noise = [0.8, -1.1, 0.3, 1.7, -0.4, 0.9];
+        let mut p = [0.0; 6];
+        for k in 0..6 {
+            p[k] = m[k].quad(&a) + noise[k];
+        }
+        (m, p, a)
+    }
+
+    #[test]
+    fn refine_reaches_the_least_squares_optimum_and_reports_its_fit() {
+        let (m, p, a) = noisy_six();
+        let (opt, res_opt) = gauss_newton(&m, &p, &a, 50);
+        // From a start 2 % off (a prediction's error is far smaller at sample rate).
+        let start = [a[0] * 1.02, a[1] * 0.98, a[2] * 1.02];
+        let r = refine(&m, &p, &start, 6);
+        // At the optimum the decrement tolerance bounds the χ² excess.
+        assert!(residual2(&m, &p, &r.a) - res_opt <= DECREMENT_TOL, "{r:?}");
+        assert!((r.fit - residual2(&m, &p, &r.a)).abs() <= DECREMENT_TOL);
+        // cov(a) = (JᵀJ)⁻¹: the error against the optimum is a small fraction of a σ.
+        let d = crate::linalg::sub(&r.a, &opt);
+        assert!(r.jtj.quad(&d) < 0.01, "{}", r.jtj.quad(&d));
+        // JᵀJ is formed at (or a decrement away from) the solution.
+        let (_, jtj_here, _) = normal_equations(&m, &p, &r.a);
+        for i in 0..6 {
+            assert!((jtj_here.0[i] - r.jtj.0[i]).abs() <= 1e-3 * jtj_here.0[0].abs().max(1.0));
+        }
+    }
+
+    #[test]
+    fn refine_stops_at_once_from_the_optimum() {
+        let (m, p, a) = noisy_six();
+        let (opt, res_opt) = gauss_newton(&m, &p, &a, 50);
+        let r = refine(&m, &p, &opt, 6);
+        // At most a final step below the decrement tolerance: < 1 % of a σ.
+        let d = crate::linalg::sub(&r.a, &opt);
+        assert!(r.jtj.quad(&d) <= 1.01 * DECREMENT_TOL, "{}", r.jtj.quad(&d));
+        assert!((r.fit - res_opt).abs() <= DECREMENT_TOL);
     }
 
     #[test]
