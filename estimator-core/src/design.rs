@@ -34,6 +34,11 @@ pub struct Projection<T, const CAP: usize> {
     pub tq: [Sym3<T>; MAX_COLS],
     /// Diagonal 3×3 blocks of `G⁺ G⁺ᵀ` (σ0, Ω′, d): the covariance of `x` for known `a`.
     pub cov0: [Sym3<T>; 3],
+    /// The forms of the body-frame components of σ0 and Ω′ (`x_body = Vᵀ x`):
+    /// `Σ_r V[r][c] T_{3b+r}` for block `b` (0: σ0, 1: Ω′) and body axis `c`.
+    pub tq_body: [Sym3<T>; 6],
+    /// Variances of the body-frame components of σ0 and Ω′ for known `a`: `diag(Vᵀ cov0_b V)`.
+    pub var0_body: [T; 6],
     /// Model G: the constant covariances of its (linear) estimates, body frame.
     pub general_cov: Option<GeneralCovariance<T>>,
     /// With `m ≥ 6`: `L` (6 × m), the least-squares solve of `tr(M_k S) = P_k` for
@@ -67,6 +72,8 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             mq: [Sym3::zero(); CAP],
             tq: [Sym3::zero(); MAX_COLS],
             cov0: [Sym3::zero(); 3],
+            tq_body: [Sym3::zero(); 6],
+            var0_body: [T::ZERO; 6],
             general_cov: None,
             lin_s: [[T::ZERO; CAP]; 6],
             has_lin_s: false,
@@ -203,6 +210,20 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
                 }
             }
             self.cov0[b] = Sym3::from_mat(&blk).cast();
+            if b < 2 {
+                let c0 = Sym3::from_mat(&blk);
+                for c in 0..3 {
+                    let col = [v[0][c], v[1][c], v[2][c]];
+                    let mut form = Sym3::<f64>::zero();
+                    if 3 * b + 2 < k {
+                        for (r, vr) in col.iter().enumerate() {
+                            form = form.add_scaled(*vr, &tq[3 * b + r]);
+                        }
+                    }
+                    self.tq_body[3 * b + c] = form.cast();
+                    self.var0_body[3 * b + c] = T::of(c0.quad(&col));
+                }
+            }
         }
         self.build_linear_s(&mq, m);
         self.build_linear_o(&mq, m, model);

@@ -924,25 +924,17 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         let v = &pr.frame;
         let k = pr.k;
         let cov_a = b.cov_a;
-        // x = y − ε [aᵀ T_j a]: ∂x_j/∂a = −2 ε T_j a; cov(x) = cov0 + H cov(a) Hᵀ.
-        let mut h = [[T::ZERO; 3]; MAX_COLS];
-        for (j, hj) in h.iter_mut().enumerate().take(k) {
-            *hj = scale(-T::of(2.0) * eps, &pr.tq[j].mul_vec(&b.a));
+        // σ0 and Ω′ in the body frame: x_c = (Vᵀ y)_c − ε aᵀ T′_c a, so
+        // var(x_c) = var0_c + 4 (T′_c a)ᵀ cov(a) (T′_c a) (T′_c: `tq_body`).
+        let mut sd6 = [T::ZERO; 6];
+        for (c, sd) in sd6.iter_mut().enumerate() {
+            let g = pr.tq_body[c].mul_vec(&b.a);
+            *sd = (pr.var0_body[c] + T::of(4.0) * cov_a.quad(&g))
+                .max(T::ZERO)
+                .sqrt();
         }
-        // Block bi of cov(x): cov0 + H_b cov(a) H_bᵀ (H_b: rows 3bi..3bi+3 of H).
-        let ca = cov_a.to_mat();
-        let block = |bi: usize| -> Sym3<T> {
-            let mut hc = [[T::ZERO; 3]; 3]; // H_b cov(a)
-            for (r, row) in hc.iter_mut().enumerate() {
-                *row = mat_t_vec(&ca, &h[3 * bi + r]);
-            }
-            let mut c = pr.cov0[bi];
-            let idx = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
-            for (slot, (r, s)) in idx.iter().enumerate() {
-                c.0[slot] += dot(&hc[*r], &h[3 * bi + s]);
-            }
-            c
-        };
+        let sd_sigma0 = [sd6[0], sd6[1], sd6[2]];
+        let sd_domega = [sd6[3], sd6[4], sd6[5]];
         // Standard deviations in the body frame: diag(Vᵀ C V)_k = v_kᵀ C v_k, v_k = column k of V.
         let vcols = [
             [v[0][0], v[1][0], v[2][0]],
@@ -956,8 +948,6 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
                 c.quad(&vcols[2]).max(T::ZERO).sqrt(),
             ]
         };
-        let sd_sigma0 = sd(&block(0));
-        let sd_domega = sd(&block(1));
         let sd_omega = match self.model {
             _ if !with_omega => [T::ZERO; 3],
             Model::FreeFloat => sd(&cov_a),
@@ -984,11 +974,24 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
                             jac[r][3 + i] = (dmw[r] - wv[r] * q / (T::of(2.0) * w2)) / w2;
                         }
                     }
-                    // Joint covariance of (a, d): d = y_d − ε aᵀT a, so cov(d, a) = H_d cov(a).
-                    let cd = block(2).to_mat();
+                    // Joint covariance of (a, d): d = y_d − ε aᵀT a, so cov(d, a) = H_d cov(a)
+                    // with H_d rows −2 ε T_j a (j = 6, 7, 8), and
+                    // cov(d) = cov0_d + H_d cov(a) H_dᵀ.
+                    let ca = cov_a.to_mat();
+                    let mut h = [[T::ZERO; 3]; 3];
+                    for (r, hr) in h.iter_mut().enumerate().take(k.saturating_sub(6)) {
+                        *hr = scale(-T::of(2.0) * eps, &pr.tq[6 + r].mul_vec(&b.a));
+                    }
+                    let mut cd = pr.cov0[2].to_mat();
+                    for r in 0..3 {
+                        let hc = mat_t_vec(&ca, &h[r]);
+                        for c in 0..3 {
+                            cd[r][c] += dot(&hc, &h[c]);
+                        }
+                    }
                     let mut c6 = [[T::ZERO; 6]; 6];
                     for r in 0..3 {
-                        let cda = mat_t_vec(&ca, &h[6 + r]);
+                        let cda = mat_t_vec(&ca, &h[r]);
                         for c in 0..3 {
                             c6[r][c] = ca[r][c];
                             c6[3 + r][3 + c] = cd[r][c];
