@@ -65,6 +65,9 @@ pub struct State<T> {
     pub from: u8,
 }
 
+/// The sign of each output of a candidate: `Ω`, then `−Ω`.
+const SIGNS: [i8; 2] = [1, -1];
+
 /// The result of one tracker step.
 #[derive(Clone, Copy, Debug)]
 pub struct Choice<T> {
@@ -95,7 +98,7 @@ pub struct Tracker<T> {
     model_var: T,
     /// Working storage of [`Tracker::step`] (not zeroed per step; written before read): the
     /// kept histories of one output and each new state's model-error sample.
-    top: [(State<T>, T); HISTORIES_PER_OUTPUT],
+    top: [[(State<T>, T); HISTORIES_PER_OUTPUT]; 2],
     innov: [T; MAX_STATES],
 }
 
@@ -114,7 +117,7 @@ impl<T: Real> Tracker<T> {
             n: 0,
             best: 0,
             model_var: T::ZERO,
-            top: [(State::default(), T::ZERO); HISTORIES_PER_OUTPUT],
+            top: [[(State::default(), T::ZERO); HISTORIES_PER_OUTPUT]; 2],
             innov: [T::ZERO; MAX_STATES],
         }
     }
@@ -217,50 +220,55 @@ impl<T: Real> Tracker<T> {
         };
         let np = self.n;
         let mut nn = 0usize;
+        let model_var = self.model_var;
         for (ci, c) in cands.iter().enumerate().take(nc) {
             let r = c.omega_var.max(T::of(1e-30));
-            for sign in [1i8, -1i8] {
-                let z = if sign > 0 {
-                    c.omega
-                } else {
-                    scale(-T::ONE, &c.omega)
-                };
-                // The two cheapest distinct histories for this output: (state, innovation excess)
-                // in `top[..nt]`.
-                let mut nt = 0usize;
-                if np == 0 {
+            // The two outputs of this candidate: Ω with either sign.
+            let zs = [c.omega, scale(-T::ONE, &c.omega)];
+            // The cheapest distinct histories of each output, `top[sign][..nt[sign]]`:
+            // (state, model-error sample).
+            let mut nt = [0usize; 2];
+            if np == 0 {
+                for (si, z) in zs.iter().enumerate() {
                     let mut cost = c.fit;
                     if let Some((h, var)) = hint {
-                        cost += (norm2(&sub(&z, &h)) / var.max(T::of(1e-30))).min(cap);
+                        cost += (norm2(&sub(z, &h)) / var.max(T::of(1e-30))).min(cap);
                     }
-                    top[0] = (
+                    top[si][0] = (
                         State {
-                            omega: z,
+                            omega: *z,
                             var: r,
                             domega: c.domega,
                             cost,
                             candidate: ci as u8,
-                            sign,
+                            sign: SIGNS[si],
                             from: u8::MAX,
                         },
                         T::ZERO,
                     );
-                    nt = 1;
+                    nt[si] = 1;
                 }
-                for (i, s) in prev.iter().enumerate().take(np) {
-                    let mut pred = [T::ZERO; 3];
-                    for k in 0..3 {
-                        pred[k] = s.omega[k] + half_dt * (s.domega[k] + c.domega[k]);
-                    }
-                    let pvar = s.var + q;
-                    let sv = pvar + r;
-                    let nu = sub(&z, &pred);
+            }
+            for (i, s) in prev.iter().enumerate().take(np) {
+                // Shared by both signs: the prediction, its variance, the gain, the log term.
+                let mut pred = [T::ZERO; 3];
+                for k in 0..3 {
+                    pred[k] = s.omega[k] + half_dt * (s.domega[k] + c.domega[k]);
+                }
+                let pvar = s.var + q;
+                let sv = pvar + r;
+                let inv_sv = T::ONE / sv;
+                let base = s.cost + c.fit + three * sv.ln_approx();
+                let gain = pvar * inv_sv;
+                for (si, z) in zs.iter().enumerate() {
+                    let nu = sub(z, &pred);
                     let nu2 = norm2(&nu);
-                    let cost = s.cost + c.fit + (nu2 / sv).min(step_cap) + three * sv.ln_approx();
-                    if nt == histories && cost >= top[nt - 1].0.cost {
+                    let cost = base + (nu2 * inv_sv).min(step_cap);
+                    let kept = &mut top[si];
+                    let n = &mut nt[si];
+                    if *n == histories && cost >= kept[*n - 1].0.cost {
                         continue;
                     }
-                    let gain = pvar / sv;
                     let st = State {
                         omega: [
                             pred[0] + gain * nu[0],
@@ -271,32 +279,34 @@ impl<T: Real> Tracker<T> {
                         domega: c.domega,
                         cost,
                         candidate: ci as u8,
-                        sign,
+                        sign: SIGNS[si],
                         from: i as u8,
                     };
                     // Innovation variance not explained by the filter, the measurement and the
                     // Ω′ noise: an unbiased sample of the model error (the learnt part of q is
                     // not subtracted, so the running mean converges to it).
-                    let entry = (st, nu2 / three - (sv - self.model_var));
+                    let entry = (st, nu2 / three - (sv - model_var));
                     // Same history as a kept one? Keep the cheaper.
-                    if let Some(j) = (0..nt).find(|&j| {
-                        norm2(&sub(&top[j].0.omega, &st.omega))
-                            <= T::of(0.25) * (top[j].0.var + st.var)
+                    if let Some(j) = (0..*n).find(|&j| {
+                        norm2(&sub(&kept[j].0.omega, &st.omega))
+                            <= T::of(0.25) * (kept[j].0.var + st.var)
                     }) {
-                        if cost < top[j].0.cost {
-                            top[j] = entry;
+                        if cost < kept[j].0.cost {
+                            kept[j] = entry;
                         }
-                    } else if nt < histories {
-                        top[nt] = entry;
-                        nt += 1;
+                    } else if *n < histories {
+                        kept[*n] = entry;
+                        *n += 1;
                     } else {
-                        top[nt - 1] = entry;
+                        kept[*n - 1] = entry;
                     }
-                    if nt == 2 && top[1].0.cost < top[0].0.cost {
-                        top.swap(0, 1);
+                    if *n == 2 && kept[1].0.cost < kept[0].0.cost {
+                        kept.swap(0, 1);
                     }
                 }
-                for (st, ex) in top.iter().take(nt) {
+            }
+            for (si, kept) in top.iter().enumerate() {
+                for (st, ex) in kept.iter().take(nt[si]) {
                     if !st.cost.is_finite() {
                         continue;
                     }
