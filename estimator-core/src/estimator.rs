@@ -727,9 +727,9 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
             // the linear solve tried as well.
             let mut starts = [[T::ZERO; 3]; MAX_STARTS + MAX_ROOTS + 2];
             let mut ns = 0;
-            let mut preds = [[T::ZERO; 3]; MAX_CANDIDATES];
-            let np = tracker.predictions(dt, &mut preds).min(MAX_STARTS);
-            for w in preds.iter().take(np) {
+            // The chosen hypothesis' prediction first; the others' only if it fails the gate.
+            let best_pred = tracker.predicted_omega(dt);
+            if let Some(w) = &best_pred {
                 starts[ns] = self.a_from_omega(f, w);
                 ns += 1;
             }
@@ -790,6 +790,20 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
                 }
                 if i == 0 && res <= pr.chi2_gate {
                     break;
+                }
+                if i == 0 {
+                    if let Some(w0) = best_pred {
+                        let mut preds = [[T::ZERO; 3]; MAX_CANDIDATES];
+                        let np = tracker.predictions(dt, &mut preds);
+                        let mut added = 0;
+                        for w in preds.iter().take(np) {
+                            if *w != w0 && added + 1 < MAX_STARTS {
+                                starts[ns] = self.a_from_omega(f, w);
+                                ns += 1;
+                                added += 1;
+                            }
+                        }
+                    }
                 }
                 if !lin_tried && i + 1 == ns {
                     lin_tried = true;
