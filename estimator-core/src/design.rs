@@ -25,9 +25,10 @@ pub struct Projection<T, const CAP: usize> {
     pub k: usize,
     /// Quadratic equations (`N_included − k`).
     pub m: usize,
-    /// `W` (rows `0..k`: `G⁺`, rows `k..k+m`: `U⊥ᵀ`), columns indexed by channel, whitening
-    /// folded in; excluded channels have zero columns.
-    pub w: [[T; CAP]; CAP],
+    /// `W` (rows `0..k`: `G⁺`, rows `k..k+m`: `U⊥ᵀ`, whitening folded in) stored by channel:
+    /// `wt[i][r] = W[r][i]`, so that `W p` streams each channel's column once. Excluded
+    /// channels and rows beyond `k + m` are zero.
+    pub wt: [[T; CAP]; CAP],
     /// `M_k`, `k < m`.
     pub mq: [Sym3<T>; CAP],
     /// `T_j`, `j < k`.
@@ -68,7 +69,7 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
         Projection {
             k: 0,
             m: 0,
-            w: [[T::ZERO; CAP]; CAP],
+            wt: [[T::ZERO; CAP]; CAP],
             mq: [Sym3::zero(); CAP],
             tq: [Sym3::zero(); MAX_COLS],
             cov0: [Sym3::zero(); 3],
@@ -170,14 +171,14 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
         self.m = m;
         self.condition = condition;
         self.chi2_gate = T::of(crate::estimate::chi2_999(m - 3).min(f64::MAX));
-        self.w = [[T::ZERO; CAP]; CAP];
+        self.wt = [[T::ZERO; CAP]; CAP];
         for (row, &i) in idx.iter().enumerate().take(n) {
             let inv_noise = 1.0 / arr.channels()[i].noise;
             for c in 0..k {
-                self.w[c][i] = T::of(pinv[c][row] * inv_noise);
+                self.wt[i][c] = T::of(pinv[c][row] * inv_noise);
             }
             for e in 0..m {
-                self.w[k + e][i] = T::of(null[e][row] * inv_noise);
+                self.wt[i][k + e] = T::of(null[e][row] * inv_noise);
             }
         }
         let mut mq = [Sym3::<f64>::zero(); CAP];

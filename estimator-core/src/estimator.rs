@@ -573,7 +573,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
             for r in 0..pr.k + pr.m {
                 let mut acc = 0.0;
                 for (i, ci) in c.iter().enumerate().take(self.arr.len()) {
-                    acc += pr.w[r][i].to_f64() * ci;
+                    acc += pr.wt[i][r].to_f64() * ci;
                 }
                 self.gamma_offset[r] = T::of(acc);
             }
@@ -658,27 +658,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         // y = W p (paper eq. 11 reduced by the SVD), minus the known-Γ term of model F.
         let y = &mut scratch.y;
         let rows = k + m;
-        // Two rows at a time: each reading is loaded once for both.
-        let mut r = 0;
-        while r + 1 < rows {
-            let (ra, rb) = (&pr.w[r], &pr.w[r + 1]);
-            let (mut acc_a, mut acc_b) = (T::ZERO, T::ZERO);
-            for i in 0..n {
-                let pi = p[i];
-                acc_a += ra[i] * pi;
-                acc_b += rb[i] * pi;
-            }
-            y[r] = acc_a;
-            y[r + 1] = acc_b;
-            r += 2;
-        }
-        if r < rows {
-            let mut acc = T::ZERO;
-            for i in 0..n {
-                acc += pr.w[r][i] * p[i];
-            }
-            y[r] = acc;
-        }
+        project(&pr.wt, p, n, rows, y);
         if self.gamma_offset_nonzero {
             for (yr, g) in y.iter_mut().zip(self.gamma_offset.iter()).take(rows) {
                 *yr -= *g;
@@ -1214,6 +1194,44 @@ fn omega_variances<T: Real>(c: &[[T; 6]; 6], w: &Vec3<T>) -> Vec3<T> {
         var[r] = (T::of(2.0) * acc).max(T::ZERO);
     }
     var
+}
+
+/// Rows of `W p` accumulated together in [`project`] (in registers on the target).
+const PROJECT_CHUNK: usize = 12;
+
+/// `y = W p` for the first `rows` rows, `W` stored by channel (`wt[i]` = column `i`): up to
+/// [`PROJECT_CHUNK`] rows at a time, each reading loaded once per chunk and its coefficients
+/// contiguous (rows past `rows` are zero in `wt` and discarded).
+fn project<T: Real, const CAP: usize>(
+    wt: &[[T; CAP]; CAP],
+    p: &[T],
+    n: usize,
+    rows: usize,
+    y: &mut [T; CAP],
+) {
+    let n = n.min(p.len());
+    let (p, wt) = (&p[..n], &wt[..n]);
+    let rows = rows.min(CAP);
+    let mut r0 = 0;
+    while r0 + PROJECT_CHUNK <= CAP && r0 < rows {
+        let mut acc = [T::ZERO; PROJECT_CHUNK];
+        for (col, &pi) in wt.iter().zip(p.iter()) {
+            let c = &col[r0..r0 + PROJECT_CHUNK];
+            for (a, w) in acc.iter_mut().zip(c.iter()) {
+                *a += *w * pi;
+            }
+        }
+        let end = (r0 + PROJECT_CHUNK).min(rows);
+        y[r0..end].copy_from_slice(&acc[..end - r0]);
+        r0 += PROJECT_CHUNK;
+    }
+    for (r, yr) in y.iter_mut().enumerate().take(rows).skip(r0) {
+        let mut acc = T::ZERO;
+        for (col, &pi) in wt.iter().zip(p.iter()) {
+            acc += col[r] * pi;
+        }
+        *yr = acc;
+    }
 }
 
 /// `min_i |w_i| / |w|`: how well a frame separates the off-diagonals of `{w}²`.
