@@ -1250,3 +1250,36 @@ fn transpose<T: Real>(m: &Mat3<T>) -> Mat3<T> {
         [m[0][2], m[1][2], m[2][2]],
     ]
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `project` equals the plain product for every row count (chunks and remainder).
+    #[test]
+    fn project_equals_the_plain_product() {
+        const CAP: usize = 32;
+        let mut wt = [[0.0f64; CAP]; CAP];
+        for (i, col) in wt.iter_mut().enumerate() {
+            for (r, w) in col.iter_mut().enumerate() {
+                *w = ((i * 7 + r * 13) % 17) as f64 - 8.0 + 0.1 * r as f64;
+            }
+        }
+        let p: Vec<f64> = (0..CAP).map(|i| 0.3 * i as f64 - 2.0).collect();
+        for n in [1, 5, 12, 20, 32] {
+            for rows in [1, 4, 11, 12, 13, 24, 25, 32] {
+                // Rows past `rows` must not leak into y: fill y with a marker.
+                let mut y = [7.5f64; CAP];
+                project(&wt, &p, n, rows, &mut y);
+                for r in 0..CAP {
+                    let want = if r < rows {
+                        (0..n).map(|i| wt[i][r] * p[i]).sum::<f64>()
+                    } else {
+                        7.5
+                    };
+                    assert!((y[r] - want).abs() < 1e-9, "n {n} rows {rows} r {r}");
+                }
+            }
+        }
+    }
+}
