@@ -590,9 +590,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         est.sd_omega = [sd, sd, sd];
         if self.model == Model::FreeFloat {
             est.field = self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&w));
-            let v = var.max(T::ZERO);
-            est.sd_field =
-                crate::linalg::skew_squared_sd(&w, &Sym3([v, v, v, T::ZERO, T::ZERO, T::ZERO]));
+            est.sd_field = crate::linalg::skew_squared_sd_isotropic(&w, var);
         }
     }
 

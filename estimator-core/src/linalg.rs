@@ -242,6 +242,31 @@ impl<T: Real> Sym3<T> {
         ])
     }
 
+    /// Solves `S x = b` for a symmetric positive definite `S` from its six distinct cofactors;
+    /// `None` unless `det S > 1e-12 (tr S / 3)³` (not positive definite to working precision)
+    /// or if the solution is not finite.
+    pub fn solve(&self, b: &Vec3<T>) -> Option<Vec3<T>> {
+        let s = &self.0;
+        let c00 = s[1] * s[2] - s[5] * s[5];
+        let c11 = s[0] * s[2] - s[4] * s[4];
+        let c22 = s[0] * s[1] - s[3] * s[3];
+        let c01 = s[4] * s[5] - s[3] * s[2];
+        let c02 = s[3] * s[5] - s[1] * s[4];
+        let c12 = s[3] * s[4] - s[0] * s[5];
+        let det = s[0] * c00 + s[3] * c01 + s[4] * c02;
+        let t = (s[0] + s[1] + s[2]) / T::of(3.0);
+        if !(det > T::of(1e-12) * t * t * t) {
+            return None;
+        }
+        let inv = T::ONE / det;
+        let x = [
+            (c00 * b[0] + c01 * b[1] + c02 * b[2]) * inv,
+            (c01 * b[0] + c11 * b[1] + c12 * b[2]) * inv,
+            (c02 * b[0] + c12 * b[1] + c22 * b[2]) * inv,
+        ];
+        x.iter().all(|v| v.is_finite()).then_some(x)
+    }
+
     /// Inverse by the adjugate; `None` when `|det|` is not above `tiny`.
     pub fn inverse(&self, tiny: T) -> Option<Self> {
         let m = self.to_mat();
@@ -273,6 +298,23 @@ pub fn skew_squared_sd<T: Real>(w: &Vec3<T>, c: &Sym3<T>) -> Sym3<T> {
         *o = c.quad(r).max(T::ZERO).sqrt();
     }
     out
+}
+
+/// [`skew_squared_sd`] for an isotropic covariance `var · I`: `sd = √var · |row|` for each
+/// row of `∂{w}²/∂w`.
+pub fn skew_squared_sd_isotropic<T: Real>(w: &Vec3<T>, var: T) -> Sym3<T> {
+    let s = var.max(T::ZERO).sqrt();
+    let two_s = T::of(2.0) * s;
+    let (w0, w1, w2) = (w[0] * w[0], w[1] * w[1], w[2] * w[2]);
+    let (r01, r02, r12) = ((w0 + w1).sqrt(), (w0 + w2).sqrt(), (w1 + w2).sqrt());
+    Sym3([
+        two_s * r12,
+        two_s * r02,
+        two_s * r01,
+        s * r01,
+        s * r02,
+        s * r12,
+    ])
 }
 
 /// The products of `a` used by [`Sym3::quad_outer`].
@@ -337,6 +379,34 @@ pub fn quat_to_mat(q: [f64; 4]) -> Mat3<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn symmetric_solve_matches_cramer_and_rejects_singular() {
+        let s = Sym3([4.0, 3.0, 2.5, 0.7, -0.4, 0.9]);
+        let b = [1.0, -2.0, 0.5];
+        let x = s.solve(&b).unwrap();
+        let y = solve3(&s.to_mat(), &b).unwrap();
+        for i in 0..3 {
+            assert!((x[i] - y[i]).abs() < 1e-12);
+        }
+        // Rank one (singular) and indefinite: rejected.
+        let v = [1.0, 2.0, -1.0];
+        let mut r1 = Sym3::zero();
+        r1.add_outer(&v);
+        assert!(r1.solve(&b).is_none());
+        assert!(Sym3([1.0, -1.0, 1.0, 0.0, 0.0, 0.0]).solve(&b).is_none());
+    }
+
+    #[test]
+    fn isotropic_skew_squared_sd_matches_the_general_form() {
+        let w = [0.3, -1.2, 2.0];
+        let var = 0.04;
+        let a = skew_squared_sd_isotropic(&w, var);
+        let b = skew_squared_sd(&w, &Sym3([var, var, var, 0.0, 0.0, 0.0]));
+        for i in 0..6 {
+            assert!((a.0[i] - b.0[i]).abs() < 1e-12, "{i}");
+        }
+    }
 
     #[test]
     fn sensor_form_matches_double_cross() {

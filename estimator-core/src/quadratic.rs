@@ -493,7 +493,7 @@ pub fn refine<T: Real>(m: &[Sym3<T>], p: &[T], start: &Vec3<T>, iterations: usiz
         for i in 0..3 {
             damped.0[i] += mu * diag;
         }
-        let Some(step) = solve3(&damped.to_mat(), &jtr) else {
+        let Some(step) = damped.solve(&jtr) else {
             break;
         };
         let trial = [a[0] + step[0], a[1] + step[1], a[2] + step[2]];
