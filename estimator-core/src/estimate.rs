@@ -90,17 +90,24 @@ pub fn chi2_999(dof: usize) -> f64 {
 impl<T: Real> Estimate<T> {
     /// True if no component is NaN or infinite (the estimator guarantees this).
     pub fn is_finite(&self) -> bool {
-        let v = |x: &Vec3<T>| x.iter().all(|c| c.is_finite());
-        v(&self.sigma0)
-            && v(&self.domega)
-            && v(&self.omega)
-            && self.field.0.iter().all(|c| c.is_finite())
-            && v(&self.a)
-            && v(&self.d)
-            && self.chi2.is_finite()
-            && v(&self.sd_sigma0)
-            && v(&self.sd_domega)
-            && v(&self.sd_omega)
-            && self.sd_field.0.iter().all(|c| c.is_finite())
+        // x·0 is ±0 for finite x and NaN otherwise: one test for all components.
+        let mut acc = T::ZERO;
+        let mut add = |x: &[T]| {
+            for v in x {
+                acc += *v * T::ZERO;
+            }
+        };
+        add(&self.sigma0);
+        add(&self.domega);
+        add(&self.omega);
+        add(&self.field.0);
+        add(&self.a);
+        add(&self.d);
+        add(&[self.chi2]);
+        add(&self.sd_sigma0);
+        add(&self.sd_domega);
+        add(&self.sd_omega);
+        add(&self.sd_field.0);
+        acc == T::ZERO
     }
 }

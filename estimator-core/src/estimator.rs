@@ -311,9 +311,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     ) -> &Estimate<T> {
         let cfg = &self.cfg;
         let n = cfg.arr.len();
-        let input_ok = p.len() >= n
-            && (0..n).all(|i| !cfg.mask.contains(i) || p[i].is_finite())
-            && t.is_finite();
+        let input_ok = readings_usable(p, n, cfg.mask) && t.is_finite();
         let dt = match self.last_t {
             Some(t0) if t > t0 && (t - t0).is_finite() => t - t0,
             _ => 0.0,
@@ -1194,6 +1192,23 @@ fn omega_variances<T: Real>(c: &[[T; 6]; 6], w: &Vec3<T>) -> Vec3<T> {
     var
 }
 
+/// True if `p` has `n` readings and every included one is finite. One test for the common
+/// case (`x·0` is ±0 for finite `x`, NaN otherwise); the mask is consulted only if it fails
+/// (a non-finite reading of an excluded channel is allowed).
+fn readings_usable<T: Real>(p: &[T], n: usize, mask: ChannelMask) -> bool {
+    let Some(p) = p.get(..n) else {
+        return false;
+    };
+    let mut acc = T::ZERO;
+    for v in p {
+        acc += *v * T::ZERO;
+    }
+    acc == T::ZERO
+        || p.iter()
+            .enumerate()
+            .all(|(i, v)| v.is_finite() || !mask.contains(i))
+}
+
 /// Rows of `W p` accumulated together in [`project`] (in registers on the target).
 const PROJECT_CHUNK: usize = 12;
 
@@ -1252,6 +1267,43 @@ fn transpose<T: Real>(m: &Mat3<T>) -> Mat3<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn readings_usable_only_when_every_included_reading_is_finite() {
+        let all = ChannelMask::all(4);
+        assert!(readings_usable(&[1.0f32, -0.0, 3.0, 1e30], 4, all));
+        assert!(!readings_usable(&[1.0f32, 2.0, 3.0], 4, all), "too few");
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let p = [1.0f32, bad, 3.0, 4.0];
+            assert!(!readings_usable(&p, 4, all));
+            // Channel 1 excluded: its reading does not matter.
+            assert!(readings_usable(&p, 4, all.without(1)));
+            assert!(!readings_usable(&p, 4, all.without(2)));
+        }
+        // Readings past n are not looked at.
+        assert!(readings_usable(
+            &[1.0f32, 2.0, f32::NAN],
+            2,
+            ChannelMask::all(2)
+        ));
+    }
+
+    #[test]
+    fn estimate_finiteness_sees_every_component() {
+        let e = Estimate::<f32>::default();
+        assert!(e.is_finite());
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let mut x = e;
+            x.sd_field.0[5] = bad;
+            assert!(!x.is_finite());
+            let mut x = e;
+            x.sigma0[0] = bad;
+            assert!(!x.is_finite());
+            let mut x = e;
+            x.chi2 = bad;
+            assert!(!x.is_finite());
+        }
+    }
 
     /// `project` equals the plain product for every row count (chunks and remainder).
     #[test]
