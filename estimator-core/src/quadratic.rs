@@ -583,8 +583,9 @@ pub fn gauss_newton<T: Real>(
 }
 
 /// The best rank-one factor `v` of a symmetric `S ≈ v vᵀ` (top eigenpair, `λ ≥ 0`), started
-/// from the column with the largest diagonal and refined by three power iterations.
-/// Returns zero when `S` has no positive diagonal.
+/// from the column with the largest diagonal and refined by three power iterations (scaled
+/// once, to stay in range), with the Rayleigh quotient for `λ`. Returns zero when `S` has no
+/// positive diagonal or no positive top eigenvalue.
 pub fn rank_one_factor<T: Real>(s: &Sym3<T>) -> Vec3<T> {
     let m = s.to_mat();
     let mut k = 0;
@@ -596,21 +597,21 @@ pub fn rank_one_factor<T: Real>(s: &Sym3<T>) -> Vec3<T> {
     if !(m[k][k] > T::ZERO) {
         return [T::ZERO; 3];
     }
-    let mut v = m[k];
-    for _ in 0..3 {
-        let w = s.mul_vec(&v);
-        let n = norm2(&w).sqrt();
-        if !(n > T::ZERO) || !n.is_finite() {
-            return [T::ZERO; 3];
-        }
-        v = scale(T::ONE / n, &w);
+    // v = S² column k, scaled to unit largest component, then one more product.
+    let v = s.mul_vec(&s.mul_vec(&m[k]));
+    let big = v[0].abs().max(v[1].abs()).max(v[2].abs());
+    if !(big > T::ZERO) || !big.is_finite() {
+        return [T::ZERO; 3];
     }
-    let lambda = s.quad(&v);
-    if lambda > T::ZERO {
-        scale(lambda.sqrt(), &v)
-    } else {
-        [T::ZERO; 3]
+    let v = s.mul_vec(&scale(T::ONE / big, &v));
+    // λ = vᵀ S v / vᵀ v; the factor is v √(λ / vᵀv).
+    let sv = s.mul_vec(&v);
+    let vv = dot(&v, &v);
+    let vsv = dot(&v, &sv);
+    if !(vsv > T::ZERO) || !(vv > T::ZERO) {
+        return [T::ZERO; 3];
     }
+    scale((vsv / vv).sqrt() / vv.sqrt(), &v)
 }
 
 #[cfg(test)]
