@@ -706,6 +706,28 @@ mod tests {
     }
 
     #[test]
+    fn rank_one_factor_recovers_the_top_eigenpair() {
+        let v = [1.5, -0.4, 2.2];
+        let mut s = Sym3::zero();
+        s.add_outer(&v);
+        let f = rank_one_factor(&s);
+        let sign = if dot(&f, &v) < 0.0 { -1.0 } else { 1.0 };
+        for i in 0..3 {
+            assert!((sign * f[i] - v[i]).abs() < 1e-12, "{f:?}");
+        }
+        // Rank one plus a smaller second component: the top eigenpair, λ = 9, along e_x.
+        let g = rank_one_factor(&Sym3([9.0, 1.0, 0.5, 0.0, 0.0, 0.0]));
+        assert!((g[0].abs() - 3.0).abs() < 1e-6 && g[1].abs() < 1e-6 && g[2].abs() < 1e-6);
+        // Large values stay in range (f32), negative definite gives zero.
+        let big = rank_one_factor(&Sym3([1e12f32, 2e12, 3e12, 0.0, 0.0, 0.0]));
+        assert!(big.iter().all(|x| x.is_finite()) && (big[2].abs() - 1.732e6).abs() < 1e3);
+        assert_eq!(
+            rank_one_factor(&Sym3([-1.0, -2.0, -3.0, 0.0, 0.0, 0.0])),
+            [0.0; 3]
+        );
+    }
+
+    #[test]
     fn cubic_roots_of_known_polynomial() {
         // (x-1)(x+2)(x-3) = x³ - 2x² - 5x + 6
         let mut r = [0.0; 3];
