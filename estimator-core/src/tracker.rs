@@ -68,6 +68,20 @@ pub struct State<T> {
 /// The sign of each output of a candidate: `Ω`, then `−Ω`.
 const SIGNS: [i8; 2] = [1, -1];
 
+impl<T: Real> State<T> {
+    /// Copies `src` field by field (small copies stay inline instead of a `memmove` call).
+    #[inline(always)]
+    fn set(&mut self, src: &State<T>) {
+        self.omega = src.omega;
+        self.var = src.var;
+        self.domega = src.domega;
+        self.cost = src.cost;
+        self.candidate = src.candidate;
+        self.sign = src.sign;
+        self.from = src.from;
+    }
+}
+
 /// The result of one tracker step.
 #[derive(Clone, Copy, Debug)]
 pub struct Choice<T> {
@@ -325,7 +339,7 @@ impl<T: Real> Tracker<T> {
                         }
                         worst
                     };
-                    next[slot] = *st;
+                    next[slot].set(st);
                     innov[slot] = *ex;
                 }
             }
@@ -346,7 +360,8 @@ impl<T: Real> Tracker<T> {
             next[j].cost -= base;
             if next[j].cost < cap || j == best {
                 if j != kept {
-                    next[kept] = next[j];
+                    let src = next[j];
+                    next[kept].set(&src);
                     innov[kept] = innov[j];
                 }
                 if j == best {
