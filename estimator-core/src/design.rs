@@ -10,7 +10,7 @@
 
 use crate::arrangement::{Arrangement, ChannelMask, Model};
 use crate::error::{ConfigError, Unknown};
-use crate::linalg::{cross, mat_vec, Mat3, Sym3};
+use crate::linalg::{cross, mat_t_vec, mat_vec, Mat3, Sym3, Vec3};
 use crate::real::Real;
 use crate::svd::{Svd, MAX_COLS};
 
@@ -56,6 +56,8 @@ pub struct Projection<T, const CAP: usize> {
     pub has_lin_o: bool,
     /// Frame `V` (rows: frame axes in body coordinates).
     pub frame: Mat3<T>,
+    /// `V` is the identity (the body axes; always in model F): rotations are skipped.
+    pub identity: bool,
     /// Equilibrated condition number of the whitened design matrix.
     pub condition: f64,
     /// 99.9 % point of χ² for the `m − 3` degrees of freedom of the residual (infinite when
@@ -85,8 +87,29 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
                 [T::ZERO, T::ONE, T::ZERO],
                 [T::ZERO, T::ZERO, T::ONE],
             ],
+            identity: true,
             condition: f64::INFINITY,
             chi2_gate: T::of(f64::MAX),
+        }
+    }
+
+    /// `Vᵀ x`: frame coordinates to body coordinates.
+    #[inline]
+    pub fn to_body(&self, x: &Vec3<T>) -> Vec3<T> {
+        if self.identity {
+            *x
+        } else {
+            mat_t_vec(&self.frame, x)
+        }
+    }
+
+    /// `V w`: body coordinates to frame coordinates.
+    #[inline]
+    pub fn to_frame(&self, w: &Vec3<T>) -> Vec3<T> {
+        if self.identity {
+            *w
+        } else {
+            mat_vec(&self.frame, w)
         }
     }
 
@@ -239,6 +262,7 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
                 *d = T::of(*s);
             }
         }
+        self.identity = (0..3).all(|r| (0..3).all(|c| v[r][c] == if r == c { 1.0 } else { 0.0 }));
         Ok(())
     }
 

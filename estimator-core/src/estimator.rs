@@ -154,6 +154,9 @@ struct Scratch<T: Real, const CAP: usize> {
     y: [T; CAP],
     /// `ε P`, the right-hand sides of the quadratic forms.
     pe: [T; CAP],
+    /// The roots of the `a` solve and the Gauss–Newton starts.
+    roots: [Vec3<T>; MAX_CANDIDATES],
+    starts: [Vec3<T>; MAX_STARTS + MAX_ROOTS + 2],
     /// Residual and `JᵀJ` of each root found by [`refine`].
     fit: [T; MAX_CANDIDATES],
     jtj: [Sym3<T>; MAX_CANDIDATES],
@@ -168,6 +171,8 @@ impl<T: Real, const CAP: usize> Work<T, CAP> {
             scratch: Scratch {
                 y: [T::ZERO; CAP],
                 pe: [T::ZERO; CAP],
+                roots: [[T::ZERO; 3]; MAX_CANDIDATES],
+                starts: [[T::ZERO; 3]; MAX_STARTS + MAX_ROOTS + 2],
                 fit: [T::ZERO; MAX_CANDIDATES],
                 jtj: [Sym3::zero(); MAX_CANDIDATES],
             },
@@ -384,7 +389,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             }
         }
         self.frame = frame;
-        let v = cfg.proj[frame].frame;
         for (c, b) in cands.iter_mut().zip(branches.iter_mut()).take(nb) {
             let omega = cfg.omega_of(frame, eps, b);
             let omega_var = match &cfg.proj[frame].general_cov {
@@ -405,7 +409,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             *c = Candidate {
                 omega,
                 omega_var,
-                domega: mat_t_vec(&v, &[b.x[3], b.x[4], b.x[5]]),
+                domega: cfg.proj[frame].to_body(&[b.x[3], b.x[4], b.x[5]]),
                 fit: b.fit,
             };
         }
@@ -662,7 +666,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         }
         let pe = &mut scratch.pe;
         let forms = &pr.mq[..m];
-        let mut roots = [[T::ZERO; 3]; MAX_CANDIDATES];
+        let roots = &mut scratch.roots;
         // Roots from `refine` carry their residual and JᵀJ in `scratch`.
         let mut refined = [false; MAX_CANDIDATES];
         let mut nr = 0;
@@ -701,7 +705,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
             // linear S = a aᵀ solve) normally suffices: with redundancy the optimum is unique.
             // Only if its residual fails the χ² gate are the other hypotheses' predictions and
             // the linear solve tried as well.
-            let mut starts = [[T::ZERO; 3]; MAX_STARTS + MAX_ROOTS + 2];
+            let starts = &mut scratch.starts;
             let mut ns = 0;
             // The chosen hypothesis' prediction first; the others' only if it fails the gate.
             let best_pred = tracker.predicted_omega(dt);
@@ -842,7 +846,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
     /// `a` in frame `f` that reproduces the field of rate `w` (body): `a = V w` when `Γ` is
     /// negligible (model G with `d ≈ Γ` terms absorbed by the solve), `a = w` in model F.
     fn a_from_omega(&self, f: usize, w: &Vec3<T>) -> Vec3<T> {
-        mat_vec(&self.proj[f].frame, w)
+        self.proj[f].to_frame(w)
     }
 
     /// Unsigned Ω (body) of a branch: model F `Ω = a`; model G from `ΩΩᵀ = (A − Γ) − ½ tr(A − Γ) I`.
@@ -1039,8 +1043,8 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         let pr = &self.proj[f];
         let v = &pr.frame;
         let m = pr.m;
-        out.sigma0 = mat_t_vec(v, &[b.x[0], b.x[1], b.x[2]]);
-        out.domega = mat_t_vec(v, &[b.x[3], b.x[4], b.x[5]]);
+        out.sigma0 = pr.to_body(&[b.x[0], b.x[1], b.x[2]]);
+        out.domega = pr.to_body(&[b.x[3], b.x[4], b.x[5]]);
         out.omega = *omega;
         match self.model {
             Model::General => {
