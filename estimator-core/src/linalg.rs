@@ -246,6 +246,11 @@ impl<T: Real> Sym3<T> {
     /// `None` unless `det S > 1e-12 (tr S / 3)³` (not positive definite to working precision)
     /// or if the solution is not finite.
     pub fn solve(&self, b: &Vec3<T>) -> Option<Vec3<T>> {
+        self.solve_with_trace(b).map(|(x, _)| x)
+    }
+
+    /// [`Sym3::solve`], also returning `tr S⁻¹` (free from the same cofactors).
+    pub fn solve_with_trace(&self, b: &Vec3<T>) -> Option<(Vec3<T>, T)> {
         let s = &self.0;
         let c00 = s[1] * s[2] - s[5] * s[5];
         let c11 = s[0] * s[2] - s[4] * s[4];
@@ -264,7 +269,8 @@ impl<T: Real> Sym3<T> {
             (c01 * b[0] + c11 * b[1] + c12 * b[2]) * inv,
             (c02 * b[0] + c12 * b[1] + c22 * b[2]) * inv,
         ];
-        x.iter().all(|v| v.is_finite()).then_some(x)
+        let tr = (c00 + c11 + c22) * inv;
+        (x.iter().all(|v| v.is_finite()) && tr.is_finite()).then_some((x, tr))
     }
 
     /// Inverse by the adjugate; `None` when `|det|` is not above `tiny`.

@@ -477,8 +477,10 @@ fn normal_equations<T: Real>(m: &[Sym3<T>], p: &[T], a: &Vec3<T>) -> (T, Sym3<T>
 /// for whitened equations (unit noise). Each pass over the forms gives the residual at the
 /// current point together with its normal equations, so a step is accepted or rejected
 /// without an extra residual evaluation; iteration stops once the Newton decrement
-/// `2 sᵀJᵀr − sᵀJᵀJ s` of the step `s` falls below [`DECREMENT_TOL`] (that last step is
-/// taken). From a prediction at sample rate this is normally two passes.
+/// `d = 2 sᵀJᵀr − sᵀJᵀJ s` of the step `s` — or the one predicted for the next step,
+/// `4 d (|s|² + tr (JᵀJ)⁻¹) / |a|²` — falls below [`DECREMENT_TOL`]; that last step is taken
+/// and its residual is the first-order `res − d`. From a prediction at sample rate this is
+/// normally one pass.
 pub fn refine<T: Real>(m: &[Sym3<T>], p: &[T], start: &Vec3<T>, iterations: usize) -> Refined<T> {
     let mut a = *start;
     let (mut res, mut jtj, mut jtr) = normal_equations(m, p, &a);
@@ -493,12 +495,17 @@ pub fn refine<T: Real>(m: &[Sym3<T>], p: &[T], start: &Vec3<T>, iterations: usiz
         for i in 0..3 {
             damped.0[i] += mu * diag;
         }
-        let Some(step) = damped.solve(&jtr) else {
+        let Some((step, tr_inv)) = damped.solve_with_trace(&jtr) else {
             break;
         };
         let trial = [a[0] + step[0], a[1] + step[1], a[2] + step[2]];
         let decrement = T::of(2.0) * dot(&step, &jtr) - jtj.quad(&step);
-        if decrement <= tol {
+        // The next step's decrement, predicted: Gauss–Newton's error contracts by about
+        // |s|/|a| (second order) plus the relative deviation of `a` (√(tr (JᵀJ)⁻¹)/|a|, the
+        // linear rate a non-zero residual gives); with a margin of 4.
+        let a2 = norm2(&trial);
+        let next = T::of(4.0) * decrement * (norm2(&step) + tr_inv);
+        if decrement <= tol || next <= tol * a2 {
             if decrement >= T::ZERO && trial.iter().all(|v| v.is_finite()) {
                 a = trial;
                 res = (res - decrement).max(T::ZERO);
@@ -683,14 +690,21 @@ mod tests {
         let r = refine(&m, &p, &start, 6);
         // At the optimum the decrement tolerance bounds the χ² excess.
         assert!(residual2(&m, &p, &r.a) - res_opt <= DECREMENT_TOL, "{r:?}");
-        assert!((r.fit - residual2(&m, &p, &r.a)).abs() <= DECREMENT_TOL);
+        // The reported χ² is first order after the last step (one pass saved): within 1e-3
+        // of the true residual here, negligible against its uses (the 99.9 % gate, ≥ 10.8,
+        // and the tracker's costs).
+        let fit_err = (r.fit - residual2(&m, &p, &r.a)).abs();
+        assert!(fit_err <= 1e-3, "fit error {fit_err}, fit {}", r.fit);
         // cov(a) = (JᵀJ)⁻¹: the error against the optimum is a small fraction of a σ.
         let d = crate::linalg::sub(&r.a, &opt);
         assert!(r.jtj.quad(&d) < 0.01, "{}", r.jtj.quad(&d));
-        // JᵀJ is formed at (or a decrement away from) the solution.
+        // JᵀJ is formed one (small) step before the solution: within 1 % (0.5 % in the
+        // deviations derived from it).
         let (_, jtj_here, _) = normal_equations(&m, &p, &r.a);
+        let scale = jtj_here.trace();
         for i in 0..6 {
-            assert!((jtj_here.0[i] - r.jtj.0[i]).abs() <= 1e-3 * jtj_here.0[0].abs().max(1.0));
+            let rel = (jtj_here.0[i] - r.jtj.0[i]).abs() / scale;
+            assert!(rel <= 1e-2, "JᵀJ[{i}] off by {rel} relative");
         }
     }
 
