@@ -77,6 +77,7 @@ fn run_model<P: Platform>(p: &mut P, per_tick: f64, model: Model, channels: usiz
     let mut p64 = [0.0f64; 12];
     let mut p32 = [0.0f32; 12];
     let (mut total, mut worst, mut count) = (0u64, 0u64, 0u64);
+    let mut over = 0u64;
     let mut max_err = 0.0f64;
     for k in 0..SAMPLES {
         let t = k as f64 * scenario::DT;
@@ -90,6 +91,9 @@ fn run_model<P: Platform>(p: &mut P, per_tick: f64, model: Model, channels: usiz
             total += n;
             worst = worst.max(n);
             count += 1;
+            if n > BUDGET {
+                over += 1;
+            }
         }
         if k > 50 {
             let w = scenario::field(t).2;
@@ -112,8 +116,9 @@ fn run_model<P: Platform>(p: &mut P, per_tick: f64, model: Model, channels: usiz
     let mean = total / count.max(1);
     let _ = writeln!(
         p,
-        "model {:<10} N = {channels}: per-sample estimate mean {mean} instructions, max {worst}; \
-         precomputation (all frames) {setup}; mask change {reconf}; max |Ω error| after 0.5 s {max_err:.4} rad/s",
+        "model {:<10} N = {channels}: per-sample estimate mean {mean} instructions, max {worst}, \
+         {over} of {count} over {BUDGET}; precomputation (all frames) {setup}; mask change {reconf}; \
+         max |Ω error| after 0.5 s {max_err:.4} rad/s",
         model.name()
     );
     mean
