@@ -889,7 +889,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
             }
         };
         let third = jtj.trace() / T::of(3.0);
-        let det = crate::linalg::det3(&jtj.to_mat());
+        let det = jtj.det();
         let ill = !(det > T::of(ILL_RCOND) * third * third * third);
         let reg = T::of(1e-6) * third + T::of(1e-12);
         let mut jr = jtj;

@@ -252,13 +252,7 @@ impl<T: Real> Sym3<T> {
     /// [`Sym3::solve`], also returning `tr S⁻¹` (free from the same cofactors).
     pub fn solve_with_trace(&self, b: &Vec3<T>) -> Option<(Vec3<T>, T)> {
         let s = &self.0;
-        let c00 = s[1] * s[2] - s[5] * s[5];
-        let c11 = s[0] * s[2] - s[4] * s[4];
-        let c22 = s[0] * s[1] - s[3] * s[3];
-        let c01 = s[4] * s[5] - s[3] * s[2];
-        let c02 = s[3] * s[5] - s[1] * s[4];
-        let c12 = s[3] * s[4] - s[0] * s[5];
-        let det = s[0] * c00 + s[3] * c01 + s[4] * c02;
+        let (Sym3([c00, c11, c22, c01, c02, c12]), det) = self.cofactors();
         let t = (s[0] + s[1] + s[2]) / T::of(3.0);
         if !(det > T::of(1e-12) * t * t * t) {
             return None;
@@ -273,15 +267,34 @@ impl<T: Real> Sym3<T> {
         (x.iter().all(|v| v.is_finite()) && tr.is_finite()).then_some((x, tr))
     }
 
-    /// Inverse by the adjugate; `None` when `|det|` is not above `tiny`.
+    /// The cofactor matrix (symmetric: six distinct cofactors) and the determinant.
+    #[inline]
+    fn cofactors(&self) -> (Sym3<T>, T) {
+        let s = &self.0;
+        let c = Sym3([
+            s[1] * s[2] - s[5] * s[5],
+            s[0] * s[2] - s[4] * s[4],
+            s[0] * s[1] - s[3] * s[3],
+            s[4] * s[5] - s[3] * s[2],
+            s[3] * s[5] - s[1] * s[4],
+            s[3] * s[4] - s[0] * s[5],
+        ]);
+        let det = s[0] * c.0[0] + s[3] * c.0[3] + s[4] * c.0[4];
+        (c, det)
+    }
+
+    /// The determinant.
+    pub fn det(&self) -> T {
+        self.cofactors().1
+    }
+
+    /// Inverse from the cofactors; `None` when `|det|` is not above `tiny`.
     pub fn inverse(&self, tiny: T) -> Option<Self> {
-        let m = self.to_mat();
-        let det = det3(&m);
+        let (c, det) = self.cofactors();
         if !(det.abs() > tiny) || !det.is_finite() {
             return None;
         }
-        let adj = adjugate(&m);
-        Some(Sym3::from_mat(&adj).scaled(T::ONE / det))
+        Some(c.scaled(T::ONE / det))
     }
 }
 
