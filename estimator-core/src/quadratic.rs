@@ -473,6 +473,20 @@ fn normal_equations<T: Real>(m: &[Sym3<T>], p: &[T], a: &Vec3<T>) -> (T, Sym3<T>
     (res, jtj, jtr)
 }
 
+/// The Levenberg–Marquardt step `s` of `(JᵀJ + μ tr(JᵀJ)/3 · I) s = Jᵀr` and the trace of that
+/// matrix's inverse; `None` if `JᵀJ` vanishes or the damped matrix is not positive definite.
+fn damped_step<T: Real>(jtj: &Sym3<T>, jtr: &Vec3<T>, mu: T) -> Option<(Vec3<T>, T)> {
+    let diag = jtj.trace() / T::of(3.0);
+    if !(diag > T::ZERO) {
+        return None;
+    }
+    let mut damped = *jtj;
+    for i in 0..3 {
+        damped.0[i] += mu * diag;
+    }
+    damped.solve_with_trace(jtr)
+}
+
 /// Gauss–Newton (Levenberg–Marquardt damped) on `Σ_k (P_k − aᵀ M_k a)²` from a close start,
 /// for whitened equations (unit noise). Each pass over the forms gives the residual at the
 /// current point together with its normal equations, so a step is accepted or rejected
@@ -487,15 +501,7 @@ pub fn refine<T: Real>(m: &[Sym3<T>], p: &[T], start: &Vec3<T>, iterations: usiz
     let mut mu = T::of(1e-3);
     let tol = T::of(DECREMENT_TOL);
     for _ in 0..iterations {
-        let diag = jtj.trace() / T::of(3.0);
-        if !(diag > T::ZERO) {
-            break;
-        }
-        let mut damped = jtj;
-        for i in 0..3 {
-            damped.0[i] += mu * diag;
-        }
-        let Some((step, tr_inv)) = damped.solve_with_trace(&jtr) else {
+        let Some((step, tr_inv)) = damped_step(&jtj, &jtr, mu) else {
             break;
         };
         let trial = [a[0] + step[0], a[1] + step[1], a[2] + step[2]];
@@ -541,25 +547,8 @@ pub fn gauss_newton<T: Real>(
     let mut res = residual2(m, p, &a);
     let mut mu = T::of(1e-3);
     for _ in 0..iterations {
-        let mut jtj = Sym3::<T>::zero();
-        let mut jtr = [T::ZERO; 3];
-        for (mk, pk) in m.iter().zip(p.iter()) {
-            let g = scale(T::of(2.0), &mk.mul_vec(&a));
-            let r = *pk - T::of(0.5) * dot(&a, &g);
-            jtj.add_outer(&g);
-            for i in 0..3 {
-                jtr[i] += g[i] * r;
-            }
-        }
-        let diag = jtj.trace() / T::of(3.0);
-        if !(diag > T::ZERO) {
-            break;
-        }
-        let mut damped = jtj;
-        for i in 0..3 {
-            damped.0[i] += mu * diag;
-        }
-        let Some(step) = solve3(&damped.to_mat(), &jtr) else {
+        let (_, jtj, jtr) = normal_equations(m, p, &a);
+        let Some((step, _)) = damped_step(&jtj, &jtr, mu) else {
             break;
         };
         let trial = [a[0] + step[0], a[1] + step[1], a[2] + step[2]];
