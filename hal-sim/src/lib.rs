@@ -1,10 +1,13 @@
 //! # hal-sim
 //!
 //! Host simulation for the ballistometer: rigid-body motion (truth), arrangement families, the
-//! file formats of interfaces.md, and the host binary `ballisto`.
+//! file formats of interfaces.md, and the host binary `ballisto`; register-level sensor models
+//! ([`sensors`]) on simulated buses ([`bus`]) in simulated time ([`clock`]).
 #![deny(missing_docs)]
 
 pub mod arrangement_file;
+pub mod bus;
+pub mod clock;
 pub mod compare;
 pub mod estimates_csv;
 pub mod families;
@@ -12,3 +15,4 @@ pub mod motion;
 pub mod noise;
 pub mod run;
 pub mod samples_csv;
+pub mod sensors;
