@@ -4,5 +4,7 @@
 //!
 //! - [`spi`]: an SPI bus with devices on chip selects ([`spi::SimSpiDevice`] implements
 //!   `SpiDevice`).
+//! - [`i2c`]: an I²C bus with devices on 7-bit addresses ([`i2c::SimI2cBus`] implements `I2c`).
 
+pub mod i2c;
 pub mod spi;

@@ -3,9 +3,11 @@
 //! ppm offset and jitter), applies its error model and quantises as the real part does.
 //!
 //! - [`adxl355`]: Analog Devices ADXL355, 20-bit, SPI.
+//! - [`lis3dh`]: STMicroelectronics LIS3DH, 8/10/12-bit, I²C.
 
 pub mod adxl355;
 pub mod errors;
+pub mod lis3dh;
 
 pub use errors::SensorErrors;
 

@@ -1,0 +1,197 @@
+//! A simulated I²C bus: several targets on 7-bit addresses, the embedded-hal 1.0 transaction
+//! contract (adjacent operations of one kind merge; a change of direction is a repeated START
+//! with the address), and the time it takes at the bus clock: 9 bit times per byte (8 + ACK)
+//! including the address byte of every (repeated) START, plus one bit time each for START and
+//! STOP.
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use embedded_hal::i2c::{ErrorKind, ErrorType, NoAcknowledgeSource, Operation};
+
+use crate::clock::SimClock;
+
+/// A device on the bus, seen between START and STOP.
+pub trait I2cTarget {
+    /// (Repeated) START addressed to this target at simulated time `now`; `read` is the R/W
+    /// bit. Returns whether the target acknowledges its address.
+    fn start(&mut self, now: f64, read: bool) -> bool;
+    /// A byte written by the controller; returns ACK.
+    fn write(&mut self, byte: u8) -> bool;
+    /// A byte read by the controller.
+    fn read(&mut self) -> u8;
+    /// STOP.
+    fn stop(&mut self);
+}
+
+/// Errors of the simulated bus, as the driver sees them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SimI2cError {
+    /// Nothing acknowledged the address.
+    AddressNack {
+        /// The 7-bit address.
+        address: u8,
+    },
+    /// The target did not acknowledge a data byte.
+    DataNack {
+        /// The 7-bit address.
+        address: u8,
+    },
+}
+
+impl core::fmt::Display for SimI2cError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            SimI2cError::AddressNack { address } => {
+                write!(f, "no acknowledge from I²C address {address:#04x}")
+            }
+            SimI2cError::DataNack { address } => {
+                write!(
+                    f,
+                    "I²C device {address:#04x} did not acknowledge a data byte"
+                )
+            }
+        }
+    }
+}
+
+impl std::error::Error for SimI2cError {}
+
+impl embedded_hal::i2c::Error for SimI2cError {
+    fn kind(&self) -> ErrorKind {
+        match self {
+            SimI2cError::AddressNack { .. } => {
+                ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address)
+            }
+            SimI2cError::DataNack { .. } => ErrorKind::NoAcknowledge(NoAcknowledgeSource::Data),
+        }
+    }
+}
+
+struct Bus {
+    clock: SimClock,
+    hz: f64,
+    targets: Vec<(u8, Box<dyn I2cTarget>)>,
+    bytes: u64,
+    busy: f64,
+}
+
+/// A simulated I²C bus (cheap to clone; clones share the bus). Implements the embedded-hal
+/// `I2c` traits (blocking and async) with 7-bit addresses.
+#[derive(Clone)]
+pub struct SimI2cBus(Rc<RefCell<Bus>>);
+
+impl SimI2cBus {
+    /// A bus clocked at `hz` (e.g. 400 kHz) on the simulated `clock`.
+    pub fn new(clock: SimClock, hz: f64) -> Self {
+        SimI2cBus(Rc::new(RefCell::new(Bus {
+            clock,
+            hz,
+            targets: Vec::new(),
+            bytes: 0,
+            busy: 0.0,
+        })))
+    }
+
+    /// Connects `target` at the 7-bit `address` (replacing what was there).
+    pub fn attach(&self, address: u8, target: Box<dyn I2cTarget>) {
+        let mut b = self.0.borrow_mut();
+        b.targets.retain(|(a, _)| *a != address);
+        b.targets.push((address, target));
+    }
+
+    /// Bytes on the bus so far (address bytes included) and the time it was busy (s).
+    pub fn usage(&self) -> (u64, f64) {
+        let b = self.0.borrow();
+        (b.bytes, b.busy)
+    }
+
+    fn transaction(&self, address: u8, ops: &mut [Operation<'_>]) -> Result<(), SimI2cError> {
+        let mut guard = self.0.borrow_mut();
+        let bus = &mut *guard;
+        let bit = 1.0 / bus.hz;
+        let clock = bus.clock.clone();
+        let t0 = clock.now();
+        let mut bytes = 0u64;
+        let result = (|| {
+            let target = bus
+                .targets
+                .iter_mut()
+                .find(|(a, _)| *a == address)
+                .map(|(_, t)| t);
+            let mut dir: Option<bool> = None;
+            let mut target = target;
+            for op in ops.iter_mut() {
+                let read = matches!(op, Operation::Read(_));
+                if dir != Some(read) {
+                    // (Repeated) START and the address byte.
+                    clock.advance(bit);
+                    bytes += 1;
+                    clock.advance(9.0 * bit);
+                    let acked = match target.as_mut() {
+                        Some(t) => t.start(clock.now(), read),
+                        None => false,
+                    };
+                    if !acked {
+                        return Err(SimI2cError::AddressNack { address });
+                    }
+                    dir = Some(read);
+                }
+                let Some(t) = target.as_mut() else {
+                    return Err(SimI2cError::AddressNack { address });
+                };
+                match op {
+                    Operation::Read(buf) => {
+                        for b in buf.iter_mut() {
+                            *b = t.read();
+                            bytes += 1;
+                            clock.advance(9.0 * bit);
+                        }
+                    }
+                    Operation::Write(buf) => {
+                        for b in buf.iter() {
+                            bytes += 1;
+                            clock.advance(9.0 * bit);
+                            if !t.write(*b) {
+                                return Err(SimI2cError::DataNack { address });
+                            }
+                        }
+                    }
+                }
+            }
+            Ok(())
+        })();
+        // STOP, also after an error (the controller releases the bus).
+        clock.advance(bit);
+        if let Some((_, t)) = bus.targets.iter_mut().find(|(a, _)| *a == address) {
+            t.stop();
+        }
+        bus.bytes += bytes;
+        bus.busy += clock.now() - t0;
+        result
+    }
+}
+
+impl ErrorType for SimI2cBus {
+    type Error = SimI2cError;
+}
+
+impl embedded_hal::i2c::I2c for SimI2cBus {
+    fn transaction(
+        &mut self,
+        address: u8,
+        operations: &mut [Operation<'_>],
+    ) -> Result<(), Self::Error> {
+        SimI2cBus::transaction(self, address, operations)
+    }
+}
+
+impl embedded_hal_async::i2c::I2c for SimI2cBus {
+    async fn transaction(
+        &mut self,
+        address: u8,
+        operations: &mut [Operation<'_>],
+    ) -> Result<(), Self::Error> {
+        SimI2cBus::transaction(self, address, operations)
+    }
+}
