@@ -24,6 +24,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::errors::{SensorErrors, G0};
+use super::sample_clock::SampleClock;
 use super::ForceSource;
 use crate::bus::spi::SpiTarget;
 
@@ -126,12 +127,8 @@ pub struct Adxl355 {
     errors: SensorErrors,
     source: ForceSource,
     rng: ChaCha8Rng,
-    /// Next internal sample instant (s), when measuring on the internal clock.
-    next_sample: Option<f64>,
-    /// Index of the next internal sample (instants are `start + k / odr`; jitter does not
-    /// accumulate).
-    k: u64,
-    start: f64,
+    /// The internal sample clock.
+    clock: SampleClock,
     /// SPI transaction state: current address, direction, bytes seen.
     addr: u8,
     reading: bool,
@@ -155,9 +152,7 @@ impl Adxl355 {
             errors,
             source,
             rng,
-            next_sample: None,
-            k: 0,
-            start: 0.0,
+            clock: SampleClock::default(),
             addr: 0,
             reading: false,
             byte_index: 0,
@@ -197,26 +192,13 @@ impl Adxl355 {
     /// Takes every internal-clock sample due up to `t`.
     fn catch_up(&mut self, t: f64) {
         if !self.measuring() || self.external_sync() {
-            self.next_sample = None;
+            self.clock.stop();
             return;
         }
-        let period = 1.0 / (self.odr() * (1.0 + self.errors.clock_ppm * 1e-6));
-        let next = match self.next_sample {
-            Some(n) => n,
-            None => {
-                // Measurement starts now: the first result one period later.
-                self.start = t;
-                self.k = 1;
-                t + period
-            }
-        };
-        let mut next = next;
-        while next <= t {
-            self.take_sample(next);
-            self.k += 1;
-            next = self.start + self.k as f64 * period + self.errors.jitter_sample(&mut self.rng);
+        let odr = self.odr();
+        while let Some(ts) = self.clock.next_due(t, odr, &self.errors, &mut self.rng) {
+            self.take_sample(ts);
         }
-        self.next_sample = Some(next);
     }
 
     fn take_sample(&mut self, t: f64) {
@@ -290,7 +272,7 @@ impl Adxl355 {
             reg::RESET if v == RESET_CODE => {
                 self.regs = reset_registers();
                 self.fifo.clear();
-                self.next_sample = None;
+                self.clock.stop();
             }
             // Any other value written to RESET does nothing.
             reg::RESET => {}
@@ -302,7 +284,7 @@ impl Adxl355 {
                 if a == reg::POWER_CTL || a == reg::FILTER || a == reg::SYNC {
                     if !was_measuring || a != reg::POWER_CTL {
                         // (Re)start the internal clock from now.
-                        self.next_sample = None;
+                        self.clock.stop();
                     }
                     self.catch_up(self.now);
                 }

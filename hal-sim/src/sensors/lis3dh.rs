@@ -23,6 +23,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::errors::{SensorErrors, G0};
+use super::sample_clock::SampleClock;
 use super::ForceSource;
 use crate::bus::i2c::I2cTarget;
 
@@ -99,9 +100,7 @@ pub struct Lis3dh {
     errors: SensorErrors,
     source: ForceSource,
     rng: ChaCha8Rng,
-    next_sample: Option<f64>,
-    start: f64,
-    k: u64,
+    clock: SampleClock,
     /// I²C state: sub-address, auto-increment, whether the sub-address byte has come.
     sub: u8,
     auto_inc: bool,
@@ -123,9 +122,7 @@ impl Lis3dh {
             errors,
             source,
             rng,
-            next_sample: None,
-            start: 0.0,
-            k: 0,
+            clock: SampleClock::default(),
             sub: 0,
             auto_inc: false,
             have_sub: false,
@@ -141,25 +138,9 @@ impl Lis3dh {
 
     fn catch_up(&mut self, t: f64) {
         let odr = self.odr();
-        if odr <= 0.0 {
-            self.next_sample = None;
-            return;
+        while let Some(ts) = self.clock.next_due(t, odr, &self.errors, &mut self.rng) {
+            self.take_sample(ts);
         }
-        let period = 1.0 / (odr * (1.0 + self.errors.clock_ppm * 1e-6));
-        let mut next = match self.next_sample {
-            Some(n) => n,
-            None => {
-                self.start = t;
-                self.k = 1;
-                t + period
-            }
-        };
-        while next <= t {
-            self.take_sample(next);
-            self.k += 1;
-            next = self.start + self.k as f64 * period + self.errors.jitter_sample(&mut self.rng);
-        }
-        self.next_sample = Some(next);
     }
 
     fn take_sample(&mut self, t: f64) {
@@ -237,7 +218,7 @@ impl Lis3dh {
                 self.regs[a as usize] = v;
                 if a == reg::CTRL_REG1 && self.odr() != old_odr {
                     // Restart the sample clock from the time of this write.
-                    self.next_sample = None;
+                    self.clock.stop();
                     self.catch_up(self.now);
                 }
             }

@@ -8,6 +8,7 @@
 pub mod adxl355;
 pub mod errors;
 pub mod lis3dh;
+pub mod sample_clock;
 
 pub use errors::SensorErrors;
 
