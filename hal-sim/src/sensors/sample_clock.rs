@@ -50,3 +50,43 @@ impl SampleClock {
         Some(next)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn instants_follow_the_offset_clock_and_jitter_does_not_accumulate() {
+        let errors = SensorErrors {
+            clock_ppm: 100.0,
+            jitter: 1e-6,
+            ..SensorErrors::default()
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut c = SampleClock::default();
+        let odr = 1000.0;
+        let period = 1.0 / (odr * (1.0 + 1e-4));
+        let mut got = Vec::new();
+        assert_eq!(
+            c.next_due(0.0, odr, &errors, &mut rng),
+            None,
+            "starts at t = 0"
+        );
+        // To 10.0005 s at 1000.1 Hz: instants k/1000.1 for k = 1 ..= 10 001 (the last at 10 s).
+        while let Some(t) = c.next_due(10.0005, odr, &errors, &mut rng) {
+            got.push(t);
+        }
+        assert_eq!(got.len(), 10_001, "last {:?}", got.last());
+        let mut sum2 = 0.0;
+        for (k, t) in got.iter().enumerate().skip(1) {
+            let dev = t - (k as f64 + 1.0) * period;
+            assert!(dev.abs() < 6e-6, "sample {k}: {dev}");
+            sum2 += dev * dev;
+        }
+        let sd = (sum2 / (got.len() - 1) as f64).sqrt();
+        assert!((sd / 1e-6 - 1.0).abs() < 0.05, "jitter sd {sd}");
+        // A stopped clock gives nothing.
+        assert_eq!(c.next_due(20.0, 0.0, &errors, &mut rng), None);
+    }
+}
