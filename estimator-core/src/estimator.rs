@@ -598,7 +598,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
 
     /// Frame whose axes see every component of `w` largest (with hysteresis).
     fn choose_frame(&self, current_frame: usize, w: &Vec3<T>) -> usize {
-        let score = |f: usize| frame_score(&mat_vec(&self.proj[f].frame, w));
+        let score = |f: usize| frame_score(&self.proj[f].to_frame(w));
         let current = if self.usable[current_frame] {
             score(current_frame)
         } else {
@@ -631,7 +631,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
 
     /// ε from the predicted `A` in frame `f`: the sign of `A₁₂ A₁₃ A₂₃` (Appendix, A1).
     fn epsilon(&self, f: usize, w: &Vec3<T>) -> T {
-        let wv = mat_vec(&self.proj[f].frame, w);
+        let wv = self.proj[f].to_frame(w);
         let g = &self.gamma_frame[f].0;
         let prod = (wv[0] * wv[1] + g[3]) * (wv[0] * wv[2] + g[4]) * (wv[1] * wv[2] + g[5]);
         if prod < T::ZERO {

@@ -138,8 +138,6 @@ pub struct Adxl355 {
     fifo_pos: usize,
     /// Simulated time of the current transaction.
     now: f64,
-    /// Samples taken so far (for tests and statistics).
-    samples: u64,
 }
 
 impl Adxl355 {
@@ -159,7 +157,6 @@ impl Adxl355 {
             fifo_entry: [0; 3],
             fifo_pos: 3,
             now: 0.0,
-            samples: 0,
         }
     }
 
@@ -167,11 +164,6 @@ impl Adxl355 {
     pub fn odr(&self) -> f64 {
         let sel = (self.regs[reg::FILTER as usize] & 0x0F).min(10);
         4000.0 / f64::from(1u32 << sel)
-    }
-
-    /// Number of samples the part has taken.
-    pub fn samples(&self) -> u64 {
-        self.samples
     }
 
     fn measuring(&self) -> bool {
@@ -221,7 +213,6 @@ impl Adxl355 {
             }
         }
         self.regs[reg::STATUS as usize] |= 0x01;
-        self.samples += 1;
         self.update_fifo_status();
     }
 
