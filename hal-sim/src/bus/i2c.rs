@@ -109,66 +109,92 @@ impl SimI2cBus {
     fn transaction(&self, address: u8, ops: &mut [Operation<'_>]) -> Result<(), SimI2cError> {
         let mut guard = self.0.borrow_mut();
         let bus = &mut *guard;
-        let bit = 1.0 / bus.hz;
-        let clock = bus.clock.clone();
-        let t0 = clock.now();
+        let wire = Wire {
+            clock: bus.clock.clone(),
+            bit: 1.0 / bus.hz,
+            address,
+        };
+        let t0 = wire.clock.now();
         let mut bytes = 0u64;
-        let result = (|| {
-            let target = bus
-                .targets
-                .iter_mut()
-                .find(|(a, _)| *a == address)
-                .map(|(_, t)| t);
-            let mut dir: Option<bool> = None;
-            let mut target = target;
-            for op in ops.iter_mut() {
-                let read = matches!(op, Operation::Read(_));
-                if dir != Some(read) {
-                    // (Repeated) START and the address byte.
-                    clock.advance(bit);
-                    bytes += 1;
-                    clock.advance(9.0 * bit);
-                    let acked = match target.as_mut() {
-                        Some(t) => t.start(clock.now(), read),
-                        None => false,
-                    };
-                    if !acked {
-                        return Err(SimI2cError::AddressNack { address });
-                    }
-                    dir = Some(read);
-                }
-                let Some(t) = target.as_mut() else {
+        let mut target = bus
+            .targets
+            .iter_mut()
+            .find(|(a, _)| *a == address)
+            .map(|(_, t)| t.as_mut());
+        let result = match target.as_deref_mut() {
+            Some(t) => wire.run(t, ops, &mut bytes),
+            None if ops.is_empty() => Ok(()),
+            None => {
+                // START and an address byte nobody acknowledges.
+                wire.start_and_address(&mut bytes);
+                Err(SimI2cError::AddressNack { address })
+            }
+        };
+        // STOP, also after an error (the controller releases the bus).
+        wire.clock.advance(wire.bit);
+        if let Some(t) = target {
+            t.stop();
+        }
+        bus.bytes += bytes;
+        bus.busy += wire.clock.now() - t0;
+        result
+    }
+}
+
+/// One transaction's view of the bus: its time base, bit time and address.
+struct Wire {
+    clock: SimClock,
+    bit: f64,
+    address: u8,
+}
+
+impl Wire {
+    /// A (repeated) START and the address byte.
+    fn start_and_address(&self, bytes: &mut u64) {
+        self.clock.advance(self.bit);
+        *bytes += 1;
+        self.clock.advance(9.0 * self.bit);
+    }
+
+    /// The operations between START and STOP with `target` addressed: adjacent operations of
+    /// one kind merge, a change of direction is a repeated START.
+    fn run(
+        &self,
+        target: &mut dyn I2cTarget,
+        ops: &mut [Operation<'_>],
+        bytes: &mut u64,
+    ) -> Result<(), SimI2cError> {
+        let address = self.address;
+        let mut dir: Option<bool> = None;
+        for op in ops.iter_mut() {
+            let read = matches!(op, Operation::Read(_));
+            if dir != Some(read) {
+                self.start_and_address(bytes);
+                if !target.start(self.clock.now(), read) {
                     return Err(SimI2cError::AddressNack { address });
-                };
-                match op {
-                    Operation::Read(buf) => {
-                        for b in buf.iter_mut() {
-                            *b = t.read();
-                            bytes += 1;
-                            clock.advance(9.0 * bit);
-                        }
+                }
+                dir = Some(read);
+            }
+            match op {
+                Operation::Read(buf) => {
+                    for b in buf.iter_mut() {
+                        *b = target.read();
+                        *bytes += 1;
+                        self.clock.advance(9.0 * self.bit);
                     }
-                    Operation::Write(buf) => {
-                        for b in buf.iter() {
-                            bytes += 1;
-                            clock.advance(9.0 * bit);
-                            if !t.write(*b) {
-                                return Err(SimI2cError::DataNack { address });
-                            }
+                }
+                Operation::Write(buf) => {
+                    for b in buf.iter() {
+                        *bytes += 1;
+                        self.clock.advance(9.0 * self.bit);
+                        if !target.write(*b) {
+                            return Err(SimI2cError::DataNack { address });
                         }
                     }
                 }
             }
-            Ok(())
-        })();
-        // STOP, also after an error (the controller releases the bus).
-        clock.advance(bit);
-        if let Some((_, t)) = bus.targets.iter_mut().find(|(a, _)| *a == address) {
-            t.stop();
         }
-        bus.bytes += bytes;
-        bus.busy += clock.now() - t0;
-        result
+        Ok(())
     }
 }
 
