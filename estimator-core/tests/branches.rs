@@ -1,6 +1,9 @@
 //! The closed form finds every real branch: compared with a brute-force multi-start search
 //! (Gauss–Newton from a dense set of starting points on spheres of several radii).
 
+mod common;
+
+use common::uniform3;
 use estimator_core::linalg::{add, norm2, sub, Sym3};
 use estimator_core::quadratic::{closed_form, gauss_newton, residual2, MAX_ROOTS};
 use rand::{Rng, SeedableRng};
@@ -47,7 +50,7 @@ fn closed_form_finds_every_branch_found_by_brute_force() {
     let mut multi = 0;
     for trial in 0..200 {
         let m = random_forms(&mut rng);
-        let a: [f64; 3] = core::array::from_fn(|_| rng.gen_range(-2.0..2.0));
+        let a = uniform3(&mut rng, 2.0);
         let p = [m[0].quad(&a), m[1].quad(&a), m[2].quad(&a)];
         let mut out = [[0.0; 3]; MAX_ROOTS];
         let n = closed_form(&m, &p, &mut out);
@@ -95,16 +98,8 @@ fn general_model_forms_have_zero_diagonal_and_kelvin_inverts() {
     for _ in 0..20 {
         let mut arr = Arrangement::<32>::new();
         for _ in 0..15 {
-            let p = [
-                rng.gen_range(-0.2..0.2),
-                rng.gen_range(-0.2..0.2),
-                rng.gen_range(-0.2..0.2),
-            ];
-            let s = [
-                rng.gen_range(-1.0..1.0),
-                rng.gen_range(-1.0..1.0),
-                rng.gen_range(-1.0..1.0),
-            ];
+            let p = uniform3(&mut rng, 0.2);
+            let s = uniform3(&mut rng, 1.0);
             arr.push(p, s, 0.01).unwrap();
         }
         for (f, q) in FRAME_QUATERNIONS.iter().enumerate() {
@@ -127,7 +122,7 @@ fn general_model_forms_have_zero_diagonal_and_kelvin_inverts() {
         }
     }
     for _ in 0..100 {
-        let a: [f64; 3] = core::array::from_fn(|_| rng.gen_range(-2.0..2.0));
+        let a = uniform3(&mut rng, 2.0);
         for eps in [1.0, -1.0] {
             let o = [eps * a[0] * a[1], eps * a[0] * a[2], eps * a[1] * a[2]];
             let (b, e) = kelvin(&o).unwrap();

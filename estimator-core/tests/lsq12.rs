@@ -19,16 +19,8 @@ fn general_model_matches_twelve_unknown_least_squares_with_noise() {
         let n = rng.gen_range(13..=24);
         let noise = 0.01;
         let arr = random_arrangement(&mut rng, n, Model::General, noise);
-        let sigma0 = [
-            rng.gen_range(-5.0..5.0),
-            rng.gen_range(-5.0..5.0),
-            rng.gen_range(-5.0..5.0),
-        ];
-        let domega = [
-            rng.gen_range(-3.0..3.0),
-            rng.gen_range(-3.0..3.0),
-            rng.gen_range(-3.0..3.0),
-        ];
+        let sigma0 = uniform3(&mut rng, 5.0);
+        let domega = uniform3(&mut rng, 3.0);
         let d = unit(&mut rng);
         let omega = [d[0] * 3.0, d[1] * 3.0, d[2] * 3.0];
         let a = Sym3::skew_squared(&omega);

@@ -22,16 +22,8 @@ struct Case {
 fn case(seed: u64, n: usize, model: Model) -> Case {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let arr = random_arrangement(&mut rng, n, model, NOISE);
-    let sigma0 = [
-        rng.gen_range(-10.0..10.0),
-        rng.gen_range(-10.0..10.0),
-        rng.gen_range(-10.0..10.0),
-    ];
-    let domega = [
-        rng.gen_range(-5.0..5.0),
-        rng.gen_range(-5.0..5.0),
-        rng.gen_range(-5.0..5.0),
-    ];
+    let sigma0 = uniform3(&mut rng, 10.0);
+    let domega = uniform3(&mut rng, 5.0);
     let dir = unit(&mut rng);
     let mag = rng.gen_range(0.5..6.0);
     let omega = [dir[0] * mag, dir[1] * mag, dir[2] * mag];

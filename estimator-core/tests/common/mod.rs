@@ -19,13 +19,14 @@ pub fn ideal(
     dot(axis, sigma0) + dot(&cross(pos, axis), domega) + dot(axis, &a.mul_vec(pos))
 }
 
+/// A vector with components uniform in `(−half, half)`, drawn x, y, z in turn.
+pub fn uniform3<R: Rng>(rng: &mut R, half: f64) -> [f64; 3] {
+    core::array::from_fn(|_| rng.gen_range(-half..half))
+}
+
 pub fn unit<R: Rng>(rng: &mut R) -> [f64; 3] {
     loop {
-        let v = [
-            rng.gen_range(-1.0..1.0),
-            rng.gen_range(-1.0..1.0),
-            rng.gen_range(-1.0..1.0),
-        ];
+        let v = uniform3(rng, 1.0);
         let n: f64 = dot(&v, &v);
         if n > 0.05 && n <= 1.0 {
             let n = n.sqrt();
@@ -45,11 +46,7 @@ pub fn random_arrangement<R: Rng>(
     loop {
         let mut arr = Arrangement::<CAP>::new();
         for _ in 0..n {
-            let pos = [
-                rng.gen_range(-0.2..0.2),
-                rng.gen_range(-0.2..0.2),
-                rng.gen_range(-0.2..0.2),
-            ];
+            let pos = uniform3(rng, 0.2);
             arr.push(pos, unit(rng), noise).unwrap();
         }
         if estimator_core::Estimator::<f64, CAP>::new(&arr, model, Default::default()).is_ok() {
