@@ -34,6 +34,7 @@ fn main() {
         attitude0: [1.0, 0.0, 0.0, 0.0],
         origin_offset: [0.02, -0.01, 0.03],
         non_grav: [0.0; 3],
+        burns: Vec::new(),
     };
     let truth = motion.run(0.01, 2000, 4);
     let out = simulate_outputs(&loaded, &truth, true, 7);

@@ -49,6 +49,7 @@ fn scenario(dir: &Path, samples: usize) -> Vec<hal_sim::motion::Truth> {
         attitude0: [1.0, 0.0, 0.0, 0.0],
         origin_offset: [0.0; 3],
         non_grav: [0.0; 3],
+        burns: Vec::new(),
     };
     let truth = motion.run(0.01, samples, 2);
     let out = simulate_outputs(&loaded, &truth, true, 9);

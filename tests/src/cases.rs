@@ -82,6 +82,7 @@ pub fn make(family: Family, motion: MotionKind, model: Model, seed: u64, samples
             attitude0: [1.0, 0.0, 0.0, 0.0],
             origin_offset: [0.02, -0.01, 0.03],
             non_grav: [0.0; 3],
+            burns: Vec::new(),
         },
         MotionKind::Manoeuvre => Motion {
             rotation: Rotation::Euler {
@@ -97,6 +98,7 @@ pub fn make(family: Family, motion: MotionKind, model: Model, seed: u64, samples
             attitude0: [1.0, 0.0, 0.0, 0.0],
             origin_offset: [0.0; 3],
             non_grav: [0.05, 0.0, -0.02],
+            burns: Vec::new(),
         },
         MotionKind::GroundSpin => Motion {
             rotation: Rotation::Turntable {
@@ -109,6 +111,7 @@ pub fn make(family: Family, motion: MotionKind, model: Model, seed: u64, samples
             attitude0: [0.9, 0.2, -0.3, 0.1],
             origin_offset: [0.0; 3],
             non_grav: [0.0; 3],
+            burns: Vec::new(),
         },
     };
     let truth = m.run(DT, samples, 4);

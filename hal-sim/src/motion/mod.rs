@@ -2,6 +2,10 @@
 //! environment (free space, circular low Earth orbit, ground laboratory). At each sample instant
 //! it gives σ0, Ω′, Ω, A = Γ + {Ω}² — from which paper eq. (4) gives every channel's output.
 
+mod propagator;
+
+pub use propagator::Propagator;
+
 use estimator_core::linalg::{cross, mat_t_vec, mat_vec, Mat3, Sym3, Vec3};
 
 /// Standard gravity, m/s².
@@ -107,8 +111,35 @@ pub struct Motion {
     /// Instrument origin seen from the centre of mass (free float) or from the rotation centre
     /// (ground), body frame, m.
     pub origin_offset: Vec3<f64>,
-    /// Non-gravitational specific force (drag, thrust), inertial frame, m/s².
+    /// Constant non-gravitational specific force (drag), inertial frame, m/s².
     pub non_grav: Vec3<f64>,
+    /// Thruster burns: non-gravitational specific force fixed to the body over time windows.
+    pub burns: Vec<Burn>,
+}
+
+/// A thruster burn: specific force `accel` (body frame, m/s²) for `start ≤ t < end`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Burn {
+    /// Start time, s.
+    pub start: f64,
+    /// End time, s.
+    pub end: f64,
+    /// Specific force during the burn, body frame, m/s².
+    pub accel: Vec3<f64>,
+}
+
+impl Motion {
+    /// Non-gravitational specific force in the body frame at time `t` for the body → inertial
+    /// rotation `c`: drag (inertial) plus any burn (body).
+    fn non_gravitational(&self, t: f64, c: &Mat3<f64>) -> Vec3<f64> {
+        let mut f = mat_t_vec(c, &self.non_grav);
+        for b in self.burns.iter().filter(|b| b.start <= t && t < b.end) {
+            for (fi, ai) in f.iter_mut().zip(b.accel.iter()) {
+                *fi += ai;
+            }
+        }
+        f
+    }
 }
 
 /// The field at the instrument origin at one instant.
@@ -185,7 +216,7 @@ impl Motion {
         }
     }
 
-    fn initial_omega(&self) -> Vec3<f64> {
+    pub(crate) fn initial_omega(&self) -> Vec3<f64> {
         match &self.rotation {
             Rotation::Euler { .. } => self.omega0,
             Rotation::Turntable {
@@ -199,35 +230,14 @@ impl Motion {
         }
     }
 
-    /// Truth at the instants `t0 + k dt`, `k = 0..n`, integrating with `substeps` RK4 steps per
+    /// Truth at the instants `k dt`, `k = 0..n`, integrating with `substeps` RK4 steps per
     /// sample interval.
     pub fn run(&self, dt: f64, n: usize, substeps: usize) -> Vec<Truth> {
-        let mut out = Vec::with_capacity(n);
-        let mut q = self.attitude0;
-        let qn = (q.iter().map(|v| v * v).sum::<f64>()).sqrt();
-        for v in q.iter_mut() {
-            *v /= qn;
-        }
-        let mut w = self.initial_omega();
-        let h = dt / substeps.max(1) as f64;
-        let mut t = 0.0;
-        for k in 0..n {
-            out.push(self.truth(t, &q, &w));
-            if k + 1 == n {
-                break;
-            }
-            for _ in 0..substeps.max(1) {
-                let (q2, w2) = self.rk4(t, &q, &w, h);
-                q = q2;
-                w = w2;
-                t += h;
-            }
-            t = (k + 1) as f64 * dt;
-        }
-        out
+        let mut p = Propagator::new(self.clone(), dt / substeps.max(1) as f64);
+        (0..n).map(|k| p.truth_at(k as f64 * dt)).collect()
     }
 
-    fn deriv(&self, t: f64, q: &[f64; 4], w: &Vec3<f64>) -> ([f64; 4], Vec3<f64>) {
+    pub(crate) fn deriv(&self, t: f64, q: &[f64; 4], w: &Vec3<f64>) -> ([f64; 4], Vec3<f64>) {
         let dq = quat_mul(q, &[0.0, w[0], w[1], w[2]]);
         (
             [0.5 * dq[0], 0.5 * dq[1], 0.5 * dq[2], 0.5 * dq[3]],
@@ -235,7 +245,7 @@ impl Motion {
         )
     }
 
-    fn rk4(&self, t: f64, q: &[f64; 4], w: &Vec3<f64>, h: f64) -> ([f64; 4], Vec3<f64>) {
+    pub(crate) fn rk4(&self, t: f64, q: &[f64; 4], w: &Vec3<f64>, h: f64) -> ([f64; 4], Vec3<f64>) {
         let add4 = |a: &[f64; 4], b: &[f64; 4], k: f64| {
             [
                 a[0] + k * b[0],
@@ -295,13 +305,13 @@ impl Motion {
         }
     }
 
-    fn truth(&self, t: f64, q: &[f64; 4], w: &Vec3<f64>) -> Truth {
+    pub(crate) fn truth(&self, t: f64, q: &[f64; 4], w: &Vec3<f64>) -> Truth {
         let domega = self.angular_acceleration(t, w);
         let gamma = self.gamma(t, q);
         let field = gamma.add_scaled(1.0, &Sym3::skew_squared(w));
         let c = quat_matrix(q);
         // Specific force at the reference point (centre of mass / rotation centre), body frame.
-        let mut base = mat_t_vec(&c, &self.non_grav);
+        let mut base = self.non_gravitational(t, &c);
         if self.environment == Environment::Ground {
             let up = mat_t_vec(&c, &[0.0, 0.0, G0]);
             base = [base[0] + up[0], base[1] + up[1], base[2] + up[2]];
@@ -336,49 +346,4 @@ pub fn energy_momentum(inertia: &Vec3<f64>, w: &Vec3<f64>) -> (f64, f64) {
 /// Rotates a body vector to inertial.
 pub fn to_inertial(q: &[f64; 4], v: &Vec3<f64>) -> Vec3<f64> {
     mat_vec(&quat_matrix(q), v)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn torque_free_conserves_energy_and_momentum_over_100_s() {
-        let inertia = [1.0, 2.0, 3.0];
-        let m = Motion {
-            rotation: Rotation::Euler {
-                inertia,
-                torque: Torque::None,
-            },
-            environment: Environment::Space,
-            omega0: [0.3, 1.5, 0.4],
-            attitude0: [1.0, 0.0, 0.0, 0.0],
-            origin_offset: [0.0; 3],
-            non_grav: [0.0; 3],
-        };
-        let tr = m.run(0.01, 10_001, 4);
-        let (e0, h0) = energy_momentum(&inertia, &tr[0].omega);
-        let (e1, h1) = energy_momentum(&inertia, &tr[10_000].omega);
-        assert!(
-            ((e1 - e0) / e0).abs() < 1e-9,
-            "energy drift {}",
-            (e1 - e0) / e0
-        );
-        assert!(
-            ((h1 - h0) / h0).abs() < 1e-9,
-            "momentum drift {}",
-            (h1 - h0) / h0
-        );
-        // Inertial angular momentum vector is constant too.
-        let hi = |k: usize| {
-            let w = tr[k].omega;
-            to_inertial(
-                &tr[k].attitude,
-                &[inertia[0] * w[0], inertia[1] * w[1], inertia[2] * w[2]],
-            )
-        };
-        let (a, b) = (hi(0), hi(10_000));
-        let d = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
-        assert!(d / h0 < 1e-8, "inertial momentum drift {}", d / h0);
-    }
 }
