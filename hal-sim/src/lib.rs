@@ -11,6 +11,7 @@ pub mod clock;
 pub mod compare;
 pub mod estimates_csv;
 pub mod families;
+pub mod faults;
 pub mod motion;
 pub mod noise;
 pub mod run;

@@ -2,14 +2,21 @@
 //! contract (adjacent operations of one kind merge; a change of direction is a repeated START
 //! with the address), and the time it takes at the bus clock: 9 bit times per byte (8 + ACK)
 //! including the address byte of every (repeated) START, plus one bit time each for START and
-//! STOP.
+//! STOP. Connection faults ([`crate::faults`]) scheduled per address: a dead part does not
+//! acknowledge its address, corruption flips bits of the bytes read, a timeout (a target
+//! holding SCL low) stalls the transaction and fails it.
 
 use std::cell::RefCell;
 use std::rc::Rc;
 
 use embedded_hal::i2c::{ErrorKind, ErrorType, NoAcknowledgeSource, Operation};
 
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::bus::spi::corrupt;
 use crate::clock::SimClock;
+use crate::faults::{active_at, Fault, FaultKind};
 
 /// A device on the bus, seen between START and STOP.
 pub trait I2cTarget {
@@ -37,6 +44,11 @@ pub enum SimI2cError {
         /// The 7-bit address.
         address: u8,
     },
+    /// SCL was held low past the controller's timeout.
+    Timeout {
+        /// The 7-bit address.
+        address: u8,
+    },
 }
 
 impl core::fmt::Display for SimI2cError {
@@ -51,6 +63,9 @@ impl core::fmt::Display for SimI2cError {
                     "I²C device {address:#04x} did not acknowledge a data byte"
                 )
             }
+            SimI2cError::Timeout { address } => {
+                write!(f, "I²C transaction with {address:#04x} timed out")
+            }
         }
     }
 }
@@ -64,16 +79,25 @@ impl embedded_hal::i2c::Error for SimI2cError {
                 ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address)
             }
             SimI2cError::DataNack { .. } => ErrorKind::NoAcknowledge(NoAcknowledgeSource::Data),
+            SimI2cError::Timeout { .. } => ErrorKind::Other,
         }
     }
+}
+
+struct Slot {
+    address: u8,
+    target: Box<dyn I2cTarget>,
+    faults: Vec<Fault>,
 }
 
 struct Bus {
     clock: SimClock,
     hz: f64,
-    targets: Vec<(u8, Box<dyn I2cTarget>)>,
+    slots: Vec<Slot>,
     bytes: u64,
     busy: f64,
+    /// Draws of byte corruption.
+    rng: ChaCha8Rng,
 }
 
 /// A simulated I²C bus (cheap to clone; clones share the bus). Implements the embedded-hal
@@ -87,17 +111,31 @@ impl SimI2cBus {
         SimI2cBus(Rc::new(RefCell::new(Bus {
             clock,
             hz,
-            targets: Vec::new(),
+            slots: Vec::new(),
             bytes: 0,
             busy: 0.0,
+            rng: ChaCha8Rng::seed_from_u64(0x12C),
         })))
     }
 
     /// Connects `target` at the 7-bit `address` (replacing what was there).
     pub fn attach(&self, address: u8, target: Box<dyn I2cTarget>) {
         let mut b = self.0.borrow_mut();
-        b.targets.retain(|(a, _)| *a != address);
-        b.targets.push((address, target));
+        b.slots.retain(|s| s.address != address);
+        b.slots.push(Slot {
+            address,
+            target,
+            faults: Vec::new(),
+        });
+    }
+
+    /// Schedules connection faults (dead, corrupt, timeout) at `address`; measurement faults
+    /// in the list are ignored here (they belong to the part).
+    pub fn set_faults(&self, address: u8, faults: &[Fault]) {
+        let mut b = self.0.borrow_mut();
+        if let Some(slot) = b.slots.iter_mut().find(|s| s.address == address) {
+            slot.faults = faults.iter().filter(|f| f.kind.on_bus()).cloned().collect();
+        }
     }
 
     /// Bytes on the bus so far (address bytes included) and the time it was busy (s).
@@ -109,19 +147,33 @@ impl SimI2cBus {
     fn transaction(&self, address: u8, ops: &mut [Operation<'_>]) -> Result<(), SimI2cError> {
         let mut guard = self.0.borrow_mut();
         let bus = &mut *guard;
-        let wire = Wire {
+        let t0 = bus.clock.now();
+        let slot = bus.slots.iter_mut().find(|s| s.address == address);
+        let (mut dead, mut p_corrupt, mut stall) = (false, 0.0, None);
+        for kind in slot.iter().flat_map(|s| active_at(&s.faults, t0)) {
+            match kind {
+                FaultKind::Dead => dead = true,
+                FaultKind::Corrupt { probability } => p_corrupt = *probability,
+                FaultKind::Timeout { stall: s } => stall = Some(*s),
+                _ => {}
+            }
+        }
+        let mut wire = Wire {
             clock: bus.clock.clone(),
             bit: 1.0 / bus.hz,
             address,
+            corrupt: p_corrupt,
+            rng: &mut bus.rng,
         };
-        let t0 = wire.clock.now();
         let mut bytes = 0u64;
-        let mut target = bus
-            .targets
-            .iter_mut()
-            .find(|(a, _)| *a == address)
-            .map(|(_, t)| t.as_mut());
+        let mut target = slot.filter(|_| !dead).map(|s| s.target.as_mut());
         let result = match target.as_deref_mut() {
+            _ if stall.is_some() => {
+                // START, the address, then SCL held low until the controller gives up.
+                wire.start_and_address(&mut bytes);
+                wire.clock.advance(stall.unwrap_or(0.0));
+                Err(SimI2cError::Timeout { address })
+            }
             Some(t) => wire.run(t, ops, &mut bytes),
             None if ops.is_empty() => Ok(()),
             None => {
@@ -136,19 +188,21 @@ impl SimI2cBus {
             t.stop();
         }
         bus.bytes += bytes;
-        bus.busy += wire.clock.now() - t0;
+        bus.busy += bus.clock.now() - t0;
         result
     }
 }
 
-/// One transaction's view of the bus: its time base, bit time and address.
-struct Wire {
+/// One transaction's view of the bus: its time base, bit time, address and corruption.
+struct Wire<'a> {
     clock: SimClock,
     bit: f64,
     address: u8,
+    corrupt: f64,
+    rng: &'a mut ChaCha8Rng,
 }
 
-impl Wire {
+impl Wire<'_> {
     /// A (repeated) START and the address byte.
     fn start_and_address(&self, bytes: &mut u64) {
         self.clock.advance(self.bit);
@@ -159,7 +213,7 @@ impl Wire {
     /// The operations between START and STOP with `target` addressed: adjacent operations of
     /// one kind merge, a change of direction is a repeated START.
     fn run(
-        &self,
+        &mut self,
         target: &mut dyn I2cTarget,
         ops: &mut [Operation<'_>],
         bytes: &mut u64,
@@ -178,7 +232,7 @@ impl Wire {
             match op {
                 Operation::Read(buf) => {
                     for b in buf.iter_mut() {
-                        *b = target.read();
+                        *b = corrupt(target.read(), self.corrupt, self.rng);
                         *bytes += 1;
                         self.clock.advance(9.0 * self.bit);
                     }

@@ -1,13 +1,18 @@
 //! A simulated SPI bus: several targets on chip selects, full duplex byte exchange, and the
 //! time each transaction takes at the bus clock (8 bit times per byte plus the chip-select
-//! setup and hold).
+//! setup and hold). Connection faults ([`crate::faults`]) scheduled per chip select: a dead
+//! part leaves MISO high (every byte reads 0xFF), corruption flips bits of the bytes read, a
+//! timeout stalls the transaction and fails it.
 
 use std::cell::RefCell;
 use std::rc::Rc;
 
 use embedded_hal::spi::{ErrorKind, ErrorType, Operation};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 
 use crate::clock::SimClock;
+use crate::faults::{active_at, Fault, FaultKind};
 
 /// A device on the bus, seen byte by byte while its chip select is low.
 pub trait SpiTarget {
@@ -27,12 +32,20 @@ pub enum SimSpiError {
         /// The chip select.
         cs: usize,
     },
+    /// The transaction did not complete in time (the controller gave up).
+    Timeout {
+        /// The chip select.
+        cs: usize,
+    },
 }
 
 impl core::fmt::Display for SimSpiError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             SimSpiError::NoDevice { cs } => write!(f, "no SPI device on chip select {cs}"),
+            SimSpiError::Timeout { cs } => {
+                write!(f, "SPI transaction on chip select {cs} timed out")
+            }
         }
     }
 }
@@ -43,6 +56,7 @@ impl embedded_hal::spi::Error for SimSpiError {
     fn kind(&self) -> ErrorKind {
         match self {
             SimSpiError::NoDevice { .. } => ErrorKind::ChipSelectFault,
+            SimSpiError::Timeout { .. } => ErrorKind::Other,
         }
     }
 }
@@ -50,12 +64,28 @@ impl embedded_hal::spi::Error for SimSpiError {
 /// Chip-select setup plus hold time, in bit times, added to every transaction.
 const CS_OVERHEAD_BITS: f64 = 2.0;
 
+struct Slot {
+    target: Box<dyn SpiTarget>,
+    faults: Vec<Fault>,
+}
+
 struct Bus {
     clock: SimClock,
     hz: f64,
-    targets: Vec<Option<Box<dyn SpiTarget>>>,
+    slots: Vec<Option<Slot>>,
     bytes: u64,
     busy: f64,
+    /// Draws of byte corruption.
+    rng: ChaCha8Rng,
+}
+
+/// One byte as the controller receives it: bit `k` flipped with probability `p`.
+pub(crate) fn corrupt(byte: u8, p: f64, rng: &mut ChaCha8Rng) -> u8 {
+    if p > 0.0 && rng.gen_bool(p.min(1.0)) {
+        byte ^ (1 << rng.gen_range(0..8))
+    } else {
+        byte
+    }
 }
 
 /// A simulated SPI bus (cheap to clone; clones share the bus).
@@ -68,9 +98,10 @@ impl SimSpiBus {
         SimSpiBus(Rc::new(RefCell::new(Bus {
             clock,
             hz,
-            targets: Vec::new(),
+            slots: Vec::new(),
             bytes: 0,
             busy: 0.0,
+            rng: ChaCha8Rng::seed_from_u64(0x5B1),
         })))
     }
 
@@ -78,10 +109,13 @@ impl SimSpiBus {
     /// driver-side device for it.
     pub fn attach(&self, cs: usize, target: Box<dyn SpiTarget>) -> SimSpiDevice {
         let mut b = self.0.borrow_mut();
-        if b.targets.len() <= cs {
-            b.targets.resize_with(cs + 1, || None);
+        if b.slots.len() <= cs {
+            b.slots.resize_with(cs + 1, || None);
         }
-        b.targets[cs] = Some(target);
+        b.slots[cs] = Some(Slot {
+            target,
+            faults: Vec::new(),
+        });
         SimSpiDevice {
             bus: self.clone(),
             cs,
@@ -96,6 +130,15 @@ impl SimSpiBus {
         }
     }
 
+    /// Schedules connection faults (dead, corrupt, timeout) on chip select `cs`; measurement
+    /// faults in the list are ignored here (they belong to the part). Nothing happens if no
+    /// part is attached there.
+    pub fn set_faults(&self, cs: usize, faults: &[Fault]) {
+        if let Some(Some(slot)) = self.0.borrow_mut().slots.get_mut(cs) {
+            slot.faults = faults.iter().filter(|f| f.kind.on_bus()).cloned().collect();
+        }
+    }
+
     /// Bytes exchanged so far and the time the bus was busy (s).
     pub fn usage(&self) -> (u64, f64) {
         let b = self.0.borrow();
@@ -107,31 +150,54 @@ impl SimSpiBus {
         let bus = &mut *guard;
         let bit = 1.0 / bus.hz;
         let clock = bus.clock.clone();
-        let Some(Some(target)) = bus.targets.get_mut(cs) else {
+        let Some(Some(slot)) = bus.slots.get_mut(cs) else {
             return Err(SimSpiError::NoDevice { cs });
         };
         let t0 = clock.now();
+        let (mut dead, mut p_corrupt, mut stall) = (false, 0.0, None);
+        for kind in active_at(&slot.faults, t0) {
+            match kind {
+                FaultKind::Dead => dead = true,
+                FaultKind::Corrupt { probability } => p_corrupt = *probability,
+                FaultKind::Timeout { stall: s } => stall = Some(*s),
+                _ => {}
+            }
+        }
+        if let Some(s) = stall {
+            clock.advance(s);
+            bus.busy += s;
+            return Err(SimSpiError::Timeout { cs });
+        }
+        let target = &mut slot.target;
+        let rng = &mut bus.rng;
         clock.advance(CS_OVERHEAD_BITS * 0.5 * bit);
-        target.select(clock.now());
+        if !dead {
+            target.select(clock.now());
+        }
+        // One byte on the wires: a dead part leaves MISO pulled high.
+        let mut exchange = |mosi: u8| {
+            let miso = if dead { 0xFF } else { target.exchange(mosi) };
+            corrupt(miso, p_corrupt, rng)
+        };
         let mut bytes = 0u64;
         for op in ops.iter_mut() {
             match op {
                 Operation::Read(buf) => {
                     for b in buf.iter_mut() {
-                        *b = target.exchange(0x00);
+                        *b = exchange(0x00);
                     }
                     bytes += buf.len() as u64;
                 }
                 Operation::Write(buf) => {
                     for b in buf.iter() {
-                        target.exchange(*b);
+                        exchange(*b);
                     }
                     bytes += buf.len() as u64;
                 }
                 Operation::Transfer(read, write) => {
                     let n = read.len().max(write.len());
                     for i in 0..n {
-                        let miso = target.exchange(write.get(i).copied().unwrap_or(0x00));
+                        let miso = exchange(write.get(i).copied().unwrap_or(0x00));
                         if let Some(r) = read.get_mut(i) {
                             *r = miso;
                         }
@@ -140,7 +206,7 @@ impl SimSpiBus {
                 }
                 Operation::TransferInPlace(buf) => {
                     for b in buf.iter_mut() {
-                        *b = target.exchange(*b);
+                        *b = exchange(*b);
                     }
                     bytes += buf.len() as u64;
                 }
@@ -148,7 +214,9 @@ impl SimSpiBus {
             }
         }
         clock.advance(bytes as f64 * 8.0 * bit + CS_OVERHEAD_BITS * 0.5 * bit);
-        target.deselect();
+        if !dead {
+            slot.target.deselect();
+        }
         bus.bytes += bytes;
         bus.busy += clock.now() - t0;
         Ok(())

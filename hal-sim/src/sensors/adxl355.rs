@@ -20,13 +20,11 @@
 
 use std::collections::VecDeque;
 
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-
 use super::errors::{SensorErrors, G0};
-use super::sample_clock::SampleClock;
+use super::frontend::Frontend;
 use super::ForceSource;
 use crate::bus::spi::SpiTarget;
+use crate::faults::Fault;
 
 /// Register addresses.
 pub mod reg {
@@ -124,11 +122,8 @@ pub fn code_bytes(c: i32) -> [u8; 3] {
 pub struct Adxl355 {
     regs: [u8; NREG],
     fifo: VecDeque<[u8; 3]>,
-    errors: SensorErrors,
-    source: ForceSource,
-    rng: ChaCha8Rng,
-    /// The internal sample clock.
-    clock: SampleClock,
+    /// Sampling, error model and measurement faults.
+    front: Frontend,
     /// SPI transaction state: current address, direction, bytes seen.
     addr: u8,
     reading: bool,
@@ -143,14 +138,10 @@ pub struct Adxl355 {
 impl Adxl355 {
     /// A part with the given errors, seeing the specific force `source` (part axes, m/s²).
     pub fn new(errors: SensorErrors, source: ForceSource) -> Self {
-        let rng = ChaCha8Rng::seed_from_u64(errors.seed);
         Adxl355 {
             regs: reset_registers(),
             fifo: VecDeque::with_capacity(FIFO_CAP),
-            errors,
-            source,
-            rng,
-            clock: SampleClock::default(),
+            front: Frontend::new(errors, source),
             addr: 0,
             reading: false,
             byte_index: 0,
@@ -158,6 +149,11 @@ impl Adxl355 {
             fifo_pos: 3,
             now: 0.0,
         }
+    }
+
+    /// Schedules measurement faults (stuck, bias jump, noise burst, saturation).
+    pub fn set_faults(&mut self, faults: Vec<Fault>) {
+        self.front.set_faults(faults);
     }
 
     /// Nominal output data rate (Hz) from `FILTER`.
@@ -184,19 +180,17 @@ impl Adxl355 {
     /// Takes every internal-clock sample due up to `t`.
     fn catch_up(&mut self, t: f64) {
         if !self.measuring() || self.external_sync() {
-            self.clock.stop();
+            self.front.stop_clock();
             return;
         }
         let odr = self.odr();
-        while let Some(ts) = self.clock.next_due(t, odr, &self.errors, &mut self.rng) {
+        while let Some(ts) = self.front.next_due(t, odr) {
             self.take_sample(ts);
         }
     }
 
     fn take_sample(&mut self, t: f64) {
-        let f = (self.source)(t);
-        let sd = self.errors.noise_density * (self.odr() / 4.0).sqrt();
-        let a = self.errors.apply(&f, sd, &mut self.rng);
+        let a = self.front.measure(t, self.odr() / 4.0);
         let lsb = sensitivity(self.regs[reg::RANGE as usize]);
         for (axis, v) in a.iter().enumerate() {
             let b = code_bytes(code(*v, lsb));
@@ -263,7 +257,7 @@ impl Adxl355 {
             reg::RESET if v == RESET_CODE => {
                 self.regs = reset_registers();
                 self.fifo.clear();
-                self.clock.stop();
+                self.front.stop_clock();
             }
             // Any other value written to RESET does nothing.
             reg::RESET => {}
@@ -275,7 +269,7 @@ impl Adxl355 {
                 if a == reg::POWER_CTL || a == reg::FILTER || a == reg::SYNC {
                     if !was_measuring || a != reg::POWER_CTL {
                         // (Re)start the internal clock from now.
-                        self.clock.stop();
+                        self.front.stop_clock();
                     }
                     self.catch_up(self.now);
                 }

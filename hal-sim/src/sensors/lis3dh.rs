@@ -19,13 +19,11 @@
 //!   of a low byte and of its high byte.
 //! - Noise bandwidth ODR/2.
 
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-
 use super::errors::{SensorErrors, G0};
-use super::sample_clock::SampleClock;
+use super::frontend::Frontend;
 use super::ForceSource;
 use crate::bus::i2c::I2cTarget;
+use crate::faults::Fault;
 
 /// Register addresses.
 pub mod reg {
@@ -97,10 +95,8 @@ pub fn resolution(ctrl1: u8, ctrl4: u8) -> (u32, f64) {
 /// The LIS3DH register model.
 pub struct Lis3dh {
     regs: [u8; NREG],
-    errors: SensorErrors,
-    source: ForceSource,
-    rng: ChaCha8Rng,
-    clock: SampleClock,
+    /// Sampling, error model and measurement faults.
+    front: Frontend,
     /// I²C state: sub-address, auto-increment, whether the sub-address byte has come.
     sub: u8,
     auto_inc: bool,
@@ -116,13 +112,9 @@ pub struct Lis3dh {
 impl Lis3dh {
     /// A part with the given errors, seeing the specific force `source` (part axes, m/s²).
     pub fn new(errors: SensorErrors, source: ForceSource) -> Self {
-        let rng = ChaCha8Rng::seed_from_u64(errors.seed);
         Lis3dh {
             regs: reset_registers(),
-            errors,
-            source,
-            rng,
-            clock: SampleClock::default(),
+            front: Frontend::new(errors, source),
             sub: 0,
             auto_inc: false,
             have_sub: false,
@@ -132,21 +124,24 @@ impl Lis3dh {
         }
     }
 
+    /// Schedules measurement faults (stuck, bias jump, noise burst, saturation).
+    pub fn set_faults(&mut self, faults: Vec<Fault>) {
+        self.front.set_faults(faults);
+    }
+
     fn odr(&self) -> f64 {
         odr(self.regs[reg::CTRL_REG1 as usize])
     }
 
     fn catch_up(&mut self, t: f64) {
         let odr = self.odr();
-        while let Some(ts) = self.clock.next_due(t, odr, &self.errors, &mut self.rng) {
+        while let Some(ts) = self.front.next_due(t, odr) {
             self.take_sample(ts);
         }
     }
 
     fn take_sample(&mut self, t: f64) {
-        let f = (self.source)(t);
-        let sd = self.errors.noise_density * (self.odr() / 2.0).sqrt();
-        let a = self.errors.apply(&f, sd, &mut self.rng);
+        let a = self.front.measure(t, self.odr() / 2.0);
         let ctrl1 = self.regs[reg::CTRL_REG1 as usize];
         let (bits, g_per_digit) = resolution(ctrl1, self.regs[reg::CTRL_REG4 as usize]);
         let max = (1i32 << (bits - 1)) - 1;
@@ -218,7 +213,7 @@ impl Lis3dh {
                 self.regs[a as usize] = v;
                 if a == reg::CTRL_REG1 && self.odr() != old_odr {
                     // Restart the sample clock from the time of this write.
-                    self.clock.stop();
+                    self.front.stop_clock();
                     self.catch_up(self.now);
                 }
             }

@@ -7,6 +7,7 @@
 
 pub mod adxl355;
 pub mod errors;
+pub mod frontend;
 pub mod lis3dh;
 pub mod sample_clock;
 
