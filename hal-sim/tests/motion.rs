@@ -124,8 +124,8 @@ fn torque_free_rotation_matches_the_jacobi_elliptic_solution() {
         let tr = p.truth_at(t);
         let (sn, cn, dn) = sn_cn_dn(rate * t, m);
         let w = [a1 * cn, a2 * sn, a3 * dn];
-        for i in 0..3 {
-            worst = worst.max((tr.omega[i] - w[i]).abs());
+        for (a, b) in tr.omega.iter().zip(w.iter()) {
+            worst = worst.max((a - b).abs());
         }
         // Ω′ from the derivatives of cn, sn, dn.
         let dw = [
@@ -133,8 +133,8 @@ fn torque_free_rotation_matches_the_jacobi_elliptic_solution() {
             a2 * rate * cn * dn,
             -a3 * rate * m * sn * cn,
         ];
-        for i in 0..3 {
-            worst_domega = worst_domega.max((tr.domega[i] - dw[i]).abs());
+        for (a, b) in tr.domega.iter().zip(dw.iter()) {
+            worst_domega = worst_domega.max((a - b).abs());
         }
     }
     eprintln!("max |Ω − Ω_analytic| over 100 s: {worst:.2e} rad/s, Ω′: {worst_domega:.2e}");
