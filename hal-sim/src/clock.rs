@@ -15,6 +15,12 @@ impl SimClock {
         Self::default()
     }
 
+    /// A clock starting at `t` (e.g. before 0, so that start-up transactions are done when
+    /// the record begins at 0).
+    pub fn starting_at(t: f64) -> Self {
+        SimClock(Rc::new(Cell::new(t)))
+    }
+
     /// The current simulated time (s).
     pub fn now(&self) -> f64 {
         self.0.get()

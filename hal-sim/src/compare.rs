@@ -20,10 +20,10 @@ pub struct Comparison {
     pub field: f64,
 }
 
-/// Column index by name, and the rows.
-type Table = (HashMap<String, usize>, Vec<Vec<f64>>);
+/// Column index by name, and the rows (every field a number).
+pub(crate) type Table = (HashMap<String, usize>, Vec<Vec<f64>>);
 
-fn read(path: &Path) -> Result<Table, Box<dyn Error>> {
+pub(crate) fn read(path: &Path) -> Result<Table, Box<dyn Error>> {
     let name = path.display().to_string();
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)

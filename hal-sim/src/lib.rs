@@ -6,6 +6,7 @@
 #![deny(missing_docs)]
 
 pub mod arrangement_file;
+pub mod bench;
 pub mod bus;
 pub mod clock;
 pub mod compare;
@@ -14,6 +15,10 @@ pub mod families;
 pub mod faults;
 pub mod motion;
 pub mod noise;
+pub mod plot;
+pub mod rig;
 pub mod run;
 pub mod samples_csv;
+pub mod scenario;
 pub mod sensors;
+pub mod sim;

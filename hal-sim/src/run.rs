@@ -230,19 +230,29 @@ pub fn write_samples(
 /// Writes a truth file (same column names as the estimates file).
 pub fn write_truth(path: &Path, truth: &[Truth]) -> std::io::Result<()> {
     let mut w = BufWriter::new(File::create(path)?);
-    writeln!(w, "{}", estimates_csv::COLUMNS[..16].join(","))?;
+    write_truth_header(&mut w)?;
     for tr in truth {
-        write!(w, "{}", tr.t)?;
-        for v in tr
-            .sigma0
-            .iter()
-            .chain(tr.domega.iter())
-            .chain(tr.omega.iter())
-            .chain(tr.field.0.iter())
-        {
-            write!(w, ",{v}")?;
-        }
-        writeln!(w)?;
+        write_truth_row(&mut w, tr)?;
     }
     w.flush()
+}
+
+/// The header of a truth file.
+pub fn write_truth_header(w: &mut impl Write) -> std::io::Result<()> {
+    writeln!(w, "{}", estimates_csv::COLUMNS[..16].join(","))
+}
+
+/// One row of a truth file.
+pub fn write_truth_row(w: &mut impl Write, tr: &Truth) -> std::io::Result<()> {
+    write!(w, "{}", tr.t)?;
+    for v in tr
+        .sigma0
+        .iter()
+        .chain(tr.domega.iter())
+        .chain(tr.omega.iter())
+        .chain(tr.field.0.iter())
+    {
+        write!(w, ",{v}")?;
+    }
+    writeln!(w)
 }

@@ -16,6 +16,13 @@ const FLAGS_HELP: &str = "The flags column of estimates.csv is a bit set:
   32  input invalid: a reading was missing (empty field); the row is the prediction
   64  residual high: χ² above its 99.9 % point (fault suspected)";
 
+const SIM_HELP: &str = "Named scenarios:
+  tetra-orbit         4 x ADXL355 on a tetrahedron (SPI, external sync), torque-free tumble in orbit
+  nine-channel        9-channel ballistometer from 6 x ADXL355, free-float tumble
+  ground-spin-mixed   2 x ADXL355 (SPI) + 2 x LIS3DH (I2C, own clocks), ground turntable spin-up
+  tetra-orbit-faults  tetra-orbit with a stuck part, a bias jump, a dead part and corrupted bytes
+The scenario file format: hal-sim/scenarios/README.md.";
+
 #[derive(Parser)]
 #[command(
     name = "ballisto",
@@ -53,6 +60,20 @@ enum Command {
         /// Scalar of the sample loop: f64 (default) or f32 (as on the target).
         #[arg(long, value_name = "f32|f64", default_value = "f64")]
         precision: String,
+    },
+    /// Simulate a scenario: parts read through their simulated buses; writes arrangement.toml,
+    /// samples.csv and truth.csv (with --estimate also estimates.csv and estimates.png).
+    #[command(after_help = SIM_HELP)]
+    Sim {
+        /// A named scenario or a scenario file (TOML).
+        #[arg(long, value_name = "NAME|FILE")]
+        scenario: String,
+        /// Output directory (created if missing).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// Also run the estimator: estimates.csv, errors against the truth, estimates.png.
+        #[arg(long)]
+        estimate: bool,
     },
     /// RMS errors of an estimates file against a truth file (matched by column name and t).
     Compare {
@@ -132,6 +153,61 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 if c > 0 {
                     eprintln!("  {c:>8} rows flagged {name} ({bit})");
                 }
+            }
+            Ok(())
+        }
+        Command::Sim {
+            scenario,
+            out,
+            estimate,
+        } => {
+            let sc = hal_sim::scenario::Scenario::load(&scenario)?;
+            let started = std::time::Instant::now();
+            let r = hal_sim::sim::run_sim(&hal_sim::sim::SimJob {
+                scenario: &sc,
+                out: &out,
+                estimate,
+                progress: true,
+            })?;
+            println!("ballisto sim: {scenario}: {}", sc.description);
+            println!(
+                "  {} sample sets at {} Hz ({} s), {} parts, {} channels, {:.1} s wall time",
+                r.samples,
+                sc.rate,
+                sc.duration,
+                r.parts.len(),
+                r.channels,
+                started.elapsed().as_secs_f64()
+            );
+            for (name, bytes, busy) in &r.buses {
+                println!(
+                    "  bus {name}: {bytes} bytes, {:.1} us busy per sample set",
+                    busy / r.samples as f64 * 1e6
+                );
+            }
+            for p in r.parts.iter().filter(|p| p.errors > 0) {
+                println!(
+                    "  part {}: {} of {} reads failed (empty fields)",
+                    p.name, p.errors, p.reads
+                );
+            }
+            if !sc.faults.is_empty() {
+                println!("  faults scheduled: {}", sc.faults.len());
+            }
+            if let Some(c) = &r.errors {
+                println!(
+                    "  RMS error  sigma0 {:.3e} m/s^2  domega {:.3e} rad/s^2  omega {:.3e} rad/s  A {:.3e} 1/s^2",
+                    c.sigma0, c.domega, c.omega, c.field
+                );
+                for (bit, name) in FLAG_NAMES {
+                    let c = r.flag_counts[bit.trailing_zeros() as usize];
+                    if c > 0 {
+                        println!("  {c:>8} rows flagged {name} ({bit})");
+                    }
+                }
+            }
+            for f in &r.files {
+                println!("  wrote {}", f.display());
             }
             Ok(())
         }

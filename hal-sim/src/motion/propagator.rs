@@ -44,13 +44,13 @@ impl Propagator {
         &self.motion
     }
 
-    /// The truth at time `t` (s). Times before 0 are taken as 0.
+    /// The truth at time `t` (s). Times shortly before 0 (a part sampling just before a record
+    /// starts) are reached by one backward step from 0.
     pub fn truth_at(&mut self, t: f64) -> Truth {
-        let t = if t > 0.0 { t } else { 0.0 };
-        let k = (t / self.h).floor() as u64;
+        let k = (t / self.h).floor().max(0.0) as u64;
         let node = self.node(k);
         let tk = node.k as f64 * self.h;
-        let (q, w) = if t > tk {
+        let (q, w) = if t != tk {
             self.motion.rk4(tk, &node.q, &node.w, t - tk)
         } else {
             (node.q, node.w)

@@ -15,13 +15,15 @@
 //! - FIFO of 96 entries (32 x, y, z sets, 3 bytes each); an x entry has bit 0 of its last byte
 //!   set, an empty FIFO reads with bit 1 set.
 //! - `SYNC` bits 1:0 ≠ 0: external synchronisation, one sample per pulse on the SYNC pin
-//!   ([`Adxl355::sync_pulse`]) instead of the internal clock.
+//!   ([`Adxl355::connect_sync`] to a [`SyncLine`], or [`Adxl355::sync_pulse`]) instead of the
+//!   internal clock.
 //! - Writing 0x52 to `RESET` restores every register.
 
 use std::collections::VecDeque;
 
 use super::errors::{SensorErrors, G0};
 use super::frontend::Frontend;
+use super::sync_line::SyncLine;
 use super::ForceSource;
 use crate::bus::spi::SpiTarget;
 use crate::faults::Fault;
@@ -133,6 +135,8 @@ pub struct Adxl355 {
     fifo_pos: usize,
     /// Simulated time of the current transaction.
     now: f64,
+    /// The SYNC pin's line and the pulses seen on it.
+    sync: Option<(SyncLine, u64)>,
 }
 
 impl Adxl355 {
@@ -148,7 +152,15 @@ impl Adxl355 {
             fifo_entry: [0; 3],
             fifo_pos: 3,
             now: 0.0,
+            sync: None,
         }
+    }
+
+    /// Wires the SYNC pin to `line`: with external sync enabled, each pulse is one sample.
+    /// Pulses sent before the connection are not seen.
+    pub fn connect_sync(&mut self, line: SyncLine) {
+        let seen = line.count();
+        self.sync = Some((line, seen));
     }
 
     /// Schedules measurement faults (stuck, bias jump, noise burst, saturation).
@@ -179,8 +191,15 @@ impl Adxl355 {
 
     /// Takes every internal-clock sample due up to `t`.
     fn catch_up(&mut self, t: f64) {
+        let pulses = match &mut self.sync {
+            Some((line, seen)) => line.take_since(seen, t),
+            None => Vec::new(),
+        };
         if !self.measuring() || self.external_sync() {
             self.front.stop_clock();
+            for p in pulses {
+                self.sync_pulse(p);
+            }
             return;
         }
         let odr = self.odr();

@@ -10,6 +10,7 @@ pub mod errors;
 pub mod frontend;
 pub mod lis3dh;
 pub mod sample_clock;
+pub mod sync_line;
 
 pub use errors::SensorErrors;
 

@@ -1,0 +1,160 @@
+//! A small RGB raster: lines, filled rectangles and text in a 5×7 bitmap font, encoded as PNG.
+//! Enough to draw time series for a person to look at, with no font files or system libraries.
+
+use std::path::Path;
+
+/// An RGB colour.
+pub type Rgb = [u8; 3];
+
+/// An RGB image.
+pub struct Canvas {
+    width: usize,
+    height: usize,
+    pixels: Vec<u8>,
+}
+
+/// The 5×7 glyphs (bits 4..0 of each row, left to right).
+const FONT: [(u8, [u8; 7]); 45] = [
+    (b'(', [0x02, 0x04, 0x08, 0x08, 0x08, 0x04, 0x02]),
+    (b')', [0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08]),
+    (b'+', [0x00, 0x04, 0x04, 0x1F, 0x04, 0x04, 0x00]),
+    (b',', [0x00, 0x00, 0x00, 0x00, 0x0C, 0x04, 0x08]),
+    (b'-', [0x00, 0x00, 0x00, 0x1F, 0x00, 0x00, 0x00]),
+    (b'.', [0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C]),
+    (b'/', [0x00, 0x01, 0x02, 0x04, 0x08, 0x10, 0x00]),
+    (b'0', [0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E]),
+    (b'1', [0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E]),
+    (b'2', [0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F]),
+    (b'3', [0x1F, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0E]),
+    (b'4', [0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02]),
+    (b'5', [0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E]),
+    (b'6', [0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E]),
+    (b'7', [0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08]),
+    (b'8', [0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E]),
+    (b'9', [0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C]),
+    (b':', [0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x0C, 0x00]),
+    (b'=', [0x00, 0x00, 0x1F, 0x00, 0x1F, 0x00, 0x00]),
+    (b'A', [0x0E, 0x11, 0x11, 0x1F, 0x11, 0x11, 0x11]),
+    (b'B', [0x1E, 0x11, 0x11, 0x1E, 0x11, 0x11, 0x1E]),
+    (b'C', [0x0E, 0x11, 0x10, 0x10, 0x10, 0x11, 0x0E]),
+    (b'D', [0x1C, 0x12, 0x11, 0x11, 0x11, 0x12, 0x1C]),
+    (b'E', [0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x1F]),
+    (b'F', [0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x10]),
+    (b'G', [0x0E, 0x11, 0x10, 0x17, 0x11, 0x11, 0x0F]),
+    (b'H', [0x11, 0x11, 0x11, 0x1F, 0x11, 0x11, 0x11]),
+    (b'I', [0x0E, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E]),
+    (b'J', [0x07, 0x02, 0x02, 0x02, 0x02, 0x12, 0x0C]),
+    (b'K', [0x11, 0x12, 0x14, 0x18, 0x14, 0x12, 0x11]),
+    (b'L', [0x10, 0x10, 0x10, 0x10, 0x10, 0x10, 0x1F]),
+    (b'M', [0x11, 0x1B, 0x15, 0x15, 0x11, 0x11, 0x11]),
+    (b'N', [0x11, 0x11, 0x19, 0x15, 0x13, 0x11, 0x11]),
+    (b'O', [0x0E, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E]),
+    (b'P', [0x1E, 0x11, 0x11, 0x1E, 0x10, 0x10, 0x10]),
+    (b'Q', [0x0E, 0x11, 0x11, 0x11, 0x15, 0x12, 0x0D]),
+    (b'R', [0x1E, 0x11, 0x11, 0x1E, 0x14, 0x12, 0x11]),
+    (b'S', [0x0F, 0x10, 0x10, 0x0E, 0x01, 0x01, 0x1E]),
+    (b'T', [0x1F, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04]),
+    (b'U', [0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E]),
+    (b'V', [0x11, 0x11, 0x11, 0x11, 0x11, 0x0A, 0x04]),
+    (b'W', [0x11, 0x11, 0x11, 0x15, 0x15, 0x15, 0x0A]),
+    (b'X', [0x11, 0x11, 0x0A, 0x04, 0x0A, 0x11, 0x11]),
+    (b'Y', [0x11, 0x11, 0x0A, 0x04, 0x04, 0x04, 0x04]),
+    (b'Z', [0x1F, 0x01, 0x02, 0x04, 0x08, 0x10, 0x1F]),
+];
+
+impl Canvas {
+    /// A `width` × `height` canvas filled with `background`.
+    pub fn new(width: usize, height: usize, background: Rgb) -> Self {
+        let mut pixels = Vec::with_capacity(width * height * 3);
+        for _ in 0..width * height {
+            pixels.extend_from_slice(&background);
+        }
+        Canvas {
+            width,
+            height,
+            pixels,
+        }
+    }
+
+    /// Sets one pixel (outside the canvas: ignored).
+    pub fn set(&mut self, x: i64, y: i64, c: Rgb) {
+        if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {
+            let i = (y as usize * self.width + x as usize) * 3;
+            self.pixels[i..i + 3].copy_from_slice(&c);
+        }
+    }
+
+    /// Fills a rectangle.
+    pub fn fill(&mut self, x0: i64, y0: i64, w: i64, h: i64, c: Rgb) {
+        for y in y0..y0 + h {
+            for x in x0..x0 + w {
+                self.set(x, y, c);
+            }
+        }
+    }
+
+    /// A straight line (Bresenham).
+    pub fn line(&mut self, (x0, y0): (i64, i64), (x1, y1): (i64, i64), c: Rgb) {
+        let (dx, dy) = ((x1 - x0).abs(), -(y1 - y0).abs());
+        let (sx, sy) = (if x0 < x1 { 1 } else { -1 }, if y0 < y1 { 1 } else { -1 });
+        let (mut x, mut y, mut err) = (x0, y0, dx + dy);
+        loop {
+            self.set(x, y, c);
+            if x == x1 && y == y1 {
+                break;
+            }
+            let e2 = 2 * err;
+            if e2 >= dy {
+                err += dy;
+                x += sx;
+            }
+            if e2 <= dx {
+                err += dx;
+                y += sy;
+            }
+        }
+    }
+
+    /// Text with its top-left corner at (x, y), each font pixel `scale` pixels wide; lower
+    /// case is drawn as upper case, characters without a glyph as blanks.
+    pub fn text(&mut self, x: i64, y: i64, s: &str, scale: i64, c: Rgb) {
+        for (i, ch) in s.bytes().enumerate() {
+            let ch = ch.to_ascii_uppercase();
+            let Some((_, rows)) = FONT.iter().find(|(g, _)| *g == ch) else {
+                continue;
+            };
+            let x0 = x + i as i64 * 6 * scale;
+            for (r, bits) in rows.iter().enumerate() {
+                for col in 0..5 {
+                    if bits & (0x10 >> col) != 0 {
+                        self.fill(x0 + col * scale, y + r as i64 * scale, scale, scale, c);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Width of `s` in pixels at `scale`.
+    pub fn text_width(s: &str, scale: i64) -> i64 {
+        s.len() as i64 * 6 * scale
+    }
+
+    /// Writes the canvas as a PNG file.
+    pub fn save_png(&self, path: &Path) -> Result<(), String> {
+        let name = path.display();
+        let file =
+            std::fs::File::create(path).map_err(|e| format!("{name}: cannot create: {e}"))?;
+        let mut enc = png::Encoder::new(
+            std::io::BufWriter::new(file),
+            self.width as u32,
+            self.height as u32,
+        );
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut w = enc
+            .write_header()
+            .map_err(|e| format!("{name}: PNG header: {e}"))?;
+        w.write_image_data(&self.pixels)
+            .map_err(|e| format!("{name}: PNG data: {e}"))
+    }
+}

@@ -1,0 +1,879 @@
+//! Scenario files (TOML): the body and its motion, the environment, the buses and the parts on
+//! them (type, address or chip select, mount, error model), scheduled faults, the sampling rate
+//! and the duration. The format is documented in `hal-sim/scenarios/README.md`; the named
+//! scenarios shipped with the binary are in [`named`].
+
+pub mod named;
+
+use std::collections::HashSet;
+use std::fmt;
+use std::path::Path;
+
+use serde::Deserialize;
+
+use crate::arrangement_file::{ArrangementFile, ChannelSpec, Noise, SensorSpec};
+use crate::faults::{Fault, FaultKind};
+use crate::motion::{Burn, Environment, Motion, Rotation, Torque};
+use crate::sensors::errors::G0;
+use crate::sensors::SensorErrors;
+
+/// An error in a scenario, naming the scenario and what is wrong.
+#[derive(Debug)]
+pub struct ScenarioError {
+    /// Scenario file or name.
+    pub source: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.source, self.message)
+    }
+}
+
+impl std::error::Error for ScenarioError {}
+
+/// A whole scenario file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// One line for people.
+    #[serde(default)]
+    pub description: String,
+    /// Rate at which the controller reads every part (Hz).
+    pub rate: f64,
+    /// Length of the record (s).
+    pub duration: f64,
+    /// Seed from which the parts' noise seeds derive.
+    #[serde(default)]
+    pub seed: u64,
+    /// Estimator model for `--estimate`: "general" or "free-float" (default: general).
+    #[serde(default)]
+    pub model: Option<String>,
+    /// Approximate Ω at the start for `--estimate` (rad/s), as from a primary IMU.
+    #[serde(default)]
+    pub initial_omega: Option<[f64; 3]>,
+    /// The body and its rotation.
+    pub body: BodySpec,
+    /// Where the body is.
+    pub environment: EnvironmentSpec,
+    /// The buses.
+    #[serde(rename = "bus")]
+    pub buses: Vec<BusSpec>,
+    /// The parts.
+    #[serde(rename = "part")]
+    pub parts: Vec<PartSpec>,
+    /// Scheduled faults.
+    #[serde(default, rename = "fault")]
+    pub faults: Vec<FaultSpec>,
+}
+
+/// The body: Euler's equations (`inertia`, `omega0`, optional `torque`) or a `turntable`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Principal moments of inertia (kg·m²) along the body axes.
+    #[serde(default)]
+    pub inertia: Option<[f64; 3]>,
+    /// Ω at t = 0 (rad/s, body).
+    #[serde(default)]
+    pub omega0: Option<[f64; 3]>,
+    /// Attitude at t = 0, body → inertial quaternion `[w, x, y, z]`.
+    #[serde(default)]
+    pub attitude0: Option<[f64; 4]>,
+    /// Instrument origin seen from the centre of mass / rotation centre (m, body): ρ.
+    #[serde(default)]
+    pub origin_offset: Option<[f64; 3]>,
+    /// Body torque (Euler only).
+    #[serde(default)]
+    pub torque: Option<TorqueSpec>,
+    /// A turntable instead of free rotation.
+    #[serde(default)]
+    pub turntable: Option<TurntableSpec>,
+}
+
+/// A torque profile.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum TorqueSpec {
+    /// `τ_k = amplitude_k sin(2π f t + phase_k)`.
+    Sinusoid {
+        /// N·m per axis.
+        amplitude: [f64; 3],
+        /// Hz.
+        frequency: f64,
+        /// rad per axis.
+        #[serde(default)]
+        phase: [f64; 3],
+    },
+    /// Piecewise constant torques from their start times.
+    Steps {
+        /// `[start, τx, τy, τz]` rows.
+        steps: Vec<[f64; 4]>,
+    },
+}
+
+/// A turntable.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TurntableSpec {
+    /// Spin axis (body), normalised.
+    pub axis: [f64; 3],
+    /// Final rate (rad/s).
+    pub rate: f64,
+    /// Spin-up time from rest (s); 0: spinning from the start.
+    #[serde(default)]
+    pub spin_up: f64,
+}
+
+/// The environment: `kind` = "space", "orbit" (with `altitude`) or "ground"; optional drag
+/// and burns.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvironmentSpec {
+    /// "space", "orbit" or "ground".
+    pub kind: String,
+    /// Orbit altitude (m).
+    #[serde(default)]
+    pub altitude: Option<f64>,
+    /// Constant drag (specific force, inertial, m/s²).
+    #[serde(default)]
+    pub drag: Option<[f64; 3]>,
+    /// Thruster burns.
+    #[serde(default, rename = "burn")]
+    pub burns: Vec<BurnSpec>,
+}
+
+/// A burn: body-fixed specific force over a time window.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BurnSpec {
+    /// Start (s).
+    pub start: f64,
+    /// End (s).
+    pub end: f64,
+    /// Specific force (m/s², body).
+    pub accel: [f64; 3],
+}
+
+/// A bus.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BusSpec {
+    /// Name the parts refer to.
+    pub name: String,
+    /// "spi" or "i2c".
+    pub kind: String,
+    /// Bus clock (Hz), e.g. 10e6 for SPI, 400e3 for I²C.
+    pub clock_hz: f64,
+}
+
+/// The part types modelled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PartType {
+    /// Analog Devices ADXL355 (SPI).
+    Adxl355,
+    /// STMicroelectronics LIS3DH (I²C).
+    Lis3dh,
+}
+
+impl PartType {
+    /// The name written in arrangement files.
+    pub fn label(self) -> &'static str {
+        match self {
+            PartType::Adxl355 => "ADXL355",
+            PartType::Lis3dh => "LIS3DH",
+        }
+    }
+
+    /// The output data rates the part offers (Hz), ascending.
+    pub fn odrs(self) -> Vec<f64> {
+        match self {
+            PartType::Adxl355 => (0..=10).rev().map(|n| 4000.0 / f64::from(1 << n)).collect(),
+            PartType::Lis3dh => vec![1.0, 10.0, 25.0, 50.0, 100.0, 200.0, 400.0, 1344.0],
+        }
+    }
+
+    /// Full-scale ranges (g).
+    pub fn ranges(self) -> &'static [u32] {
+        match self {
+            PartType::Adxl355 => &[2, 4, 8],
+            PartType::Lis3dh => &[2, 4, 8, 16],
+        }
+    }
+
+    /// One count of the output (m/s²) at the range.
+    pub fn lsb(self, range_g: u32) -> f64 {
+        match self {
+            PartType::Adxl355 => G0 * f64::from(range_g) / 512_000.0,
+            // High-resolution mode: 1, 2, 4, 12 mg per digit.
+            PartType::Lis3dh => {
+                G0 * 1e-3
+                    * match range_g {
+                        2 => 1.0,
+                        4 => 2.0,
+                        8 => 4.0,
+                        _ => 12.0,
+                    }
+            }
+        }
+    }
+
+    /// White-noise bandwidth as a fraction of the ODR.
+    pub fn bandwidth_per_odr(self) -> f64 {
+        match self {
+            PartType::Adxl355 => 0.25,
+            PartType::Lis3dh => 0.5,
+        }
+    }
+}
+
+/// One tri-axial part.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PartSpec {
+    /// Unique name; channels are `<name>.x` etc.
+    pub name: String,
+    /// Part type.
+    #[serde(rename = "type")]
+    pub part: PartType,
+    /// The bus it is on.
+    pub bus: String,
+    /// Chip select (SPI).
+    #[serde(default)]
+    pub cs: Option<usize>,
+    /// 7-bit address (I²C).
+    #[serde(default)]
+    pub address: Option<u8>,
+    /// Position (m, body).
+    pub position: [f64; 3],
+    /// Sensor-to-body rotation, row by row (identity if absent).
+    #[serde(default)]
+    pub orientation: Option<[[f64; 3]; 3]>,
+    /// The axes used as channels (default all: "x", "y", "z").
+    #[serde(default)]
+    pub axes: Option<Vec<String>>,
+    /// Full-scale range (g); default the smallest.
+    #[serde(default)]
+    pub range_g: Option<u32>,
+    /// Output data rate (Hz), one the part offers; default the lowest at or above the rate
+    /// (ADXL355: below twice the rate, so that its ODR/4 filter does not alias).
+    #[serde(default)]
+    pub odr: Option<f64>,
+    /// ADXL355: sample on the controller's SYNC pulse at every read instant (default true).
+    #[serde(default)]
+    pub sync: Option<bool>,
+    /// Scale factor per axis.
+    #[serde(default)]
+    pub scale: Option<[f64; 3]>,
+    /// Bias (m/s²) per axis.
+    #[serde(default)]
+    pub bias: Option<[f64; 3]>,
+    /// Cross-axis sensitivity (off-diagonal; rows = output axis).
+    #[serde(default)]
+    pub cross: Option<[[f64; 3]; 3]>,
+    /// White-noise density (m/s²/√Hz).
+    #[serde(default)]
+    pub noise_density: Option<f64>,
+    /// Clock offset (ppm).
+    #[serde(default)]
+    pub clock_ppm: Option<f64>,
+    /// Jitter of each sample instant (s RMS).
+    #[serde(default)]
+    pub jitter: Option<f64>,
+}
+
+/// A fault of one part.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FaultSpec {
+    /// The part.
+    pub part: String,
+    /// "stuck", "bias-jump", "noise-burst", "saturation", "dead", "corrupt" or "timeout".
+    pub kind: String,
+    /// Start (s).
+    pub start: f64,
+    /// End (s); default: to the end of the run.
+    #[serde(default)]
+    pub end: Option<f64>,
+    /// bias-jump: m/s² per part axis.
+    #[serde(default)]
+    pub bias: Option<[f64; 3]>,
+    /// noise-burst: m/s²/√Hz.
+    #[serde(default)]
+    pub density: Option<f64>,
+    /// corrupt: probability per byte read.
+    #[serde(default)]
+    pub probability: Option<f64>,
+    /// timeout: stall per transaction (s).
+    #[serde(default)]
+    pub stall: Option<f64>,
+}
+
+const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+fn finite(v: &[f64]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+impl Scenario {
+    /// Parses and validates TOML text; `source` names it in errors.
+    pub fn parse(text: &str, source: &str) -> Result<Self, ScenarioError> {
+        let s: Scenario = toml::from_str(text).map_err(|e| ScenarioError {
+            source: source.to_string(),
+            message: e.to_string().lines().collect::<Vec<_>>().join(" "),
+        })?;
+        s.validate().map_err(|message| ScenarioError {
+            source: source.to_string(),
+            message,
+        })?;
+        Ok(s)
+    }
+
+    /// Reads a scenario file.
+    pub fn read(path: &Path) -> Result<Self, ScenarioError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError {
+            source: path.display().to_string(),
+            message: format!("cannot read: {e}"),
+        })?;
+        Self::parse(&text, &path.display().to_string())
+    }
+
+    /// A named scenario or, if no scenario has that name, a file.
+    pub fn load(name_or_file: &str) -> Result<Self, ScenarioError> {
+        match named::text(name_or_file) {
+            Some(text) => Self::parse(text, name_or_file),
+            None if Path::new(name_or_file).exists() => Self::read(Path::new(name_or_file)),
+            None => Err(ScenarioError {
+                source: name_or_file.to_string(),
+                message: format!(
+                    "no such scenario file, and not a named scenario ({})",
+                    named::NAMES.join(", ")
+                ),
+            }),
+        }
+    }
+
+    /// Samples in the record: `t_k = k / rate` for `0 ≤ t_k ≤ duration`.
+    pub fn samples(&self) -> usize {
+        (self.duration * self.rate + 1e-9).floor() as usize + 1
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        if !(self.rate.is_finite() && self.rate > 0.0 && self.rate <= 4000.0) {
+            return Err(format!(
+                "rate = {}: expected 0 < rate <= 4000 Hz",
+                self.rate
+            ));
+        }
+        if !(self.duration.is_finite() && self.duration > 0.0 && self.duration <= 1e6) {
+            return Err(format!(
+                "duration = {}: expected 0 < duration <= 1e6 s",
+                self.duration
+            ));
+        }
+        if let Some(m) = &self.model {
+            if crate::arrangement_file::parse_model(m).is_none() {
+                return Err(format!("model = \"{m}\": expected general or free-float"));
+            }
+        }
+        if self.initial_omega.is_some_and(|w| !finite(&w)) {
+            return Err("initial_omega: not finite".into());
+        }
+        self.validate_body()?;
+        self.validate_environment()?;
+        let mut buses = HashSet::new();
+        for b in &self.buses {
+            if b.kind != "spi" && b.kind != "i2c" {
+                return Err(format!(
+                    "bus \"{}\": kind = \"{}\": expected spi or i2c",
+                    b.name, b.kind
+                ));
+            }
+            if !(b.clock_hz.is_finite() && b.clock_hz > 0.0) {
+                return Err(format!("bus \"{}\": clock_hz must be positive", b.name));
+            }
+            if !buses.insert(b.name.as_str()) {
+                return Err(format!("bus \"{}\" is declared twice", b.name));
+            }
+        }
+        if self.parts.is_empty() {
+            return Err("no [[part]]".into());
+        }
+        let mut names = HashSet::new();
+        let mut slots = HashSet::new();
+        for p in &self.parts {
+            if !names.insert(p.name.as_str()) {
+                return Err(format!("part \"{}\" is declared twice", p.name));
+            }
+            let slot = self.validate_part(p)?;
+            if !slots.insert((p.bus.as_str(), slot)) {
+                return Err(format!(
+                    "part \"{}\": {} {slot} on bus \"{}\" is taken by another part",
+                    p.name,
+                    if p.part == PartType::Adxl355 {
+                        "chip select"
+                    } else {
+                        "address"
+                    },
+                    p.bus
+                ));
+            }
+        }
+        for (i, f) in self.faults.iter().enumerate() {
+            self.fault(f)
+                .map_err(|m| format!("fault {} (part \"{}\"): {m}", i + 1, f.part))?;
+        }
+        Ok(())
+    }
+
+    fn validate_body(&self) -> Result<(), String> {
+        let b = &self.body;
+        for (name, v) in [
+            ("inertia", b.inertia.as_ref().map(|v| &v[..])),
+            ("omega0", b.omega0.as_ref().map(|v| &v[..])),
+            ("attitude0", b.attitude0.as_ref().map(|v| &v[..])),
+            ("origin_offset", b.origin_offset.as_ref().map(|v| &v[..])),
+        ] {
+            if v.is_some_and(|v| !finite(v)) {
+                return Err(format!("body.{name}: not finite"));
+            }
+        }
+        if b.attitude0
+            .is_some_and(|q| q.iter().map(|v| v * v).sum::<f64>() < 1e-12)
+        {
+            return Err("body.attitude0: zero quaternion".into());
+        }
+        match (&b.turntable, &b.inertia) {
+            (Some(_), Some(_)) => {
+                Err("body: give either inertia (free rotation) or turntable, not both".into())
+            }
+            (None, None) => Err("body: needs inertia (free rotation) or turntable".into()),
+            (Some(t), None) => {
+                if b.torque.is_some() || b.omega0.is_some() {
+                    return Err(
+                        "body: torque and omega0 apply to free rotation, not to a turntable".into(),
+                    );
+                }
+                let n = t.axis.iter().map(|v| v * v).sum::<f64>().sqrt();
+                if !(finite(&t.axis) && n > 1e-9) {
+                    return Err("body.turntable.axis: zero or not finite".into());
+                }
+                if !(t.rate.is_finite() && t.spin_up.is_finite() && t.spin_up >= 0.0) {
+                    return Err(
+                        "body.turntable: rate and spin_up must be finite, spin_up >= 0".into(),
+                    );
+                }
+                Ok(())
+            }
+            (None, Some(i)) => {
+                if i.iter().any(|v| *v <= 0.0) {
+                    return Err("body.inertia: moments must be positive".into());
+                }
+                if i[0] + i[1] < i[2] || i[0] + i[2] < i[1] || i[1] + i[2] < i[0] {
+                    return Err(
+                        "body.inertia: violates the triangle inequality of a rigid body".into(),
+                    );
+                }
+                match &b.torque {
+                    Some(TorqueSpec::Sinusoid {
+                        amplitude,
+                        frequency,
+                        phase,
+                    }) if !(finite(amplitude) && frequency.is_finite() && finite(phase)) => {
+                        Err("body.torque: not finite".into())
+                    }
+                    Some(TorqueSpec::Steps { steps })
+                        if !steps.iter().all(|s| finite(s))
+                            || steps.windows(2).any(|w| w[1][0] < w[0][0]) =>
+                    {
+                        Err("body.torque.steps: not finite or start times not ascending".into())
+                    }
+                    _ => Ok(()),
+                }
+            }
+        }
+    }
+
+    fn validate_environment(&self) -> Result<(), String> {
+        let e = &self.environment;
+        match (e.kind.as_str(), e.altitude) {
+            ("orbit", Some(a)) if a.is_finite() && a > 0.0 => {}
+            ("orbit", _) => return Err("environment: orbit needs altitude > 0 (m)".into()),
+            ("space" | "ground", None) => {}
+            ("space" | "ground", Some(_)) => {
+                return Err(format!(
+                    "environment: altitude applies to orbit, not {}",
+                    e.kind
+                ))
+            }
+            (k, _) => {
+                return Err(format!(
+                    "environment.kind = \"{k}\": expected space, orbit or ground"
+                ))
+            }
+        }
+        if e.drag.is_some_and(|d| !finite(&d)) {
+            return Err("environment.drag: not finite".into());
+        }
+        for (i, b) in e.burns.iter().enumerate() {
+            if !(finite(&b.accel) && b.start.is_finite() && b.end.is_finite() && b.end > b.start) {
+                return Err(format!(
+                    "environment.burn {}: needs finite accel and start < end",
+                    i + 1
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks one part; returns its chip select or address.
+    fn validate_part(&self, p: &PartSpec) -> Result<usize, String> {
+        let err = |m: String| format!("part \"{}\": {m}", p.name);
+        let bus = self
+            .buses
+            .iter()
+            .find(|b| b.name == p.bus)
+            .ok_or_else(|| err(format!("bus \"{}\" is not declared", p.bus)))?;
+        let slot = match (p.part, bus.kind.as_str(), p.cs, p.address) {
+            (PartType::Adxl355, "spi", Some(cs), None) if cs < 64 => cs,
+            (PartType::Adxl355, "spi", _, _) => {
+                return Err(err("an SPI part needs cs (0..63) and no address".into()))
+            }
+            (PartType::Lis3dh, "i2c", None, Some(a)) if a == 0x18 || a == 0x19 => usize::from(a),
+            (PartType::Lis3dh, "i2c", _, _) => {
+                return Err(err(
+                    "the LIS3DH needs address 0x18 or 0x19 (SA0) and no cs".into()
+                ))
+            }
+            (t, k, _, _) => {
+                return Err(err(format!(
+                    "a {} cannot be on a {k} bus (this model has it on {})",
+                    t.label(),
+                    if t == PartType::Adxl355 { "SPI" } else { "I2C" }
+                )))
+            }
+        };
+        if !finite(&p.position) {
+            return Err(err("position: not finite".into()));
+        }
+        let m = p.orientation.unwrap_or(IDENTITY);
+        if !m.iter().all(|r| finite(r)) || !is_rotation(&m) {
+            return Err(err("orientation: not a proper rotation matrix".into()));
+        }
+        if let Some(axes) = &p.axes {
+            let mut seen = HashSet::new();
+            if axes.is_empty() {
+                return Err(err("axes: empty".into()));
+            }
+            for a in axes {
+                if !AXES.contains(&a.as_str()) || !seen.insert(a) {
+                    return Err(err(format!(
+                        "axes: \"{a}\" is not x, y or z or is repeated"
+                    )));
+                }
+            }
+        }
+        if let Some(r) = p.range_g {
+            if !p.part.ranges().contains(&r) {
+                return Err(err(format!(
+                    "range_g = {r}: the {} offers {:?} g",
+                    p.part.label(),
+                    p.part.ranges()
+                )));
+            }
+        }
+        if let Some(o) = p.odr {
+            if !p.part.odrs().contains(&o) {
+                return Err(err(format!(
+                    "odr = {o}: the {} offers {:?} Hz",
+                    p.part.label(),
+                    p.part.odrs()
+                )));
+            }
+            if o < self.rate && !(p.part == PartType::Adxl355 && self.sync(p)) {
+                return Err(err(format!(
+                    "odr = {o} Hz is below the read rate {} Hz",
+                    self.rate
+                )));
+            }
+        }
+        if p.sync == Some(true) && p.part != PartType::Adxl355 {
+            return Err(err(format!("sync: the {} has no SYNC pin", p.part.label())));
+        }
+        let finite_opt = |v: Option<&[f64]>| v.is_none_or(finite);
+        if !(finite_opt(p.scale.as_ref().map(|v| &v[..]))
+            && finite_opt(p.bias.as_ref().map(|v| &v[..]))
+            && p.cross.is_none_or(|c| c.iter().all(|r| finite(r))))
+        {
+            return Err(err("scale, bias or cross: not finite".into()));
+        }
+        for (name, v) in [("noise_density", p.noise_density), ("jitter", p.jitter)] {
+            if v.is_some_and(|v| !(v.is_finite() && v >= 0.0)) {
+                return Err(err(format!("{name}: must be finite and >= 0")));
+            }
+        }
+        if p.clock_ppm
+            .is_some_and(|v| !(v.is_finite() && v.abs() < 1e5))
+        {
+            return Err(err("clock_ppm: must be finite, |ppm| < 1e5".into()));
+        }
+        if self.sync(p) && p.jitter.is_some_and(|j| j > 0.0) {
+            // Allowed, but jitter applies to the internal clock only.
+        }
+        Ok(slot)
+    }
+
+    /// Whether a part samples on the SYNC pulse.
+    pub fn sync(&self, p: &PartSpec) -> bool {
+        p.part == PartType::Adxl355 && p.sync.unwrap_or(true)
+    }
+
+    /// The part's ODR (Hz): given, or the lowest at or above the read rate.
+    pub fn odr(&self, p: &PartSpec) -> f64 {
+        if let Some(o) = p.odr {
+            return o;
+        }
+        let odrs = p.part.odrs();
+        odrs.iter()
+            .copied()
+            .find(|o| *o >= self.rate)
+            .unwrap_or(odrs[odrs.len() - 1])
+    }
+
+    /// The part's range (g).
+    pub fn range_g(&self, p: &PartSpec) -> u32 {
+        p.range_g.unwrap_or(p.part.ranges()[0])
+    }
+
+    /// The part's error model; its noise seed derives from the scenario seed and its index.
+    pub fn errors(&self, index: usize, p: &PartSpec) -> SensorErrors {
+        let mut cross = p.cross.unwrap_or([[0.0; 3]; 3]);
+        for (i, row) in cross.iter_mut().enumerate() {
+            row[i] = 0.0;
+        }
+        SensorErrors {
+            scale: p.scale.unwrap_or([1.0; 3]),
+            bias: p.bias.unwrap_or([0.0; 3]),
+            cross,
+            noise_density: p.noise_density.unwrap_or(0.0),
+            clock_ppm: p.clock_ppm.unwrap_or(0.0),
+            jitter: p.jitter.unwrap_or(0.0),
+            seed: self
+                .seed
+                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                .wrapping_add(index as u64 + 1),
+        }
+    }
+
+    /// The fault of a spec.
+    pub fn fault(&self, f: &FaultSpec) -> Result<Fault, String> {
+        if !self.parts.iter().any(|p| p.name == f.part) {
+            return Err("no such part".into());
+        }
+        let end = f.end.unwrap_or(f64::INFINITY);
+        if !(f.start.is_finite() && end > f.start) {
+            return Err("needs a finite start before its end".into());
+        }
+        let need = |v: Option<f64>, name: &str| -> Result<f64, String> {
+            match v {
+                Some(x) if x.is_finite() && x >= 0.0 => Ok(x),
+                Some(_) => Err(format!("{name} must be finite and >= 0")),
+                None => Err(format!("kind = \"{}\" needs {name}", f.kind)),
+            }
+        };
+        let given = [
+            ("bias", f.bias.is_some()),
+            ("density", f.density.is_some()),
+            ("probability", f.probability.is_some()),
+            ("stall", f.stall.is_some()),
+        ];
+        let kind = match f.kind.as_str() {
+            "stuck" => FaultKind::Stuck,
+            "saturation" => FaultKind::Saturation,
+            "dead" => FaultKind::Dead,
+            "bias-jump" => match f.bias {
+                Some(b) if finite(&b) => FaultKind::BiasJump { bias: b },
+                _ => return Err("kind = \"bias-jump\" needs a finite bias = [x, y, z]".into()),
+            },
+            "noise-burst" => FaultKind::NoiseBurst {
+                density: need(f.density, "density")?,
+            },
+            "corrupt" => {
+                let p = need(f.probability, "probability")?;
+                if p > 1.0 {
+                    return Err("probability must be <= 1".into());
+                }
+                FaultKind::Corrupt { probability: p }
+            }
+            "timeout" => FaultKind::Timeout {
+                stall: need(f.stall, "stall")?,
+            },
+            k => {
+                return Err(format!(
+                "kind = \"{k}\": expected stuck, bias-jump, noise-burst, saturation, dead, corrupt or timeout"
+            ))
+            }
+        };
+        let wanted = match kind {
+            FaultKind::BiasJump { .. } => Some("bias"),
+            FaultKind::NoiseBurst { .. } => Some("density"),
+            FaultKind::Corrupt { .. } => Some("probability"),
+            FaultKind::Timeout { .. } => Some("stall"),
+            _ => None,
+        };
+        if let Some((extra, _)) = given
+            .iter()
+            .find(|(name, set)| *set && Some(*name) != wanted)
+        {
+            return Err(format!("{extra} does not apply to kind = \"{}\"", f.kind));
+        }
+        Ok(Fault {
+            start: f.start,
+            end,
+            kind,
+        })
+    }
+
+    /// The faults of the part `name`.
+    pub fn faults_of(&self, name: &str) -> Vec<Fault> {
+        self.faults
+            .iter()
+            .filter(|f| f.part == name)
+            .filter_map(|f| self.fault(f).ok())
+            .collect()
+    }
+
+    /// The motion (truth).
+    pub fn motion(&self) -> Motion {
+        let b = &self.body;
+        let rotation = match (&b.turntable, b.inertia) {
+            (Some(t), _) => {
+                let n = t.axis.iter().map(|v| v * v).sum::<f64>().sqrt();
+                Rotation::Turntable {
+                    axis: [t.axis[0] / n, t.axis[1] / n, t.axis[2] / n],
+                    rate: t.rate,
+                    spin_up: t.spin_up,
+                }
+            }
+            (None, inertia) => Rotation::Euler {
+                inertia: inertia.unwrap_or([1.0; 3]),
+                torque: match &b.torque {
+                    None => Torque::None,
+                    Some(TorqueSpec::Sinusoid {
+                        amplitude,
+                        frequency,
+                        phase,
+                    }) => Torque::Sinusoid {
+                        amplitude: *amplitude,
+                        frequency: *frequency,
+                        phase: *phase,
+                    },
+                    Some(TorqueSpec::Steps { steps }) => {
+                        Torque::Steps(steps.iter().map(|s| (s[0], [s[1], s[2], s[3]])).collect())
+                    }
+                },
+            },
+        };
+        let e = &self.environment;
+        let environment = match e.kind.as_str() {
+            "orbit" => Environment::Orbit {
+                altitude: e.altitude.unwrap_or(400e3),
+            },
+            "ground" => Environment::Ground,
+            _ => Environment::Space,
+        };
+        Motion {
+            rotation,
+            environment,
+            omega0: b.omega0.unwrap_or([0.0; 3]),
+            attitude0: b.attitude0.unwrap_or([1.0, 0.0, 0.0, 0.0]),
+            origin_offset: b.origin_offset.unwrap_or([0.0; 3]),
+            non_grav: e.drag.unwrap_or([0.0; 3]),
+            burns: e
+                .burns
+                .iter()
+                .map(|b| Burn {
+                    start: b.start,
+                    end: b.end,
+                    accel: b.accel,
+                })
+                .collect(),
+        }
+    }
+
+    /// Per-sample white noise of a part's channels (m/s² RMS): its noise density over its
+    /// bandwidth, and the quantisation step.
+    pub fn channel_noise(&self, p: &PartSpec) -> f64 {
+        let nd = p.noise_density.unwrap_or(0.0);
+        let bw = self.odr(p) * p.part.bandwidth_per_odr();
+        let q = p.part.lsb(self.range_g(p));
+        (nd * nd * bw + q * q / 12.0).sqrt()
+    }
+
+    /// The channels of a part (`<name>.<axis>`), in the order of its `axes`.
+    pub fn part_axes(p: &PartSpec) -> Vec<usize> {
+        match &p.axes {
+            None => vec![0, 1, 2],
+            Some(a) => a
+                .iter()
+                .filter_map(|n| AXES.iter().position(|x| x == n))
+                .collect(),
+        }
+    }
+
+    /// The arrangement file of the scenario: a `[[sensor]]` table per part that uses all its
+    /// axes, `[[channel]]` tables for the axes of the others; noise per channel from
+    /// [`Scenario::channel_noise`].
+    pub fn arrangement(&self) -> ArrangementFile {
+        let mut file = ArrangementFile {
+            model: Some(self.model.clone().unwrap_or_else(|| "general".into())),
+            ..Default::default()
+        };
+        for p in &self.parts {
+            let m = p.orientation.unwrap_or(IDENTITY);
+            let noise = self.channel_noise(p);
+            if p.axes.is_none() {
+                file.sensors.push(SensorSpec {
+                    name: p.name.clone(),
+                    position: p.position,
+                    orientation: p.orientation,
+                    noise: Some(Noise::Same(noise)),
+                    part: Some(p.part.label().into()),
+                    address: Some(match (p.cs, p.address) {
+                        (Some(cs), _) => toml::Value::String(format!("{} cs {cs}", p.bus)),
+                        (_, a) => toml::Value::String(format!("{} {:#04x}", p.bus, a.unwrap_or(0))),
+                    }),
+                });
+            } else {
+                for j in Self::part_axes(p) {
+                    file.channels.push(ChannelSpec {
+                        name: format!("{}.{}", p.name, AXES[j]),
+                        position: p.position,
+                        axis: [m[0][j], m[1][j], m[2][j]],
+                        noise: Some(noise),
+                    });
+                }
+            }
+        }
+        file
+    }
+}
+
+fn is_rotation(m: &[[f64; 3]; 3]) -> bool {
+    for i in 0..3 {
+        for j in 0..3 {
+            let d: f64 = (0..3).map(|k| m[k][i] * m[k][j]).sum();
+            if (d - if i == j { 1.0 } else { 0.0 }).abs() > 1e-6 {
+                return false;
+            }
+        }
+    }
+    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    det > 0.0
+}

@@ -1,0 +1,20 @@
+//! The named scenarios shipped with `ballisto` (the files in `hal-sim/scenarios/`).
+
+/// Names, in the order `--help` lists them.
+pub const NAMES: [&str; 4] = [
+    "tetra-orbit",
+    "nine-channel",
+    "ground-spin-mixed",
+    "tetra-orbit-faults",
+];
+
+/// The TOML text of a named scenario.
+pub fn text(name: &str) -> Option<&'static str> {
+    Some(match name {
+        "tetra-orbit" => include_str!("../../scenarios/tetra-orbit.toml"),
+        "nine-channel" => include_str!("../../scenarios/nine-channel.toml"),
+        "ground-spin-mixed" => include_str!("../../scenarios/ground-spin-mixed.toml"),
+        "tetra-orbit-faults" => include_str!("../../scenarios/tetra-orbit-faults.toml"),
+        _ => return None,
+    })
+}
