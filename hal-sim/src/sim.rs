@@ -8,7 +8,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use crate::bench::BenchReader;
+use crate::bench::{BenchError, BenchReader};
 use crate::compare::{compare, Comparison};
 use crate::rig::Rig;
 use crate::run::{estimate_files, write_truth_header, write_truth_row, EstimateJob, Precision};
@@ -46,7 +46,7 @@ pub struct SimReport {
     pub channels: usize,
     /// Per part.
     pub parts: Vec<PartCount>,
-    /// Per bus: name, bytes, busy time (s).
+    /// Per bus, sample sets only: name, bytes, busy time (s).
     pub buses: Vec<(String, u64, f64)>,
     /// Files written.
     pub files: Vec<PathBuf>,
@@ -54,6 +54,70 @@ pub struct SimReport {
     pub errors: Option<Comparison>,
     /// With `--estimate`: rows flagged, per flag bit.
     pub flag_counts: [u64; 16],
+}
+
+/// A scenario being recorded: the rig and the bench reader that reads every part at the
+/// scenario's rate (pulsing the SYNC line first when a part samples on it).
+pub struct Recorder {
+    rig: Rig,
+    reader: BenchReader,
+    rate: f64,
+    any_sync: bool,
+    /// Bus usage of the start-up (identification and configuration).
+    start_up: Vec<(String, u64, f64)>,
+}
+
+impl Recorder {
+    /// Builds the rig and starts the reader (identification and configuration of every part
+    /// before t = 0).
+    pub fn new(sc: &Scenario) -> Result<Self, String> {
+        let rig = Rig::build(sc)?;
+        let reader = BenchReader::start(sc, &rig.ports)?;
+        let start_up = rig.bus_usage();
+        Ok(Recorder {
+            start_up,
+            rig,
+            reader,
+            rate: sc.rate,
+            any_sync: sc.parts.iter().any(|p| sc.sync(p)),
+        })
+    }
+
+    /// Sample set `k` at `t = k / rate`: each part's reading (m/s², part axes) or its error.
+    pub fn sample_set(&mut self, k: usize) -> (f64, Vec<Result<[f64; 3], BenchError>>) {
+        let t = k as f64 / self.rate;
+        self.rig.clock.advance_to(t);
+        if self.any_sync {
+            self.rig.sync.pulse(t);
+        }
+        let n = self.rig.ports.len();
+        (t, (0..n).map(|i| self.reader.read(i)).collect())
+    }
+
+    /// The truth at `t`.
+    pub fn truth(&self, t: f64) -> crate::motion::Truth {
+        self.rig.truth.borrow_mut().truth_at(t)
+    }
+
+    /// The rig (clock, buses).
+    pub fn rig(&self) -> &Rig {
+        &self.rig
+    }
+
+    /// Bus usage of the sample sets so far (start-up excluded): name, bytes, busy seconds.
+    pub fn sampling_usage(&self) -> Vec<(String, u64, f64)> {
+        self.rig
+            .bus_usage()
+            .into_iter()
+            .zip(self.start_up.iter())
+            .map(|((n, b, t), (_, b0, t0))| (n, b - b0, t - t0))
+            .collect()
+    }
+
+    /// The reader's counts.
+    pub fn reader(&self) -> &BenchReader {
+        &self.reader
+    }
 }
 
 /// Runs a scenario (see the module doc).
@@ -69,8 +133,7 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
         .load("arrangement.toml")
         .map_err(|e| format!("the scenario's arrangement: {e}"))?;
 
-    let rig = Rig::build(sc)?;
-    let mut reader = BenchReader::start(sc, &rig.ports)?;
+    let mut rec = Recorder::new(sc)?;
     // Column of each part axis in estimator channel order (the arrangement's order).
     let columns: Vec<Vec<(usize, usize)>> = sc
         .parts
@@ -97,17 +160,12 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
 
     let n = sc.samples();
     let bar = progress_bar(job.progress, n as u64);
-    let any_sync = sc.parts.iter().any(|p| sc.sync(p));
     let mut row: Vec<Option<f64>> = vec![None; loaded.names.len()];
     for k in 0..n {
-        let t = k as f64 / sc.rate;
-        rig.clock.advance_to(t);
-        if any_sync {
-            rig.sync.pulse(t);
-        }
+        let (t, set) = rec.sample_set(k);
         row.iter_mut().for_each(|v| *v = None);
-        for (i, cols) in columns.iter().enumerate() {
-            if let Ok(a) = reader.read(i) {
+        for (reading, cols) in set.iter().zip(columns.iter()) {
+            if let Ok(a) = reading {
                 for &(j, c) in cols {
                     row[c] = Some(a[j]);
                 }
@@ -121,8 +179,7 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
             }
         }
         writeln!(samples)?;
-        let tr = rig.truth.borrow_mut().truth_at(t);
-        write_truth_row(&mut truth, &tr)?;
+        write_truth_row(&mut truth, &rec.truth(t))?;
         if k % 1024 == 0 {
             bar.set_position(k as u64);
         }
@@ -139,11 +196,11 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
             .enumerate()
             .map(|(i, p)| PartCount {
                 name: p.name.clone(),
-                reads: reader.reads[i],
-                errors: reader.errors[i],
+                reads: rec.reader().reads[i],
+                errors: rec.reader().errors[i],
             })
             .collect(),
-        buses: rig.bus_usage(),
+        buses: rec.sampling_usage(),
         files: vec![
             path("arrangement.toml"),
             path("samples.csv"),

@@ -1,0 +1,219 @@
+//! `ballisto sim`: the named scenarios, the files it writes (interfaces.md formats), the
+//! estimate and plot, and scenario files with errors.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use hal_sim::arrangement_file::load_arrangement;
+use hal_sim::scenario::{named, Scenario};
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ballisto-sim-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn sim(scenario: &str, out: &Path, estimate: bool) -> std::process::Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_ballisto"));
+    c.args(["sim", "--scenario", scenario, "--out"]).arg(out);
+    if estimate {
+        c.arg("--estimate");
+    }
+    c.output().unwrap()
+}
+
+fn header(path: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap();
+    text.lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect()
+}
+
+fn rms_line(stdout: &str) -> Vec<f64> {
+    let line = stdout
+        .lines()
+        .find(|l| l.contains("RMS error"))
+        .expect("an RMS line");
+    line.split_whitespace()
+        .filter_map(|w| w.parse::<f64>().ok())
+        .collect()
+}
+
+#[test]
+fn every_named_scenario_parses_and_its_arrangement_loads() {
+    for name in named::NAMES {
+        let sc = Scenario::load(name).unwrap_or_else(|e| panic!("{e}"));
+        let file = sc.arrangement();
+        let loaded = file.load(name).unwrap_or_else(|e| panic!("{e}"));
+        let channels: usize = sc.parts.iter().map(|p| Scenario::part_axes(p).len()).sum();
+        assert_eq!(loaded.names.len(), channels, "{name}");
+        assert!(!sc.description.is_empty(), "{name} describes itself");
+    }
+    assert_eq!(
+        Scenario::load("nine-channel")
+            .unwrap()
+            .arrangement()
+            .load("9")
+            .unwrap()
+            .names
+            .len(),
+        9
+    );
+}
+
+#[test]
+fn sim_writes_the_three_files_and_the_estimate_follows_the_truth() {
+    let d = tmpdir("tetra");
+    let out = sim("tetra-orbit", &d, true);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in [
+        "arrangement.toml",
+        "samples.csv",
+        "truth.csv",
+        "estimates.csv",
+        "estimates.png",
+    ] {
+        assert!(d.join(f).exists(), "{f}");
+    }
+    // samples.csv: t then one column per channel of the arrangement, 2001 rows.
+    let loaded = load_arrangement(&d.join("arrangement.toml")).unwrap();
+    let h = header(&d.join("samples.csv"));
+    assert_eq!(h[0], "t");
+    assert_eq!(&h[1..], &loaded.names[..]);
+    let rows = std::fs::read_to_string(d.join("samples.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert_eq!(rows, 2002);
+    // truth.csv: the estimate columns.
+    assert_eq!(
+        header(&d.join("truth.csv")),
+        hal_sim::estimates_csv::COLUMNS[..16].to_vec()
+    );
+    // The PNG signature.
+    let png = std::fs::read(d.join("estimates.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    // Errors of the estimate: σ0, Ω′, Ω, A.
+    let rms = rms_line(&stdout);
+    eprintln!("{stdout}");
+    assert!(rms[0] < 5e-3 && rms[1] < 5e-2 && rms[2] < 5e-3, "{rms:?}");
+    // 2001 sample sets × 4 parts × (command byte + 9 data bytes); start-up not counted.
+    assert!(stdout.contains("bus spi1: 80040 bytes"), "{stdout}");
+}
+
+#[test]
+fn sim_reports_failed_reads_as_empty_fields() {
+    let d = tmpdir("timeout");
+    let src = named::text("ground-spin-mixed").unwrap().to_string()
+        + "\n[[fault]]\npart = \"l1\"\nkind = \"timeout\"\nstart = 2.0\nend = 3.0\nstall = 0.001\n";
+    let file = d.join("s.toml");
+    std::fs::write(&file, src).unwrap();
+    let out = sim(file.to_str().unwrap(), &d.join("out"), false);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("part l1: 100 of 2001 reads failed"),
+        "{stdout}"
+    );
+    let text = std::fs::read_to_string(d.join("out/samples.csv")).unwrap();
+    let h = header(&d.join("out/samples.csv"));
+    let col = h.iter().position(|c| c == "l1.x").unwrap();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let t: f64 = f[0].parse().unwrap();
+        assert_eq!(f[col].is_empty(), (2.0..3.0).contains(&t), "t = {t}");
+    }
+}
+
+fn expect_error(name: &str, toml: &str, wanted: &str) {
+    let d = tmpdir(name);
+    let file = d.join("bad.toml");
+    std::fs::write(&file, toml).unwrap();
+    let out = sim(file.to_str().unwrap(), &d.join("out"), false);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{name}: accepted");
+    assert!(err.contains("bad.toml"), "{name}: names the file: {err}");
+    assert!(err.contains(wanted), "{name}: wanted \"{wanted}\" in {err}");
+    assert_eq!(err.trim().lines().count(), 1, "{name}: one line: {err}");
+    assert!(
+        !d.join("out/samples.csv").exists(),
+        "{name}: nothing written"
+    );
+}
+
+#[test]
+fn scenario_errors_name_the_file_and_what_is_wrong() {
+    let good = named::text("tetra-orbit").unwrap();
+    expect_error(
+        "unknown-key",
+        &good.replace("seed = 2026", "seed = 2026\nspeed = 3"),
+        "unknown field `speed`",
+    );
+    expect_error(
+        "bus",
+        &good.replacen("bus = \"spi1\"", "bus = \"spi9\"", 1),
+        "part \"u0\": bus \"spi9\" is not declared",
+    );
+    expect_error(
+        "cs",
+        &good.replacen("cs = 1", "cs = 0", 1),
+        "chip select 0 on bus \"spi1\" is taken",
+    );
+    expect_error(
+        "odr",
+        &good.replacen("cs = 0\n", "cs = 0\nodr = 300.0\n", 1),
+        "odr = 300: the ADXL355 offers",
+    );
+    expect_error(
+        "fault-kind",
+        &format!("{good}\n[[fault]]\npart = \"u0\"\nkind = \"melt\"\nstart = 1.0\n"),
+        "fault 1 (part \"u0\"): kind = \"melt\"",
+    );
+    expect_error(
+        "fault-param",
+        &format!("{good}\n[[fault]]\npart = \"u0\"\nkind = \"noise-burst\"\nstart = 1.0\n"),
+        "needs density",
+    );
+    expect_error(
+        "fault-part",
+        &format!("{good}\n[[fault]]\npart = \"u7\"\nkind = \"stuck\"\nstart = 1.0\n"),
+        "fault 1 (part \"u7\"): no such part",
+    );
+    expect_error(
+        "orientation",
+        &good.replacen("0.726315789474", "0.9", 1),
+        "orientation: not a proper rotation matrix",
+    );
+    expect_error(
+        "inertia",
+        &good.replace("inertia = [1.0, 1.8, 2.5]", "inertia = [1.0, 1.0, 2.5]"),
+        "triangle inequality",
+    );
+    expect_error(
+        "rate",
+        &good.replace("rate = 100.0", "rate = -1.0"),
+        "rate = -1",
+    );
+    expect_error("syntax", "rate = [", "bad.toml");
+    // Not a file and not a name.
+    let out = sim("no-such-scenario", &tmpdir("none"), false);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("no-such-scenario") && err.contains("tetra-orbit"),
+        "{err}"
+    );
+}
