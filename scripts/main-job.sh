@@ -1,10 +1,7 @@
 #!/usr/bin/env bash
-# The main job: ballisto estimate on the bundled example (tetrahedron of 4 tri-axial parts,
-# torque-free tumble in orbit), then its errors against the truth.
+# The main job: the host simulator on the built-in scenario tetra-orbit (4 x ADXL355 read through
+# their simulated SPI registers, torque-free tumble in orbit), the estimator over the record,
+# errors against the truth and a plot (out/tetra-orbit/estimates.png).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-ex=examples/tetra-tumble
-mkdir -p out
-cargo run --release -q --bin ballisto -- estimate \
-  --arrangement "$ex/arrangement.toml" --samples "$ex/samples.csv" --out out/estimates.csv
-cargo run --release -q --bin ballisto -- compare "$ex/truth.csv" out/estimates.csv
+cargo run --release -q --bin ballisto -- sim --scenario tetra-orbit --out out/tetra-orbit --estimate

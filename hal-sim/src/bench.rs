@@ -123,8 +123,8 @@ impl BenchPart {
                 if id[0] != 0x33 {
                     return Err(BenchError::WrongId { read: id.to_vec() });
                 }
-                let code = PartType::Lis3dh
-                    .odrs()
+                // CTRL_REG1 ODR codes of the normal / high-resolution modes.
+                let code = [1.0, 10.0, 25.0, 50.0, 100.0, 200.0, 400.0, 0.0, 1344.0]
                     .iter()
                     .position(|o| *o == odr)
                     .map_or(5, |i| i as u8 + 1);
