@@ -75,7 +75,7 @@ pub struct ArrangementFile {
 /// An error in an arrangement file, naming the file and what is wrong.
 #[derive(Debug)]
 pub struct ArrangementError {
-    /// File (or "<string>").
+    /// File (or `"<string>"`).
     pub file: String,
     /// What is wrong.
     pub message: String,
