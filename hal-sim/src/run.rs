@@ -237,9 +237,18 @@ pub fn write_truth(path: &Path, truth: &[Truth]) -> std::io::Result<()> {
     w.flush()
 }
 
-/// The header of a truth file.
+/// Columns of the truth file after the estimate columns: the attitude (body → inertial
+/// quaternion).
+pub const TRUTH_EXTRA_COLUMNS: [&str; 4] = ["q_w", "q_x", "q_y", "q_z"];
+
+/// The header of a truth file: the estimate columns up to `A_yz`, then the attitude.
 pub fn write_truth_header(w: &mut impl Write) -> std::io::Result<()> {
-    writeln!(w, "{}", estimates_csv::COLUMNS[..16].join(","))
+    writeln!(
+        w,
+        "{},{}",
+        estimates_csv::COLUMNS[..16].join(","),
+        TRUTH_EXTRA_COLUMNS.join(",")
+    )
 }
 
 /// One row of a truth file.
@@ -251,6 +260,7 @@ pub fn write_truth_row(w: &mut impl Write, tr: &Truth) -> std::io::Result<()> {
         .chain(tr.domega.iter())
         .chain(tr.omega.iter())
         .chain(tr.field.0.iter())
+        .chain(tr.attitude.iter())
     {
         write!(w, ",{v}")?;
     }
