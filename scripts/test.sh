@@ -6,6 +6,7 @@ cd "$(dirname "$0")/.."
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets -- -D warnings
 cargo clippy -p qemu-bench --release --target thumbv7em-none-eabihf -- -D warnings
+cargo clippy -p firmware --target thumbv7em-none-eabihf -- -D warnings
 if cargo nextest --version >/dev/null 2>&1; then
   cargo nextest run --workspace --no-fail-fast
 else

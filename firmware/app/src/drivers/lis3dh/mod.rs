@@ -1,0 +1,209 @@
+//! STMicroelectronics LIS3DH over I²C, in high-resolution (12-bit) mode with block data update.
+
+pub mod registers;
+
+use embedded_hal_async::i2c::I2c;
+
+use super::G0;
+use registers as reg;
+
+/// Full-scale range (sensitivity in high-resolution mode).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Range {
+    /// ±2 g, 1 mg per digit.
+    G2,
+    /// ±4 g, 2 mg per digit.
+    G4,
+    /// ±8 g, 4 mg per digit.
+    G8,
+    /// ±16 g, 12 mg per digit.
+    G16,
+}
+
+impl Range {
+    /// `CTRL_REG4` bits 5:4.
+    pub fn bits(self) -> u8 {
+        match self {
+            Range::G2 => 0,
+            Range::G4 => 1,
+            Range::G8 => 2,
+            Range::G16 => 3,
+        }
+    }
+
+    /// m/s² per digit of the 12-bit output.
+    pub fn scale(self) -> f32 {
+        let mg = match self {
+            Range::G2 => 1.0,
+            Range::G4 => 2.0,
+            Range::G8 => 4.0,
+            Range::G16 => 12.0,
+        };
+        mg * 1e-3 * G0
+    }
+}
+
+/// Output data rates of the normal and high-resolution modes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Odr {
+    /// 1 Hz.
+    Hz1,
+    /// 10 Hz.
+    Hz10,
+    /// 25 Hz.
+    Hz25,
+    /// 50 Hz.
+    Hz50,
+    /// 100 Hz.
+    Hz100,
+    /// 200 Hz.
+    Hz200,
+    /// 400 Hz.
+    Hz400,
+    /// 1.344 kHz.
+    Hz1344,
+}
+
+impl Odr {
+    const ALL: [(Odr, f32, u8); 8] = [
+        (Odr::Hz1, 1.0, 1),
+        (Odr::Hz10, 10.0, 2),
+        (Odr::Hz25, 25.0, 3),
+        (Odr::Hz50, 50.0, 4),
+        (Odr::Hz100, 100.0, 5),
+        (Odr::Hz200, 200.0, 6),
+        (Odr::Hz400, 400.0, 7),
+        (Odr::Hz1344, 1344.0, 9),
+    ];
+
+    /// The lowest rate at or above `hz` (1.344 kHz if higher).
+    pub fn at_least(hz: f32) -> Self {
+        Self::ALL
+            .iter()
+            .find(|(_, r, _)| *r >= hz)
+            .map_or(Odr::Hz1344, |(o, _, _)| *o)
+    }
+
+    /// The rate (Hz).
+    pub fn hz(self) -> f32 {
+        Self::ALL
+            .iter()
+            .find(|(o, _, _)| *o == self)
+            .map_or(0.0, |(_, r, _)| *r)
+    }
+
+    /// `CTRL_REG1` bits 7:4.
+    pub fn code(self) -> u8 {
+        Self::ALL
+            .iter()
+            .find(|(o, _, _)| *o == self)
+            .map_or(0, |(_, _, c)| *c)
+    }
+}
+
+/// Configuration applied at start-up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Config {
+    /// Full-scale range.
+    pub range: Range,
+    /// Output data rate.
+    pub odr: Odr,
+}
+
+/// Errors of the driver.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Error<E> {
+    /// The bus failed (no acknowledge, timeout, …).
+    Bus(E),
+    /// `WHO_AM_I` did not read 0x33.
+    WrongId(u8),
+    /// A data byte had bits set that read as zero in high-resolution mode (bits 3:0 of each
+    /// low byte): a corrupted transfer.
+    Implausible,
+}
+
+/// A LIS3DH on an I²C bus at a 7-bit address (0x18 or 0x19 by SA0).
+pub struct Lis3dh<I2C> {
+    i2c: I2C,
+    address: u8,
+    scale: f32,
+}
+
+impl<I2C: I2c> Lis3dh<I2C> {
+    /// Checks the identity and applies `config` (BDU, high resolution, all axes on).
+    pub async fn new(i2c: I2C, address: u8, config: Config) -> Result<Self, Error<I2C::Error>> {
+        let mut dev = Lis3dh {
+            i2c,
+            address,
+            scale: config.range.scale(),
+        };
+        dev.identify().await?;
+        dev.configure(config).await?;
+        Ok(dev)
+    }
+
+    /// Reads `WHO_AM_I`.
+    pub async fn identify(&mut self) -> Result<(), Error<I2C::Error>> {
+        let mut id = [0u8; 1];
+        self.i2c
+            .write_read(self.address, &[reg::WHO_AM_I], &mut id)
+            .await
+            .map_err(Error::Bus)?;
+        if id[0] == reg::ID {
+            Ok(())
+        } else {
+            Err(Error::WrongId(id[0]))
+        }
+    }
+
+    /// Applies a configuration: range with BDU and high resolution, then the ODR (which
+    /// starts the part's clock).
+    pub async fn configure(&mut self, config: Config) -> Result<(), Error<I2C::Error>> {
+        let ctrl4 = reg::BDU | (config.range.bits() << 4) | reg::HR;
+        self.i2c
+            .write(self.address, &[reg::CTRL_REG4, ctrl4])
+            .await
+            .map_err(Error::Bus)?;
+        self.i2c
+            .write(
+                self.address,
+                &[reg::CTRL_REG1, (config.odr.code() << 4) | 0x07],
+            )
+            .await
+            .map_err(Error::Bus)?;
+        self.scale = config.range.scale();
+        Ok(())
+    }
+
+    /// `STATUS_REG`: (new data, overrun).
+    pub async fn status(&mut self) -> Result<(bool, bool), Error<I2C::Error>> {
+        let mut s = [0u8; 1];
+        self.i2c
+            .write_read(self.address, &[reg::STATUS_REG], &mut s)
+            .await
+            .map_err(Error::Bus)?;
+        Ok((s[0] & reg::ZYXDA != 0, s[0] & reg::ZYXOR != 0))
+    }
+
+    /// The latest sample, x, y, z in m/s² (part axes): one 6-byte burst.
+    pub async fn read_acceleration(&mut self) -> Result<[f32; 3], Error<I2C::Error>> {
+        let mut b = [0u8; 6];
+        self.i2c
+            .write_read(self.address, &[reg::OUT_X_L | reg::AUTO_INCREMENT], &mut b)
+            .await
+            .map_err(Error::Bus)?;
+        let mut out = [0.0; 3];
+        for (o, c) in out.iter_mut().zip(b.chunks_exact(2)) {
+            if c[0] & 0x0F != 0 {
+                return Err(Error::Implausible);
+            }
+            *o = f32::from(i16::from_le_bytes([c[0], c[1]]) >> 4) * self.scale;
+        }
+        Ok(out)
+    }
+
+    /// Gives the bus back.
+    pub fn release(self) -> I2C {
+        self.i2c
+    }
+}

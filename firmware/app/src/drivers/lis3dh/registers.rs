@@ -1,0 +1,25 @@
+//! LIS3DH register map (datasheet DocID17530, section 7) and the I²C sub-address convention.
+
+/// Identity: 0x33.
+pub const WHO_AM_I: u8 = 0x0F;
+/// The identity value.
+pub const ID: u8 = 0x33;
+/// ODR (7:4), low power (3), Z/Y/X enable (2:0).
+pub const CTRL_REG1: u8 = 0x20;
+/// BDU (7), BLE (6), full scale (5:4), high resolution (3).
+pub const CTRL_REG4: u8 = 0x23;
+/// Status: ZYXOR (7), ZYXDA (3).
+pub const STATUS_REG: u8 = 0x27;
+/// X low byte; X high, Y low/high, Z low/high follow.
+pub const OUT_X_L: u8 = 0x28;
+/// Sub-address flag: increment the register address after each byte.
+pub const AUTO_INCREMENT: u8 = 0x80;
+
+/// `CTRL_REG4` bit: block data update.
+pub const BDU: u8 = 0x80;
+/// `CTRL_REG4` bit: high resolution (12-bit).
+pub const HR: u8 = 0x08;
+/// `STATUS_REG` bit: new X, Y, Z data.
+pub const ZYXDA: u8 = 0x08;
+/// `STATUS_REG` bit: X, Y, Z data overwritten before being read.
+pub const ZYXOR: u8 = 0x80;
