@@ -6,7 +6,7 @@ use embedded_hal::spi::{Error as _, ErrorKind as SpiKind};
 use firmware::drivers::{adxl355, lis3dh};
 use futures::executor::block_on;
 use hal_sim::bus::i2c::SimI2cBus;
-use hal_sim::bus::spi::SimSpiBus;
+use hal_sim::bus::spi::{SimSpiBus, SimSpiDevice};
 use hal_sim::clock::SimClock;
 use hal_sim::faults::{Fault, FaultKind};
 use hal_sim::sensors::adxl355::Adxl355;
@@ -32,6 +32,11 @@ fn adxl_config(odr: f32, sync: adxl355::Sync) -> adxl355::Config {
     }
 }
 
+/// The driver started on chip select 0 of `bus`.
+fn adxl_start(bus: &SimSpiBus, odr: f32, sync: adxl355::Sync) -> adxl355::Adxl355<SimSpiDevice> {
+    block_on(adxl355::Adxl355::new(bus.device(0), adxl_config(odr, sync))).unwrap()
+}
+
 fn adxl_rig(faults: Vec<Fault>) -> (SimClock, SimSpiBus, SyncLine) {
     let clock = SimClock::new();
     let bus = SimSpiBus::new(clock.clone(), 10e6);
@@ -47,11 +52,7 @@ fn adxl_rig(faults: Vec<Fault>) -> (SimClock, SimSpiBus, SyncLine) {
 #[test]
 fn adxl355_driver_reads_the_measured_force_on_sync_pulses() {
     let (clock, bus, line) = adxl_rig(Vec::new());
-    let mut dev = block_on(adxl355::Adxl355::new(
-        bus.device(0),
-        adxl_config(100.0, adxl355::Sync::External),
-    ))
-    .unwrap();
+    let mut dev = adxl_start(&bus, 100.0, adxl355::Sync::External);
     // No pulse yet: no data.
     assert!(!block_on(dev.status()).unwrap().data_ready());
     clock.advance_to(0.01);
@@ -67,11 +68,7 @@ fn adxl355_driver_reads_the_measured_force_on_sync_pulses() {
 #[test]
 fn adxl355_driver_drains_the_fifo_of_the_internal_clock() {
     let (clock, bus, _) = adxl_rig(Vec::new());
-    let mut dev = block_on(adxl355::Adxl355::new(
-        bus.device(0),
-        adxl_config(1000.0, adxl355::Sync::Internal),
-    ))
-    .unwrap();
+    let mut dev = adxl_start(&bus, 1000.0, adxl355::Sync::Internal);
     clock.advance(0.0101);
     let mut out = [[0.0f32; 3]; 32];
     let n = block_on(dev.read_fifo(&mut out)).unwrap();
@@ -102,11 +99,7 @@ fn adxl355_driver_sees_a_dead_or_corrupting_part_and_a_timeout() {
 
     // Dead during the run: implausible data, then normal again.
     let (clock, bus, _) = adxl_rig(window(FaultKind::Dead));
-    let mut dev = block_on(adxl355::Adxl355::new(
-        bus.device(0),
-        adxl_config(1000.0, adxl355::Sync::Internal),
-    ))
-    .unwrap();
+    let mut dev = adxl_start(&bus, 1000.0, adxl355::Sync::Internal);
     clock.advance_to(0.6);
     assert_eq!(
         block_on(dev.read_acceleration()),
@@ -117,11 +110,7 @@ fn adxl355_driver_sees_a_dead_or_corrupting_part_and_a_timeout() {
 
     // Timeout: the bus error, with its kind.
     let (clock, bus, _) = adxl_rig(window(FaultKind::Timeout { stall: 1e-3 }));
-    let mut dev = block_on(adxl355::Adxl355::new(
-        bus.device(0),
-        adxl_config(1000.0, adxl355::Sync::Internal),
-    ))
-    .unwrap();
+    let mut dev = adxl_start(&bus, 1000.0, adxl355::Sync::Internal);
     clock.advance_to(0.6);
     match block_on(dev.read_acceleration()) {
         Err(adxl355::Error::Bus(e)) => assert_eq!(e.kind(), SpiKind::Other),
@@ -130,11 +119,7 @@ fn adxl355_driver_sees_a_dead_or_corrupting_part_and_a_timeout() {
 
     // Corruption: every read in the window fails or is off; most are caught as implausible.
     let (clock, bus, _) = adxl_rig(window(FaultKind::Corrupt { probability: 0.5 }));
-    let mut dev = block_on(adxl355::Adxl355::new(
-        bus.device(0),
-        adxl_config(1000.0, adxl355::Sync::Internal),
-    ))
-    .unwrap();
+    let mut dev = adxl_start(&bus, 1000.0, adxl355::Sync::Internal);
     clock.advance_to(0.5);
     let mut caught = 0;
     for _ in 0..100 {
