@@ -10,6 +10,41 @@ use serde::{Deserialize, Serialize};
 /// The capacity of host arrangements (channels).
 pub const HOST_CAP: usize = 32;
 
+/// The identity orientation (sensor axes along the body axes).
+pub const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+/// Part axis `k` in the body frame: column `k` of the sensor-to-body matrix `m` (row by row).
+pub fn body_axis(m: &[[f64; 3]; 3], k: usize) -> [f64; 3] {
+    [m[0][k], m[1][k], m[2][k]]
+}
+
+/// What keeps a sensor-to-body matrix from being a proper rotation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RotationDefect {
+    /// `MᵀM` differs from the identity by more than the tolerance.
+    NotOrthonormal,
+    /// The determinant (not positive): a reflection.
+    Improper(f64),
+}
+
+/// Checks that `m` (row by row, finite entries) is a proper rotation: `MᵀM = I` within `tol`,
+/// `det M > 0`.
+pub fn rotation_defect(m: &[[f64; 3]; 3], tol: f64) -> Option<RotationDefect> {
+    for i in 0..3 {
+        for j in 0..3 {
+            let d: f64 = (0..3).map(|k| m[k][i] * m[k][j]).sum();
+            let want = if i == j { 1.0 } else { 0.0 };
+            if (d - want).abs() > tol {
+                return Some(RotationDefect::NotOrthonormal);
+            }
+        }
+    }
+    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    (det <= 0.0).then_some(RotationDefect::Improper(det))
+}
+
 /// One single-axis channel as written in the file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -143,9 +178,7 @@ impl ArrangementFile {
         };
         let mut out = self.channels.clone();
         for s in &self.sensors {
-            let m = s
-                .orientation
-                .unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+            let m = s.orientation.unwrap_or(IDENTITY);
             if !m.iter().flatten().all(|v| v.is_finite()) {
                 return Err(err(format!(
                     "sensor \"{}\": orientation is not finite",
@@ -153,26 +186,16 @@ impl ArrangementFile {
                 )));
             }
             // Must be a rotation: MᵀM = I within 1e-3, det > 0.
-            for i in 0..3 {
-                for j in 0..3 {
-                    let d: f64 = (0..3).map(|k| m[k][i] * m[k][j]).sum();
-                    let want = if i == j { 1.0 } else { 0.0 };
-                    if (d - want).abs() > 1e-3 {
-                        return Err(err(format!(
-                            "sensor \"{}\": orientation is not a rotation matrix (columns not orthonormal)",
-                            s.name
-                        )));
+            if let Some(defect) = rotation_defect(&m, 1e-3) {
+                let what = match defect {
+                    RotationDefect::NotOrthonormal => {
+                        "is not a rotation matrix (columns not orthonormal)".to_string()
                     }
-                }
-            }
-            let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-            if det <= 0.0 {
-                return Err(err(format!(
-                    "sensor \"{}\": orientation has determinant {det:.3}, not a proper rotation",
-                    s.name
-                )));
+                    RotationDefect::Improper(det) => {
+                        format!("has determinant {det:.3}, not a proper rotation")
+                    }
+                };
+                return Err(err(format!("sensor \"{}\": orientation {what}", s.name)));
             }
             let noise = match &s.noise {
                 None => [None; 3],
@@ -183,7 +206,7 @@ impl ArrangementFile {
                 out.push(ChannelSpec {
                     name: format!("{}.{}", s.name, suffix),
                     position: s.position,
-                    axis: [m[0][j], m[1][j], m[2][j]],
+                    axis: body_axis(&m, j),
                     noise: noise[j],
                 });
             }

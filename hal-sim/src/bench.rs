@@ -123,11 +123,8 @@ impl BenchPart {
                 if id[0] != 0x33 {
                     return Err(BenchError::WrongId { read: id.to_vec() });
                 }
-                // CTRL_REG1 ODR codes of the normal / high-resolution modes.
-                let code = [1.0, 10.0, 25.0, 50.0, 100.0, 200.0, 400.0, 0.0, 1344.0]
-                    .iter()
-                    .position(|o| *o == odr)
-                    .map_or(5, |i| i as u8 + 1);
+                // The CTRL_REG1 ODR code (normal / high-resolution mode) of this rate.
+                let code = (1u8..=9).find(|c| lis3dh::odr(c << 4) == odr).unwrap_or(5);
                 let fs = match range_g {
                     2 => 0,
                     4 => 1,
@@ -156,11 +153,8 @@ impl BenchPart {
                     Operation::Read(&mut b),
                 ])
                 .map_err(bus)?;
-                for (i, o) in out.iter_mut().enumerate() {
-                    let u = (u32::from(b[3 * i]) << 12)
-                        | (u32::from(b[3 * i + 1]) << 4)
-                        | (u32::from(b[3 * i + 2]) >> 4);
-                    *o = f64::from(((u << 12) as i32) >> 12) * self.lsb;
+                for (o, c) in out.iter_mut().zip(b.chunks_exact(3)) {
+                    *o = f64::from(adxl355::code_from_bytes(c)) * self.lsb;
                 }
             }
             Port::I2c(bus_handle, a) => {

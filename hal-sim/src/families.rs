@@ -3,7 +3,7 @@
 
 use rand::Rng;
 
-use crate::arrangement_file::{ArrangementFile, ChannelSpec, Noise, SensorSpec};
+use crate::arrangement_file::{ArrangementFile, ChannelSpec, Noise, SensorSpec, IDENTITY};
 use crate::noise::gaussian;
 
 /// A uniformly random rotation matrix (sensor → body), rows.
@@ -37,7 +37,7 @@ pub fn tetrahedron<R: Rng>(radius: f64, noise: f64, rng: Option<&mut R>) -> Arra
     for (i, v) in vertices.iter().enumerate() {
         let o = match rng.as_deref_mut() {
             Some(r) => random_rotation(r),
-            None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            None => IDENTITY,
         };
         sensors.push(part(format!("u{i}"), *v, o, noise));
     }

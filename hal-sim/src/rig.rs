@@ -10,7 +10,7 @@ use crate::bus::i2c::SimI2cBus;
 use crate::bus::spi::{SimSpiBus, SimSpiDevice};
 use crate::clock::SimClock;
 use crate::motion::Propagator;
-use crate::scenario::{PartType, Scenario};
+use crate::scenario::{PartSpec, PartType, Scenario};
 use crate::sensors::adxl355::Adxl355;
 use crate::sensors::lis3dh::Lis3dh;
 use crate::sensors::sync_line::SyncLine;
@@ -64,7 +64,7 @@ impl Rig {
         }
         let mut ports = Vec::new();
         for (index, p) in sc.parts.iter().enumerate() {
-            let source = mount(&truth, p.position, p.orientation);
+            let source = mount(&truth, p);
             let errors = sc.errors(index, p);
             let faults = sc.faults_of(&p.name);
             let port = match p.part {
@@ -118,16 +118,12 @@ fn find_bus<'a, B>(buses: &'a [(String, B)], bus: &str, part: &str) -> Result<&'
         .ok_or_else(|| format!("part \"{part}\": no bus \"{bus}\" of its kind"))
 }
 
-/// The specific force a part mounted at `position` with sensor-to-body `orientation` measures
-/// along its own axes: paper eq. (4) for each axis `s_k` = column k of the orientation.
-fn mount(
-    truth: &Rc<RefCell<Propagator>>,
-    position: [f64; 3],
-    orientation: Option<[[f64; 3]; 3]>,
-) -> ForceSource {
+/// The specific force a part measures along its own axes at its mount: paper eq. (4) for each
+/// axis `s_k` = column k of its orientation.
+fn mount(truth: &Rc<RefCell<Propagator>>, p: &PartSpec) -> ForceSource {
     let truth = truth.clone();
-    let m = orientation.unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
-    let axes = [0, 1, 2].map(|k| [m[0][k], m[1][k], m[2][k]]);
+    let position = p.position;
+    let axes = [0, 1, 2].map(|k| p.axis(k));
     Box::new(move |t| {
         let tr = truth.borrow_mut().truth_at(t);
         axes.map(|s| tr.channel(&position, &s))

@@ -4,7 +4,7 @@
 use embedded_hal::spi::{Error as _, ErrorKind, Operation, SpiDevice};
 use hal_sim::bus::spi::{SimSpiBus, SimSpiDevice, SimSpiError};
 use hal_sim::clock::SimClock;
-use hal_sim::sensors::adxl355::{reg, Adxl355, RESET_CODE};
+use hal_sim::sensors::adxl355::{code_from_bytes as decode, reg, Adxl355, RESET_CODE};
 use hal_sim::sensors::errors::G0;
 use hal_sim::sensors::SensorErrors;
 
@@ -31,11 +31,6 @@ fn part(errors: SensorErrors, f: [f64; 3]) -> (SimClock, SimSpiBus, SimSpiDevice
     let bus = SimSpiBus::new(clock.clone(), HZ);
     let dev = bus.attach(0, Box::new(Adxl355::new(errors, Box::new(move |_| f))));
     (clock, bus, dev)
-}
-
-fn decode(b: &[u8]) -> i32 {
-    let u = (u32::from(b[0]) << 12) | (u32::from(b[1]) << 4) | (u32::from(b[2]) >> 4);
-    ((u << 12) as i32) >> 12
 }
 
 #[test]

@@ -7,7 +7,7 @@ use hal_sim::bus::i2c::SimI2cBus;
 use hal_sim::bus::spi::{SimSpiBus, SimSpiDevice};
 use hal_sim::clock::SimClock;
 use hal_sim::faults::{Fault, FaultKind};
-use hal_sim::sensors::adxl355::{reg, Adxl355};
+use hal_sim::sensors::adxl355::{self, reg, Adxl355};
 use hal_sim::sensors::errors::G0;
 use hal_sim::sensors::lis3dh::{self, Lis3dh, AUTO_INCREMENT};
 use hal_sim::sensors::SensorErrors;
@@ -54,11 +54,8 @@ fn adxl_read(dev: &mut SimSpiDevice) -> [f64; 3] {
     ])
     .unwrap();
     let mut out = [0.0; 3];
-    for (i, o) in out.iter_mut().enumerate() {
-        let u = (u32::from(b[3 * i]) << 12)
-            | (u32::from(b[3 * i + 1]) << 4)
-            | (u32::from(b[3 * i + 2]) >> 4);
-        *o = f64::from(((u << 12) as i32) >> 12) / 256_000.0 * G0;
+    for (o, c) in out.iter_mut().zip(b.chunks_exact(3)) {
+        *o = f64::from(adxl355::code_from_bytes(c)) / 256_000.0 * G0;
     }
     out
 }

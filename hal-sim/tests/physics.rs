@@ -9,17 +9,9 @@ use hal_sim::sim::Recorder;
 
 const G0: f64 = 9.80665;
 
-/// Body axis of part axis `k`: column k of the orientation.
-fn axis(p: &PartSpec, k: usize) -> [f64; 3] {
-    let m = p
-        .orientation
-        .unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
-    [m[0][k], m[1][k], m[2][k]]
-}
-
 /// eq. (4) for the three axes of a part.
 fn ideal(tr: &Truth, p: &PartSpec) -> [f64; 3] {
-    [0, 1, 2].map(|k| tr.channel(&p.position, &axis(p, k)))
+    [0, 1, 2].map(|k| tr.channel(&p.position, &p.axis(k)))
 }
 
 /// `samples` sample sets: (truth, readings per part).

@@ -14,9 +14,9 @@ use embedded_hal::i2c::{ErrorKind, ErrorType, NoAcknowledgeSource, Operation};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::bus::spi::corrupt;
+use super::Connection;
 use crate::clock::SimClock;
-use crate::faults::{active_at, Fault, FaultKind};
+use crate::faults::Fault;
 
 /// A device on the bus, seen between START and STOP.
 pub trait I2cTarget {
@@ -149,34 +149,28 @@ impl SimI2cBus {
         let bus = &mut *guard;
         let t0 = bus.clock.now();
         let slot = bus.slots.iter_mut().find(|s| s.address == address);
-        let (mut dead, mut p_corrupt, mut stall) = (false, 0.0, None);
-        for kind in slot.iter().flat_map(|s| active_at(&s.faults, t0)) {
-            match kind {
-                FaultKind::Dead => dead = true,
-                FaultKind::Corrupt { probability } => p_corrupt = *probability,
-                FaultKind::Timeout { stall: s } => stall = Some(*s),
-                _ => {}
-            }
-        }
+        let conn = slot
+            .as_ref()
+            .map_or_else(Connection::default, |s| Connection::at(&s.faults, t0));
         let mut wire = Wire {
             clock: bus.clock.clone(),
             bit: 1.0 / bus.hz,
             address,
-            corrupt: p_corrupt,
+            conn,
             rng: &mut bus.rng,
         };
         let mut bytes = 0u64;
-        let mut target = slot.filter(|_| !dead).map(|s| s.target.as_mut());
-        let result = match target.as_deref_mut() {
-            _ if stall.is_some() => {
+        let mut target = slot.filter(|_| !conn.dead).map(|s| s.target.as_mut());
+        let result = match (conn.stall, target.as_deref_mut()) {
+            (Some(stall), _) => {
                 // START, the address, then SCL held low until the controller gives up.
                 wire.start_and_address(&mut bytes);
-                wire.clock.advance(stall.unwrap_or(0.0));
+                wire.clock.advance(stall);
                 Err(SimI2cError::Timeout { address })
             }
-            Some(t) => wire.run(t, ops, &mut bytes),
-            None if ops.is_empty() => Ok(()),
-            None => {
+            (None, Some(t)) => wire.run(t, ops, &mut bytes),
+            (None, None) if ops.is_empty() => Ok(()),
+            (None, None) => {
                 // START and an address byte nobody acknowledges.
                 wire.start_and_address(&mut bytes);
                 Err(SimI2cError::AddressNack { address })
@@ -193,12 +187,12 @@ impl SimI2cBus {
     }
 }
 
-/// One transaction's view of the bus: its time base, bit time, address and corruption.
+/// One transaction's view of the bus: its time base, bit time, address and connection faults.
 struct Wire<'a> {
     clock: SimClock,
     bit: f64,
     address: u8,
-    corrupt: f64,
+    conn: Connection,
     rng: &'a mut ChaCha8Rng,
 }
 
@@ -232,7 +226,7 @@ impl Wire<'_> {
             match op {
                 Operation::Read(buf) => {
                     for b in buf.iter_mut() {
-                        *b = corrupt(target.read(), self.corrupt, self.rng);
+                        *b = self.conn.receive(target.read(), self.rng);
                         *bytes += 1;
                         self.clock.advance(9.0 * self.bit);
                     }

@@ -8,11 +8,12 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use embedded_hal::spi::{ErrorKind, ErrorType, Operation};
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
+use super::Connection;
 use crate::clock::SimClock;
-use crate::faults::{active_at, Fault, FaultKind};
+use crate::faults::Fault;
 
 /// A device on the bus, seen byte by byte while its chip select is low.
 pub trait SpiTarget {
@@ -77,15 +78,6 @@ struct Bus {
     busy: f64,
     /// Draws of byte corruption.
     rng: ChaCha8Rng,
-}
-
-/// One byte as the controller receives it: bit `k` flipped with probability `p`.
-pub(crate) fn corrupt(byte: u8, p: f64, rng: &mut ChaCha8Rng) -> u8 {
-    if p > 0.0 && rng.gen_bool(p.min(1.0)) {
-        byte ^ (1 << rng.gen_range(0..8))
-    } else {
-        byte
-    }
 }
 
 /// A simulated SPI bus (cheap to clone; clones share the bus).
@@ -154,16 +146,9 @@ impl SimSpiBus {
             return Err(SimSpiError::NoDevice { cs });
         };
         let t0 = clock.now();
-        let (mut dead, mut p_corrupt, mut stall) = (false, 0.0, None);
-        for kind in active_at(&slot.faults, t0) {
-            match kind {
-                FaultKind::Dead => dead = true,
-                FaultKind::Corrupt { probability } => p_corrupt = *probability,
-                FaultKind::Timeout { stall: s } => stall = Some(*s),
-                _ => {}
-            }
-        }
-        if let Some(s) = stall {
+        let conn = Connection::at(&slot.faults, t0);
+        let dead = conn.dead;
+        if let Some(s) = conn.stall {
             clock.advance(s);
             bus.busy += s;
             return Err(SimSpiError::Timeout { cs });
@@ -177,7 +162,7 @@ impl SimSpiBus {
         // One byte on the wires: a dead part leaves MISO pulled high.
         let mut exchange = |mosi: u8| {
             let miso = if dead { 0xFF } else { target.exchange(mosi) };
-            corrupt(miso, p_corrupt, rng)
+            conn.receive(miso, rng)
         };
         let mut bytes = 0u64;
         for op in ops.iter_mut() {

@@ -11,7 +11,9 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use crate::arrangement_file::{ArrangementFile, ChannelSpec, Noise, SensorSpec};
+use crate::arrangement_file::{
+    body_axis, rotation_defect, ArrangementFile, ChannelSpec, Noise, SensorSpec, IDENTITY,
+};
 use crate::faults::{Fault, FaultKind};
 use crate::motion::{Burn, Environment, Motion, Rotation, Torque};
 use crate::sensors::errors::G0;
@@ -285,6 +287,13 @@ pub struct PartSpec {
     pub jitter: Option<f64>,
 }
 
+impl PartSpec {
+    /// Part axis `k` (0 = x) in the body frame: column `k` of the orientation.
+    pub fn axis(&self, k: usize) -> [f64; 3] {
+        body_axis(&self.orientation.unwrap_or(IDENTITY), k)
+    }
+}
+
 /// A fault of one part.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -312,7 +321,6 @@ pub struct FaultSpec {
     pub stall: Option<f64>,
 }
 
-const IDENTITY: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 const AXES: [&str; 3] = ["x", "y", "z"];
 
 fn finite(v: &[f64]) -> bool {
@@ -561,7 +569,7 @@ impl Scenario {
             return Err(err("position: not finite".into()));
         }
         let m = p.orientation.unwrap_or(IDENTITY);
-        if !m.iter().all(|r| finite(r)) || !is_rotation(&m) {
+        if !m.iter().all(|r| finite(r)) || rotation_defect(&m, 1e-6).is_some() {
             return Err(err("orientation: not a proper rotation matrix".into()));
         }
         if let Some(axes) = &p.axes {
@@ -620,9 +628,6 @@ impl Scenario {
             .is_some_and(|v| !(v.is_finite() && v.abs() < 1e5))
         {
             return Err(err("clock_ppm: must be finite, |ppm| < 1e5".into()));
-        }
-        if self.sync(p) && p.jitter.is_some_and(|j| j > 0.0) {
-            // Allowed, but jitter applies to the internal clock only.
         }
         Ok(slot)
     }
@@ -834,7 +839,6 @@ impl Scenario {
             ..Default::default()
         };
         for p in &self.parts {
-            let m = p.orientation.unwrap_or(IDENTITY);
             let noise = self.channel_noise(p);
             if p.axes.is_none() {
                 file.sensors.push(SensorSpec {
@@ -853,7 +857,7 @@ impl Scenario {
                     file.channels.push(ChannelSpec {
                         name: format!("{}.{}", p.name, AXES[j]),
                         position: p.position,
-                        axis: [m[0][j], m[1][j], m[2][j]],
+                        axis: p.axis(j),
                         noise: Some(noise),
                     });
                 }
@@ -861,19 +865,4 @@ impl Scenario {
         }
         file
     }
-}
-
-fn is_rotation(m: &[[f64; 3]; 3]) -> bool {
-    for i in 0..3 {
-        for j in 0..3 {
-            let d: f64 = (0..3).map(|k| m[k][i] * m[k][j]).sum();
-            if (d - if i == j { 1.0 } else { 0.0 }).abs() > 1e-6 {
-                return false;
-            }
-        }
-    }
-    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-    det > 0.0
 }

@@ -120,6 +120,13 @@ pub fn code_bytes(c: i32) -> [u8; 3] {
     [(u >> 12) as u8, (u >> 4) as u8, ((u & 0xF) << 4) as u8]
 }
 
+/// The signed 20-bit code of three left-justified register bytes (the inverse of
+/// [`code_bytes`]; the low nibble of the third byte is ignored).
+pub fn code_from_bytes(b: &[u8]) -> i32 {
+    let u = (u32::from(b[0]) << 12) | (u32::from(b[1]) << 4) | (u32::from(b[2]) >> 4);
+    ((u << 12) as i32) >> 12
+}
+
 /// The ADXL355 register model.
 pub struct Adxl355 {
     regs: [u8; NREG],
