@@ -144,6 +144,7 @@ fn lis_rig(faults: Vec<Fault>) -> (SimClock, SimI2cBus) {
 const LIS: lis3dh::Config = lis3dh::Config {
     range: lis3dh::Range::G2,
     odr: lis3dh::Odr::Hz400,
+    fifo: false,
 };
 
 #[test]
@@ -169,4 +170,36 @@ fn lis3dh_driver_reads_the_measured_force_and_sees_bus_faults() {
     // Nothing at the other address.
     let r = block_on(lis3dh::Lis3dh::new(bus, 0x19, LIS));
     assert!(matches!(r, Err(lis3dh::Error::Bus(_))));
+}
+
+#[test]
+fn lis3dh_fifo_counts_every_conversion_of_the_parts_own_clock() {
+    let (clock, bus) = lis_rig(Vec::new());
+    let config = lis3dh::Config {
+        fifo: true,
+        ..LIS
+    };
+    let mut dev = block_on(lis3dh::Lis3dh::new(bus, 0x18, config)).unwrap();
+    let start = clock.now();
+    let mut total = 0usize;
+    let mut out = [[0.0f32; 3]; 32];
+    // Read every 10 ms for 1 s: 400 conversions, none lost, each close to the force.
+    for k in 1..=100 {
+        clock.advance_to(start + 0.01 * f64::from(k));
+        let level = block_on(dev.fifo_level()).unwrap();
+        assert!(!level.overrun);
+        let n = usize::from(level.samples);
+        block_on(dev.read_fifo(&mut out[..n])).unwrap();
+        for s in &out[..n] {
+            for a in 0..3 {
+                assert!((f64::from(s[a]) - F[a]).abs() < 9.80665e-3, "axis {a}");
+            }
+        }
+        total += n;
+    }
+    assert!((399..=400).contains(&total), "{total} conversions in 1 s at 400 Hz");
+    // Left unread for 0.1 s, 40 conversions overflow the 32-sample FIFO.
+    clock.advance_to(clock.now() + 0.1);
+    let level = block_on(dev.fifo_level()).unwrap();
+    assert!(level.overrun && level.samples == 31, "{level:?}");
 }

@@ -132,6 +132,8 @@ fn lis3dh_start_up_and_burst_read() {
     let t = [
         I2cT::write_read(ADDR, vec![0x0F], vec![0x33]),
         I2cT::write(ADDR, vec![0x23, 0x88 | 0x10]), // BDU, ±4 g, HR
+        I2cT::write(ADDR, vec![0x24, 0x00]),        // FIFO off
+        I2cT::write(ADDR, vec![0x2E, 0x00]),        // bypass
         I2cT::write(ADDR, vec![0x20, 0x77]),        // 400 Hz, XYZ on
         // X = +1000 digits, Y = −1, Z = 0 (12-bit, left-justified, little-endian).
         I2cT::write_read(ADDR, vec![0xA8], vec![0x80, 0x3E, 0xF0, 0xFF, 0x00, 0x00]),
@@ -141,6 +143,7 @@ fn lis3dh_start_up_and_burst_read() {
     let config = lis3dh::Config {
         range: lis3dh::Range::G4,
         odr: lis3dh::Odr::Hz400,
+        fifo: false,
     };
     let mut dev = block_on(lis3dh::Lis3dh::new(mock.clone(), ADDR, config)).unwrap();
     let a = block_on(dev.read_acceleration()).unwrap();
@@ -161,8 +164,48 @@ fn lis3dh_wrong_identity_is_an_error() {
     let config = lis3dh::Config {
         range: lis3dh::Range::G2,
         odr: lis3dh::Odr::Hz100,
+        fifo: false,
     };
     let r = block_on(lis3dh::Lis3dh::new(mock.clone(), ADDR, config));
     assert!(matches!(r, Err(lis3dh::Error::WrongId(0x32))));
+    mock.done();
+}
+
+#[test]
+fn lis3dh_fifo_stream_level_and_one_burst_of_samples() {
+    let t = [
+        I2cT::write_read(ADDR, vec![0x0F], vec![0x33]),
+        I2cT::write(ADDR, vec![0x23, 0x88]),  // BDU, ±2 g, HR
+        I2cT::write(ADDR, vec![0x24, 0x40]),  // FIFO_EN
+        I2cT::write(ADDR, vec![0x2E, 0x80]),  // stream mode
+        I2cT::write(ADDR, vec![0x20, 0x57]),  // 100 Hz, XYZ on
+        I2cT::write_read(ADDR, vec![0x2F], vec![0x42]), // OVRN, 2 samples
+        // Two samples in one 12-byte burst: X = 16, then X = −16 digits.
+        I2cT::write_read(
+            ADDR,
+            vec![0xA8],
+            vec![0x00, 0x01, 0, 0, 0, 0, 0x00, 0xFF, 0, 0, 0, 0],
+        ),
+    ];
+    let mut mock = I2cMock::new(&t);
+    let config = lis3dh::Config {
+        range: lis3dh::Range::G2,
+        odr: lis3dh::Odr::Hz100,
+        fifo: true,
+    };
+    let mut dev = block_on(lis3dh::Lis3dh::new(mock.clone(), ADDR, config)).unwrap();
+    let level = block_on(dev.fifo_level()).unwrap();
+    assert_eq!(
+        level,
+        lis3dh::FifoLevel {
+            samples: 2,
+            overrun: true
+        }
+    );
+    let mut out = [[0.0f32; 3]; 2];
+    block_on(dev.read_fifo(&mut out)).unwrap();
+    let digit = 1e-3 * G0;
+    assert!((out[0][0] - 16.0 * digit).abs() < 1e-5);
+    assert!((out[1][0] + 16.0 * digit).abs() < 1e-5);
     mock.done();
 }

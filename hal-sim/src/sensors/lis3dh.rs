@@ -17,7 +17,16 @@
 //! - `STATUS_REG` (0x27): ZYXDA bit 3 (new data, cleared by reading the outputs), ZYXOR bit 7
 //!   (a sample overwrote unread data). With BDU, the outputs are not updated between the read
 //!   of a low byte and of its high byte.
+//! - FIFO of 32 samples, stream mode only: enabled by `CTRL_REG5` bit 6 (FIFO_EN) with
+//!   `FIFO_CTRL_REG` (0x2E) mode bits 7:6 = 10; bypass (00) empties it. Each conversion is
+//!   pushed; when full the oldest is dropped and OVRN is set. While enabled, the outputs show
+//!   the oldest sample, reading `OUT_Z_H` pops it, and auto-increment wraps from 0x2D to 0x28
+//!   so that one burst reads several samples. `FIFO_SRC_REG` (0x2F): WTM bit 7 (level ≥ the
+//!   threshold in `FIFO_CTRL_REG` bits 4:0), OVRN bit 6 (cleared by reading this register),
+//!   EMPTY bit 5, FSS bits 4:0 (unread samples; 31 with OVRN when full).
 //! - Noise bandwidth ODR/2.
+
+use std::collections::VecDeque;
 
 use super::errors::{SensorErrors, G0};
 use super::frontend::Frontend;
@@ -35,6 +44,10 @@ pub mod reg {
     pub const CTRL_REG4: u8 = 0x23;
     /// Reboot (bit 7), FIFO enable (bit 6).
     pub const CTRL_REG5: u8 = 0x24;
+    /// FIFO mode (7:6) and threshold (4:0).
+    pub const FIFO_CTRL_REG: u8 = 0x2E;
+    /// FIFO status: WTM, OVRN, EMPTY, level.
+    pub const FIFO_SRC_REG: u8 = 0x2F;
     /// Data status.
     pub const STATUS_REG: u8 = 0x27;
     /// X low byte (then X high, Y low/high, Z low/high).
@@ -47,6 +60,8 @@ pub mod reg {
 
 /// Register file size (0x00..=0x3F).
 const NREG: usize = 0x40;
+/// FIFO depth (samples).
+const FIFO_DEPTH: usize = 32;
 /// Sub-address flag: auto-increment.
 pub const AUTO_INCREMENT: u8 = 0x80;
 
@@ -105,6 +120,10 @@ pub struct Lis3dh {
     bdu_hold: bool,
     /// A sample that arrived during a BDU hold, applied at its release.
     pending: Option<[u8; 6]>,
+    /// The FIFO (stream mode), oldest first, and whether it overran since `FIFO_SRC_REG` was
+    /// last read.
+    fifo: VecDeque<[u8; 6]>,
+    fifo_overrun: bool,
     /// Simulated time of the current transaction.
     now: f64,
 }
@@ -120,6 +139,8 @@ impl Lis3dh {
             have_sub: false,
             bdu_hold: false,
             pending: None,
+            fifo: VecDeque::with_capacity(FIFO_DEPTH),
+            fifo_overrun: false,
             now: 0.0,
         }
     }
@@ -131,6 +152,29 @@ impl Lis3dh {
 
     fn odr(&self) -> f64 {
         odr(self.regs[reg::CTRL_REG1 as usize])
+    }
+
+    /// FIFO enabled and in stream mode.
+    fn fifo_on(&self) -> bool {
+        self.regs[reg::CTRL_REG5 as usize] & 0x40 != 0
+            && self.regs[reg::FIFO_CTRL_REG as usize] >> 6 == 0b10
+    }
+
+    fn fifo_source(&mut self) -> u8 {
+        let n = self.fifo.len();
+        let threshold = usize::from(self.regs[reg::FIFO_CTRL_REG as usize] & 0x1F);
+        let mut v = n.min(31) as u8;
+        if n >= threshold && threshold > 0 {
+            v |= 0x80;
+        }
+        if self.fifo_overrun {
+            v |= 0x40;
+        }
+        if n == 0 {
+            v |= 0x20;
+        }
+        self.fifo_overrun = false;
+        v
     }
 
     fn catch_up(&mut self, t: f64) {
@@ -167,7 +211,13 @@ impl Lis3dh {
             *status |= 0x80;
         }
         *status |= 0x08;
-        if self.bdu_hold {
+        if self.fifo_on() {
+            if self.fifo.len() == FIFO_DEPTH {
+                self.fifo.pop_front();
+                self.fifo_overrun = true;
+            }
+            self.fifo.push_back(out);
+        } else if self.bdu_hold {
             self.pending = Some(out);
         } else {
             self.latch(&out);
@@ -180,6 +230,17 @@ impl Lis3dh {
     }
 
     fn read_register(&mut self, a: u8) -> u8 {
+        if a == reg::FIFO_SRC_REG {
+            return self.fifo_source();
+        }
+        if self.fifo_on() && (reg::OUT_X_L..=reg::OUT_Z_H).contains(&a) {
+            let head = self.fifo.front().copied().unwrap_or([0; 6]);
+            if a == reg::OUT_Z_H {
+                self.fifo.pop_front();
+            }
+            self.regs[reg::STATUS_REG as usize] &= !0x88;
+            return head[usize::from(a - reg::OUT_X_L)];
+        }
         let v = self.regs[usize::from(a) % NREG];
         if (reg::OUT_X_L..=reg::OUT_Z_H).contains(&a) {
             let status = &mut self.regs[reg::STATUS_REG as usize];
@@ -202,7 +263,7 @@ impl Lis3dh {
     fn write_register(&mut self, a: u8, v: u8) {
         match a {
             // Read-only: identity, status and outputs.
-            reg::WHO_AM_I | reg::STATUS_REG => {}
+            reg::WHO_AM_I | reg::STATUS_REG | reg::FIFO_SRC_REG => {}
             a if (reg::OUT_X_L..=reg::OUT_Z_H).contains(&a) => {}
             reg::CTRL_REG5 if v & 0x80 != 0 => {
                 // BOOT reloads the trimming; registers keep their contents.
@@ -211,6 +272,10 @@ impl Lis3dh {
             a if (a as usize) < NREG => {
                 let old_odr = self.odr();
                 self.regs[a as usize] = v;
+                if !self.fifo_on() {
+                    self.fifo.clear();
+                    self.fifo_overrun = false;
+                }
                 if a == reg::CTRL_REG1 && self.odr() != old_odr {
                     // Restart the sample clock from the time of this write.
                     self.front.stop_clock();
@@ -223,7 +288,11 @@ impl Lis3dh {
 
     fn advance_sub(&mut self) {
         if self.auto_inc {
-            self.sub = (self.sub + 1) & 0x7F;
+            self.sub = if self.sub == reg::OUT_Z_H && self.fifo_on() {
+                reg::OUT_X_L
+            } else {
+                (self.sub + 1) & 0x7F
+            };
         }
     }
 }

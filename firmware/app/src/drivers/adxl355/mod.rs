@@ -132,14 +132,25 @@ pub struct Adxl355<SPI> {
 impl<SPI: SpiDevice> Adxl355<SPI> {
     /// Resets the part, checks its IDs and applies `config` (measurement on).
     pub async fn new(spi: SPI, config: Config) -> Result<Self, Error<SPI::Error>> {
-        let mut dev = Adxl355 {
-            spi,
-            scale: config.range.scale(),
-        };
-        dev.write(reg::RESET, reg::RESET_CODE).await?;
-        dev.identify().await?;
-        dev.configure(config).await?;
+        let mut dev = Self::bare(spi, config.range);
+        dev.start(config).await?;
         Ok(dev)
+    }
+
+    /// The driver without any transfer yet (call [`Adxl355::start`]): a part that fails at
+    /// start-up keeps its bus handle, so that it can be started again later.
+    pub fn bare(spi: SPI, range: Range) -> Self {
+        Adxl355 {
+            spi,
+            scale: range.scale(),
+        }
+    }
+
+    /// Reset, identification check, configuration.
+    pub async fn start(&mut self, config: Config) -> Result<(), Error<SPI::Error>> {
+        self.write(reg::RESET, reg::RESET_CODE).await?;
+        self.identify().await?;
+        self.configure(config).await
     }
 
     /// Reads the three identification registers in one burst.
@@ -180,6 +191,11 @@ impl<SPI: SpiDevice> Adxl355<SPI> {
     pub async fn read_acceleration(&mut self) -> Result<[f32; 3], Error<SPI::Error>> {
         let mut b = [0u8; 9];
         self.read_burst(reg::XDATA3, &mut b).await?;
+        self.convert(&b)
+    }
+
+    /// m/s² from the nine data bytes, checking the bits that read as zero.
+    fn convert(&self, b: &[u8]) -> Result<[f32; 3], Error<SPI::Error>> {
         let mut out = [0.0; 3];
         for (o, c) in out.iter_mut().zip(b.chunks_exact(3)) {
             if c[2] & 0x0F != 0 {
@@ -188,6 +204,20 @@ impl<SPI: SpiDevice> Adxl355<SPI> {
             *o = decode(c[0], c[1], c[2]) as f32 * self.scale;
         }
         Ok(out)
+    }
+
+    /// The status and the latest sample in one 14-byte transaction (`STATUS` through
+    /// `ZDATA1`): whether the sample is new, and x, y, z in m/s².
+    pub async fn read_status_and_acceleration(
+        &mut self,
+    ) -> Result<(Status, [f32; 3]), Error<SPI::Error>> {
+        let mut b = [0u8; 13];
+        self.read_burst(reg::STATUS, &mut b).await?;
+        // STATUS bits 7:5 and the unused bits of FIFO_ENTRIES and TEMP2 read as zero.
+        if b[0] & 0xE0 != 0 || b[1] & 0x80 != 0 || b[2] & 0xF0 != 0 {
+            return Err(Error::Implausible);
+        }
+        Ok((Status(b[0]), self.convert(&b[4..13])?))
     }
 
     /// Entries (single-axis values) waiting in the FIFO.
@@ -201,8 +231,18 @@ impl<SPI: SpiDevice> Adxl355<SPI> {
     /// `3 × out.len()` entries at most, in one transaction; stops at the empty marker, and
     /// starts at the first x marker (a set torn by an earlier read is skipped).
     pub async fn read_fifo(&mut self, out: &mut [[f32; 3]]) -> Result<usize, Error<SPI::Error>> {
-        let available = usize::from(self.fifo_entries().await?) / 3;
-        let n = available.min(out.len()).min(32);
+        let entries = self.fifo_entries().await?;
+        self.read_fifo_entries(entries, out).await
+    }
+
+    /// As [`Adxl355::read_fifo`], for a number of `entries` already read with
+    /// [`Adxl355::fifo_entries`] (whole sets only; at most `3 × out.len()`).
+    pub async fn read_fifo_entries(
+        &mut self,
+        entries: u8,
+        out: &mut [[f32; 3]],
+    ) -> Result<usize, Error<SPI::Error>> {
+        let n = (usize::from(entries) / 3).min(out.len()).min(32);
         if n == 0 {
             return Ok(0);
         }

@@ -108,6 +108,18 @@ pub struct Config {
     pub range: Range,
     /// Output data rate.
     pub odr: Odr,
+    /// FIFO in stream mode (samples are read in bursts with their count, for timestamping);
+    /// otherwise the output registers hold the latest sample.
+    pub fifo: bool,
+}
+
+/// The FIFO's state (`FIFO_SRC_REG`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FifoLevel {
+    /// Unread samples.
+    pub samples: u8,
+    /// Samples were lost since the last look (the FIFO was full).
+    pub overrun: bool,
 }
 
 /// Errors of the driver.
@@ -132,14 +144,25 @@ pub struct Lis3dh<I2C> {
 impl<I2C: I2c> Lis3dh<I2C> {
     /// Checks the identity and applies `config` (BDU, high resolution, all axes on).
     pub async fn new(i2c: I2C, address: u8, config: Config) -> Result<Self, Error<I2C::Error>> {
-        let mut dev = Lis3dh {
+        let mut dev = Self::bare(i2c, address, config.range);
+        dev.start(config).await?;
+        Ok(dev)
+    }
+
+    /// The driver without any transfer yet (call [`Lis3dh::start`]): a part that fails at
+    /// start-up keeps its bus handle, so that it can be started again later.
+    pub fn bare(i2c: I2C, address: u8, range: Range) -> Self {
+        Lis3dh {
             i2c,
             address,
-            scale: config.range.scale(),
-        };
-        dev.identify().await?;
-        dev.configure(config).await?;
-        Ok(dev)
+            scale: range.scale(),
+        }
+    }
+
+    /// Identification check and configuration.
+    pub async fn start(&mut self, config: Config) -> Result<(), Error<I2C::Error>> {
+        self.identify().await?;
+        self.configure(config).await
     }
 
     /// Reads `WHO_AM_I`.
@@ -162,6 +185,19 @@ impl<I2C: I2c> Lis3dh<I2C> {
         let ctrl4 = reg::BDU | (config.range.bits() << 4) | reg::HR;
         self.i2c
             .write(self.address, &[reg::CTRL_REG4, ctrl4])
+            .await
+            .map_err(Error::Bus)?;
+        let (ctrl5, fifo_ctrl) = if config.fifo {
+            (reg::FIFO_EN, reg::FIFO_STREAM)
+        } else {
+            (0, 0)
+        };
+        self.i2c
+            .write(self.address, &[reg::CTRL_REG5, ctrl5])
+            .await
+            .map_err(Error::Bus)?;
+        self.i2c
+            .write(self.address, &[reg::FIFO_CTRL_REG, fifo_ctrl])
             .await
             .map_err(Error::Bus)?;
         self.i2c
@@ -187,19 +223,50 @@ impl<I2C: I2c> Lis3dh<I2C> {
 
     /// The latest sample, x, y, z in m/s² (part axes): one 6-byte burst.
     pub async fn read_acceleration(&mut self) -> Result<[f32; 3], Error<I2C::Error>> {
-        let mut b = [0u8; 6];
+        let mut out = [[0.0; 3]];
+        self.read_samples(&mut out).await?;
+        Ok(out[0])
+    }
+
+    /// `FIFO_SRC_REG`: the unread samples in the FIFO (configured with `fifo`).
+    pub async fn fifo_level(&mut self) -> Result<FifoLevel, Error<I2C::Error>> {
+        let mut s = [0u8; 1];
         self.i2c
-            .write_read(self.address, &[reg::OUT_X_L | reg::AUTO_INCREMENT], &mut b)
+            .write_read(self.address, &[reg::FIFO_SRC_REG], &mut s)
             .await
             .map_err(Error::Bus)?;
-        let mut out = [0.0; 3];
-        for (o, c) in out.iter_mut().zip(b.chunks_exact(2)) {
-            if c[0] & 0x0F != 0 {
-                return Err(Error::Implausible);
+        Ok(FifoLevel {
+            samples: s[0] & reg::FIFO_LEVEL,
+            overrun: s[0] & reg::FIFO_OVRN != 0,
+        })
+    }
+
+    /// Pops `out.len()` samples (at most [`reg::FIFO_DEPTH`]) from the FIFO, oldest first,
+    /// in one burst (the address wraps from `OUT_Z_H` to `OUT_X_L` in FIFO mode). Ask
+    /// [`Lis3dh::fifo_level`] first: reading more than are stored repeats zeros.
+    pub async fn read_fifo(&mut self, out: &mut [[f32; 3]]) -> Result<(), Error<I2C::Error>> {
+        let n = out.len().min(reg::FIFO_DEPTH);
+        self.read_samples(&mut out[..n]).await
+    }
+
+    /// Reads `out.len()` (≤ [`reg::FIFO_DEPTH`]) consecutive 6-byte samples in one burst and
+    /// checks the bits that read as zero in high-resolution mode.
+    async fn read_samples(&mut self, out: &mut [[f32; 3]]) -> Result<(), Error<I2C::Error>> {
+        let mut b = [0u8; 6 * reg::FIFO_DEPTH];
+        let bytes = &mut b[..6 * out.len().min(reg::FIFO_DEPTH)];
+        self.i2c
+            .write_read(self.address, &[reg::OUT_X_L | reg::AUTO_INCREMENT], bytes)
+            .await
+            .map_err(Error::Bus)?;
+        for (sample, raw) in out.iter_mut().zip(bytes.chunks_exact(6)) {
+            for (o, c) in sample.iter_mut().zip(raw.chunks_exact(2)) {
+                if c[0] & 0x0F != 0 {
+                    return Err(Error::Implausible);
+                }
+                *o = f32::from(i16::from_le_bytes([c[0], c[1]]) >> 4) * self.scale;
             }
-            *o = f32::from(i16::from_le_bytes([c[0], c[1]]) >> 4) * self.scale;
         }
-        Ok(out)
+        Ok(())
     }
 
     /// Gives the bus back.

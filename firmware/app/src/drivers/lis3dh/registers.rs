@@ -8,6 +8,12 @@ pub const ID: u8 = 0x33;
 pub const CTRL_REG1: u8 = 0x20;
 /// BDU (7), BLE (6), full scale (5:4), high resolution (3).
 pub const CTRL_REG4: u8 = 0x23;
+/// Reboot (7), FIFO enable (6).
+pub const CTRL_REG5: u8 = 0x24;
+/// FIFO mode (7:6), threshold (4:0).
+pub const FIFO_CTRL_REG: u8 = 0x2E;
+/// FIFO status: WTM (7), OVRN (6), EMPTY (5), level (4:0).
+pub const FIFO_SRC_REG: u8 = 0x2F;
 /// Status: ZYXOR (7), ZYXDA (3).
 pub const STATUS_REG: u8 = 0x27;
 /// X low byte; X high, Y low/high, Z low/high follow.
@@ -23,3 +29,13 @@ pub const HR: u8 = 0x08;
 pub const ZYXDA: u8 = 0x08;
 /// `STATUS_REG` bit: X, Y, Z data overwritten before being read.
 pub const ZYXOR: u8 = 0x80;
+/// `CTRL_REG5` bit: FIFO enable.
+pub const FIFO_EN: u8 = 0x40;
+/// `FIFO_CTRL_REG` mode bits: stream (the oldest sample is dropped when full).
+pub const FIFO_STREAM: u8 = 0b10 << 6;
+/// `FIFO_SRC_REG` bit: the FIFO overran (samples were lost).
+pub const FIFO_OVRN: u8 = 0x40;
+/// `FIFO_SRC_REG` level bits (unread samples).
+pub const FIFO_LEVEL: u8 = 0x1F;
+/// FIFO depth (samples).
+pub const FIFO_DEPTH: usize = 32;
