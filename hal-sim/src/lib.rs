@@ -13,6 +13,7 @@ pub mod compare;
 pub mod estimates_csv;
 pub mod families;
 pub mod faults;
+pub mod firmware_host;
 pub mod motion;
 pub mod noise;
 pub mod plot;

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use crate::bench::{BenchError, BenchReader};
 use crate::compare::{compare, Comparison};
 use crate::rig::Rig;
+use crate::arrangement_file::LoadedArrangement;
 use crate::run::{estimate_files, write_truth_header, write_truth_row, EstimateJob, Precision};
 use crate::scenario::Scenario;
 
@@ -24,6 +25,9 @@ pub struct SimJob<'a> {
     pub estimate: bool,
     /// Show a progress bar (on a terminal, for long runs).
     pub progress: bool,
+    /// Run the firmware's tasks instead of the bench reader: its samples and its estimates
+    /// (implies the comparison and the plot), with this alignment of free-running parts.
+    pub firmware: Option<firmware::config::Alignment>,
 }
 
 /// Reads and failures of one part.
@@ -54,6 +58,8 @@ pub struct SimReport {
     pub errors: Option<Comparison>,
     /// With `--estimate`: rows flagged, per flag bit.
     pub flag_counts: [u64; 16],
+    /// With `--firmware`: what the firmware counted and measured.
+    pub firmware: Option<crate::firmware_host::FirmwareReport>,
 }
 
 /// A scenario being recorded: the rig and the bench reader that reads every part at the
@@ -132,7 +138,74 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
     let loaded = arrangement
         .load("arrangement.toml")
         .map_err(|e| format!("the scenario's arrangement: {e}"))?;
+    let mut samples = create(&path("samples.csv"))?;
+    let mut truth = create(&path("truth.csv"))?;
+    writeln!(samples, "t,{}", loaded.names.join(","))?;
+    write_truth_header(&mut truth)?;
+    let mut report = match job.firmware {
+        Some(alignment) => {
+            record_firmware(job, &loaded, alignment, &mut samples, &mut truth)?
+        }
+        None => record_bench(job, &loaded, &mut samples, &mut truth)?,
+    };
+    samples.flush()?;
+    truth.flush()?;
+    report.files = vec![
+        path("arrangement.toml"),
+        path("samples.csv"),
+        path("truth.csv"),
+    ];
+    let est = path("estimates.csv");
+    if job.firmware.is_none() && job.estimate {
+        let summary = estimate_files(&EstimateJob {
+            arrangement: &path("arrangement.toml"),
+            samples: &path("samples.csv"),
+            out: &est,
+            model: None,
+            options: estimator_core::Options {
+                initial_omega: sc.initial_omega,
+                ..Default::default()
+            },
+            precision: Precision::F64,
+        })?;
+        report.flag_counts = summary.flag_counts;
+    }
+    if job.firmware.is_some() || job.estimate {
+        report.errors = Some(compare(&path("truth.csv"), &est)?);
+        report.files.push(est.clone());
+        let png = path("estimates.png");
+        crate::plot::plot_files(&path("truth.csv"), &est, &png)?;
+        report.files.push(png);
+    }
+    Ok(report)
+}
 
+fn create(path: &Path) -> Result<BufWriter<File>, String> {
+    File::create(path)
+        .map(|f| BufWriter::with_capacity(1 << 16, f))
+        .map_err(|e| format!("{}: cannot create: {e}", path.display()))
+}
+
+/// One samples.csv row: `t`, then each channel's value or an empty field.
+fn write_samples_row(w: &mut impl Write, t: f64, row: &[Option<f64>]) -> std::io::Result<()> {
+    write!(w, "{t}")?;
+    for v in row {
+        match v {
+            Some(v) => write!(w, ",{v}")?,
+            None => write!(w, ",")?,
+        }
+    }
+    writeln!(w)
+}
+
+/// The bench reader's record.
+fn record_bench(
+    job: &SimJob,
+    loaded: &LoadedArrangement,
+    samples: &mut impl Write,
+    truth: &mut impl Write,
+) -> Result<SimReport, Box<dyn Error>> {
+    let sc = job.scenario;
     let mut rec = Recorder::new(sc)?;
     // Column of each part axis in estimator channel order (the arrangement's order).
     let columns: Vec<Vec<(usize, usize)>> = sc
@@ -148,16 +221,6 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
                 .collect()
         })
         .collect();
-    let create = |name: &str| -> Result<BufWriter<File>, String> {
-        File::create(path(name))
-            .map(|f| BufWriter::with_capacity(1 << 16, f))
-            .map_err(|e| format!("{}: cannot create: {e}", path(name).display()))
-    };
-    let mut samples = create("samples.csv")?;
-    let mut truth = create("truth.csv")?;
-    writeln!(samples, "t,{}", loaded.names.join(","))?;
-    write_truth_header(&mut truth)?;
-
     let n = sc.samples();
     let bar = progress_bar(job.progress, n as u64);
     let mut row: Vec<Option<f64>> = vec![None; loaded.names.len()];
@@ -171,23 +234,14 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
                 }
             }
         }
-        write!(samples, "{t}")?;
-        for v in &row {
-            match v {
-                Some(v) => write!(samples, ",{v}")?,
-                None => write!(samples, ",")?,
-            }
-        }
-        writeln!(samples)?;
-        write_truth_row(&mut truth, &rec.truth(t))?;
+        write_samples_row(samples, t, &row)?;
+        write_truth_row(truth, &rec.truth(t))?;
         if k % 1024 == 0 {
             bar.set_position(k as u64);
         }
     }
     bar.finish_and_clear();
-    samples.flush()?;
-    truth.flush()?;
-    let mut report = SimReport {
+    Ok(SimReport {
         samples: n,
         channels: loaded.names.len(),
         parts: sc
@@ -201,35 +255,85 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
             })
             .collect(),
         buses: rec.sampling_usage(),
-        files: vec![
-            path("arrangement.toml"),
-            path("samples.csv"),
-            path("truth.csv"),
-        ],
+        files: Vec::new(),
         errors: None,
         flag_counts: [0; 16],
+        firmware: None,
+    })
+}
+
+/// The firmware's record: its sample sets, the truth at their instants, its estimates.
+fn record_firmware(
+    job: &SimJob,
+    loaded: &LoadedArrangement,
+    alignment: firmware::config::Alignment,
+    samples: &mut impl Write,
+    truth: &mut impl Write,
+) -> Result<SimReport, Box<dyn Error>> {
+    use crate::firmware_host::{firmware_config, run_firmware, SimTime};
+    let sc = job.scenario;
+    let config = firmware_config(sc, loaded, alignment)?;
+    let path = job.out.join("estimates.csv");
+    let mut estimates = create(&path)?;
+    crate::estimates_csv::write_header(&mut estimates)?;
+    let n = sc.samples();
+    let bar = progress_bar(job.progress, n as u64);
+    let mut row: Vec<Option<f64>> = vec![None; loaded.names.len()];
+    let mut flag_counts = [0u64; 16];
+    let mut propagator = crate::motion::Propagator::new(sc.motion(), crate::rig::TRUTH_STEP);
+    let mut failure: Option<std::io::Error> = None;
+    let mut emit = |set: &firmware::sampler::SampleSet, m: &firmware::estimation::Motion| {
+        let t = SimTime::seconds(set.t);
+        row.iter_mut().for_each(|v| *v = None);
+        for (value, p) in set.parts.iter().zip(config.sampling.parts.iter()) {
+            if let (Some(v), Some(p)) = (value, p) {
+                for (x, c) in v.iter().zip(p.channels.iter()) {
+                    if let Some(c) = c {
+                        row[usize::from(*c)] = Some(f64::from(*x));
+                    }
+                }
+            }
+        }
+        for (bit, count) in flag_counts.iter_mut().enumerate() {
+            if m.estimate.flags.0 & (1 << bit) != 0 {
+                *count += 1;
+            }
+        }
+        let r = write_samples_row(samples, t, &row)
+            .and_then(|_| write_truth_row(truth, &propagator.truth_at(t)))
+            .and_then(|_| crate::estimates_csv::write_row(&mut estimates, t, &m.estimate));
+        if let Err(e) = r {
+            failure.get_or_insert(e);
+        }
+        if set.k % 1024 == 0 {
+            bar.set_position(u64::from(set.k));
+        }
     };
-    if job.estimate {
-        let est = path("estimates.csv");
-        let summary = estimate_files(&EstimateJob {
-            arrangement: &path("arrangement.toml"),
-            samples: &path("samples.csv"),
-            out: &est,
-            model: None,
-            options: estimator_core::Options {
-                initial_omega: sc.initial_omega,
-                ..Default::default()
-            },
-            precision: Precision::F64,
-        })?;
-        report.flag_counts = summary.flag_counts;
-        report.errors = Some(compare(&path("truth.csv"), &est)?);
-        report.files.push(est.clone());
-        let png = path("estimates.png");
-        crate::plot::plot_files(&path("truth.csv"), &est, &png)?;
-        report.files.push(png);
+    let fw = run_firmware(sc, &config, n as u32, &mut emit)?;
+    bar.finish_and_clear();
+    if let Some(e) = failure {
+        return Err(e.into());
     }
-    Ok(report)
+    estimates.flush()?;
+    Ok(SimReport {
+        samples: fw.estimates as usize,
+        channels: loaded.names.len(),
+        parts: sc
+            .parts
+            .iter()
+            .zip(fw.parts.iter())
+            .map(|(p, h)| PartCount {
+                name: p.name.clone(),
+                reads: u64::from(h.reads),
+                errors: u64::from(h.bus_errors + h.implausible),
+            })
+            .collect(),
+        buses: fw.buses.clone(),
+        files: Vec::new(),
+        errors: None,
+        flag_counts,
+        firmware: Some(fw),
+    })
 }
 
 fn progress_bar(show: bool, n: u64) -> indicatif::ProgressBar {

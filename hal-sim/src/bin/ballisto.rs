@@ -74,6 +74,14 @@ enum Command {
         /// Also run the estimator: estimates.csv, errors against the truth, estimates.png.
         #[arg(long)]
         estimate: bool,
+        /// Run the firmware (its sampling and estimation tasks on the simulated buses) instead
+        /// of the bench reader: samples.csv and estimates.csv are what the firmware produced.
+        #[arg(long)]
+        firmware: bool,
+        /// With --firmware: how samples of free-running parts are aligned to the sample
+        /// instants: interpolate (timestamped FIFO samples) or latest (the unaligned reference).
+        #[arg(long, value_name = "interpolate|latest", default_value = "interpolate")]
+        align: String,
     },
     /// RMS errors of an estimates file against a truth file (matched by column name and t).
     Compare {
@@ -160,7 +168,19 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             scenario,
             out,
             estimate,
+            firmware,
+            align,
         } => {
+            let alignment = match align.as_str() {
+                "interpolate" => firmware::config::Alignment::Interpolate,
+                "latest" => firmware::config::Alignment::Latest,
+                other => {
+                    return Err(format!(
+                        "--align: \"{other}\" is not one of interpolate, latest"
+                    )
+                    .into())
+                }
+            };
             let sc = hal_sim::scenario::Scenario::load(&scenario)?;
             let started = std::time::Instant::now();
             let r = hal_sim::sim::run_sim(&hal_sim::sim::SimJob {
@@ -168,6 +188,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 out: &out,
                 estimate,
                 progress: true,
+                firmware: firmware.then_some(alignment),
             })?;
             println!("ballisto sim: {scenario}: {}", sc.description);
             println!(
@@ -193,6 +214,9 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             }
             if !sc.faults.is_empty() {
                 println!("  faults scheduled: {}", sc.faults.len());
+            }
+            if let Some(fw) = &r.firmware {
+                print_firmware(&sc, fw);
             }
             if let Some(c) = &r.errors {
                 println!(
@@ -221,6 +245,33 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             Ok(())
         }
     }
+}
+
+/// The firmware's own counts and figures.
+fn print_firmware(sc: &hal_sim::scenario::Scenario, fw: &hal_sim::firmware_host::FirmwareReport) {
+    let l = &fw.sampling;
+    println!(
+        "  firmware: {} sets sampled, {} instants skipped (overrun), {} sets dropped (queue full), {} SYNC errors",
+        l.sets, l.skipped, l.dropped, l.sync_errors
+    );
+    for ((p, h), u) in sc.parts.iter().zip(&fw.parts).zip(&fw.clock_uncertainty) {
+        let clock = match u {
+            Some(u) => format!(", conversion time known to +-{:.1} us", u * 1e6),
+            None => String::new(),
+        };
+        println!(
+            "  part {}: {} reads, {} bus errors, {} implausible, {} sets missed, {} resyncs, {} failed starts{clock}",
+            p.name, h.reads, h.bus_errors, h.implausible, h.missed, h.resyncs, h.failed_starts
+        );
+    }
+    println!(
+        "  estimation CPU (host) {:.1} us mean, {:.1} us max per sample set; task futures {} + {} bytes, estimator state {} bytes",
+        fw.cpu_mean * 1e6,
+        fw.cpu_max * 1e6,
+        fw.task_sizes.0,
+        fw.task_sizes.1,
+        fw.estimation_size
+    );
 }
 
 fn main() -> ExitCode {

@@ -1,0 +1,170 @@
+//! Estimation at sample rate (sample sets → estimator-core → the telemetry sink).
+//!
+//! Each sample set becomes the estimator's channel vector (part axis → channel); a part
+//! without a value leaves its channels NaN, which the estimator answers with its prediction,
+//! flagged. A part missing for [`EXCLUDE_AFTER`] sets in a row is excluded (the channel mask
+//! changes, if the rest still suffices for the model), and included again after
+//! [`INCLUDE_AFTER`] good sets; across such a change the last Ω is carried as the rate hint, so
+//! branch and sign are kept.
+
+use core::future::Future;
+
+use embassy_sync::blocking_mutex::raw::RawMutex;
+use embassy_sync::channel::Receiver;
+use estimator_core::{ChannelMask, ConfigError, Estimate, Estimator, Options};
+
+use crate::config::{AppConfig, MAX_CHANNELS, MAX_PARTS};
+use crate::sampler::SampleSet;
+use crate::time::{seconds, Nanos};
+
+/// Sets in a row without a value after which a part is excluded.
+pub const EXCLUDE_AFTER: u16 = 5;
+/// Good sets in a row after which an excluded part is included again.
+pub const INCLUDE_AFTER: u16 = 100;
+
+/// One output of the estimation task.
+#[derive(Clone, Copy, Debug)]
+pub struct Motion {
+    /// Sample set index.
+    pub k: u32,
+    /// Sample instant.
+    pub t: Nanos,
+    /// The estimate.
+    pub estimate: Estimate<f32>,
+    /// Parts without a value in this set (bit per part).
+    pub missing: u32,
+    /// Parts excluded from the estimate (bit per part).
+    pub excluded: u32,
+}
+
+/// Where outputs go: CCSDS packets on the spacecraft bus, or a file on the host.
+pub trait TelemetrySink {
+    /// One estimate.
+    fn motion(&mut self, motion: &Motion) -> impl Future<Output = ()>;
+
+    /// The sample set an estimate is about to be computed from (default: ignored).
+    fn sample_set(&mut self, _set: &SampleSet) -> impl Future<Output = ()> {
+        core::future::ready(())
+    }
+}
+
+/// The estimator and the channel bookkeeping.
+pub struct Estimation {
+    estimator: Estimator<f32, MAX_CHANNELS>,
+    channels: [[Option<u8>; 3]; MAX_PARTS],
+    n: usize,
+    p: [f32; MAX_CHANNELS],
+    missing_run: [u16; MAX_PARTS],
+    good_run: [u16; MAX_PARTS],
+    excluded: u32,
+    last_omega: Option<[f64; 3]>,
+}
+
+impl Estimation {
+    /// The estimator for a configuration (validated by estimator-core: arrangement vs model).
+    pub fn new(config: &AppConfig) -> Result<Self, ConfigError> {
+        let options = Options {
+            initial_omega: config.hint,
+            ..Options::default()
+        };
+        let estimator = Estimator::new(&config.arrangement, config.model, options)?;
+        let mut channels = [[None; 3]; MAX_PARTS];
+        for (i, p) in config.sampling.parts() {
+            channels[i] = p.channels;
+        }
+        Ok(Estimation {
+            estimator,
+            channels,
+            n: config.arrangement.len(),
+            p: [f32::NAN; MAX_CHANNELS],
+            missing_run: [0; MAX_PARTS],
+            good_run: [0; MAX_PARTS],
+            excluded: 0,
+            last_omega: None,
+        })
+    }
+
+    /// The estimator (model, mask, condition).
+    pub fn estimator(&self) -> &Estimator<f32, MAX_CHANNELS> {
+        &self.estimator
+    }
+
+    /// One sample set.
+    pub fn process(&mut self, set: &SampleSet) -> Motion {
+        let mut missing = 0u32;
+        self.p[..self.n].fill(f32::NAN);
+        for (i, (value, chans)) in set.parts.iter().zip(self.channels.iter()).enumerate() {
+            match value {
+                Some(v) => {
+                    for (x, c) in v.iter().zip(chans.iter()) {
+                        if let Some(c) = c {
+                            self.p[usize::from(*c)] = *x;
+                        }
+                    }
+                    self.missing_run[i] = 0;
+                    self.good_run[i] = self.good_run[i].saturating_add(1);
+                }
+                None if chans.iter().any(Option::is_some) => {
+                    missing |= 1 << i;
+                    self.good_run[i] = 0;
+                    self.missing_run[i] = self.missing_run[i].saturating_add(1);
+                }
+                None => {}
+            }
+        }
+        self.update_exclusions();
+        let estimate = *self.estimator.update(seconds(set.t), &self.p[..self.n]);
+        if estimate.is_finite() && !estimate.flags.has(estimator_core::Flags::INPUT_INVALID) {
+            self.last_omega = Some(estimate.omega.map(f64::from));
+        }
+        Motion {
+            k: set.k,
+            t: set.t,
+            estimate,
+            missing,
+            excluded: self.excluded,
+        }
+    }
+
+    /// Excludes parts missing too long and includes recovered ones.
+    fn update_exclusions(&mut self) {
+        let mut wanted = self.excluded;
+        for i in 0..MAX_PARTS {
+            if self.missing_run[i] >= EXCLUDE_AFTER {
+                wanted |= 1 << i;
+            } else if self.good_run[i] >= INCLUDE_AFTER {
+                wanted &= !(1 << i);
+            }
+        }
+        if wanted == self.excluded {
+            return;
+        }
+        let mut mask = ChannelMask::all(self.n);
+        for (i, chans) in self.channels.iter().enumerate() {
+            if wanted & (1 << i) != 0 {
+                for c in chans.iter().flatten() {
+                    mask = mask.without(usize::from(*c));
+                }
+            }
+        }
+        // Too few channels left for the model: keep the mask (the sets stay flagged).
+        if self.estimator.set_mask(mask).is_ok() {
+            self.excluded = wanted;
+            let _ = self.estimator.set_hint(self.last_omega);
+        }
+    }
+}
+
+/// The estimation task: every queued sample set through the estimator to the sink.
+pub async fn estimation_task<M: RawMutex, K: TelemetrySink, const Q: usize>(
+    estimation: &mut Estimation,
+    queue: Receiver<'_, M, SampleSet, Q>,
+    sink: &mut K,
+) -> ! {
+    loop {
+        let set = queue.receive().await;
+        sink.sample_set(&set).await;
+        let motion = estimation.process(&set);
+        sink.motion(&motion).await;
+    }
+}

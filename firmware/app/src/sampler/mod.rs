@@ -1,0 +1,213 @@
+//! Synchronized sampling: every part sampled at one rate on one time base (sampler → the
+//! estimation task).
+//!
+//! At each instant `t_k = t_0 + k/rate` the sampler pulses the SYNC line (parts on it take one
+//! sample then) and reads those parts; then it reads each free-running part through its FIFO
+//! at the instant its [`ConversionClock`] says is most informative (at most one part period
+//! later), timestamps the FIFO samples and interpolates to `t_k`
+//! ([`Alignment::Interpolate`]); or it takes the latest output as the value at `t_k`
+//! ([`Alignment::Latest`], the unaligned reference). A set records which parts have no value.
+//!
+//! The loop never stalls on a part: a failed read is counted and leaves that part's value
+//! empty; a part failing repeatedly is marked down and restarted every second or so; if a set
+//! overruns its period, the instants already past are skipped and counted.
+
+pub mod conversion_clock;
+pub mod part;
+
+use embassy_sync::blocking_mutex::raw::RawMutex;
+use embassy_sync::channel::Sender;
+use embedded_hal::digital::OutputPin;
+use embedded_hal_async::i2c::I2c;
+use embedded_hal_async::spi::SpiDevice;
+
+pub use conversion_clock::ConversionClock;
+pub use part::{Part, PartBus, PartHealth};
+
+use crate::config::{Alignment, SamplingConfig, MAX_PARTS};
+use crate::time::{Nanos, TimeBase};
+
+/// The readings of all parts at one instant.
+#[derive(Clone, Copy, Debug)]
+pub struct SampleSet {
+    /// Index of the instant since the sampler started.
+    pub k: u32,
+    /// The instant (time base).
+    pub t: Nanos,
+    /// Each part's x, y, z (m/s², part axes) at `t`, or `None`.
+    pub parts: [Option<[f32; 3]>; MAX_PARTS],
+}
+
+/// Counters of the sampling loop itself.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoopHealth {
+    /// Sample sets produced.
+    pub sets: u32,
+    /// Instants skipped because a set overran its period.
+    pub skipped: u32,
+    /// Sets the estimation task had no room for (its queue was full).
+    pub dropped: u32,
+    /// Failures to drive the SYNC line.
+    pub sync_errors: u32,
+}
+
+/// The sampler: the parts, the SYNC line and the schedule.
+pub struct Sampler<SPI, I2C, SYNC> {
+    parts: [Option<Part<SPI, I2C>>; MAX_PARTS],
+    sync: SYNC,
+    period: Nanos,
+    alignment: Alignment,
+    t0: Nanos,
+    k: u32,
+    health: LoopHealth,
+}
+
+impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
+    /// A sampler for `config`, with the bus handle of each configured part (same index); a
+    /// part without a handle, or on a bus of the wrong kind, stays empty.
+    pub fn new(
+        config: &SamplingConfig,
+        mut buses: [Option<PartBus<SPI, I2C>>; MAX_PARTS],
+        sync: SYNC,
+    ) -> Self {
+        let parts = core::array::from_fn(|i| match (config.parts[i], buses[i].take()) {
+            (Some(p), Some(bus)) => Part::new(p, config.alignment, bus),
+            _ => None,
+        });
+        Sampler {
+            parts,
+            sync,
+            period: config.period_ns().max(1),
+            alignment: config.alignment,
+            t0: 0,
+            k: 0,
+            health: LoopHealth::default(),
+        }
+    }
+
+    /// Starts every part (failures are counted; such parts are retried while sampling) and
+    /// sets the first instant: `first` if given and not past, else the next instant after
+    /// now on the grid of `first` (default: whole periods of the time base).
+    pub async fn start<T: TimeBase>(&mut self, time: &T, first: Option<Nanos>) {
+        let _ = self.sync.set_low();
+        for p in self.parts.iter_mut().flatten() {
+            p.start().await;
+        }
+        let grid = first.unwrap_or(0);
+        let now = time.now();
+        self.t0 = if grid >= now {
+            grid
+        } else {
+            grid + (now - grid).div_ceil(self.period) * self.period
+        };
+        self.k = 0;
+    }
+
+    /// A part's health counters.
+    pub fn part_health(&self, i: usize) -> Option<PartHealth> {
+        self.parts.get(i)?.as_ref().map(Part::health)
+    }
+
+    /// A part (for its conversion clock).
+    pub fn part(&self, i: usize) -> Option<&Part<SPI, I2C>> {
+        self.parts.get(i)?.as_ref()
+    }
+
+    /// The loop's counters.
+    pub fn health(&self) -> LoopHealth {
+        self.health
+    }
+
+    /// Waits for the next instant and samples every part.
+    pub async fn sample<T: TimeBase>(&mut self, time: &mut T) -> SampleSet {
+        let mut t = self.t0 + u64::from(self.k) * self.period;
+        let now = time.now();
+        if now > t + self.period / 2 {
+            // The previous set overran: skip the instants already past.
+            let behind = ((now - t) / self.period + 1) as u32;
+            self.k = self.k.saturating_add(behind);
+            self.health.skipped = self.health.skipped.saturating_add(behind);
+            t = self.t0 + u64::from(self.k) * self.period;
+        }
+        time.wait_until(t).await;
+        let k = self.k;
+        for p in self.parts.iter_mut().flatten() {
+            p.maybe_restart(k).await;
+        }
+        let mut set = SampleSet {
+            k,
+            t,
+            parts: [None; MAX_PARTS],
+        };
+        // Parts on the SYNC line sample on this edge.
+        if self.parts.iter().flatten().any(|p| p.synced()) {
+            let ok = self.sync.set_high().is_ok() & self.sync.set_low().is_ok();
+            if !ok {
+                self.health.sync_errors += 1;
+            }
+        }
+        for (out, p) in set.parts.iter_mut().zip(self.parts.iter_mut()) {
+            if let Some(p) = p.as_mut().filter(|p| p.synced()) {
+                *out = p.read_synced().await;
+            }
+        }
+        self.read_free_running(time, t, &mut set).await;
+        self.k = self.k.saturating_add(1);
+        self.health.sets = self.health.sets.saturating_add(1);
+        set
+    }
+
+    /// The free-running parts: each at its own read instant (in time order), or all at once
+    /// for [`Alignment::Latest`].
+    async fn read_free_running<T: TimeBase>(&mut self, time: &mut T, t: Nanos, set: &mut SampleSet) {
+        // Free-running parts may be read until 7/8 of the period (room for their transfers
+        // before the next instant), so that a probe can meet a conversion at any phase.
+        let latest = t + self.period - self.period / 8;
+        let mut order = [(0 as Nanos, 0usize); MAX_PARTS];
+        let mut n = 0;
+        for (i, p) in self.parts.iter().enumerate() {
+            if let Some(p) = p.as_ref().filter(|p| !p.synced()) {
+                order[n] = (p.read_time(t, latest), i);
+                n += 1;
+            }
+        }
+        order[..n].sort_unstable();
+        for &(at, i) in &order[..n] {
+            let Some(p) = self.parts[i].as_mut() else {
+                continue;
+            };
+            set.parts[i] = match self.alignment {
+                Alignment::Latest => p.read_latest().await,
+                Alignment::Interpolate => {
+                    time.wait_until(at).await;
+                    p.read_interpolated(time, t).await
+                }
+            };
+        }
+    }
+}
+
+/// The sampling task: one sample set per period into the estimation queue, without waiting
+/// for room (a full queue drops the set and counts it). Runs `sets` sets, or for ever. Call
+/// [`Sampler::start`] first.
+pub async fn sampling_task<SPI, I2C, SYNC, T, M, const Q: usize>(
+    sampler: &mut Sampler<SPI, I2C, SYNC>,
+    time: &mut T,
+    queue: Sender<'_, M, SampleSet, Q>,
+    sets: Option<u32>,
+) where
+    SPI: SpiDevice,
+    I2C: I2c,
+    SYNC: OutputPin,
+    T: TimeBase,
+    M: RawMutex,
+{
+    let mut done = 0u32;
+    while sets.is_none_or(|n| done < n) {
+        let set = sampler.sample(time).await;
+        if queue.try_send(set).is_err() {
+            sampler.health.dropped = sampler.health.dropped.saturating_add(1);
+        }
+        done += 1;
+    }
+}

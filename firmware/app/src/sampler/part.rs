@@ -1,0 +1,347 @@
+//! One part as the sampler drives it: its driver, how its samples are timed, its recent
+//! timestamped samples and its health counters.
+
+use embedded_hal_async::i2c::I2c;
+use embedded_hal_async::spi::SpiDevice;
+
+use super::conversion_clock::ConversionClock;
+use crate::config::{Alignment, PartConfig, PartKind};
+use crate::drivers::{adxl355, lis3dh};
+use crate::time::{seconds, Nanos, TimeBase};
+
+/// Oscillator tolerance assumed for a part's own clock before its period is measured.
+const ODR_TOLERANCE: f64 = 0.02;
+/// Allowance for conversion-instant jitter and the read instants (s).
+const TIMING_MARGIN: f64 = 30e-6;
+/// Consecutive failed reads after which a part is restarted (reset, identify, configure).
+const FAILURES_TO_RESTART: u16 = 10;
+/// Sample sets between restart attempts of a part that is down.
+const RESTART_EVERY: u32 = 100;
+/// Recent samples kept for interpolation.
+const RECENT: usize = 4;
+
+/// How the controller reaches one part.
+pub enum PartBus<SPI, I2C> {
+    /// An SPI device (chip select included).
+    Spi(SPI),
+    /// An I²C bus and the part's 7-bit address.
+    I2c(I2C, u8),
+}
+
+/// The driver of a part.
+enum Driver<SPI, I2C> {
+    Adxl355(adxl355::Adxl355<SPI>),
+    Lis3dh(lis3dh::Lis3dh<I2C>),
+}
+
+/// Health counters of one part (telemetry).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PartHealth {
+    /// Read transactions attempted.
+    pub reads: u32,
+    /// Transfers the bus reported failed (no acknowledge, timeout, …).
+    pub bus_errors: u32,
+    /// Transfers whose data failed the plausibility check (or a wrong ID at start-up).
+    pub implausible: u32,
+    /// Sample sets without a value from this part (failed read, no new sample, lost FIFO
+    /// count, nothing to interpolate from).
+    pub missed: u32,
+    /// Start attempts that failed.
+    pub failed_starts: u32,
+    /// Times the conversion clock lost its phase (FIFO overrun or a contradiction).
+    pub resyncs: u32,
+    /// The part is configured and being read.
+    pub running: bool,
+}
+
+/// What went wrong in one transfer.
+enum Fault {
+    Bus,
+    Implausible,
+}
+
+impl<E> From<adxl355::Error<E>> for Fault {
+    fn from(e: adxl355::Error<E>) -> Self {
+        match e {
+            adxl355::Error::Bus(_) => Fault::Bus,
+            _ => Fault::Implausible,
+        }
+    }
+}
+
+impl<E> From<lis3dh::Error<E>> for Fault {
+    fn from(e: lis3dh::Error<E>) -> Self {
+        match e {
+            lis3dh::Error::Bus(_) => Fault::Bus,
+            _ => Fault::Implausible,
+        }
+    }
+}
+
+/// One part.
+pub struct Part<SPI, I2C> {
+    config: PartConfig,
+    alignment: Alignment,
+    driver: Driver<SPI, I2C>,
+    clock: ConversionClock,
+    /// Samples popped from the FIFO since the count was last lost.
+    popped: u64,
+    /// The most recent samples, oldest first: (conversion index, x, y, z).
+    recent: [(u64, [f32; 3]); RECENT],
+    recent_len: usize,
+    failures: u16,
+    health: PartHealth,
+}
+
+impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
+    /// A part on its bus, not started. `None` if the part type does not match the bus.
+    pub fn new(config: PartConfig, alignment: Alignment, bus: PartBus<SPI, I2C>) -> Option<Self> {
+        let driver = match (config.kind, bus) {
+            (PartKind::Adxl355 { range, .. }, PartBus::Spi(spi)) => {
+                Driver::Adxl355(adxl355::Adxl355::bare(spi, range))
+            }
+            (PartKind::Lis3dh { range, .. }, PartBus::I2c(i2c, address)) => {
+                Driver::Lis3dh(lis3dh::Lis3dh::bare(i2c, address, range))
+            }
+            _ => return None,
+        };
+        let period = 1.0 / f64::from(config.kind.odr_hz());
+        Some(Part {
+            config,
+            alignment,
+            driver,
+            clock: ConversionClock::new(period, ODR_TOLERANCE, TIMING_MARGIN),
+            popped: 0,
+            recent: [(0, [0.0; 3]); RECENT],
+            recent_len: 0,
+            failures: 0,
+            health: PartHealth::default(),
+        })
+    }
+
+    /// The health counters.
+    pub fn health(&self) -> PartHealth {
+        let mut h = self.health;
+        h.resyncs = h.resyncs.saturating_add(self.clock.resyncs());
+        h
+    }
+
+    /// The conversion clock (free-running parts).
+    pub fn clock(&self) -> &ConversionClock {
+        &self.clock
+    }
+
+    /// True if the part samples on the SYNC line.
+    pub fn synced(&self) -> bool {
+        !self.config.kind.free_running()
+    }
+
+    /// True if the part is read through its FIFO with timestamps.
+    fn interpolated(&self) -> bool {
+        self.config.kind.free_running() && self.alignment == Alignment::Interpolate
+    }
+
+    /// True if running.
+    pub fn running(&self) -> bool {
+        self.health.running
+    }
+
+    /// Starts the part (reset, identification, configuration); failures are counted.
+    pub async fn start(&mut self) {
+        let fifo = self.interpolated();
+        let r: Result<(), Fault> = match (&mut self.driver, self.config.kind) {
+            (Driver::Adxl355(d), PartKind::Adxl355 { range, odr, sync }) => {
+                let sync = if sync {
+                    adxl355::Sync::External
+                } else {
+                    adxl355::Sync::Internal
+                };
+                d.start(adxl355::Config { range, odr, sync })
+                    .await
+                    .map_err(Fault::from)
+            }
+            (Driver::Lis3dh(d), PartKind::Lis3dh { range, odr }) => d
+                .start(lis3dh::Config { range, odr, fifo })
+                .await
+                .map_err(Fault::from),
+            _ => Err(Fault::Implausible),
+        };
+        self.health.running = r.is_ok();
+        self.failures = 0;
+        self.popped = 0;
+        self.recent_len = 0;
+        self.clock.unlock();
+        if r.is_err() {
+            self.health.failed_starts += 1;
+        }
+    }
+
+    /// Restarts a part that is down, every [`RESTART_EVERY`] sample sets.
+    pub async fn maybe_restart(&mut self, k: u32) {
+        if !self.health.running && k.is_multiple_of(RESTART_EVERY) {
+            self.start().await;
+        }
+    }
+
+    fn count(&mut self, r: Result<(), Fault>) -> bool {
+        self.health.reads += 1;
+        match r {
+            Ok(()) => {
+                self.failures = 0;
+                true
+            }
+            Err(f) => {
+                match f {
+                    Fault::Bus => self.health.bus_errors += 1,
+                    Fault::Implausible => self.health.implausible += 1,
+                }
+                self.failures += 1;
+                if self.failures >= FAILURES_TO_RESTART {
+                    self.health.running = false;
+                }
+                false
+            }
+        }
+    }
+
+    fn missed(&mut self) -> Option<[f32; 3]> {
+        self.health.missed += 1;
+        None
+    }
+
+    /// The sample of a part on the SYNC line, just pulsed: `None` if the read failed or the
+    /// part has no new sample.
+    pub async fn read_synced(&mut self) -> Option<[f32; 3]> {
+        if !self.health.running {
+            return self.missed();
+        }
+        let r = match &mut self.driver {
+            Driver::Adxl355(d) => d.read_status_and_acceleration().await.map_err(Fault::from),
+            Driver::Lis3dh(_) => Err(Fault::Implausible),
+        };
+        let (ok, value) = match r {
+            Ok((status, a)) => (status.data_ready(), Some(a)),
+            Err(e) => {
+                self.count(Err(e));
+                return self.missed();
+            }
+        };
+        self.count(Ok(()));
+        if ok {
+            value
+        } else {
+            self.missed()
+        }
+    }
+
+    /// The latest output as if sampled now ([`Alignment::Latest`]).
+    pub async fn read_latest(&mut self) -> Option<[f32; 3]> {
+        if !self.health.running {
+            return self.missed();
+        }
+        let r = match &mut self.driver {
+            Driver::Adxl355(d) => d.read_acceleration().await.map_err(Fault::from),
+            Driver::Lis3dh(d) => d.read_acceleration().await.map_err(Fault::from),
+        };
+        match r {
+            Ok(a) => {
+                self.count(Ok(()));
+                Some(a)
+            }
+            Err(e) => {
+                self.count(Err(e));
+                self.missed()
+            }
+        }
+    }
+
+    /// The instant at which to read this part for the sample instant `t`.
+    pub fn read_time(&self, t: Nanos, latest: Nanos) -> Nanos {
+        let p = self.clock.probe_after(seconds(t));
+        ((p * 1e9) as Nanos).clamp(t, latest)
+    }
+
+    /// Reads the FIFO (level, then the samples, timestamped by the conversion clock) and
+    /// interpolates to the instant `t`.
+    pub async fn read_interpolated<T: TimeBase>(&mut self, time: &T, t: Nanos) -> Option<[f32; 3]> {
+        if !self.health.running {
+            return self.missed();
+        }
+        let r = self.drain(time).await;
+        if !self.count(r) {
+            return self.missed();
+        }
+        match self.value_at(seconds(t)) {
+            Some(v) => Some(v),
+            None => self.missed(),
+        }
+    }
+
+    /// One FIFO read: the level between two time stamps (an observation of the conversion
+    /// count), then that many samples.
+    async fn drain<T: TimeBase>(&mut self, time: &T) -> Result<(), Fault> {
+        let mut buf = [[0.0f32; 3]; 32];
+        let (a, b, level, lost, got) = match &mut self.driver {
+            Driver::Adxl355(d) => {
+                let lost = d.status().await?.fifo_overrun();
+                let a = time.now();
+                let entries = d.fifo_entries().await?;
+                let b = time.now();
+                let level = usize::from(entries / 3);
+                let got = d.read_fifo_entries(entries, &mut buf).await?;
+                (a, b, level, lost, got)
+            }
+            Driver::Lis3dh(d) => {
+                let a = time.now();
+                let l = d.fifo_level().await?;
+                let b = time.now();
+                let level = usize::from(l.samples);
+                d.read_fifo(&mut buf[..level]).await?;
+                (a, b, level, l.overrun, level)
+            }
+        };
+        if lost || got != level {
+            // The count is broken: start counting again from these samples.
+            self.clock.unlock();
+            self.health.resyncs += 1;
+            self.popped = 0;
+            self.recent_len = 0;
+        }
+        let n = self.popped + level as u64;
+        self.clock.observe(seconds(a), seconds(b), n);
+        for (i, s) in buf[..got].iter().enumerate() {
+            self.remember(self.popped + 1 + i as u64, *s);
+        }
+        self.popped = n;
+        Ok(())
+    }
+
+    fn remember(&mut self, index: u64, value: [f32; 3]) {
+        if self.recent_len == RECENT {
+            self.recent.copy_within(1.., 0);
+            self.recent_len -= 1;
+        }
+        self.recent[self.recent_len] = (index, value);
+        self.recent_len += 1;
+    }
+
+    /// Linear interpolation between the two recent samples around `t`, or extrapolation
+    /// from the last two by at most one and a half periods.
+    fn value_at(&self, t: f64) -> Option<[f32; 3]> {
+        let recent = &self.recent[..self.recent_len];
+        if recent.len() < 2 || !self.clock.is_locked() {
+            return None;
+        }
+        let time = |i: usize| self.clock.time_of(recent[i].0);
+        let last = recent.len() - 1;
+        let j = (1..recent.len()).find(|&j| time(j) >= t).unwrap_or(last);
+        let (t0, t1) = (time(j - 1), time(j));
+        let reach = 1.5 * self.clock.period();
+        if !(t1 > t0) || t > t1 + reach || t < t0 - reach {
+            return None;
+        }
+        let w = ((t - t0) / (t1 - t0)) as f32;
+        let (a, b) = (recent[j - 1].1, recent[j].1);
+        Some(core::array::from_fn(|k| a[k] + w * (b[k] - a[k])))
+    }
+}

@@ -1,0 +1,286 @@
+//! The firmware on the host: its sampling and estimation tasks run against the simulated
+//! buses of a scenario, in simulated time.
+//!
+//! The firmware's [`TimeBase`] is the rig's [`SimClock`] (nanoseconds since power-on; waiting
+//! moves the simulated time forward), its SYNC output pulses the rig's [`SyncLine`], and the
+//! parts are the rig's SPI devices and I²C bus. The two tasks are polled by one
+//! single-threaded loop (`embassy_futures::block_on` over a `select`): on the board they are
+//! embassy tasks; here the loop must end after the scenario's sets and may run many times in
+//! one process, which embassy-executor's `run` (never returns, static task storage) does not
+//! allow. The tasks are the same functions either way.
+
+use std::convert::Infallible;
+use std::time::Instant;
+
+use embassy_futures::select::select;
+use embassy_futures::yield_now;
+use embassy_sync::blocking_mutex::raw::NoopRawMutex;
+use embassy_sync::channel::Channel;
+use embedded_hal::digital::{ErrorType, OutputPin};
+use firmware::config::{
+    Alignment, AppConfig, PartConfig, PartKind, SamplingConfig, MAX_CHANNELS, MAX_PARTS,
+};
+use firmware::drivers::{adxl355, lis3dh};
+use firmware::estimation::{estimation_task, Estimation, Motion, TelemetrySink};
+use firmware::sampler::{sampling_task, LoopHealth, PartBus, PartHealth, SampleSet, Sampler};
+use firmware::time::{Nanos, TimeBase};
+
+use crate::arrangement_file::LoadedArrangement;
+use crate::bus::i2c::SimI2cBus;
+use crate::bus::spi::SimSpiDevice;
+use crate::clock::SimClock;
+use crate::rig::{Port, Rig, POWER_ON};
+use crate::scenario::{PartType, Scenario};
+use crate::sensors::sync_line::SyncLine;
+
+/// Simulated time of power-on in whole nanoseconds (negative).
+const POWER_ON_NS: i64 = (POWER_ON * 1e9) as i64;
+
+/// The firmware's time base on simulated time: nanoseconds since power-on.
+pub struct SimTime(pub SimClock);
+
+impl SimTime {
+    /// Simulated seconds of a firmware instant.
+    pub fn seconds(t: Nanos) -> f64 {
+        // Whole nanoseconds from 0, divided once: 10 ms prints as 0.01.
+        (t as i64 - POWER_ON_NS) as f64 / 1e9
+    }
+}
+
+impl TimeBase for SimTime {
+    fn now(&self) -> Nanos {
+        ((self.0.now() - POWER_ON) * 1e9).round().max(0.0) as Nanos
+    }
+
+    async fn wait_until(&mut self, at: Nanos) {
+        self.0.advance_to(Self::seconds(at));
+        // Let the other task run, as the executor would while this one sleeps.
+        yield_now().await;
+    }
+}
+
+/// The firmware's SYNC output: a rising edge is a pulse on the rig's line now.
+pub struct SimSyncPin {
+    line: SyncLine,
+    clock: SimClock,
+}
+
+impl ErrorType for SimSyncPin {
+    type Error = Infallible;
+}
+
+impl OutputPin for SimSyncPin {
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        Ok(())
+    }
+
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        self.line.pulse(self.clock.now());
+        Ok(())
+    }
+}
+
+/// The firmware configuration of a scenario (the command the host gives at start-up): parts,
+/// channels in the order of the scenario's arrangement, rate, model and hint.
+pub fn firmware_config(
+    sc: &Scenario,
+    loaded: &LoadedArrangement,
+    alignment: Alignment,
+) -> Result<AppConfig, String> {
+    if sc.parts.len() > MAX_PARTS {
+        return Err(format!(
+            "{} parts: the firmware takes at most {MAX_PARTS}",
+            sc.parts.len()
+        ));
+    }
+    let mut arrangement = estimator_core::Arrangement::<MAX_CHANNELS>::new();
+    for c in loaded.arrangement.channels() {
+        arrangement
+            .push(c.position, c.axis, c.noise)
+            .map_err(|e| format!("the scenario's arrangement: {e}"))?;
+    }
+    let mut parts = [None; MAX_PARTS];
+    for (slot, p) in parts.iter_mut().zip(sc.parts.iter()) {
+        let g = sc.range_g(p);
+        let odr = sc.odr(p) as f32;
+        let kind = match p.part {
+            PartType::Adxl355 => PartKind::Adxl355 {
+                range: match g {
+                    2 => adxl355::Range::G2,
+                    4 => adxl355::Range::G4,
+                    _ => adxl355::Range::G8,
+                },
+                odr: adxl355::Odr::at_least(odr),
+                sync: sc.sync(p),
+            },
+            PartType::Lis3dh => PartKind::Lis3dh {
+                range: match g {
+                    2 => lis3dh::Range::G2,
+                    4 => lis3dh::Range::G4,
+                    8 => lis3dh::Range::G8,
+                    _ => lis3dh::Range::G16,
+                },
+                odr: lis3dh::Odr::at_least(odr),
+            },
+        };
+        let channels = [0, 1, 2].map(|k| {
+            let name = format!("{}.{}", p.name, ["x", "y", "z"][k]);
+            loaded
+                .names
+                .iter()
+                .position(|n| *n == name)
+                .map(|c| c as u8)
+        });
+        *slot = Some(PartConfig { kind, channels });
+    }
+    let model = sc
+        .model
+        .as_deref()
+        .and_then(crate::arrangement_file::parse_model)
+        .unwrap_or(estimator_core::Model::General);
+    let config = AppConfig {
+        sampling: SamplingConfig {
+            rate_hz: sc.rate as f32,
+            alignment,
+            parts,
+        },
+        arrangement,
+        model,
+        hint: sc.initial_omega,
+    };
+    config
+        .validate()
+        .map_err(|e| format!("firmware configuration: {e}"))?;
+    Ok(config)
+}
+
+/// What the firmware did in a run.
+#[derive(Clone, Debug)]
+pub struct FirmwareReport {
+    /// Per part (scenario order).
+    pub parts: Vec<PartHealth>,
+    /// The sampling loop.
+    pub sampling: LoopHealth,
+    /// Estimates produced.
+    pub estimates: u64,
+    /// Host CPU time of the estimation per sample set (mean, max; s).
+    pub cpu_mean: f64,
+    /// See `cpu_mean`.
+    pub cpu_max: f64,
+    /// Size of the sampling and estimation task futures (bytes): their static storage as
+    /// embassy tasks.
+    pub task_sizes: (usize, usize),
+    /// Per bus, sample sets only: name, bytes, busy time (s).
+    pub buses: Vec<(String, u64, f64)>,
+    /// Size of the estimation state (bytes).
+    pub estimation_size: usize,
+    /// Per free-running part: half-width of its conversion-time interval at the end (s).
+    pub clock_uncertainty: Vec<Option<f64>>,
+}
+
+/// The host's telemetry sink: hands each sample set and estimate to a callback and times the
+/// estimation.
+struct HostSink<'a> {
+    set: Option<SampleSet>,
+    started: Instant,
+    cpu: (f64, f64, u64),
+    emit: &'a mut dyn FnMut(&SampleSet, &Motion),
+}
+
+impl TelemetrySink for HostSink<'_> {
+    async fn sample_set(&mut self, set: &SampleSet) {
+        self.set = Some(*set);
+        self.started = Instant::now();
+    }
+
+    async fn motion(&mut self, motion: &Motion) {
+        let dt = self.started.elapsed().as_secs_f64();
+        self.cpu = (self.cpu.0 + dt, self.cpu.1.max(dt), self.cpu.2 + 1);
+        if let Some(set) = self.set.take() {
+            (self.emit)(&set, motion);
+        }
+    }
+}
+
+/// Runs the firmware on a scenario's rig for `sets` sample sets; `emit` gets every sample set
+/// with the estimate made from it.
+pub fn run_firmware(
+    sc: &Scenario,
+    config: &AppConfig,
+    sets: u32,
+    emit: &mut dyn FnMut(&SampleSet, &Motion),
+) -> Result<FirmwareReport, String> {
+    let rig = Rig::build(sc)?;
+    let mut buses: [Option<PartBus<SimSpiDevice, SimI2cBus>>; MAX_PARTS] = Default::default();
+    for (slot, port) in buses.iter_mut().zip(rig.ports.iter()) {
+        *slot = Some(match port.clone() {
+            Port::Spi(dev) => PartBus::Spi(dev),
+            Port::I2c(bus, address) => PartBus::I2c(bus, address),
+        });
+    }
+    let sync = SimSyncPin {
+        line: rig.sync.clone(),
+        clock: rig.clock.clone(),
+    };
+    let mut sampler = Sampler::new(&config.sampling, buses, sync);
+    let mut estimation =
+        Estimation::new(config).map_err(|e| format!("firmware estimator: {e}"))?;
+    let mut time = SimTime(rig.clock.clone());
+    let queue = Channel::<NoopRawMutex, SampleSet, { firmware::QUEUE }>::new();
+    let mut sink = HostSink {
+        set: None,
+        started: Instant::now(),
+        cpu: (0.0, 0.0, 0),
+        emit,
+    };
+    let estimation_size = std::mem::size_of_val(&estimation);
+    // The first sample instant at simulated time 0, as the bench reader's record.
+    let first = (-POWER_ON_NS) as Nanos;
+    embassy_futures::block_on(sampler.start(&time, Some(first)));
+    let start_up = rig.bus_usage();
+    let task_sizes;
+    {
+        let sampling = async {
+            sampling_task(&mut sampler, &mut time, queue.sender(), Some(sets)).await;
+            // Until the estimation task has taken every queued set.
+            while !queue.is_empty() {
+                yield_now().await;
+            }
+        };
+        let estimating = estimation_task(&mut estimation, queue.receiver(), &mut sink);
+        task_sizes = (
+            std::mem::size_of_val(&sampling),
+            std::mem::size_of_val(&estimating),
+        );
+        embassy_futures::block_on(select(sampling, estimating));
+    }
+    let parts = (0..sc.parts.len())
+        .map(|i| sampler.part_health(i).unwrap_or_default())
+        .collect();
+    let clock_uncertainty = (0..sc.parts.len())
+        .map(|i| {
+            sampler
+                .part(i)
+                .filter(|p| !p.synced() && p.clock().is_locked())
+                .map(|p| p.clock().uncertainty())
+        })
+        .collect();
+    let (sum, max, n) = sink.cpu;
+    let buses = rig
+        .bus_usage()
+        .into_iter()
+        .zip(start_up.iter())
+        .map(|((name, b, t), (_, b0, t0))| (name, b - b0, t - t0))
+        .collect();
+    Ok(FirmwareReport {
+        parts,
+        sampling: sampler.health(),
+        estimates: n,
+        cpu_mean: sum / n.max(1) as f64,
+        cpu_max: max,
+        task_sizes,
+        estimation_size,
+        buses,
+        clock_uncertainty,
+    })
+}
