@@ -43,7 +43,7 @@ impl SimTime {
     /// Simulated seconds of a firmware instant.
     pub fn seconds(t: Nanos) -> f64 {
         // Whole nanoseconds from 0, divided once: 10 ms prints as 0.01.
-        (t as i64 - POWER_ON_NS) as f64 / 1e9
+        (t as i64 + POWER_ON_NS) as f64 / 1e9
     }
 }
 
