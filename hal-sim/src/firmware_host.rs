@@ -223,8 +223,7 @@ pub fn run_firmware(
         clock: rig.clock.clone(),
     };
     let mut sampler = Sampler::new(&config.sampling, buses, sync);
-    let mut estimation =
-        Estimation::new(config).map_err(|e| format!("firmware estimator: {e}"))?;
+    let mut estimation = Estimation::new(config).map_err(|e| format!("firmware estimator: {e}"))?;
     let mut time = SimTime(rig.clock.clone());
     let queue = Channel::<NoopRawMutex, SampleSet, { firmware::QUEUE }>::new();
     let mut sink = HostSink {

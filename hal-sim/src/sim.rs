@@ -8,10 +8,10 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+use crate::arrangement_file::LoadedArrangement;
 use crate::bench::{BenchError, BenchReader};
 use crate::compare::{compare, Comparison};
 use crate::rig::Rig;
-use crate::arrangement_file::LoadedArrangement;
 use crate::run::{estimate_files, write_truth_header, write_truth_row, EstimateJob, Precision};
 use crate::scenario::Scenario;
 
@@ -143,9 +143,7 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
     writeln!(samples, "t,{}", loaded.names.join(","))?;
     write_truth_header(&mut truth)?;
     let mut report = match job.firmware {
-        Some(alignment) => {
-            record_firmware(job, &loaded, alignment, &mut samples, &mut truth)?
-        }
+        Some(alignment) => record_firmware(job, &loaded, alignment, &mut samples, &mut truth)?,
         None => record_bench(job, &loaded, &mut samples, &mut truth)?,
     };
     samples.flush()?;
@@ -305,7 +303,7 @@ fn record_firmware(
         if let Err(e) = r {
             failure.get_or_insert(e);
         }
-        if set.k % 1024 == 0 {
+        if set.k.is_multiple_of(1024) {
             bar.set_position(u64::from(set.k));
         }
     };

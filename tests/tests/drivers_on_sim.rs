@@ -175,10 +175,7 @@ fn lis3dh_driver_reads_the_measured_force_and_sees_bus_faults() {
 #[test]
 fn lis3dh_fifo_counts_every_conversion_of_the_parts_own_clock() {
     let (clock, bus) = lis_rig(Vec::new());
-    let config = lis3dh::Config {
-        fifo: true,
-        ..LIS
-    };
+    let config = lis3dh::Config { fifo: true, ..LIS };
     let mut dev = block_on(lis3dh::Lis3dh::new(bus, 0x18, config)).unwrap();
     let start = clock.now();
     let mut total = 0usize;
@@ -197,7 +194,10 @@ fn lis3dh_fifo_counts_every_conversion_of_the_parts_own_clock() {
         }
         total += n;
     }
-    assert!((399..=400).contains(&total), "{total} conversions in 1 s at 400 Hz");
+    assert!(
+        (399..=400).contains(&total),
+        "{total} conversions in 1 s at 400 Hz"
+    );
     // Left unread for 0.1 s, 40 conversions overflow the 32-sample FIFO.
     clock.advance_to(clock.now() + 0.1);
     let level = block_on(dev.fifo_level()).unwrap();

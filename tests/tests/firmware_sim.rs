@@ -120,8 +120,15 @@ fn named_scenarios_through_the_firmware_match_estimator_core_on_the_same_samples
             "{name}: RMS firmware / estimator-core f32 / f64 on the firmware's samples: \
              sigma0 {:.2e} / {:.2e} / {:.2e}, domega {:.2e} / {:.2e} / {:.2e}, \
              omega {:.2e} / {:.2e} / {:.2e}",
-            fw.sigma0, core.sigma0, core64.sigma0, fw.domega, core.domega, core64.domega,
-            fw.omega, core.omega, core64.omega
+            fw.sigma0,
+            core.sigma0,
+            core64.sigma0,
+            fw.domega,
+            core.domega,
+            core64.domega,
+            fw.omega,
+            core.omega,
+            core64.omega
         );
         assert_eq!(fw.rows, core.rows, "{name}");
         // The firmware runs estimator-core in f32 on these samples: the same accuracy, up to
@@ -131,7 +138,10 @@ fn named_scenarios_through_the_firmware_match_estimator_core_on_the_same_samples
             ("domega", fw.domega, core.domega),
             ("omega", fw.omega, core.omega),
         ] {
-            assert!(f <= 1.01 * c + 1e-6, "{name} {what}: firmware {f:e}, core {c:e}");
+            assert!(
+                f <= 1.01 * c + 1e-6,
+                "{name} {what}: firmware {f:e}, core {c:e}"
+            );
         }
         let _ = std::fs::remove_dir_all(&dir);
     }

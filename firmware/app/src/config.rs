@@ -158,10 +158,9 @@ impl core::fmt::Display for ConfigError {
             ConfigError::ChannelUnfed { channel } => {
                 write!(f, "channel {channel} is fed by no part axis")
             }
-            ConfigError::OdrBelowRate { part } => write!(
-                f,
-                "part {part}: output data rate below the sample rate"
-            ),
+            ConfigError::OdrBelowRate { part } => {
+                write!(f, "part {part}: output data rate below the sample rate")
+            }
             ConfigError::FifoTooSmall { part } => write!(
                 f,
                 "part {part}: its FIFO would overflow between two sample sets (lower the ODR)"
@@ -218,8 +217,11 @@ impl AppConfig {
     }
 }
 
-/// The built-in configurations: `(name, build)`.
-pub const BUILTIN: [(&str, fn() -> AppConfig); 1] = [("tetra", tetra)];
+/// A built-in configuration: its name and how to build it.
+pub type Builtin = (&'static str, fn() -> AppConfig);
+
+/// The built-in configurations.
+pub const BUILTIN: [Builtin; 1] = [("tetra", tetra)];
 
 /// A built-in configuration by name.
 pub fn builtin(name: &str) -> Option<AppConfig> {

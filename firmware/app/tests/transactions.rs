@@ -175,10 +175,10 @@ fn lis3dh_wrong_identity_is_an_error() {
 fn lis3dh_fifo_stream_level_and_one_burst_of_samples() {
     let t = [
         I2cT::write_read(ADDR, vec![0x0F], vec![0x33]),
-        I2cT::write(ADDR, vec![0x23, 0x88]),  // BDU, ±2 g, HR
-        I2cT::write(ADDR, vec![0x24, 0x40]),  // FIFO_EN
-        I2cT::write(ADDR, vec![0x2E, 0x80]),  // stream mode
-        I2cT::write(ADDR, vec![0x20, 0x57]),  // 100 Hz, XYZ on
+        I2cT::write(ADDR, vec![0x23, 0x88]), // BDU, ±2 g, HR
+        I2cT::write(ADDR, vec![0x24, 0x40]), // FIFO_EN
+        I2cT::write(ADDR, vec![0x2E, 0x80]), // stream mode
+        I2cT::write(ADDR, vec![0x20, 0x57]), // 100 Hz, XYZ on
         I2cT::write_read(ADDR, vec![0x2F], vec![0x42]), // OVRN, 2 samples
         // Two samples in one 12-byte burst: X = 16, then X = −16 digits.
         I2cT::write_read(

@@ -44,6 +44,13 @@ trait Platform: Write {
     fn ticks(&mut self) -> Option<u32>;
     /// Instructions per tick, measured with a loop of known length.
     fn calibrate(&mut self) -> f64;
+    /// Fills the free stack below the caller's frame with a pattern (none on the host).
+    fn paint_stack(&mut self) {}
+    /// Bytes of the painted stack overwritten since [`Platform::paint_stack`] (`None` on the
+    /// host).
+    fn stack_used(&mut self) -> Option<usize> {
+        None
+    }
 }
 
 fn elapsed(t0: u32, t1: u32) -> u64 {
@@ -76,6 +83,7 @@ fn run_model<P: Platform>(p: &mut P, per_tick: f64, model: Model, channels: usiz
     };
     let mut p64 = [0.0f64; 12];
     let mut p32 = [0.0f32; 12];
+    p.paint_stack();
     let (mut total, mut worst, mut count) = (0u64, 0u64, 0u64);
     let mut over = 0u64;
     let mut max_err = 0.0f64;
@@ -103,6 +111,7 @@ fn run_model<P: Platform>(p: &mut P, per_tick: f64, model: Model, channels: usiz
             max_err = max_err.max(libm::sqrt(d));
         }
     }
+    let stack = p.stack_used();
     // Reconfiguration: exclude one channel (new SVD for the new mask), model F only (model G
     // needs all 12).
     let reconf = if model == Model::FreeFloat {
@@ -114,6 +123,15 @@ fn run_model<P: Platform>(p: &mut P, per_tick: f64, model: Model, channels: usiz
         0
     };
     let mean = total / count.max(1);
+    if let Some(bytes) = stack {
+        let _ = writeln!(
+            p,
+            "model {:<10} stack high-water mark of the per-sample estimate: at most {bytes} bytes \
+             below the caller (estimator state {} bytes, not on the stack in the firmware)",
+            model.name(),
+            core::mem::size_of::<Estimator<f32, 12>>()
+        );
+    }
     let _ = writeln!(
         p,
         "model {:<10} N = {channels}: per-sample estimate mean {mean} instructions, max {worst}, \
@@ -169,6 +187,8 @@ mod target {
     pub struct Target {
         syst: SYST,
         out: Option<hio::HostStream>,
+        painted_top: usize,
+        painted_sp: usize,
     }
 
     impl core::fmt::Write for Target {
@@ -202,6 +222,48 @@ mod target {
             let ticks = super::elapsed(t0, t1).max(1);
             (2 * LOOPS as u64) as f64 / ticks as f64
         }
+
+        fn paint_stack(&mut self) {
+            let (low, sp) = (stack_floor(), cortex_m::register::msp::read() as usize);
+            // Leave this function's own frame alone.
+            let top = sp.saturating_sub(GUARD) & !3;
+            let mut a = low;
+            while a < top {
+                // SAFETY: the words between the end of .bss/.uninit (the heap is unused) and
+                // below the current stack pointer are free stack, not in use by anyone.
+                unsafe { core::ptr::write_volatile(a as *mut u32, PAINT) };
+                a += 4;
+            }
+            self.painted_top = top;
+            self.painted_sp = sp;
+        }
+
+        fn stack_used(&mut self) -> Option<usize> {
+            let mut a = stack_floor();
+            while a < self.painted_top {
+                // SAFETY: reads of the free stack words painted above.
+                if unsafe { core::ptr::read_volatile(a as *const u32) } != PAINT {
+                    break;
+                }
+                a += 4;
+            }
+            // From the stack pointer at painting (an upper bound: the guard counts as used).
+            Some(self.painted_sp - a)
+        }
+    }
+
+    /// The stack pattern.
+    const PAINT: u32 = 0x5AC5_5AC5;
+    /// Bytes below the stack pointer left unpainted (the painting function's frame).
+    const GUARD: usize = 256;
+
+    /// The lowest address the stack can grow into: the start of the (unused) heap.
+    fn stack_floor() -> usize {
+        extern "C" {
+            static mut __sheap: u32;
+        }
+        // Only the address of the linker symbol is taken.
+        (core::ptr::addr_of!(__sheap) as usize + 3) & !3
     }
 
     #[cortex_m_rt::entry]
@@ -214,6 +276,8 @@ mod target {
         let mut t = Target {
             syst: cp.SYST,
             out: hio::hstdout().ok(),
+            painted_top: 0,
+            painted_sp: 0,
         };
         let _ = &t.syst;
         let code = super::run(&mut t);

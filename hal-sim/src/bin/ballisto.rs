@@ -175,10 +175,9 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                 "interpolate" => firmware::config::Alignment::Interpolate,
                 "latest" => firmware::config::Alignment::Latest,
                 other => {
-                    return Err(format!(
-                        "--align: \"{other}\" is not one of interpolate, latest"
+                    return Err(
+                        format!("--align: \"{other}\" is not one of interpolate, latest").into(),
                     )
-                    .into())
                 }
             };
             let sc = hal_sim::scenario::Scenario::load(&scenario)?;

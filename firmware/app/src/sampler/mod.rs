@@ -159,7 +159,12 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
 
     /// The free-running parts: each at its own read instant (in time order), or all at once
     /// for [`Alignment::Latest`].
-    async fn read_free_running<T: TimeBase>(&mut self, time: &mut T, t: Nanos, set: &mut SampleSet) {
+    async fn read_free_running<T: TimeBase>(
+        &mut self,
+        time: &mut T,
+        t: Nanos,
+        set: &mut SampleSet,
+    ) {
         // Free-running parts may be read until 7/8 of the period (room for their transfers
         // before the next instant), so that a probe can meet a conversion at any phase.
         let latest = t + self.period - self.period / 8;
