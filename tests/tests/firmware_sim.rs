@@ -22,8 +22,8 @@ fn lis3dh_sample_error(sc: &Scenario, alignment: Alignment) -> (f64, usize) {
                 continue;
             }
             if let Some(v) = v {
-                for k in 0..3 {
-                    let e = f64::from(v[k]) - tr.channel(&p.position, &p.axis(k));
+                for (k, x) in v.iter().enumerate() {
+                    let e = f64::from(*x) - tr.channel(&p.position, &p.axis(k));
                     sum += e * e;
                     n += 1;
                 }
