@@ -138,6 +138,8 @@ struct Work<T: Real, const CAP: usize> {
     trial: [Branch<T>; MAX_CANDIDATES],
     cands: [Candidate<T>; MAX_CANDIDATES],
     scratch: Scratch<T, CAP>,
+    /// The readings with excluded channels zeroed.
+    masked: [T; CAP],
 }
 
 /// What one frame's solve reads: the readings, the time step and the tracker's predictions.
@@ -168,6 +170,7 @@ impl<T: Real, const CAP: usize> Work<T, CAP> {
             branches: [Branch::default(); MAX_CANDIDATES],
             trial: [Branch::default(); MAX_CANDIDATES],
             cands: [Candidate::default(); MAX_CANDIDATES],
+            masked: [T::ZERO; CAP],
             scratch: Scratch {
                 y: [T::ZERO; CAP],
                 pe: [T::ZERO; CAP],
@@ -331,7 +334,18 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             trial,
             cands,
             scratch,
+            masked,
         } = &mut self.work;
+        // Excluded channels' readings may be anything (a dead part gives NaN): zero them, as
+        // `W` has zero weight there and 0 × NaN would poison the solve.
+        let p: &[T] = if excluded {
+            for (i, (m, v)) in masked.iter_mut().zip(p.iter()).enumerate().take(n) {
+                *m = if cfg.mask.contains(i) { *v } else { T::ZERO };
+            }
+            &masked[..n]
+        } else {
+            p
+        };
         let tracker = &self.tracker;
         let sample = Sample {
             p,

@@ -267,3 +267,34 @@ fn non_finite_samples_give_a_flagged_prediction_not_nan() {
         "short sample"
     );
 }
+
+#[test]
+fn readings_of_excluded_channels_are_not_used_even_when_nan() {
+    let a = tetra();
+    let mask = ChannelMask::all(12).without(2);
+    let run = |bad: f32| {
+        let mut est = Estimator::<f32, 32>::new(&a, Model::FreeFloat, Options::default()).unwrap();
+        est.set_mask(mask).unwrap();
+        let mut out = Vec::new();
+        for k in 0..20 {
+            let t = f64::from(k) * 0.01;
+            let mut p: Vec<f32> = (0..12)
+                .map(|i| 0.3 + 0.01 * i as f32 + 0.002 * k as f32)
+                .collect();
+            p[2] = bad;
+            out.push(*est.update(t, &p));
+        }
+        out
+    };
+    let (with_nan, with_value) = (run(f32::NAN), run(123.0));
+    for (x, y) in with_nan.iter().zip(with_value.iter()) {
+        assert!(x.is_finite());
+        assert!(
+            !x.flags.has(estimator_core::Flags::INPUT_INVALID),
+            "{:#x}",
+            x.flags.0
+        );
+        assert_eq!(x.sigma0, y.sigma0);
+        assert_eq!(x.omega, y.omega);
+    }
+}

@@ -202,12 +202,12 @@ impl TelemetrySink for HostSink<'_> {
     }
 }
 
-/// Runs the firmware on a scenario's rig for `sets` sample sets; `emit` gets every sample set
-/// with the estimate made from it.
+/// Runs the firmware on a scenario's rig over `instants` sample instants (sampled, or skipped
+/// after an overrun); `emit` gets every sample set with the estimate made from it.
 pub fn run_firmware(
     sc: &Scenario,
     config: &AppConfig,
-    sets: u32,
+    instants: u32,
     emit: &mut dyn FnMut(&SampleSet, &Motion),
 ) -> Result<FirmwareReport, String> {
     let rig = Rig::build(sc)?;
@@ -240,7 +240,7 @@ pub fn run_firmware(
     let task_sizes;
     {
         let sampling = async {
-            sampling_task(&mut sampler, &mut time, queue.sender(), Some(sets)).await;
+            sampling_task(&mut sampler, &mut time, queue.sender(), Some(instants)).await;
             // Until the estimation task has taken every queued set.
             while !queue.is_empty() {
                 yield_now().await;

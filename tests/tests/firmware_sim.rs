@@ -146,3 +146,95 @@ fn named_scenarios_through_the_firmware_match_estimator_core_on_the_same_samples
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
+
+/// Runs the firmware on a scenario text; returns the report and the estimates.
+fn run_text(
+    text: &str,
+) -> (
+    hal_sim::firmware_host::FirmwareReport,
+    Vec<firmware::estimation::Motion>,
+) {
+    let sc = Scenario::parse(text, "test").unwrap();
+    let loaded = sc.arrangement().load("arrangement.toml").unwrap();
+    let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
+    let mut out = Vec::new();
+    let report = run_firmware(&sc, &config, sc.samples() as u32, &mut |_, m| out.push(*m)).unwrap();
+    (report, out)
+}
+
+#[test]
+fn a_stalling_bus_skips_instants_and_a_dead_part_is_counted_excluded_and_restarted() {
+    let base = hal_sim::scenario::named::text("ground-spin-mixed").unwrap();
+    // l1's transfers stall 25 ms (2.5 periods) and fail for 1 s; a0 is dead from 8 to 9 s.
+    let text = base.to_string()
+        + "\n[[fault]]\npart = \"l1\"\nkind = \"timeout\"\nstart = 2.0\nend = 3.0\nstall = 0.025\n"
+        + "\n[[fault]]\npart = \"a0\"\nkind = \"dead\"\nstart = 8.0\nend = 9.0\n";
+    let (r, out) = run_text(&text);
+    let l = r.sampling;
+    println!("{l:?}\n{:?}", r.parts);
+    // Every instant is either sampled or skipped: 20 s at 100 Hz.
+    assert_eq!(l.sets + l.skipped, 2001);
+    assert_eq!(out.len() as u32, l.sets);
+    assert!(out.iter().all(|m| m.estimate.is_finite()));
+    let l1 = r.parts[3];
+    assert!(l1.bus_errors > 0 && l1.missed >= l1.bus_errors, "{l1:?}");
+    // Each 25 ms stall overruns two instants (the part is then left down until it is
+    // restarted, after the fault).
+    assert_eq!(l.skipped, 2 * l1.bus_errors, "{l:?}");
+    assert!(l1.running, "l1 is read again after the fault");
+    // The dead part reads MISO high: implausible data, then down, then restarted.
+    let a0 = r.parts[0];
+    assert!(a0.implausible >= 10 && a0.missed >= 95, "{a0:?}");
+    assert!(a0.running, "a0 restarted after the fault");
+    // Model G needs all 12 channels: a0 cannot be excluded, those sets are flagged.
+    let flagged = out
+        .iter()
+        .filter(|m| m.missing & 1 != 0)
+        .all(|m| m.estimate.flags.has(estimator_core::Flags::INPUT_INVALID));
+    assert!(flagged);
+    // After the faults the estimate is back to a valid one.
+    let last = out.last().unwrap();
+    assert_eq!(last.missing, 0);
+    assert!(!last
+        .estimate
+        .flags
+        .has(estimator_core::Flags::INPUT_INVALID));
+}
+
+#[test]
+fn a_part_missing_for_several_sets_is_excluded_when_the_rest_suffices() {
+    // tetra-orbit under model F: 12 channels where 9 suffice, so a dead part can be left out.
+    let base = hal_sim::scenario::named::text("tetra-orbit").unwrap();
+    let text = base.replace("model = \"general\"", "model = \"free-float\"")
+        + "\n[[fault]]\npart = \"u0\"\nkind = \"dead\"\nstart = 5.0\nend = 8.0\n";
+    let (r, out) = run_text(&text);
+    println!("{:?}", r.parts[0]);
+    let excluded: Vec<_> = out.iter().filter(|m| m.excluded & 1 != 0).collect();
+    assert!(!excluded.is_empty(), "part 0 was never excluded");
+    let first = excluded[0].k;
+    // The fault starts at set 500; the part is left out at its EXCLUDE_AFTER-th missing set.
+    let expected = 500 + u32::from(firmware::estimation::EXCLUDE_AFTER) - 1;
+    assert_eq!(first, expected, "excluded at set {first}");
+    // While excluded, estimates are made from the other channels (not predictions).
+    for m in excluded.iter().step_by(40) {
+        println!(
+            "k {} flags {:#x} missing {:#x}",
+            m.k, m.estimate.flags.0, m.missing
+        );
+    }
+    let valid = excluded
+        .iter()
+        .filter(|m| !m.estimate.flags.has(estimator_core::Flags::INPUT_INVALID))
+        .count();
+    assert!(
+        valid > excluded.len() * 9 / 10,
+        "{valid} of {}",
+        excluded.len()
+    );
+    assert!(excluded.iter().all(|m| m
+        .estimate
+        .flags
+        .has(estimator_core::Flags::CHANNELS_EXCLUDED)));
+    // Included again after the part has been good for a while.
+    assert_eq!(out.last().unwrap().excluded, 0);
+}

@@ -168,3 +168,59 @@ pub async fn estimation_task<M: RawMutex, K: TelemetrySink, const Q: usize>(
         sink.motion(&motion).await;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::tetra;
+    use estimator_core::{Flags, Model};
+
+    fn set(k: u32, part0: bool) -> SampleSet {
+        let mut parts = [Some([0.1, 0.2, 9.8]); MAX_PARTS];
+        if !part0 {
+            parts[0] = None;
+        }
+        SampleSet {
+            k,
+            t: u64::from(k) * 10_000_000,
+            parts,
+        }
+    }
+
+    #[test]
+    fn a_part_missing_for_several_sets_is_excluded_and_later_included() {
+        let mut cfg = tetra();
+        cfg.model = Model::FreeFloat;
+        let mut e = Estimation::new(&cfg).unwrap();
+        for k in 0..5 {
+            assert_eq!(e.process(&set(k, true)).excluded, 0);
+        }
+        let gap = 5 + u32::from(EXCLUDE_AFTER);
+        for k in 5..gap {
+            let m = e.process(&set(k, false));
+            assert_eq!(m.missing, 1);
+            let excluded = k + 1 == gap;
+            assert_eq!(m.excluded, u32::from(excluded), "set {k}");
+            // Missing before the exclusion: the flagged prediction; after: an estimate.
+            assert_eq!(m.estimate.flags.has(Flags::INPUT_INVALID), !excluded);
+            assert_eq!(m.estimate.flags.has(Flags::CHANNELS_EXCLUDED), excluded);
+        }
+        let back = gap + u32::from(INCLUDE_AFTER);
+        for k in gap..back {
+            let m = e.process(&set(k, true));
+            assert_eq!(m.excluded, u32::from(k + 1 < back), "set {k}");
+        }
+        assert_eq!(e.estimator().mask(), ChannelMask::all(12));
+    }
+
+    #[test]
+    fn model_g_cannot_spare_a_part_and_keeps_all_channels() {
+        let mut e = Estimation::new(&tetra()).unwrap();
+        for k in 0..20 {
+            let m = e.process(&set(k, k < 5));
+            assert_eq!(m.excluded, 0);
+            assert_eq!(m.estimate.flags.has(Flags::INPUT_INVALID), k >= 5);
+            assert!(m.estimate.is_finite());
+        }
+    }
+}

@@ -118,17 +118,22 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
         self.health
     }
 
-    /// Waits for the next instant and samples every part.
-    pub async fn sample<T: TimeBase>(&mut self, time: &mut T) -> SampleSet {
-        let mut t = self.t0 + u64::from(self.k) * self.period;
-        let now = time.now();
+    /// The index of the next instant to sample at time `now`: instants more than half a
+    /// period past (the previous set overran) are skipped and counted.
+    pub fn next_index(&mut self, now: Nanos) -> u32 {
+        let t = self.t0 + u64::from(self.k) * self.period;
         if now > t + self.period / 2 {
-            // The previous set overran: skip the instants already past.
             let behind = ((now - t) / self.period + 1) as u32;
             self.k = self.k.saturating_add(behind);
             self.health.skipped = self.health.skipped.saturating_add(behind);
-            t = self.t0 + u64::from(self.k) * self.period;
         }
+        self.k
+    }
+
+    /// Waits for the next instant and samples every part.
+    pub async fn sample<T: TimeBase>(&mut self, time: &mut T) -> SampleSet {
+        self.next_index(time.now());
+        let t = self.t0 + u64::from(self.k) * self.period;
         time.wait_until(t).await;
         let k = self.k;
         for p in self.parts.iter_mut().flatten() {
@@ -193,13 +198,13 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
 }
 
 /// The sampling task: one sample set per period into the estimation queue, without waiting
-/// for room (a full queue drops the set and counts it). Runs `sets` sets, or for ever. Call
-/// [`Sampler::start`] first.
+/// for room (a full queue drops the set and counts it). Runs up to the instant of index
+/// `instants` (sampled or skipped), or for ever. Call [`Sampler::start`] first.
 pub async fn sampling_task<SPI, I2C, SYNC, T, M, const Q: usize>(
     sampler: &mut Sampler<SPI, I2C, SYNC>,
     time: &mut T,
     queue: Sender<'_, M, SampleSet, Q>,
-    sets: Option<u32>,
+    instants: Option<u32>,
 ) where
     SPI: SpiDevice,
     I2C: I2c,
@@ -207,12 +212,10 @@ pub async fn sampling_task<SPI, I2C, SYNC, T, M, const Q: usize>(
     T: TimeBase,
     M: RawMutex,
 {
-    let mut done = 0u32;
-    while sets.is_none_or(|n| done < n) {
+    while instants.is_none_or(|n| sampler.next_index(time.now()) < n) {
         let set = sampler.sample(time).await;
         if queue.try_send(set).is_err() {
             sampler.health.dropped = sampler.health.dropped.saturating_add(1);
         }
-        done += 1;
     }
 }
