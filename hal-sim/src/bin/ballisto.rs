@@ -191,7 +191,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             })?;
             println!("ballisto sim: {scenario}: {}", sc.description);
             println!(
-                "  {} sample sets at {} Hz ({} s), {} parts, {} channels, {:.1} s wall time",
+                "  {} sample sets at {} Hz ({} s), {} parts, {} channels, {:.2} s wall time",
                 r.samples,
                 sc.rate,
                 sc.duration,
