@@ -12,7 +12,10 @@ const SETS: u32 = 200;
 
 fn bench(c: &mut Criterion) {
     let sc = Scenario::load("tetra-orbit").expect("named scenario");
-    let loaded = sc.arrangement().load("arrangement.toml").expect("arrangement");
+    let loaded = sc
+        .arrangement()
+        .load("arrangement.toml")
+        .expect("arrangement");
     let config = firmware_config(&sc, &loaded, Alignment::Interpolate).expect("config");
 
     // Estimation alone, on the sets the firmware recorded.

@@ -216,3 +216,67 @@ fn scenario_errors_name_the_file_and_what_is_wrong() {
         "{err}"
     );
 }
+
+fn sim_firmware(scenario: &str, out: &Path, align: &str) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_ballisto"))
+        .args([
+            "sim",
+            "--firmware",
+            "--scenario",
+            scenario,
+            "--align",
+            align,
+        ])
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn sim_firmware_writes_the_firmwares_record_with_its_counters() {
+    let d = tmpdir("firmware");
+    let out = sim_firmware("tetra-orbit", &d, "interpolate");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    for f in [
+        "arrangement.toml",
+        "samples.csv",
+        "truth.csv",
+        "estimates.csv",
+        "estimates.png",
+    ] {
+        assert!(d.join(f).exists(), "{f}");
+    }
+    assert_eq!(
+        &header(&d.join("estimates.csv"))[..17],
+        &header(&d.join("truth.csv"))[..17]
+    );
+    let rows = std::fs::read_to_string(d.join("estimates.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 2002, "header + 2001 sets");
+    assert!(
+        stdout.contains("firmware: 2001 sets sampled, 0 instants skipped"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("part u3: 2001 reads, 0 bus errors"),
+        "{stdout}"
+    );
+    let rms = rms_line(&stdout);
+    assert!(rms[0] < 5e-3 && rms[1] < 5e-2 && rms[2] < 5e-3, "{rms:?}");
+    // 2001 sets × 4 parts × (command byte + 13 status and data bytes).
+    assert!(stdout.contains("bus spi1: 112056 bytes"), "{stdout}");
+}
+
+#[test]
+fn sim_firmware_rejects_an_unknown_alignment() {
+    let d = tmpdir("firmware-align");
+    let out = sim_firmware("tetra-orbit", &d, "nearest");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--align") && err.contains("nearest"), "{err}");
+}
