@@ -23,6 +23,19 @@ fn sim(scenario: &str, out: &Path, estimate: bool) -> std::process::Output {
     c.output().unwrap()
 }
 
+/// The files of `ballisto sim --estimate` or `--firmware`.
+fn assert_wrote_every_file(d: &Path) {
+    for f in [
+        "arrangement.toml",
+        "samples.csv",
+        "truth.csv",
+        "estimates.csv",
+        "estimates.png",
+    ] {
+        assert!(d.join(f).exists(), "{f}");
+    }
+}
+
 fn header(path: &Path) -> Vec<String> {
     let text = std::fs::read_to_string(path).unwrap();
     text.lines()
@@ -75,15 +88,7 @@ fn sim_writes_the_three_files_and_the_estimate_follows_the_truth() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    for f in [
-        "arrangement.toml",
-        "samples.csv",
-        "truth.csv",
-        "estimates.csv",
-        "estimates.png",
-    ] {
-        assert!(d.join(f).exists(), "{f}");
-    }
+    assert_wrote_every_file(&d);
     // samples.csv: t then one column per channel of the arrangement, 2001 rows.
     let loaded = load_arrangement(&d.join("arrangement.toml")).unwrap();
     let h = header(&d.join("samples.csv"));
@@ -243,15 +248,7 @@ fn sim_firmware_writes_the_firmwares_record_with_its_counters() {
         String::from_utf8_lossy(&out.stderr)
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
-    for f in [
-        "arrangement.toml",
-        "samples.csv",
-        "truth.csv",
-        "estimates.csv",
-        "estimates.png",
-    ] {
-        assert!(d.join(f).exists(), "{f}");
-    }
+    assert_wrote_every_file(&d);
     assert_eq!(
         &header(&d.join("estimates.csv"))[..16],
         &header(&d.join("truth.csv"))[..16]
