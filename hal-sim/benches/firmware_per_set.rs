@@ -20,7 +20,7 @@ fn bench(c: &mut Criterion) {
 
     // Estimation alone, on the sets the firmware recorded.
     let mut sets = Vec::new();
-    run_firmware(&sc, &config, SETS, &mut |s, _| sets.push(*s)).expect("run");
+    run_firmware(&sc, &config, SETS, &mut |s, _, _| sets.push(*s)).expect("run");
     let mut group = c.benchmark_group("firmware");
     group.bench_function("estimation_per_set_tetra_f32", |b| {
         let mut est = firmware::estimation::Estimation::new(&config).expect("estimator");
@@ -38,7 +38,7 @@ fn bench(c: &mut Criterion) {
     group.sample_size(20);
     group.bench_function("sampling_and_estimation_200_sets_tetra", |b| {
         b.iter(|| {
-            let r = run_firmware(&sc, &config, SETS, &mut |_, m| {
+            let r = run_firmware(&sc, &config, SETS, &mut |_, m, _| {
                 black_box(m.estimate.omega);
             })
             .expect("run");

@@ -137,6 +137,15 @@ pub struct LoadedArrangement {
     pub noise_given: bool,
 }
 
+impl LoadedArrangement {
+    /// The channel of axis `axis` (0 = x, 1 = y, 2 = z) of the part named `part` (channel
+    /// names are `part.x`, `part.y`, `part.z`), if the arrangement has it.
+    pub fn channel(&self, part: &str, axis: usize) -> Option<usize> {
+        let name = format!("{part}.{}", ["x", "y", "z"].get(axis)?);
+        self.names.iter().position(|n| *n == name)
+    }
+}
+
 /// Parses a model name.
 pub fn parse_model(s: &str) -> Option<Model> {
     match s {

@@ -9,7 +9,9 @@
 //! one process, which embassy-executor's `run` (never returns, static task storage) does not
 //! allow. The tasks are the same functions either way.
 
+use std::cell::RefCell;
 use std::convert::Infallible;
+use std::rc::Rc;
 use std::time::Instant;
 
 use embassy_futures::select::select;
@@ -29,6 +31,7 @@ use crate::arrangement_file::LoadedArrangement;
 use crate::bus::i2c::SimI2cBus;
 use crate::bus::spi::SimSpiDevice;
 use crate::clock::SimClock;
+use crate::motion::{Propagator, Truth};
 use crate::rig::{Port, Rig, POWER_ON};
 use crate::scenario::{PartType, Scenario};
 use crate::sensors::sync_line::SyncLine;
@@ -123,21 +126,11 @@ pub fn firmware_config(
                 odr: lis3dh::Odr::at_least(odr),
             },
         };
-        let channels = [0, 1, 2].map(|k| {
-            let name = format!("{}.{}", p.name, ["x", "y", "z"][k]);
-            loaded
-                .names
-                .iter()
-                .position(|n| *n == name)
-                .map(|c| c as u8)
-        });
+        let channels = [0, 1, 2].map(|k| loaded.channel(&p.name, k).map(|c| c as u8));
         *slot = Some(PartConfig { kind, channels });
     }
-    let model = sc
-        .model
-        .as_deref()
-        .and_then(crate::arrangement_file::parse_model)
-        .unwrap_or(estimator_core::Model::General);
+    // The model `ballisto sim --estimate` uses for the same record.
+    let model = crate::run::choose_model(None, loaded);
     let config = AppConfig {
         sampling: SamplingConfig {
             rate_hz: sc.rate as f32,
@@ -178,13 +171,18 @@ pub struct FirmwareReport {
     pub clock_uncertainty: Vec<Option<f64>>,
 }
 
-/// The host's telemetry sink: hands each sample set and estimate to a callback and times the
-/// estimation.
+/// What the host gets per sample set: the set, the estimate made from it, and the truth at
+/// its instant.
+pub type Emit<'a> = &'a mut dyn FnMut(&SampleSet, &Motion, &Truth);
+
+/// The host's telemetry sink: hands each sample set and estimate, with the truth from the
+/// rig's motion, to a callback, and times the estimation.
 struct HostSink<'a> {
     set: Option<SampleSet>,
     started: Instant,
     cpu: (f64, f64, u64),
-    emit: &'a mut dyn FnMut(&SampleSet, &Motion),
+    truth: Rc<RefCell<Propagator>>,
+    emit: Emit<'a>,
 }
 
 impl TelemetrySink for HostSink<'_> {
@@ -197,18 +195,20 @@ impl TelemetrySink for HostSink<'_> {
         let dt = self.started.elapsed().as_secs_f64();
         self.cpu = (self.cpu.0 + dt, self.cpu.1.max(dt), self.cpu.2 + 1);
         if let Some(set) = self.set.take() {
-            (self.emit)(&set, motion);
+            let truth = self.truth.borrow_mut().truth_at(SimTime::seconds(set.t));
+            (self.emit)(&set, motion, &truth);
         }
     }
 }
 
 /// Runs the firmware on a scenario's rig over `instants` sample instants (sampled, or skipped
-/// after an overrun); `emit` gets every sample set with the estimate made from it.
+/// after an overrun); `emit` gets every sample set with the estimate made from it and the
+/// truth at its instant.
 pub fn run_firmware(
     sc: &Scenario,
     config: &AppConfig,
     instants: u32,
-    emit: &mut dyn FnMut(&SampleSet, &Motion),
+    emit: Emit,
 ) -> Result<FirmwareReport, String> {
     let rig = Rig::build(sc)?;
     let mut buses: [Option<PartBus<SimSpiDevice, SimI2cBus>>; MAX_PARTS] = Default::default();
@@ -230,6 +230,7 @@ pub fn run_firmware(
         set: None,
         started: Instant::now(),
         cpu: (0.0, 0.0, 0),
+        truth: rig.truth.clone(),
         emit,
     };
     let estimation_size = std::mem::size_of_val(&estimation);
@@ -265,12 +266,7 @@ pub fn run_firmware(
         })
         .collect();
     let (sum, max, n) = sink.cpu;
-    let buses = rig
-        .bus_usage()
-        .into_iter()
-        .zip(start_up.iter())
-        .map(|((name, b, t), (_, b0, t0))| (name, b - b0, t - t0))
-        .collect();
+    let buses = rig.bus_usage_since(&start_up);
     Ok(FirmwareReport {
         parts,
         sampling: sampler.health(),

@@ -100,6 +100,15 @@ impl Rig {
         })
     }
 
+    /// Bus usage since an earlier [`Rig::bus_usage`] (e.g. the start-up's end).
+    pub fn bus_usage_since(&self, earlier: &[(String, u64, f64)]) -> Vec<(String, u64, f64)> {
+        self.bus_usage()
+            .into_iter()
+            .zip(earlier.iter())
+            .map(|((n, b, t), (_, b0, t0))| (n, b - b0, t - t0))
+            .collect()
+    }
+
     /// Bus usage so far: `(bus name, bytes, busy seconds)`.
     pub fn bus_usage(&self) -> Vec<(String, u64, f64)> {
         let spi = self.spi.iter().map(|(n, b)| (n, b.usage()));

@@ -140,11 +140,7 @@ fn run_typed<T: Real>(
             io_err = Some(err);
         }
         summary.rows += 1;
-        for (bit, c) in summary.flag_counts.iter_mut().enumerate() {
-            if e.flags.has(1 << bit) {
-                *c += 1;
-            }
-        }
+        count_flags(&mut summary.flag_counts, e.flags);
     };
     let result = loop {
         match reader.next_row(&mut row) {
@@ -249,6 +245,15 @@ pub fn write_truth_header(w: &mut impl Write) -> std::io::Result<()> {
         estimates_csv::COLUMNS[..16].join(","),
         TRUTH_EXTRA_COLUMNS.join(",")
     )
+}
+
+/// Adds one row's flags to the counts per flag bit.
+pub fn count_flags(counts: &mut [u64; 16], flags: Flags) {
+    for (bit, c) in counts.iter_mut().enumerate() {
+        if flags.has(1 << bit) {
+            *c += 1;
+        }
+    }
 }
 
 /// One row of a truth file.

@@ -112,12 +112,7 @@ impl Recorder {
 
     /// Bus usage of the sample sets so far (start-up excluded): name, bytes, busy seconds.
     pub fn sampling_usage(&self) -> Vec<(String, u64, f64)> {
-        self.rig
-            .bus_usage()
-            .into_iter()
-            .zip(self.start_up.iter())
-            .map(|((n, b, t), (_, b0, t0))| (n, b - b0, t - t0))
-            .collect()
+        self.rig.bus_usage_since(&self.start_up)
     }
 
     /// The reader's counts.
@@ -212,10 +207,7 @@ fn record_bench(
         .map(|p| {
             Scenario::part_axes(p)
                 .into_iter()
-                .filter_map(|j| {
-                    let name = format!("{}.{}", p.name, ["x", "y", "z"][j]);
-                    loaded.names.iter().position(|n| *n == name).map(|c| (j, c))
-                })
+                .filter_map(|j| loaded.channel(&p.name, j).map(|c| (j, c)))
                 .collect()
         })
         .collect();
@@ -278,9 +270,10 @@ fn record_firmware(
     let bar = progress_bar(job.progress, n as u64);
     let mut row: Vec<Option<f64>> = vec![None; loaded.names.len()];
     let mut flag_counts = [0u64; 16];
-    let mut propagator = crate::motion::Propagator::new(sc.motion(), crate::rig::TRUTH_STEP);
     let mut failure: Option<std::io::Error> = None;
-    let mut emit = |set: &firmware::sampler::SampleSet, m: &firmware::estimation::Motion| {
+    let mut emit = |set: &firmware::sampler::SampleSet,
+                    m: &firmware::estimation::Motion,
+                    tr: &crate::motion::Truth| {
         let t = SimTime::seconds(set.t);
         row.iter_mut().for_each(|v| *v = None);
         for (value, p) in set.parts.iter().zip(config.sampling.parts.iter()) {
@@ -292,13 +285,9 @@ fn record_firmware(
                 }
             }
         }
-        for (bit, count) in flag_counts.iter_mut().enumerate() {
-            if m.estimate.flags.0 & (1 << bit) != 0 {
-                *count += 1;
-            }
-        }
+        crate::run::count_flags(&mut flag_counts, m.estimate.flags);
         let r = write_samples_row(samples, t, &row)
-            .and_then(|_| write_truth_row(truth, &propagator.truth_at(t)))
+            .and_then(|_| write_truth_row(truth, tr))
             .and_then(|_| crate::estimates_csv::write_row(&mut estimates, t, &m.estimate));
         if let Err(e) = r {
             failure.get_or_insert(e);

@@ -12,7 +12,7 @@ fn bus_time_per_set(text: &str) -> (f64, u32) {
     let sc = Scenario::parse(text, "budget").unwrap();
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
-    let r = run_firmware(&sc, &config, sc.samples() as u32, &mut |_, _| {}).unwrap();
+    let r = run_firmware(&sc, &config, sc.samples() as u32, &mut |_, _, _| {}).unwrap();
     let busy: f64 = r.buses.iter().map(|(_, _, t)| t).sum();
     assert!(r.parts.iter().all(|p| p.missed <= 1), "{:?}", r.parts);
     (busy / f64::from(r.sampling.sets), r.sampling.sets)

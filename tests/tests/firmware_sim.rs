@@ -3,9 +3,7 @@
 //! same samples.
 
 use firmware::config::Alignment;
-use hal_sim::firmware_host::{firmware_config, run_firmware, SimTime};
-use hal_sim::motion::Propagator;
-use hal_sim::rig::TRUTH_STEP;
+use hal_sim::firmware_host::{firmware_config, run_firmware};
 use hal_sim::scenario::{PartType, Scenario};
 
 /// RMS error (m/s²) of the firmware's samples of the LIS3DH parts against eq. (4) at the
@@ -13,10 +11,10 @@ use hal_sim::scenario::{PartType, Scenario};
 fn lis3dh_sample_error(sc: &Scenario, alignment: Alignment) -> (f64, usize) {
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     let config = firmware_config(sc, &loaded, alignment).unwrap();
-    let mut truth = Propagator::new(sc.motion(), TRUTH_STEP);
     let (mut sum, mut n) = (0.0, 0usize);
-    let mut emit = |set: &firmware::sampler::SampleSet, _: &firmware::estimation::Motion| {
-        let tr = truth.truth_at(SimTime::seconds(set.t));
+    let mut emit = |set: &firmware::sampler::SampleSet,
+                    _: &firmware::estimation::Motion,
+                    tr: &hal_sim::motion::Truth| {
         for (p, v) in sc.parts.iter().zip(set.parts.iter()) {
             if p.part != PartType::Lis3dh || set.k < 100 {
                 continue;
@@ -158,7 +156,10 @@ fn run_text(
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
     let mut out = Vec::new();
-    let report = run_firmware(&sc, &config, sc.samples() as u32, &mut |_, m| out.push(*m)).unwrap();
+    let report = run_firmware(&sc, &config, sc.samples() as u32, &mut |_, m, _| {
+        out.push(*m)
+    })
+    .unwrap();
     (report, out)
 }
 

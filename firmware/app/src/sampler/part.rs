@@ -183,12 +183,13 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
         }
     }
 
-    fn count(&mut self, r: Result<(), Fault>) -> bool {
+    /// Counts one read and its failure; a part failing too often in a row is marked down.
+    fn count<T>(&mut self, r: Result<T, Fault>) -> Option<T> {
         self.health.reads += 1;
         match r {
-            Ok(()) => {
+            Ok(v) => {
                 self.failures = 0;
-                true
+                Some(v)
             }
             Err(f) => {
                 match f {
@@ -199,60 +200,46 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
                 if self.failures >= FAILURES_TO_RESTART {
                     self.health.running = false;
                 }
-                false
+                None
             }
         }
     }
 
-    fn missed(&mut self) -> Option<[f32; 3]> {
-        self.health.missed += 1;
-        None
+    /// The part's value for the set, counting a set without one as missed.
+    fn or_missed(&mut self, value: Option<[f32; 3]>) -> Option<[f32; 3]> {
+        if value.is_none() {
+            self.health.missed += 1;
+        }
+        value
     }
 
     /// The sample of a part on the SYNC line, just pulsed: `None` if the read failed or the
     /// part has no new sample.
     pub async fn read_synced(&mut self) -> Option<[f32; 3]> {
         if !self.health.running {
-            return self.missed();
+            return self.or_missed(None);
         }
         let r = match &mut self.driver {
             Driver::Adxl355(d) => d.read_status_and_acceleration().await.map_err(Fault::from),
             Driver::Lis3dh(_) => Err(Fault::Implausible),
         };
-        let (ok, value) = match r {
-            Ok((status, a)) => (status.data_ready(), Some(a)),
-            Err(e) => {
-                self.count(Err(e));
-                return self.missed();
-            }
-        };
-        self.count(Ok(()));
-        if ok {
-            value
-        } else {
-            self.missed()
-        }
+        let value = self
+            .count(r)
+            .and_then(|(status, a)| status.data_ready().then_some(a));
+        self.or_missed(value)
     }
 
     /// The latest output as if sampled now ([`Alignment::Latest`]).
     pub async fn read_latest(&mut self) -> Option<[f32; 3]> {
         if !self.health.running {
-            return self.missed();
+            return self.or_missed(None);
         }
         let r = match &mut self.driver {
             Driver::Adxl355(d) => d.read_acceleration().await.map_err(Fault::from),
             Driver::Lis3dh(d) => d.read_acceleration().await.map_err(Fault::from),
         };
-        match r {
-            Ok(a) => {
-                self.count(Ok(()));
-                Some(a)
-            }
-            Err(e) => {
-                self.count(Err(e));
-                self.missed()
-            }
-        }
+        let value = self.count(r);
+        self.or_missed(value)
     }
 
     /// The instant at which to read this part for the sample instant `t`.
@@ -265,16 +252,11 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
     /// interpolates to the instant `t`.
     pub async fn read_interpolated<T: TimeBase>(&mut self, time: &T, t: Nanos) -> Option<[f32; 3]> {
         if !self.health.running {
-            return self.missed();
+            return self.or_missed(None);
         }
         let r = self.drain(time).await;
-        if !self.count(r) {
-            return self.missed();
-        }
-        match self.value_at(seconds(t)) {
-            Some(v) => Some(v),
-            None => self.missed(),
-        }
+        let value = self.count(r).and_then(|()| self.value_at(seconds(t)));
+        self.or_missed(value)
     }
 
     /// One FIFO read: the level between two time stamps (an observation of the conversion
