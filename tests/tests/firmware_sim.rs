@@ -239,3 +239,24 @@ fn a_part_missing_for_several_sets_is_excluded_when_the_rest_suffices() {
     // Included again after the part has been good for a while.
     assert_eq!(out.last().unwrap().excluded, 0);
 }
+
+#[test]
+fn the_built_in_tetra_board_is_the_board_tetra_orbit_simulates() {
+    let sc = Scenario::load("tetra-orbit").unwrap();
+    let loaded = sc.arrangement().load("arrangement.toml").unwrap();
+    let sim = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
+    let board = firmware::config::builtin("tetra").unwrap();
+    board.validate().unwrap();
+    assert_eq!(board.model, sim.model);
+    assert_eq!(board.sampling.rate_hz, sim.sampling.rate_hz);
+    assert_eq!(board.sampling.parts, sim.sampling.parts);
+    let (b, s) = (board.arrangement.channels(), sim.arrangement.channels());
+    assert_eq!(b.len(), s.len());
+    for (i, (b, s)) in b.iter().zip(s.iter()).enumerate() {
+        for k in 0..3 {
+            assert!((b.position[k] - s.position[k]).abs() < 1e-12, "channel {i}");
+            assert!((b.axis[k] - s.axis[k]).abs() < 1e-9, "channel {i}");
+        }
+        assert!((b.noise / s.noise - 1.0).abs() < 1e-4, "channel {i}");
+    }
+}
