@@ -5,13 +5,13 @@
 //! flagged. A part missing for [`EXCLUDE_AFTER`] sets in a row is excluded (the channel mask
 //! changes, if the rest still suffices for the model), and included again after
 //! [`INCLUDE_AFTER`] good sets; across such a change the last Ω is carried as the rate hint, so
-//! branch and sign are kept.
+//! branch and sign are kept. Channels can also be taken out by command
+//! ([`Estimation::set_commanded`]); the solve uses every channel neither excluded automatically
+//! nor by command.
 
 use core::future::Future;
 
-use embassy_sync::blocking_mutex::raw::RawMutex;
-use embassy_sync::channel::Receiver;
-use estimator_core::{ChannelMask, ConfigError, Estimate, Estimator, Options};
+use estimator_core::{Arrangement, ChannelMask, ConfigError, Estimate, Estimator, Model, Options};
 
 use crate::config::{AppConfig, MAX_CHANNELS, MAX_PARTS};
 use crate::sampler::SampleSet;
@@ -37,8 +37,9 @@ pub struct Motion {
     pub excluded: u32,
 }
 
-/// Where outputs go: CCSDS packets on the spacecraft bus, or a file on the host.
-pub trait TelemetrySink {
+/// A tap on the data path: sees each sample set and its estimate (the host simulator records
+/// them; a board passes `()`). Telemetry proper is [`crate::telemetry`].
+pub trait Tap {
     /// One estimate.
     fn motion(&mut self, motion: &Motion) -> impl Future<Output = ()>;
 
@@ -46,6 +47,10 @@ pub trait TelemetrySink {
     fn sample_set(&mut self, _set: &SampleSet) -> impl Future<Output = ()> {
         core::future::ready(())
     }
+}
+
+impl Tap for () {
+    async fn motion(&mut self, _motion: &Motion) {}
 }
 
 /// The estimator and the channel bookkeeping.
@@ -57,6 +62,8 @@ pub struct Estimation {
     missing_run: [u16; MAX_PARTS],
     good_run: [u16; MAX_PARTS],
     excluded: u32,
+    commanded: u32,
+    options: Options,
     last_omega: Option<[f64; 3]>,
 }
 
@@ -80,8 +87,92 @@ impl Estimation {
             missing_run: [0; MAX_PARTS],
             good_run: [0; MAX_PARTS],
             excluded: 0,
+            commanded: 0,
+            options,
             last_omega: None,
         })
+    }
+
+    /// Channels in the arrangement.
+    pub fn channels(&self) -> usize {
+        self.n
+    }
+
+    /// Channels out of the solve, automatically or by command (bit per channel).
+    pub fn excluded_channels(&self) -> u32 {
+        (!self.estimator.mask().0 & ChannelMask::all(self.n).0) as u32
+    }
+
+    /// Channels out by command (bit per channel).
+    pub fn commanded(&self) -> u32 {
+        self.commanded
+    }
+
+    /// Parts out automatically (bit per part).
+    pub fn excluded_parts(&self) -> u32 {
+        self.excluded
+    }
+
+    /// Takes the channels of `commanded` (bit per channel) out of the solve and puts the
+    /// others back. On error (too few channels left, or a degenerate geometry) nothing
+    /// changes.
+    pub fn set_commanded(&mut self, commanded: u32) -> Result<(), ConfigError> {
+        let mask = self.mask(self.excluded, commanded);
+        self.estimator.set_mask(mask)?;
+        self.commanded = commanded;
+        let _ = self.estimator.set_hint(self.last_omega);
+        Ok(())
+    }
+
+    /// A new arrangement (same channels) or model. On error nothing changes.
+    pub fn configure(
+        &mut self,
+        arrangement: &Arrangement<MAX_CHANNELS>,
+        model: Model,
+    ) -> Result<(), ConfigError> {
+        if arrangement.len() != self.n {
+            return Err(ConfigError::NoSuchChannel {
+                channel: arrangement.len().min(self.n),
+            });
+        }
+        let mask = self.mask(self.excluded, self.commanded);
+        let options = Options {
+            initial_omega: self.last_omega,
+            ..self.options
+        };
+        self.estimator
+            .configure(arrangement, model, mask, options)
+    }
+
+    /// A rate hint (settles sign and branch from the next set on).
+    pub fn set_hint(&mut self, omega: [f64; 3]) -> Result<(), ConfigError> {
+        self.estimator.set_hint(Some(omega))?;
+        self.last_omega = Some(omega);
+        Ok(())
+    }
+
+    /// Starts again after a pause (standby): history forgotten, the last Ω as the hint.
+    pub fn restart(&mut self) {
+        let _ = self.estimator.set_hint(self.last_omega);
+    }
+
+    /// The solve's channel mask with `parts` (bit per part) and `commanded` (bit per channel)
+    /// out.
+    fn mask(&self, parts: u32, commanded: u32) -> ChannelMask {
+        let mut mask = ChannelMask::all(self.n);
+        for c in 0..self.n {
+            if commanded & (1 << c) != 0 {
+                mask = mask.without(c);
+            }
+        }
+        for (i, chans) in self.channels.iter().enumerate() {
+            if parts & (1 << i) != 0 {
+                for c in chans.iter().flatten() {
+                    mask = mask.without(usize::from(*c));
+                }
+            }
+        }
+        mask
     }
 
     /// The estimator (model, mask, condition).
@@ -139,33 +230,12 @@ impl Estimation {
         if wanted == self.excluded {
             return;
         }
-        let mut mask = ChannelMask::all(self.n);
-        for (i, chans) in self.channels.iter().enumerate() {
-            if wanted & (1 << i) != 0 {
-                for c in chans.iter().flatten() {
-                    mask = mask.without(usize::from(*c));
-                }
-            }
-        }
+        let mask = self.mask(wanted, self.commanded);
         // Too few channels left for the model: keep the mask (the sets stay flagged).
         if self.estimator.set_mask(mask).is_ok() {
             self.excluded = wanted;
             let _ = self.estimator.set_hint(self.last_omega);
         }
-    }
-}
-
-/// The estimation task: every queued sample set through the estimator to the sink.
-pub async fn estimation_task<M: RawMutex, K: TelemetrySink, const Q: usize>(
-    estimation: &mut Estimation,
-    queue: Receiver<'_, M, SampleSet, Q>,
-    sink: &mut K,
-) -> ! {
-    loop {
-        let set = queue.receive().await;
-        sink.sample_set(&set).await;
-        let motion = estimation.process(&set);
-        sink.motion(&motion).await;
     }
 }
 

@@ -1,29 +1,36 @@
 //! # firmware
 //!
 //! The ballistometer application, independent of the board: generic over the embedded-hal
-//! (async) traits and two small traits of its own, [`time::TimeBase`] and
-//! [`estimation::TelemetrySink`]. The data path, module by module:
+//! (async) traits, embedded-io-async for the spacecraft link, and one small trait of its own,
+//! [`time::TimeBase`]. The data path, module by module:
 //!
 //! - [`drivers`] — the MEMS parts on their buses (sensor → driver).
 //! - [`sampler`] — all parts at one rate on one time base, free-running parts aligned to the
-//!   common instants (driver → sampler).
-//! - [`estimation`] — estimator-core on every sample set, out to the telemetry sink
-//!   (sampler → estimator → telemetry).
+//!   common instants, health counters on a board (driver → sampler).
+//! - [`estimation`] — estimator-core on every sample set, automatic and commanded channel
+//!   exclusion (sampler → estimator).
+//! - [`app`] — the application task: estimates, housekeeping and events out as telemetry,
+//!   telecommands in, mode (estimator → telemetry).
+//! - [`telemetry`] — PUS packets, CCSDS sequence counts, CRC, COBS framing on the link;
+//!   [`telecommand`] — acceptance of received commands.
 //! - [`config`] — what runs: parts, channels, rate, arrangement, model (built-in table or
 //!   command); [`time`] — the time base.
 //!
-//! The tasks are async functions ([`sampler::sampling_task`], [`estimation::estimation_task`])
-//! joined by a bounded queue; a board spawns them on the embassy executor, the host simulator
-//! polls them in simulated time.
+//! The tasks are async functions ([`sampler::sampling_task`], [`app::app_task`],
+//! [`app::uplink_task`]) joined by bounded queues; a board spawns them on the embassy
+//! executor, the host simulator polls them in simulated time.
 #![no_std]
 #![deny(missing_docs)]
 // `!(x >= y)` rejects NaN along with the out-of-range values: intentional.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod app;
 pub mod config;
 pub mod drivers;
 pub mod estimation;
 pub mod sampler;
+pub mod telecommand;
+pub mod telemetry;
 pub mod time;
 
 /// Depth of the queue between the sampling and the estimation task.

@@ -13,6 +13,7 @@
 //! overruns its period, the instants already past are skipped and counted.
 
 pub mod conversion_clock;
+pub mod health;
 pub mod part;
 
 use embassy_sync::blocking_mutex::raw::RawMutex;
@@ -22,6 +23,7 @@ use embedded_hal_async::i2c::I2c;
 use embedded_hal_async::spi::SpiDevice;
 
 pub use conversion_clock::ConversionClock;
+pub use health::{Health, HealthBoard};
 pub use part::{Part, PartBus, PartHealth};
 
 use crate::config::{Alignment, SamplingConfig, MAX_PARTS};
@@ -118,6 +120,18 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
         self.health
     }
 
+    /// Every counter, for the housekeeping reports.
+    pub fn snapshot(&self) -> Health {
+        let mut parts = [None; MAX_PARTS];
+        for (slot, part) in parts.iter_mut().zip(self.parts.iter()) {
+            *slot = part.as_ref().map(Part::health);
+        }
+        Health {
+            parts,
+            sampling: self.health,
+        }
+    }
+
     /// The index of the next instant to sample at time `now`: instants more than half a
     /// period past (the previous set overran) are skipped and counted.
     pub fn next_index(&mut self, now: Nanos) -> u32 {
@@ -204,6 +218,7 @@ pub async fn sampling_task<SPI, I2C, SYNC, T, M, const Q: usize>(
     sampler: &mut Sampler<SPI, I2C, SYNC>,
     time: &mut T,
     queue: Sender<'_, M, SampleSet, Q>,
+    board: &HealthBoard<M>,
     instants: Option<u32>,
 ) where
     SPI: SpiDevice,
@@ -217,5 +232,6 @@ pub async fn sampling_task<SPI, I2C, SYNC, T, M, const Q: usize>(
         if queue.try_send(set).is_err() {
             sampler.health.dropped = sampler.health.dropped.saturating_add(1);
         }
+        board.publish(sampler.snapshot());
     }
 }

@@ -1,0 +1,517 @@
+//! The application task: sample sets in, estimates, housekeeping and events out, telecommands
+//! executed and verified (PUS services 1, 3, 5, 17 and the ballistometer's 200).
+//!
+//! ```text
+//! sampling task ──SampleSet──▶ ┌──────────┐ ──motion / housekeeping / events──▶ Telemetry ─▶ link
+//! uplink task ────Incoming───▶ │   App    │ ──verification (TM[1,x])─────────▶
+//! health board ─────────────▶  └──────────┘
+//! ```
+//!
+//! One task owns the estimator, the mode and the telemetry, so commands and sample sets are
+//! handled one at a time and a command never meets a half-processed set.
+
+use embassy_futures::select::{select, Either};
+use embassy_sync::blocking_mutex::raw::RawMutex;
+use embassy_sync::channel::{Receiver, Sender};
+use embedded_io_async::{Read, Write};
+use estimator_core::{ConfigError, Model};
+
+use crate::config::{AppConfig, MAX_PARTS};
+use crate::estimation::{Estimation, Motion, Tap};
+use crate::sampler::{Health, HealthBoard, SampleSet};
+use crate::telecommand::{self, Accepted, Command, Context};
+use crate::telemetry::framing::{max_encoded_len, Deframed, Deframer};
+use crate::telemetry::packets::{
+    config_error_code, service, subtype, Event, EventId, FailureCode, Housekeeping,
+    MotionReport, PartCounters, PartState, RequestId, Verification, TC_MAX, TM_MAX,
+};
+use crate::telemetry::Telemetry;
+use crate::time::{Nanos, TimeBase};
+
+/// The firmware version reported in housekeeping and the boot event.
+pub const VERSION: [u8; 3] = [
+    parse_u8(env!("CARGO_PKG_VERSION_MAJOR")),
+    parse_u8(env!("CARGO_PKG_VERSION_MINOR")),
+    parse_u8(env!("CARGO_PKG_VERSION_PATCH")),
+];
+
+const fn parse_u8(s: &str) -> u8 {
+    let b = s.as_bytes();
+    let mut v = 0u8;
+    let mut i = 0;
+    while i < b.len() {
+        v = v * 10 + (b[i] - b'0');
+        i += 1;
+    }
+    v
+}
+
+/// Operating mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Mode {
+    /// Sampling and housekeeping only; no estimates.
+    Standby = 0,
+    /// Estimating at sample rate.
+    Operate = 1,
+}
+
+/// One telecommand packet as received (or the news that a frame was garbage).
+#[derive(Clone, Copy)]
+pub enum Incoming {
+    /// A whole packet.
+    Packet {
+        /// Its length.
+        len: u16,
+        /// Its octets (the first `len`).
+        bytes: [u8; TC_MAX],
+    },
+    /// A frame that was not valid COBS or longer than [`TC_MAX`].
+    Garbage,
+}
+
+/// Depth of the queue between the uplink and the application task.
+pub const COMMAND_QUEUE: usize = 1;
+
+/// The uplink task: the command link's byte stream → frames → the application task. Ends
+/// when the link ends (or fails).
+pub async fn uplink_task<R: Read, M: RawMutex, const C: usize>(
+    mut link: R,
+    commands: Sender<'_, M, Incoming, C>,
+) {
+    let mut deframer = Deframer::<{ max_encoded_len(TC_MAX) }>::new();
+    let mut chunk = [0u8; 64];
+    loop {
+        let n = match link.read(&mut chunk).await {
+            Ok(0) | Err(_) => return,
+            Ok(n) => n,
+        };
+        for &b in &chunk[..n] {
+            match deframer.push(b) {
+                Deframed::Pending => {}
+                Deframed::Garbage => commands.send(Incoming::Garbage).await,
+                Deframed::Packet(len) if len > TC_MAX => commands.send(Incoming::Garbage).await,
+                Deframed::Packet(len) => {
+                    let mut bytes = [0u8; TC_MAX];
+                    bytes[..len].copy_from_slice(deframer.packet(len));
+                    commands
+                        .send(Incoming::Packet {
+                            len: len as u16,
+                            bytes,
+                        })
+                        .await;
+                }
+            }
+        }
+    }
+}
+
+/// The application: estimation, mode, telemetry settings and counters.
+pub struct App {
+    estimation: Estimation,
+    mode: Mode,
+    rate_hz: f32,
+    motion_every: u16,
+    housekeeping_every: u16,
+    since_motion: u16,
+    since_housekeeping: u16,
+    estimates: u32,
+    tc_accepted: u32,
+    tc_rejected: u32,
+    frames_garbage: u32,
+    parts_seen: [PartState; MAX_PARTS],
+    excluded_seen: u32,
+    lost_seen: (u32, u32),
+    health: Health,
+}
+
+impl App {
+    /// The application for a configuration, in `mode`; one motion report per set and one
+    /// housekeeping report per second.
+    pub fn new(config: &AppConfig, mode: Mode) -> Result<Self, ConfigError> {
+        let mut parts_seen = [PartState::Absent; MAX_PARTS];
+        for (i, _) in config.sampling.parts() {
+            parts_seen[i] = PartState::Running;
+        }
+        Ok(App {
+            estimation: Estimation::new(config)?,
+            mode,
+            rate_hz: config.sampling.rate_hz,
+            motion_every: 1,
+            housekeeping_every: (libm::roundf(config.sampling.rate_hz) as u16).max(1),
+            since_motion: 0,
+            since_housekeeping: 0,
+            estimates: 0,
+            tc_accepted: 0,
+            tc_rejected: 0,
+            frames_garbage: 0,
+            parts_seen,
+            excluded_seen: 0,
+            lost_seen: (0, 0),
+            health: Health::default(),
+        })
+    }
+
+    /// The estimation (model, mask, counters).
+    pub fn estimation(&self) -> &Estimation {
+        &self.estimation
+    }
+
+    /// The mode.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// Announces the start: the boot event and a first housekeeping report.
+    pub async fn boot<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
+        let [a, b, c] = VERSION;
+        let version = (u32::from(a) << 16) | (u32::from(b) << 8) | u32::from(c);
+        let channels = self.estimation.channels() as u32;
+        self.event(t, tm, EventId::Boot, version, channels).await;
+        self.send_housekeeping(t, tm).await;
+    }
+
+    /// One sample set, with the sampler's health after it.
+    pub async fn on_set<W: Write, K: Tap>(
+        &mut self,
+        set: &SampleSet,
+        health: Health,
+        tm: &mut Telemetry<W>,
+        tap: &mut K,
+    ) {
+        self.health = health;
+        self.part_events(set.t, tm).await;
+        if self.mode == Mode::Operate {
+            tap.sample_set(set).await;
+            let motion = self.estimation.process(set);
+            self.estimates = self.estimates.wrapping_add(1);
+            tap.motion(&motion).await;
+            self.exclusion_events(set.t, tm, &motion).await;
+            self.since_motion += 1;
+            if self.since_motion >= self.motion_every {
+                self.since_motion = 0;
+                self.send_motion(tm, &motion).await;
+            }
+        }
+        self.since_housekeeping += 1;
+        if self.since_housekeeping >= self.housekeeping_every {
+            self.since_housekeeping = 0;
+            self.send_housekeeping(set.t, tm).await;
+            self.loss_event(set.t, tm).await;
+        }
+    }
+
+    /// One telecommand (or garbage) from the uplink, received at `t`.
+    pub async fn on_incoming<W: Write>(
+        &mut self,
+        incoming: &Incoming,
+        t: Nanos,
+        tm: &mut Telemetry<W>,
+    ) {
+        let raw = match incoming {
+            Incoming::Garbage => {
+                self.frames_garbage = self.frames_garbage.wrapping_add(1);
+                let n = self.frames_garbage;
+                return self.event(t, tm, EventId::FrameRejected, 1, n).await;
+            }
+            Incoming::Packet { len, bytes } => &bytes[..usize::from(*len).min(TC_MAX)],
+        };
+        let ctx = Context {
+            channels: self.estimation.channels(),
+        };
+        let accepted = match telecommand::parse(raw, ctx) {
+            Ok(a) => a,
+            Err(rejected) => {
+                self.tc_rejected = self.tc_rejected.wrapping_add(1);
+                return match rejected.request {
+                    Some(request) => {
+                        let failure = Some((rejected.code, rejected.data));
+                        self.verify(t, tm, subtype::NOT_ACCEPTED, request, failure)
+                            .await
+                    }
+                    None => {
+                        self.frames_garbage = self.frames_garbage.wrapping_add(1);
+                        let n = self.frames_garbage;
+                        self.event(t, tm, EventId::FrameRejected, 2, n).await
+                    }
+                };
+            }
+        };
+        self.tc_accepted = self.tc_accepted.wrapping_add(1);
+        let Accepted {
+            request,
+            ack_acceptance,
+            ack_completion,
+            command,
+        } = accepted;
+        if ack_acceptance {
+            self.verify(t, tm, subtype::ACCEPTED, request, None).await;
+        }
+        match self.execute(command, t, tm).await {
+            Ok(()) if ack_completion => {
+                self.verify(t, tm, subtype::COMPLETED, request, None).await
+            }
+            Ok(()) => {}
+            Err(failure) => {
+                self.verify(t, tm, subtype::NOT_COMPLETED, request, Some(failure))
+                    .await
+            }
+        }
+    }
+
+    /// Executes an accepted command; on failure nothing has changed.
+    async fn execute<W: Write>(
+        &mut self,
+        command: Command,
+        t: Nanos,
+        tm: &mut Telemetry<W>,
+    ) -> Result<(), (FailureCode, u32)> {
+        let refused = |e: ConfigError| (FailureCode::Refused, config_error_code(&e));
+        match command {
+            Command::SetMode(mode) => {
+                if mode != self.mode {
+                    let old = self.mode;
+                    self.mode = mode;
+                    if mode == Mode::Operate {
+                        self.estimation.restart();
+                        self.since_motion = 0;
+                    }
+                    self.event(t, tm, EventId::ModeChanged, old as u32, mode as u32)
+                        .await;
+                }
+            }
+            Command::SetModel(model) => {
+                let arrangement = self.estimation.estimator().arrangement().clone();
+                self.estimation
+                    .configure(&arrangement, model)
+                    .map_err(refused)?;
+                self.reconfigured(t, tm).await;
+            }
+            Command::SetHint(w) => {
+                self.estimation
+                    .set_hint(w.map(f64::from))
+                    .map_err(|_| (FailureCode::NotFinite, 0))?;
+            }
+            Command::Exclude(c) | Command::Include(c) => {
+                let bit = 1u32 << c;
+                let commanded = match command {
+                    Command::Exclude(_) => self.estimation.commanded() | bit,
+                    _ => self.estimation.commanded() & !bit,
+                };
+                self.estimation
+                    .set_commanded(commanded)
+                    .map_err(refused)?;
+            }
+            Command::LoadArrangement(arrangement) => {
+                let model = self.estimation.estimator().model();
+                self.estimation
+                    .configure(&arrangement, model)
+                    .map_err(refused)?;
+                self.reconfigured(t, tm).await;
+            }
+            Command::SetRates {
+                motion_every,
+                housekeeping_every,
+            } => {
+                self.motion_every = motion_every;
+                self.housekeeping_every = housekeeping_every;
+                self.since_motion = 0;
+                self.since_housekeeping = 0;
+            }
+            Command::ReportHousekeeping => self.send_housekeeping(t, tm).await,
+            Command::AreYouAlive => tm.send(t, service::TEST, subtype::ALIVE, &[]).await,
+        }
+        Ok(())
+    }
+
+    /// The housekeeping report as of now.
+    pub fn housekeeping(&self, tm_lost: u32) -> Housekeeping {
+        let h = &self.health;
+        let mut parts = [PartCounters::default(); MAX_PARTS];
+        for ((c, p), seen) in parts.iter_mut().zip(h.parts.iter()).zip(self.parts_seen) {
+            if let Some(p) = p {
+                *c = PartCounters {
+                    state: seen,
+                    reads: p.reads,
+                    bus_errors: p.bus_errors,
+                    implausible: p.implausible,
+                    missed: p.missed,
+                    failed_starts: p.failed_starts,
+                    resyncs: p.resyncs,
+                };
+            }
+        }
+        Housekeeping {
+            version: VERSION,
+            mode: self.mode as u8,
+            model: model_code(self.estimation.estimator().model()),
+            channels: self.estimation.channels() as u8,
+            rate_hz: self.rate_hz,
+            motion_every: self.motion_every,
+            housekeeping_every: self.housekeeping_every,
+            sets: h.sampling.sets,
+            skipped: h.sampling.skipped,
+            dropped: h.sampling.dropped,
+            sync_errors: h.sampling.sync_errors,
+            estimates: self.estimates,
+            excluded_parts: self.estimation.excluded_parts() as u8,
+            commanded_out: self.estimation.commanded(),
+            excluded_channels: self.estimation.excluded_channels(),
+            tc_accepted: self.tc_accepted,
+            tc_rejected: self.tc_rejected,
+            frames_garbage: self.frames_garbage,
+            tm_lost,
+            parts,
+        }
+    }
+
+    async fn send_housekeeping<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
+        let mut data = [0u8; TM_MAX];
+        if let Some(n) = self.housekeeping(tm.lost()).encode(&mut data) {
+            tm.send(t, service::HOUSEKEEPING, subtype::HK_REPORT, &data[..n])
+                .await;
+        }
+    }
+
+    async fn send_motion<W: Write>(&self, tm: &mut Telemetry<W>, motion: &Motion) {
+        let mut data = [0u8; TM_MAX];
+        let report = MotionReport::of(motion, self.estimation.excluded_channels());
+        if let Some(n) = report.encode(&mut data) {
+            tm.send(motion.t, service::HOUSEKEEPING, subtype::HK_REPORT, &data[..n])
+                .await;
+        }
+    }
+
+    async fn event<W: Write>(
+        &self,
+        t: Nanos,
+        tm: &mut Telemetry<W>,
+        id: EventId,
+        a: u32,
+        b: u32,
+    ) {
+        let mut data = [0u8; 16];
+        if let Some(n) = (Event { id, a, b }).encode(&mut data) {
+            tm.send(t, service::EVENT, id.severity(), &data[..n]).await;
+        }
+    }
+
+    async fn verify<W: Write>(
+        &self,
+        t: Nanos,
+        tm: &mut Telemetry<W>,
+        st: u8,
+        request: RequestId,
+        failure: Option<(FailureCode, u32)>,
+    ) {
+        let mut data = [0u8; 16];
+        let report = Verification {
+            subtype: st,
+            request,
+            failure,
+        };
+        if let Some(n) = report.encode(&mut data) {
+            tm.send(t, service::VERIFICATION, st, &data[..n]).await;
+        }
+    }
+
+    async fn reconfigured<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
+        let channels = self.estimation.channels() as u32;
+        let model = u32::from(model_code(self.estimation.estimator().model()));
+        self.event(t, tm, EventId::Reconfigured, channels, model)
+            .await;
+    }
+
+    /// Parts marked down or answering again since the last set.
+    async fn part_events<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
+        for i in 0..MAX_PARTS {
+            let Some(p) = self.health.parts[i] else {
+                continue;
+            };
+            let now = if p.running {
+                PartState::Running
+            } else {
+                PartState::Down
+            };
+            if now != self.parts_seen[i] {
+                self.parts_seen[i] = now;
+                let id = match now {
+                    PartState::Down => EventId::PartDown,
+                    _ => EventId::PartUp,
+                };
+                self.event(t, tm, id, i as u32, 0).await;
+            }
+        }
+    }
+
+    /// Parts excluded or included by the estimation in this set.
+    async fn exclusion_events<W: Write>(
+        &mut self,
+        t: Nanos,
+        tm: &mut Telemetry<W>,
+        motion: &Motion,
+    ) {
+        if motion.excluded == self.excluded_seen {
+            return;
+        }
+        let id = if motion.excluded & !self.excluded_seen != 0 {
+            EventId::PartsExcluded
+        } else {
+            EventId::PartsIncluded
+        };
+        self.excluded_seen = motion.excluded;
+        let out = self.estimation.excluded_channels();
+        self.event(t, tm, id, motion.excluded, out).await;
+    }
+
+    /// Instants skipped or sets dropped since the last housekeeping report.
+    async fn loss_event<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
+        let s = &self.health.sampling;
+        let lost = (s.skipped, s.dropped);
+        if lost != self.lost_seen {
+            self.lost_seen = lost;
+            self.event(t, tm, EventId::SetsLost, lost.0, lost.1).await;
+        }
+    }
+}
+
+/// Model code in housekeeping and TC[200,2]: 0 general, 1 free float.
+pub fn model_code(model: Model) -> u8 {
+    match model {
+        Model::General => 0,
+        Model::FreeFloat => 1,
+    }
+}
+
+/// The application task: boots, then handles sample sets and telecommands as they come.
+/// Returns after the set of index `sets − 1` (a finite run), or never.
+#[allow(clippy::too_many_arguments)]
+pub async fn app_task<M, W, K, T, const Q: usize, const C: usize>(
+    app: &mut App,
+    time: &T,
+    samples: Receiver<'_, M, SampleSet, Q>,
+    commands: Receiver<'_, M, Incoming, C>,
+    health: &HealthBoard<M>,
+    tm: &mut Telemetry<W>,
+    tap: &mut K,
+    sets: Option<u32>,
+) where
+    M: RawMutex,
+    W: Write,
+    K: Tap,
+    T: TimeBase,
+{
+    app.boot(time.now(), tm).await;
+    loop {
+        match select(samples.receive(), commands.receive()).await {
+            Either::First(set) => {
+                app.on_set(&set, health.latest(), tm, tap).await;
+                if sets.is_some_and(|n| set.k + 1 >= n) {
+                    tm.flush().await;
+                    return;
+                }
+            }
+            Either::Second(incoming) => app.on_incoming(&incoming, time.now(), tm).await,
+        }
+    }
+}

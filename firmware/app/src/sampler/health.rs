@@ -1,0 +1,56 @@
+//! The sampler's health, published after every sample set for the housekeeping reports.
+
+use core::cell::Cell;
+
+use embassy_sync::blocking_mutex::raw::RawMutex;
+use embassy_sync::blocking_mutex::Mutex;
+
+use super::{LoopHealth, PartHealth};
+use crate::config::MAX_PARTS;
+
+/// A snapshot of every counter of the sampler.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Health {
+    /// Per part slot (`None`: no part configured).
+    pub parts: [Option<PartHealth>; MAX_PARTS],
+    /// The loop's own counters.
+    pub sampling: LoopHealth,
+}
+
+/// Where the sampling task leaves its latest [`Health`] for the application task.
+pub struct HealthBoard<M: RawMutex> {
+    latest: Mutex<M, Cell<Health>>,
+}
+
+impl<M: RawMutex> Default for HealthBoard<M> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<M: RawMutex> HealthBoard<M> {
+    /// An empty board (every counter zero, no part).
+    pub const fn new() -> Self {
+        HealthBoard {
+            latest: Mutex::new(Cell::new(Health {
+                parts: [None; MAX_PARTS],
+                sampling: LoopHealth {
+                    sets: 0,
+                    skipped: 0,
+                    dropped: 0,
+                    sync_errors: 0,
+                },
+            })),
+        }
+    }
+
+    /// Publishes a snapshot.
+    pub fn publish(&self, health: Health) {
+        self.latest.lock(|c| c.set(health));
+    }
+
+    /// The latest snapshot.
+    pub fn latest(&self) -> Health {
+        self.latest.lock(Cell::get)
+    }
+}

@@ -1,0 +1,293 @@
+//! Telecommands: a received packet → a [`Command`], or the reason it is rejected.
+//!
+//! Parsing is the PUS acceptance check: everything that can be said about a command without
+//! executing it is checked here (header, length, CRC, APID, service, application data
+//! length, every field's range), so that a command is either accepted whole or refused
+//! with a [`FailureCode`] and nothing is touched. What only execution can find out (the
+//! estimator refusing a geometry or a mask) is reported as a completion failure, and the
+//! estimator then keeps its previous configuration (see [`crate::app`]).
+//!
+//! Application data layouts are in `docs/telemetry.md`.
+
+use estimator_core::{Arrangement, Model};
+use spacepackets::ecss::tc::PusTcReader;
+use spacepackets::ecss::PusError;
+
+use crate::app::Mode;
+use crate::config::MAX_CHANNELS;
+use crate::telemetry::packets::{
+    config_error_code, service, sid, subtype, FailureCode, Get, RequestId, APID,
+};
+
+/// Largest rate-hint component accepted, rad/s.
+pub const HINT_MAX: f32 = 50.0;
+/// Largest position component accepted in a loaded arrangement, m.
+pub const POSITION_MAX: f32 = 10.0;
+/// Largest channel noise accepted in a loaded arrangement, m/s².
+pub const NOISE_MAX: f32 = 10.0;
+/// Most sample sets per motion report.
+pub const MOTION_EVERY_MAX: u16 = 10_000;
+
+/// Octets per channel in TC[200,6]: position (3 × f32), axis (3 × f32), noise (f32).
+pub const CHANNEL_LEN: usize = 28;
+
+/// One accepted command.
+#[derive(Clone, Debug)]
+pub enum Command {
+    /// TC[200,1].
+    SetMode(Mode),
+    /// TC[200,2].
+    SetModel(Model),
+    /// TC[200,3]: Ω to settle sign and branch, rad/s (body frame).
+    SetHint([f32; 3]),
+    /// TC[200,4]: take a channel out of the solve.
+    Exclude(u8),
+    /// TC[200,5]: put a commanded-out channel back.
+    Include(u8),
+    /// TC[200,6]: a new geometry for the same channels.
+    LoadArrangement(Arrangement<MAX_CHANNELS>),
+    /// TC[200,7]: one motion report per `motion_every` sets, one housekeeping report per
+    /// `housekeeping_every` sets.
+    SetRates {
+        /// Sets per motion report (1 = every set).
+        motion_every: u16,
+        /// Sets per housekeeping report.
+        housekeeping_every: u16,
+    },
+    /// TC[3,27] for the housekeeping structure (SID 2).
+    ReportHousekeeping,
+    /// TC[17,1].
+    AreYouAlive,
+}
+
+/// A command that passed acceptance.
+#[derive(Clone, Debug)]
+pub struct Accepted {
+    /// Identifier for its verification reports.
+    pub request: RequestId,
+    /// Report successful acceptance (ack flag bit 3).
+    pub ack_acceptance: bool,
+    /// Report successful completion (ack flag bit 0).
+    pub ack_completion: bool,
+    /// What to do.
+    pub command: Command,
+}
+
+/// A command refused at acceptance.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rejected {
+    /// Its identifier, if at least the primary header arrived.
+    pub request: Option<RequestId>,
+    /// Why.
+    pub code: FailureCode,
+    /// Detail (field index, expected length, ...; see [`FailureCode`]).
+    pub data: u32,
+}
+
+/// What the unit is configured with, which the ranges of some fields depend on.
+#[derive(Clone, Copy, Debug)]
+pub struct Context {
+    /// Channels the parts feed (an arrangement must have exactly these).
+    pub channels: usize,
+}
+
+const PRIMARY_LEN: usize = 6;
+const SECONDARY_LEN: usize = 5;
+const CRC_LEN: usize = 2;
+
+/// Acceptance of one received packet.
+pub fn parse(raw: &[u8], ctx: Context) -> Result<Accepted, Rejected> {
+    let reject = |request, code, data| Rejected {
+        request,
+        code,
+        data,
+    };
+    if raw.len() < PRIMARY_LEN {
+        return Err(reject(None, FailureCode::Truncated, raw.len() as u32));
+    }
+    let request = RequestId::of(raw);
+    let fail = |code, data| Err(reject(request, code, data));
+    let id = request.unwrap_or_default();
+    let version = id.packet_id >> 13;
+    let is_tc = id.packet_id & 0x1000 != 0;
+    let has_secondary = id.packet_id & 0x0800 != 0;
+    let unsegmented = id.sequence >> 14 == 0b11;
+    if version != 0 || !is_tc || !has_secondary || !unsegmented {
+        return fail(FailureCode::NotTelecommand, 0);
+    }
+    let length = PRIMARY_LEN + usize::from(u16::from_be_bytes([raw[4], raw[5]])) + 1;
+    if raw.len() < length || length < PRIMARY_LEN + SECONDARY_LEN + CRC_LEN {
+        return fail(FailureCode::Truncated, length as u32);
+    }
+    if raw.len() > length {
+        return fail(FailureCode::TrailingOctets, length as u32);
+    }
+    let tc = match PusTcReader::new(raw) {
+        Ok(tc) => tc,
+        Err(PusError::ChecksumFailure(_)) => return fail(FailureCode::Checksum, 0),
+        Err(_) => return fail(FailureCode::Truncated, length as u32),
+    };
+    if raw[PRIMARY_LEN] >> 4 != 2 {
+        return fail(FailureCode::PusVersion, u32::from(raw[PRIMARY_LEN] >> 4));
+    }
+    if id.packet_id & 0x07FF != APID {
+        return fail(FailureCode::WrongApid, u32::from(id.packet_id & 0x07FF));
+    }
+    let ack = raw[PRIMARY_LEN] & 0x0F;
+    let (s, st) = (raw[PRIMARY_LEN + 1], raw[PRIMARY_LEN + 2]);
+    let command = command(s, st, tc.app_data(), ctx).map_err(|(code, data)| Rejected {
+        request,
+        code,
+        data,
+    })?;
+    Ok(Accepted {
+        request: id,
+        ack_acceptance: ack & 0b1000 != 0,
+        ack_completion: ack & 0b0001 != 0,
+        command,
+    })
+}
+
+type Refusal = (FailureCode, u32);
+
+/// The application data of TC[`s`,`st`].
+fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command, Refusal> {
+    let length = |n: usize| {
+        if data.len() == n {
+            Ok(())
+        } else {
+            Err((FailureCode::DataLength, n as u32))
+        }
+    };
+    let mut g = Get::new(data);
+    match (s, st) {
+        (service::BALLISTOMETER, subtype::SET_MODE) => {
+            length(1)?;
+            match data[0] {
+                0 => Ok(Command::SetMode(Mode::Standby)),
+                1 => Ok(Command::SetMode(Mode::Operate)),
+                _ => Err((FailureCode::OutOfRange, 0)),
+            }
+        }
+        (service::BALLISTOMETER, subtype::SET_MODEL) => {
+            length(1)?;
+            match data[0] {
+                0 => Ok(Command::SetModel(Model::General)),
+                1 => Ok(Command::SetModel(Model::FreeFloat)),
+                _ => Err((FailureCode::OutOfRange, 0)),
+            }
+        }
+        (service::BALLISTOMETER, subtype::SET_HINT) => {
+            length(12)?;
+            let w: [f32; 3] = g.f32s().ok_or((FailureCode::DataLength, 12))?;
+            for (i, v) in w.iter().enumerate() {
+                real(*v, i, HINT_MAX)?;
+            }
+            Ok(Command::SetHint(w))
+        }
+        (service::BALLISTOMETER, subtype::EXCLUDE | subtype::INCLUDE) => {
+            length(1)?;
+            if usize::from(data[0]) >= ctx.channels {
+                return Err((FailureCode::OutOfRange, 0));
+            }
+            Ok(if st == subtype::EXCLUDE {
+                Command::Exclude(data[0])
+            } else {
+                Command::Include(data[0])
+            })
+        }
+        (service::BALLISTOMETER, subtype::LOAD_ARRANGEMENT) => arrangement(data, ctx),
+        (service::BALLISTOMETER, subtype::SET_RATES) => {
+            length(4)?;
+            let motion_every = g.u16().unwrap_or(0);
+            let housekeeping_every = g.u16().unwrap_or(0);
+            if !(1..=MOTION_EVERY_MAX).contains(&motion_every) {
+                return Err((FailureCode::OutOfRange, 0));
+            }
+            if housekeeping_every == 0 {
+                return Err((FailureCode::OutOfRange, 1));
+            }
+            Ok(Command::SetRates {
+                motion_every,
+                housekeeping_every,
+            })
+        }
+        (service::HOUSEKEEPING, subtype::HK_ONE_SHOT) => {
+            // N, then N structure IDs; this unit has one housekeeping structure.
+            let n = g.u8().ok_or((FailureCode::DataLength, 3))?;
+            length(1 + 2 * usize::from(n))?;
+            if n == 0 {
+                return Err((FailureCode::OutOfRange, 0));
+            }
+            for i in 0..n {
+                if g.u16() != Some(sid::HOUSEKEEPING) {
+                    return Err((FailureCode::OutOfRange, 1 + u32::from(i)));
+                }
+            }
+            Ok(Command::ReportHousekeeping)
+        }
+        (service::TEST, subtype::ARE_YOU_ALIVE) => {
+            length(0)?;
+            Ok(Command::AreYouAlive)
+        }
+        _ => Err((
+            FailureCode::UnknownCommand,
+            (u32::from(s) << 8) | u32::from(st),
+        )),
+    }
+}
+
+/// A real field: finite and at most `max` in magnitude.
+fn real(v: f32, field: usize, max: f32) -> Result<f64, Refusal> {
+    if !v.is_finite() {
+        return Err((FailureCode::NotFinite, field as u32));
+    }
+    if !(v.abs() <= max) {
+        return Err((FailureCode::OutOfRange, field as u32));
+    }
+    Ok(f64::from(v))
+}
+
+/// TC[200,6]: N (u8), then per channel position, axis, noise. Field indices count the
+/// reals from 0 after N: channel `c`, value `j` is field `1 + 7c + j`.
+fn arrangement(data: &[u8], ctx: Context) -> Result<Command, Refusal> {
+    let n = usize::from(*data.first().ok_or((FailureCode::DataLength, 1))?);
+    let expected = 1 + CHANNEL_LEN * n;
+    if data.len() != expected {
+        return Err((FailureCode::DataLength, expected as u32));
+    }
+    if n != ctx.channels {
+        // The parts feed a fixed set of channels: a geometry for another count cannot apply.
+        return Err((FailureCode::OutOfRange, 0));
+    }
+    let mut g = Get::new(&data[1..]);
+    let mut arr = Arrangement::<MAX_CHANNELS>::new();
+    for c in 0..n {
+        let v: [f32; 7] = g.f32s().ok_or((FailureCode::DataLength, expected as u32))?;
+        let field = |j: usize| 1 + 7 * c + j;
+        let mut position = [0.0; 3];
+        let mut axis = [0.0; 3];
+        for j in 0..3 {
+            position[j] = real(v[j], field(j), POSITION_MAX)?;
+            axis[j] = real(v[3 + j], field(3 + j), 1.0)?;
+        }
+        if axis.iter().map(|a| a * a).sum::<f64>() < 0.25 {
+            // Not a unit vector by a wide margin (|s| < 0.5): a typo, not a rounding.
+            return Err((FailureCode::OutOfRange, field(3) as u32));
+        }
+        let noise = real(v[6], field(6), NOISE_MAX)?;
+        if !(noise > 0.0) {
+            return Err((FailureCode::OutOfRange, field(6) as u32));
+        }
+        arr.push(position, axis, noise)
+            .map_err(|e| (FailureCode::Refused, config_error_code(&e)))?;
+    }
+    Ok(Command::LoadArrangement(arr))
+}
+
+/// Runs the parser on arbitrary octets: the fuzz target's body (and the host tests' own
+/// mutation run). Returns whether the packet was accepted.
+pub fn fuzz_one(data: &[u8]) -> bool {
+    let channels = data.first().map_or(12, |b| usize::from(b % 25));
+    parse(data, Context { channels }).is_ok()
+}

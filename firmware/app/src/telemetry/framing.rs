@@ -1,0 +1,226 @@
+//! Framing on the serial link: COBS (consistent overhead byte stuffing) with a `0x00`
+//! delimiter after every packet.
+//!
+//! COBS removes every zero byte from the packet, so a zero on the line always ends a frame: a
+//! receiver that starts mid-stream, or loses bytes to line noise, is back in step at the next
+//! zero. The overhead is one byte per 254 plus the delimiter. Integrity is the packet's own
+//! CRC (the PUS packet error control field); framing only delimits.
+
+/// The frame delimiter.
+pub const DELIMITER: u8 = 0;
+
+/// Bytes a frame of an `n`-byte packet takes at most (code bytes and the delimiter).
+pub const fn max_encoded_len(n: usize) -> usize {
+    n + n / 254 + 2
+}
+
+/// Encodes `packet` into `out` followed by the delimiter; returns the frame length, or `None`
+/// if `out` is too small (see [`max_encoded_len`]).
+pub fn encode(packet: &[u8], out: &mut [u8]) -> Option<usize> {
+    if out.len() < max_encoded_len(packet.len()) {
+        return None;
+    }
+    let mut code_at = 0;
+    let mut w = 1;
+    let mut code = 1u8;
+    for &b in packet {
+        if b == 0 {
+            out[code_at] = code;
+            code_at = w;
+            w += 1;
+            code = 1;
+        } else {
+            out[w] = b;
+            w += 1;
+            code += 1;
+            if code == 0xFF {
+                out[code_at] = code;
+                code_at = w;
+                w += 1;
+                code = 1;
+            }
+        }
+    }
+    out[code_at] = code;
+    out[w] = DELIMITER;
+    Some(w + 1)
+}
+
+/// Decodes one frame body (without its delimiter) in place; returns the packet length, or
+/// `None` if the body is not valid COBS (a zero byte, or a code running past the end).
+pub fn decode_in_place(frame: &mut [u8]) -> Option<usize> {
+    let mut r = 0;
+    let mut w = 0;
+    while r < frame.len() {
+        let code = frame[r];
+        if code == 0 {
+            return None;
+        }
+        let end = r + usize::from(code);
+        if end > frame.len() {
+            return None;
+        }
+        r += 1;
+        while r < end {
+            if frame[r] == 0 {
+                return None;
+            }
+            frame[w] = frame[r];
+            w += 1;
+            r += 1;
+        }
+        // A code below 0xFF stands for a zero, except after the last group.
+        if code < 0xFF && r < frame.len() {
+            frame[w] = 0;
+            w += 1;
+        }
+    }
+    Some(w)
+}
+
+/// What [`Deframer::push`] found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Deframed {
+    /// Nothing complete yet.
+    Pending,
+    /// A packet of this length is in [`Deframer::packet`].
+    Packet(usize),
+    /// A frame ended but could not be used: too long for the buffer, or not valid COBS.
+    Garbage,
+}
+
+/// Receives a byte stream and hands out whole packets; resynchronises at every delimiter.
+pub struct Deframer<const N: usize> {
+    buf: [u8; N],
+    len: usize,
+    overflow: bool,
+}
+
+impl<const N: usize> Default for Deframer<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> Deframer<N> {
+    /// An empty receiver (frames longer than `N` bytes are dropped as garbage).
+    pub const fn new() -> Self {
+        Deframer {
+            buf: [0; N],
+            len: 0,
+            overflow: false,
+        }
+    }
+
+    /// One byte from the line.
+    pub fn push(&mut self, byte: u8) -> Deframed {
+        if byte != DELIMITER {
+            if self.len < N {
+                self.buf[self.len] = byte;
+                self.len += 1;
+            } else {
+                self.overflow = true;
+            }
+            return Deframed::Pending;
+        }
+        let (len, overflow) = (self.len, self.overflow);
+        self.len = 0;
+        self.overflow = false;
+        if len == 0 && !overflow {
+            // Back-to-back delimiters (idle line, or a sender flushing): no frame.
+            return Deframed::Pending;
+        }
+        if overflow {
+            return Deframed::Garbage;
+        }
+        match decode_in_place(&mut self.buf[..len]) {
+            Some(n) => Deframed::Packet(n),
+            None => Deframed::Garbage,
+        }
+    }
+
+    /// The packet announced by the last [`Deframed::Packet`] (valid until the next `push`).
+    pub fn packet(&self, len: usize) -> &[u8] {
+        &self.buf[..len.min(N)]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn roundtrip(packet: &[u8]) {
+        let mut frame = [0u8; 700];
+        let n = encode(packet, &mut frame).unwrap();
+        assert!(n <= max_encoded_len(packet.len()));
+        assert_eq!(frame[n - 1], DELIMITER);
+        assert!(!frame[..n - 1].contains(&0), "{packet:?}");
+        let mut d = Deframer::<700>::new();
+        let mut got = None;
+        for &b in &frame[..n] {
+            if let Deframed::Packet(len) = d.push(b) {
+                got = Some(d.packet(len).to_vec());
+            }
+        }
+        assert_eq!(got.as_deref(), Some(packet));
+    }
+
+    extern crate std;
+    use std::vec::Vec;
+
+    #[test]
+    fn packets_survive_framing() {
+        roundtrip(&[1]);
+        roundtrip(&[0]);
+        roundtrip(&[0, 0, 0]);
+        roundtrip(&[1, 0, 2, 0]);
+        let long: Vec<u8> = (0..600).map(|i| (i % 256) as u8).collect();
+        roundtrip(&long);
+        let no_zero: Vec<u8> = (0..600).map(|i| (i % 255 + 1) as u8).collect();
+        roundtrip(&no_zero);
+        roundtrip(&no_zero[..254]);
+        roundtrip(&no_zero[..255]);
+    }
+
+    #[test]
+    fn garbage_before_a_frame_costs_only_that_frame() {
+        let mut frame = [0u8; 64];
+        let n = encode(&[7, 0, 9, 11], &mut frame).unwrap();
+        let mut d = Deframer::<16>::new();
+        // Noise with a zero in it, then a truncated frame, then the real one.
+        let mut out = Vec::new();
+        for &b in [3u8, 0xAA, 0, 5, 1, 2].iter().chain(frame[..n].iter()) {
+            match d.push(b) {
+                Deframed::Packet(len) => out.push(Ok(d.packet(len).to_vec())),
+                Deframed::Garbage => out.push(Err(())),
+                Deframed::Pending => {}
+            }
+        }
+        // "3 AA" is invalid COBS (code 3 runs past the end); "5 1 2 <frame>" runs into the
+        // frame's code bytes and is rejected or decoded as one garbled frame ending at its zero.
+        assert_eq!(out[0], Err(()));
+        assert_eq!(out.len(), 2);
+        // Next frame after the damaged one is received intact.
+        let mut again = Vec::new();
+        for &b in &frame[..n] {
+            if let Deframed::Packet(len) = d.push(b) {
+                again.push(d.packet(len).to_vec());
+            }
+        }
+        assert_eq!(again, [std::vec![7, 0, 9, 11]]);
+    }
+
+    #[test]
+    fn an_overlong_frame_is_garbage_and_the_next_is_received() {
+        let mut d = Deframer::<4>::new();
+        for b in 1..=10u8 {
+            assert_eq!(d.push(b), Deframed::Pending);
+        }
+        assert_eq!(d.push(0), Deframed::Garbage);
+        for b in [2u8, 5] {
+            d.push(b);
+        }
+        assert_eq!(d.push(0), Deframed::Packet(1));
+        assert_eq!(d.packet(1), &[5]);
+    }
+}

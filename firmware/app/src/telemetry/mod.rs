@@ -1,0 +1,91 @@
+//! Telemetry on the spacecraft bus: PUS packets ([`packets`]) framed for a serial link
+//! ([`framing`]), written by [`Telemetry`] with one contiguous CCSDS sequence count.
+//!
+//! Every packet carries the PUS packet error control (CRC-16-CCITT), a CUC time stamp (time
+//! since boot) and the next sequence count, so the ground sees corruption and loss. The
+//! layouts are described for ground segments in `docs/telemetry.md`.
+
+pub mod framing;
+pub mod packets;
+
+use arbitrary_int::{u11, u14};
+use embedded_io_async::Write;
+use spacepackets::ecss::tm::{PusTmCreator, PusTmSecondaryHeader};
+use spacepackets::ecss::{CreatorConfig, MessageTypeId};
+use spacepackets::SpHeader;
+
+use crate::time::Nanos;
+use packets::{cuc, APID, TM_MAX};
+
+/// The telemetry writer: builds, frames and sends packets on a link.
+pub struct Telemetry<W> {
+    link: W,
+    sequence: u16,
+    packet: [u8; TM_MAX],
+    frame: [u8; framing::max_encoded_len(TM_MAX)],
+    sent: u32,
+    lost: u32,
+}
+
+impl<W: Write> Telemetry<W> {
+    /// Telemetry on `link`, sequence count from 0.
+    pub fn new(link: W) -> Self {
+        Telemetry {
+            link,
+            sequence: 0,
+            packet: [0; TM_MAX],
+            frame: [0; framing::max_encoded_len(TM_MAX)],
+            sent: 0,
+            lost: 0,
+        }
+    }
+
+    /// Packets handed to the link.
+    pub fn sent(&self) -> u32 {
+        self.sent
+    }
+
+    /// Packets the link failed to take (write error). Their sequence counts are used, so the
+    /// ground sees the gap.
+    pub fn lost(&self) -> u32 {
+        self.lost
+    }
+
+    /// The link (to flush or close it).
+    pub fn link(&mut self) -> &mut W {
+        &mut self.link
+    }
+
+    /// Sends one packet TM[`service`,`subtype`] stamped `t` with application data `data`.
+    pub async fn send(&mut self, t: Nanos, service: u8, subtype: u8, data: &[u8]) {
+        let stamp = cuc(t);
+        let header = SpHeader::new_for_unseg_tm(
+            u11::new(APID),
+            u14::new(self.sequence & 0x3FFF),
+            0,
+        );
+        self.sequence = (self.sequence + 1) & 0x3FFF;
+        let sec = PusTmSecondaryHeader::new_simple(MessageTypeId::new(service, subtype), &stamp);
+        let tm = PusTmCreator::new(header, sec, data, CreatorConfig::default());
+        let framed = tm
+            .write_to_slice(&mut self.packet)
+            .ok()
+            .and_then(|n| framing::encode(&self.packet[..n], &mut self.frame));
+        let ok = match framed {
+            Some(n) => self.link.write_all(&self.frame[..n]).await.is_ok(),
+            None => false,
+        };
+        if ok {
+            self.sent = self.sent.wrapping_add(1);
+        } else {
+            self.lost = self.lost.wrapping_add(1);
+        }
+    }
+
+    /// Waits until the link has sent everything (end of a run).
+    pub async fn flush(&mut self) {
+        if self.link.flush().await.is_err() {
+            self.lost = self.lost.wrapping_add(1);
+        }
+    }
+}
