@@ -23,8 +23,12 @@ use firmware::config::{
     Alignment, AppConfig, PartConfig, PartKind, SamplingConfig, MAX_CHANNELS, MAX_PARTS,
 };
 use firmware::drivers::{adxl355, lis3dh};
-use firmware::estimation::{estimation_task, Estimation, Motion, TelemetrySink};
-use firmware::sampler::{sampling_task, LoopHealth, PartBus, PartHealth, SampleSet, Sampler};
+use firmware::app::{app_task, uplink_task, App, Incoming, Mode, COMMAND_QUEUE};
+use firmware::estimation::{Motion, Tap};
+use firmware::sampler::{
+    sampling_task, HealthBoard, LoopHealth, PartBus, PartHealth, SampleSet, Sampler,
+};
+use firmware::telemetry::Telemetry;
 use firmware::time::{Nanos, TimeBase};
 
 use crate::arrangement_file::LoadedArrangement;
@@ -160,13 +164,19 @@ pub struct FirmwareReport {
     pub cpu_mean: f64,
     /// See `cpu_mean`.
     pub cpu_max: f64,
-    /// Size of the sampling and estimation task futures (bytes): their static storage as
-    /// embassy tasks.
-    pub task_sizes: (usize, usize),
+    /// Size of the sampling, application and uplink task futures (bytes): their static
+    /// storage as embassy tasks (the application task's holds references to the state).
+    pub task_sizes: (usize, usize, usize),
     /// Per bus, sample sets only: name, bytes, busy time (s).
     pub buses: Vec<(String, u64, f64)>,
     /// Size of the estimation state (bytes).
     pub estimation_size: usize,
+    /// Size of the application state, estimation included (bytes).
+    pub app_size: usize,
+    /// The application's last housekeeping values.
+    pub housekeeping: firmware::telemetry::packets::Housekeeping,
+    /// Every byte the firmware sent on its telemetry link.
+    pub telemetry: Vec<u8>,
     /// Per free-running part: half-width of its conversion-time interval at the end (s).
     pub clock_uncertainty: Vec<Option<f64>>,
 }
@@ -185,7 +195,7 @@ struct HostSink<'a> {
     emit: Emit<'a>,
 }
 
-impl TelemetrySink for HostSink<'_> {
+impl Tap for HostSink<'_> {
     async fn sample_set(&mut self, set: &SampleSet) {
         self.set = Some(*set);
         self.started = Instant::now();
@@ -201,6 +211,56 @@ impl TelemetrySink for HostSink<'_> {
     }
 }
 
+/// Telecommands for a run: at each time (scenario seconds) the bytes that arrive on the
+/// command link (normally COBS frames).
+pub type Uplink = [(f64, Vec<u8>)];
+
+/// The host side of the command link: hands out each scheduled chunk once the rig's clock has
+/// reached its time, and nothing more after the last one.
+struct HostUplink<'a> {
+    clock: SimClock,
+    schedule: &'a Uplink,
+    next: usize,
+}
+
+impl embedded_io_async::ErrorType for HostUplink<'_> {
+    type Error = Infallible;
+}
+
+impl embedded_io_async::Read for HostUplink<'_> {
+    async fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
+        let Some((at, bytes)) = self.schedule.get(self.next) else {
+            return core::future::pending().await;
+        };
+        while self.clock.now() < *at {
+            yield_now().await;
+        }
+        let n = bytes.len().min(buf.len());
+        buf[..n].copy_from_slice(&bytes[..n]);
+        self.next += 1;
+        Ok(n)
+    }
+}
+
+/// The host side of the telemetry link: keeps every byte.
+#[derive(Default)]
+pub struct Downlink(pub Vec<u8>);
+
+impl embedded_io_async::ErrorType for Downlink {
+    type Error = Infallible;
+}
+
+impl embedded_io_async::Write for Downlink {
+    async fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
+        self.0.extend_from_slice(buf);
+        Ok(buf.len())
+    }
+
+    async fn flush(&mut self) -> Result<(), Infallible> {
+        Ok(())
+    }
+}
+
 /// Runs the firmware on a scenario's rig over `instants` sample instants (sampled, or skipped
 /// after an overrun); `emit` gets every sample set with the estimate made from it and the
 /// truth at its instant.
@@ -208,6 +268,18 @@ pub fn run_firmware(
     sc: &Scenario,
     config: &AppConfig,
     instants: u32,
+    emit: Emit,
+) -> Result<FirmwareReport, String> {
+    run_firmware_with(sc, config, instants, &[], emit)
+}
+
+/// [`run_firmware`] with telecommands arriving on the command link (`uplink`, one chunk of
+/// bytes at a time).
+pub fn run_firmware_with(
+    sc: &Scenario,
+    config: &AppConfig,
+    instants: u32,
+    uplink: &Uplink,
     emit: Emit,
 ) -> Result<FirmwareReport, String> {
     let rig = Rig::build(sc)?;
@@ -223,9 +295,14 @@ pub fn run_firmware(
         clock: rig.clock.clone(),
     };
     let mut sampler = Sampler::new(&config.sampling, buses, sync);
-    let mut estimation = Estimation::new(config).map_err(|e| format!("firmware estimator: {e}"))?;
+    let mut app =
+        App::new(config, Mode::Operate).map_err(|e| format!("firmware estimator: {e}"))?;
     let mut time = SimTime(rig.clock.clone());
+    let app_time = SimTime(rig.clock.clone());
     let queue = Channel::<NoopRawMutex, SampleSet, { firmware::QUEUE }>::new();
+    let commands = Channel::<NoopRawMutex, Incoming, COMMAND_QUEUE>::new();
+    let health = HealthBoard::<NoopRawMutex>::new();
+    let mut telemetry = Telemetry::new(Downlink::default());
     let mut sink = HostSink {
         set: None,
         started: Instant::now(),
@@ -233,26 +310,51 @@ pub fn run_firmware(
         truth: rig.truth.clone(),
         emit,
     };
-    let estimation_size = std::mem::size_of_val(&estimation);
-    // The first sample instant at simulated time 0, as the bench reader's record.
+    let estimation_size = std::mem::size_of_val(app.estimation());
+    let app_size = std::mem::size_of_val(&app);
     let first = (-POWER_ON_NS) as Nanos;
     embassy_futures::block_on(sampler.start(&time, Some(first)));
     let start_up = rig.bus_usage();
     let task_sizes;
     {
         let sampling = async {
-            sampling_task(&mut sampler, &mut time, queue.sender(), Some(instants)).await;
-            // Until the estimation task has taken every queued set.
+            sampling_task(
+                &mut sampler,
+                &mut time,
+                queue.sender(),
+                &health,
+                Some(instants),
+            )
+            .await;
             while !queue.is_empty() {
                 yield_now().await;
             }
         };
-        let estimating = estimation_task(&mut estimation, queue.receiver(), &mut sink);
+        let application = app_task(
+            &mut app,
+            &app_time,
+            queue.receiver(),
+            commands.receiver(),
+            &health,
+            &mut telemetry,
+            &mut sink,
+            None,
+        );
+        let link = HostUplink {
+            clock: rig.clock.clone(),
+            schedule: uplink,
+            next: 0,
+        };
+        let receiving = async {
+            uplink_task(link, commands.sender()).await;
+            core::future::pending::<()>().await
+        };
         task_sizes = (
             std::mem::size_of_val(&sampling),
-            std::mem::size_of_val(&estimating),
+            std::mem::size_of_val(&application),
+            std::mem::size_of_val(&receiving),
         );
-        embassy_futures::block_on(select(sampling, estimating));
+        embassy_futures::block_on(select(sampling, select(application, receiving)));
     }
     let parts = (0..sc.parts.len())
         .map(|i| sampler.part_health(i).unwrap_or_default())
@@ -267,6 +369,7 @@ pub fn run_firmware(
         .collect();
     let (sum, max, n) = sink.cpu;
     let buses = rig.bus_usage_since(&start_up);
+    let housekeeping = app.housekeeping(telemetry.lost());
     Ok(FirmwareReport {
         parts,
         sampling: sampler.health(),
@@ -275,7 +378,10 @@ pub fn run_firmware(
         cpu_max: max,
         task_sizes,
         estimation_size,
+        app_size,
         buses,
         clock_uncertainty,
+        housekeeping,
+        telemetry: std::mem::take(&mut telemetry.link().0),
     })
 }

@@ -10,6 +10,7 @@ pub mod bench;
 pub mod bus;
 pub mod clock;
 pub mod compare;
+pub mod decode;
 pub mod estimates_csv;
 pub mod families;
 pub mod faults;

@@ -302,6 +302,9 @@ fn record_firmware(
         return Err(e.into());
     }
     estimates.flush()?;
+    let path = job.out.join("telemetry.bin");
+    std::fs::write(&path, &fw.telemetry)
+        .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
     Ok(SimReport {
         samples: fw.estimates as usize,
         channels: loaded.names.len(),

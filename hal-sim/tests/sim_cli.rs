@@ -269,6 +269,80 @@ fn sim_firmware_writes_the_firmwares_record_with_its_counters() {
     assert!(stdout.contains("bus spi1: 112056 bytes"), "{stdout}");
 }
 
+fn decode(input: &Path, out: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_ballisto"))
+        .arg("decode")
+        .arg(input)
+        .arg("--out")
+        .arg(out)
+        .args(["--time-offset", "-0.05"])
+        .arg("--log")
+        .arg(out.with_extension("txt"))
+        .output()
+        .unwrap()
+}
+
+/// `ballisto decode` of the firmware's telemetry.bin gives back its estimates.csv: every
+/// row, every column, the same text (the power-on offset of the simulated unit, 0.05 s,
+/// removed from the on-board time).
+#[test]
+fn decoding_the_firmwares_telemetry_gives_its_estimates() {
+    let d = tmpdir("decode");
+    let out = sim_firmware("tetra-orbit", &d, "interpolate");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("telemetry: "), "{stdout}");
+    let decoded = d.join("decoded.csv");
+    let out = decode(&d.join("telemetry.bin"), &decoded);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let want = std::fs::read_to_string(d.join("estimates.csv")).unwrap();
+    let got = std::fs::read_to_string(&decoded).unwrap();
+    let (want, got): (Vec<&str>, Vec<&str>) = (want.lines().collect(), got.lines().collect());
+    assert_eq!(want.len(), got.len());
+    for (w, g) in want.iter().zip(got.iter()) {
+        let n = w.split(',').count();
+        let g: Vec<&str> = g.split(',').collect();
+        assert_eq!(*w, g[..n].join(","));
+        assert_eq!(g.len(), n + 4);
+    }
+    let log = std::fs::read_to_string(decoded.with_extension("txt")).unwrap();
+    assert!(log.starts_with("t=0.000000 seq=    0 EVENT boot (info) version=0.1.0 channels=12"), "{log}");
+    // Housekeeping at boot and once a second (100 sets), at the set that completes it.
+    assert_eq!(log.matches(" HK ").count(), 21, "{log}");
+    assert!(log.contains("t=19.990000 seq= 2021 HK v0.1.0 mode=operate model=G channels=12 rate=100Hz motion_every=1 hk_every=100 sets=2000"), "{log}");
+}
+
+/// A damaged stream: the damaged packet is reported by byte offset, every other one is
+/// decoded, and the exit status says so.
+#[test]
+fn decode_reports_damage_and_keeps_the_rest() {
+    let d = tmpdir("decode-damaged");
+    let out = sim_firmware("tetra-orbit", &d, "interpolate");
+    assert!(out.status.success());
+    let mut bytes = std::fs::read(d.join("telemetry.bin")).unwrap();
+    // Frame starts: packet i (sequence count i) starts after the i-th delimiter.
+    let starts: Vec<usize> = std::iter::once(0)
+        .chain(bytes.iter().enumerate().filter(|(_, b)| **b == 0).map(|(i, _)| i + 1))
+        .collect();
+    // Packets 500 and 1500 are motion reports (housekeeping is 1, 102, 203, ...).
+    let hit = starts[500] + 40;
+    bytes[hit] = bytes[hit].wrapping_add(1).max(1);
+    bytes.drain(starts[1500]..starts[1501]);
+    let damaged = d.join("damaged.bin");
+    std::fs::write(&damaged, &bytes).unwrap();
+    let decoded = d.join("decoded.csv");
+    let out = decode(&damaged, &decoded);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("not a PUS-C TM packet (length or CRC)") || err.contains("not a COBS frame"), "{err}");
+    assert!(err.contains("packets lost"), "{err}");
+    assert!(err.contains(&format!("byte {}: not a", starts[500])), "{err}");
+    assert!(err.contains("sequence count 501 where 500 was due (1 packets lost)"), "{err}");
+    assert!(err.contains("sequence count 1501 where 1500 was due (1 packets lost)"), "{err}");
+    let rows = std::fs::read_to_string(&decoded).unwrap().lines().count();
+    assert_eq!(rows, 1 + 2001 - 2, "{err}");
+}
+
 #[test]
 fn sim_firmware_rejects_an_unknown_alignment() {
     let d = tmpdir("firmware-align");

@@ -23,6 +23,9 @@ const SIM_HELP: &str = "Named scenarios:
   tetra-orbit-faults  tetra-orbit with a stuck part, a bias jump, a dead part and corrupted bytes
 The scenario file format: hal-sim/scenarios/README.md.";
 
+const DECODE_HELP: &str = "Packet layouts: docs/telemetry.md. Exit status: 0 all packets intact and
+contiguous, 1 error (file), 2 damaged frames or sequence gaps (listed on stderr).";
+
 #[derive(Parser)]
 #[command(
     name = "ballisto",
@@ -83,6 +86,27 @@ enum Command {
         #[arg(long, value_name = "interpolate|latest", default_value = "interpolate")]
         align: String,
     },
+    /// Decode a telemetry stream (COBS-framed PUS packets, as `sim --firmware` writes in
+    /// telemetry.bin or the unit sends on its link): motion reports to an estimates file,
+    /// housekeeping, events and verification reports to readable text. Every frame's CRC
+    /// and the sequence count are checked; exit status 2 if anything was damaged or lost
+    /// (the good packets are still written).
+    #[command(after_help = DECODE_HELP)]
+    Decode {
+        /// The raw stream.
+        #[arg(value_name = "FILE")]
+        input: PathBuf,
+        /// Estimates file to write (CSV: the estimates columns, then k, missing_parts,
+        /// excluded_parts, excluded_channels).
+        #[arg(long, value_name = "FILE.csv")]
+        out: PathBuf,
+        /// Write housekeeping, events and verification reports here (default: stdout).
+        #[arg(long, value_name = "FILE.txt")]
+        log: Option<PathBuf>,
+        /// Seconds added to the on-board time (time since boot) of every packet.
+        #[arg(long, value_name = "S", default_value = "0", allow_hyphen_values = true)]
+        time_offset: f64,
+    },
     /// RMS errors of an estimates file against a truth file (matched by column name and t).
     Compare {
         /// Truth file (CSV, as written by the simulator).
@@ -112,7 +136,7 @@ fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
     Ok(v)
 }
 
-fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
+fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
     match cli.command {
         Command::Estimate {
             arrangement,
@@ -162,7 +186,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
                     eprintln!("  {c:>8} rows flagged {name} ({bit})");
                 }
             }
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
         Command::Sim {
             scenario,
@@ -232,7 +256,34 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             for f in &r.files {
                 println!("  wrote {}", f.display());
             }
-            Ok(())
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Decode {
+            input,
+            out,
+            log,
+            time_offset,
+        } => {
+            let (stream, rows, text) =
+                hal_sim::decode::decode_file(&input, &out, log.as_deref(), time_offset)?;
+            if log.is_none() {
+                print!("{text}");
+            }
+            eprintln!(
+                "{}: {} packets, {rows} motion reports to {}, {} problems",
+                input.display(),
+                stream.packets.len(),
+                out.display(),
+                stream.problems.len()
+            );
+            for p in &stream.problems {
+                eprintln!("ballisto: {}: {p}", input.display());
+            }
+            Ok(if stream.problems.is_empty() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(2)
+            })
         }
         Command::Compare { truth, estimates } => {
             let c = hal_sim::compare::compare(&truth, &estimates)?;
@@ -241,7 +292,7 @@ fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
             println!("RMS error  domega {:.3e} rad/s^2", c.domega);
             println!("RMS error  omega  {:.3e} rad/s", c.omega);
             println!("RMS error  A      {:.3e} 1/s^2", c.field);
-            Ok(())
+            Ok(ExitCode::SUCCESS)
         }
     }
 }
@@ -264,19 +315,31 @@ fn print_firmware(sc: &hal_sim::scenario::Scenario, fw: &hal_sim::firmware_host:
         );
     }
     println!(
-        "  estimation CPU (host) {:.1} us mean, {:.1} us max per sample set; task futures {} + {} bytes, estimator state {} bytes",
+        "  estimation CPU (host) {:.1} us mean, {:.1} us max per sample set; task futures {} + {} + {} bytes (sampling, application, uplink), application state {} bytes (estimation {})",
         fw.cpu_mean * 1e6,
         fw.cpu_max * 1e6,
         fw.task_sizes.0,
         fw.task_sizes.1,
+        fw.task_sizes.2,
+        fw.app_size,
         fw.estimation_size
+    );
+    let h = &fw.housekeeping;
+    println!(
+        "  telemetry: {} bytes in telemetry.bin ({:.0} bytes/s), {} estimates, {} telecommands accepted, {} refused, {} packets lost",
+        fw.telemetry.len(),
+        fw.telemetry.len() as f64 / (f64::from(l.sets.max(1)) / sc.rate),
+        h.estimates,
+        h.tc_accepted,
+        h.tc_rejected,
+        h.tm_lost
     );
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("ballisto: {e}");
             ExitCode::FAILURE

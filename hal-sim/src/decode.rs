@@ -1,0 +1,217 @@
+//! The ground side of the telemetry link (`ballisto decode`): a byte stream → packets, each
+//! checked (COBS frame, length, CRC, APID, layout) and its sequence count followed, → the
+//! estimates file and a readable log of housekeeping, events and verification reports.
+
+use std::fmt::Write as _;
+use std::io::Write;
+use std::path::Path;
+
+use firmware::telemetry::framing::{max_encoded_len, Deframed, Deframer};
+use firmware::telemetry::packets::{
+    decode, Decoded, EventId, Housekeeping, PartState, Report, TC_MAX,
+};
+
+/// Extra columns of the decoded estimates file, after the estimates-file columns.
+pub const LINK_COLUMNS: [&str; 4] = ["k", "missing_parts", "excluded_parts", "excluded_channels"];
+
+/// A decoded stream.
+#[derive(Debug, Default)]
+pub struct Stream {
+    /// The packets that passed every check, in order.
+    pub packets: Vec<Decoded>,
+    /// What was wrong, one sentence each (byte offset of the frame's end).
+    pub problems: Vec<String>,
+}
+
+/// Splits `bytes` into frames and decodes them; damaged frames and gaps in the sequence count
+/// are listed in [`Stream::problems`], never silently skipped.
+pub fn decode_stream(bytes: &[u8]) -> Stream {
+    let mut deframer = Deframer::<{ max_encoded_len(TC_MAX) }>::new();
+    let mut out = Stream::default();
+    let mut next: Option<u16> = None;
+    let mut pending_start = 0usize;
+    for (offset, &b) in bytes.iter().enumerate() {
+        let frame = match deframer.push(b) {
+            Deframed::Pending => continue,
+            Deframed::Garbage => Err("not a COBS frame (or longer than any packet)".to_string()),
+            Deframed::Packet(n) => decode(deframer.packet(n)).map_err(|e| e.to_string()),
+        };
+        let at = pending_start;
+        pending_start = offset + 1;
+        match frame {
+            Ok(p) => {
+                if let Some(expected) = next {
+                    if p.sequence != expected {
+                        let lost = p.sequence.wrapping_sub(expected) & 0x3FFF;
+                        out.problems.push(format!(
+                            "byte {at}: sequence count {} where {expected} was due ({lost} packets lost)",
+                            p.sequence
+                        ));
+                    }
+                }
+                next = Some((p.sequence + 1) & 0x3FFF);
+                out.packets.push(p);
+            }
+            Err(e) => out.problems.push(format!("byte {at}: {e}")),
+        }
+    }
+    if pending_start < bytes.len() {
+        out.problems.push(format!(
+            "byte {pending_start}: the stream ends inside a frame ({} bytes without a delimiter)",
+            bytes.len() - pending_start
+        ));
+    }
+    out
+}
+
+/// Writes the motion reports as an estimates file (interfaces.md columns, then
+/// [`LINK_COLUMNS`]); `t` is the packet time (s since boot) plus `time_offset`, rounded to
+/// 0.1 µs (the CUC fine time has 2⁻²⁴ s ≈ 60 ns steps, so a time on a 0.1 µs grid on board
+/// comes back exactly).
+pub fn write_estimates<W: Write>(
+    w: &mut W,
+    stream: &Stream,
+    time_offset: f64,
+) -> std::io::Result<usize> {
+    crate::estimates_csv::write_header(&mut RowWithout(w, &LINK_COLUMNS))?;
+    let mut rows = 0;
+    let mut line = Vec::with_capacity(512);
+    for p in &stream.packets {
+        let Report::Motion(m) = &p.report else {
+            continue;
+        };
+        line.clear();
+        let t = ((p.t + time_offset) * 1e7).round() / 1e7;
+        crate::estimates_csv::write_row(&mut line, t, &m.estimate)?;
+        line.pop();
+        w.write_all(&line)?;
+        writeln!(
+            w,
+            ",{},{},{},{}",
+            m.k, m.missing_parts, m.excluded_parts, m.excluded_channels
+        )?;
+        rows += 1;
+    }
+    Ok(rows)
+}
+
+/// Appends extra columns to the header line written through it.
+struct RowWithout<'a, W>(&'a mut W, &'a [&'a str]);
+
+impl<W: Write> Write for RowWithout<'_, W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if buf.last() == Some(&b'\n') {
+            self.0.write_all(&buf[..buf.len() - 1])?;
+            write!(self.0, ",{}", self.1.join(","))?;
+            self.0.write_all(b"\n")?;
+        } else {
+            self.0.write_all(buf)?;
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
+}
+
+/// One line of text per packet other than motion: housekeeping, events, verification.
+pub fn log_line(p: &Decoded, time_offset: f64) -> Option<String> {
+    let head = format!("t={:.6} seq={:5}", p.t + time_offset, p.sequence);
+    let body = match &p.report {
+        Report::Motion(_) => return None,
+        Report::Housekeeping(h) => housekeeping_text(h),
+        Report::Event(e) => {
+            let severity = ["", "info", "low", "medium", "high"][usize::from(e.id.severity())];
+            let detail = match e.id {
+                EventId::PartsExcluded | EventId::PartsIncluded => {
+                    format!("parts={:#04x} channels_out={:#08x}", e.a, e.b)
+                }
+                EventId::Boot => format!(
+                    "version={}.{}.{} channels={}",
+                    e.a >> 16,
+                    (e.a >> 8) & 0xFF,
+                    e.a & 0xFF,
+                    e.b
+                ),
+                _ => format!("a={} b={}", e.a, e.b),
+            };
+            format!("EVENT {} ({severity}) {detail}", e.id.name())
+        }
+        Report::Verification(v) => {
+            let what = match v.subtype {
+                1 => "accepted",
+                2 => "NOT ACCEPTED",
+                7 => "completed",
+                _ => "NOT COMPLETED",
+            };
+            let mut s = format!(
+                "TC {:#06x}/{:#06x} {what}",
+                v.request.packet_id, v.request.sequence
+            );
+            if let Some((code, data)) = v.failure {
+                let _ = write!(s, ": {} (code {}, data {data:#x})", code.describe(), code as u16);
+            }
+            s
+        }
+        Report::Alive => "ALIVE".to_string(),
+    };
+    Some(format!("{head} {body}"))
+}
+
+fn housekeeping_text(h: &Housekeeping) -> String {
+    let mut s = format!(
+        "HK v{}.{}.{} mode={} model={} channels={} rate={}Hz motion_every={} hk_every={} sets={} skipped={} dropped={} sync_errors={} estimates={} excluded_parts={:#04x} commanded_out={:#08x} channels_out={:#08x} tc_accepted={} tc_rejected={} frames_garbage={} tm_lost={}",
+        h.version[0], h.version[1], h.version[2],
+        if h.mode == 1 { "operate" } else { "standby" },
+        if h.model == 1 { "F" } else { "G" },
+        h.channels, h.rate_hz, h.motion_every, h.housekeeping_every, h.sets, h.skipped,
+        h.dropped, h.sync_errors, h.estimates, h.excluded_parts, h.commanded_out,
+        h.excluded_channels, h.tc_accepted, h.tc_rejected, h.frames_garbage, h.tm_lost
+    );
+    for (i, c) in h.parts.iter().enumerate() {
+        if c.state == PartState::Absent {
+            continue;
+        }
+        let state = if c.state == PartState::Running { "running" } else { "DOWN" };
+        let _ = write!(
+            s,
+            " | part{i} {state} reads={} bus_errors={} implausible={} missed={} failed_starts={} resyncs={}",
+            c.reads, c.bus_errors, c.implausible, c.missed, c.failed_starts, c.resyncs
+        );
+    }
+    s
+}
+
+/// `ballisto decode`: reads `input`, writes the estimates to `out` and the log to `log` (or
+/// returns it). Returns the stream for the caller's summary.
+pub fn decode_file(
+    input: &Path,
+    out: &Path,
+    log: Option<&Path>,
+    time_offset: f64,
+) -> Result<(Stream, usize, String), String> {
+    let bytes =
+        std::fs::read(input).map_err(|e| format!("{}: cannot read: {e}", input.display()))?;
+    let stream = decode_stream(&bytes);
+    let file = std::fs::File::create(out)
+        .map_err(|e| format!("{}: cannot create: {e}", out.display()))?;
+    let mut w = std::io::BufWriter::new(file);
+    let rows = write_estimates(&mut w, &stream, time_offset)
+        .and_then(|n| w.flush().map(|_| n))
+        .map_err(|e| format!("{}: {e}", out.display()))?;
+    let mut text = String::new();
+    for p in &stream.packets {
+        if let Some(l) = log_line(p, time_offset) {
+            text.push_str(&l);
+            text.push('\n');
+        }
+    }
+    for p in &stream.problems {
+        let _ = writeln!(text, "PROBLEM {p}");
+    }
+    if let Some(log) = log {
+        std::fs::write(log, &text).map_err(|e| format!("{}: cannot write: {e}", log.display()))?;
+    }
+    Ok((stream, rows, text))
+}
