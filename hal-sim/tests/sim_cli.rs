@@ -320,14 +320,14 @@ fn decode_reports_damage_and_keeps_the_rest() {
     let out = sim_firmware("tetra-orbit", &d, "interpolate");
     assert!(out.status.success());
     let mut bytes = std::fs::read(d.join("telemetry.bin")).unwrap();
-    // Frame starts: packet i (sequence count i) starts after the i-th delimiter.
-    let starts: Vec<usize> = std::iter::once(0)
-        .chain(bytes.iter().enumerate().filter(|(_, b)| **b == 0).map(|(i, _)| i + 1))
-        .collect();
+    // Every frame is delimiter, COBS, delimiter: packet i (sequence count i) starts at the
+    // (2i)-th zero and ends at the next.
+    let zeros: Vec<usize> = (0..bytes.len()).filter(|i| bytes[*i] == 0).collect();
+    let starts: Vec<usize> = zeros.iter().step_by(2).copied().collect();
     // Packets 500 and 1500 are motion reports (housekeeping is 1, 102, 203, ...).
     let hit = starts[500] + 40;
     bytes[hit] = bytes[hit].wrapping_add(1).max(1);
-    bytes.drain(starts[1500]..starts[1501]);
+    bytes.drain(starts[1500]..=zeros[2 * 1500 + 1]);
     let damaged = d.join("damaged.bin");
     std::fs::write(&damaged, &bytes).unwrap();
     let decoded = d.join("decoded.csv");

@@ -3,25 +3,27 @@
 //!
 //! COBS removes every zero byte from the packet, so a zero on the line always ends a frame: a
 //! receiver that starts mid-stream, or loses bytes to line noise, is back in step at the next
-//! zero. The overhead is one byte per 254 plus the delimiter. Integrity is the packet's own
+//! zero. Every frame also starts with a delimiter, so noise on an idle line ends before the
+//! frame instead of merging with it. The overhead is one byte per 254 plus two delimiters. Integrity is the packet's own
 //! CRC (the PUS packet error control field); framing only delimits.
 
 /// The frame delimiter.
 pub const DELIMITER: u8 = 0;
 
-/// Bytes a frame of an `n`-byte packet takes at most (code bytes and the delimiter).
+/// Bytes a frame of an `n`-byte packet takes at most (code bytes and the delimiters).
 pub const fn max_encoded_len(n: usize) -> usize {
-    n + n / 254 + 2
+    n + n / 254 + 3
 }
 
-/// Encodes `packet` into `out` followed by the delimiter; returns the frame length, or `None`
+/// Encodes `packet` into `out` between two delimiters; returns the frame length, or `None`
 /// if `out` is too small (see [`max_encoded_len`]).
 pub fn encode(packet: &[u8], out: &mut [u8]) -> Option<usize> {
     if out.len() < max_encoded_len(packet.len()) {
         return None;
     }
-    let mut code_at = 0;
-    let mut w = 1;
+    out[0] = DELIMITER;
+    let mut code_at = 1;
+    let mut w = 2;
     let mut code = 1u8;
     for &b in packet {
         if b == 0 {
@@ -153,8 +155,8 @@ mod tests {
         let mut frame = [0u8; 700];
         let n = encode(packet, &mut frame).unwrap();
         assert!(n <= max_encoded_len(packet.len()));
-        assert_eq!(frame[n - 1], DELIMITER);
-        assert!(!frame[..n - 1].contains(&0), "{packet:?}");
+        assert_eq!((frame[0], frame[n - 1]), (DELIMITER, DELIMITER));
+        assert!(!frame[1..n - 1].contains(&0), "{packet:?}");
         let mut d = Deframer::<700>::new();
         let mut got = None;
         for &b in &frame[..n] {
@@ -196,18 +198,9 @@ mod tests {
                 Deframed::Pending => {}
             }
         }
-        // "3 AA" is invalid COBS (code 3 runs past the end); "5 1 2 <frame>" runs into the
-        // frame's code bytes and is rejected or decoded as one garbled frame ending at its zero.
-        assert_eq!(out[0], Err(()));
-        assert_eq!(out.len(), 2);
-        // Next frame after the damaged one is received intact.
-        let mut again = Vec::new();
-        for &b in &frame[..n] {
-            if let Deframed::Packet(len) = d.push(b) {
-                again.push(d.packet(len).to_vec());
-            }
-        }
-        assert_eq!(again, [std::vec![7, 0, 9, 11]]);
+        // "3 AA" is invalid COBS (code 3 runs past the end), "5 1 2" too (ended by the
+        // frame's leading delimiter); the frame itself arrives intact.
+        assert_eq!(out, [Err(()), Err(()), Ok(std::vec![7, 0, 9, 11])]);
     }
 
     #[test]
