@@ -14,7 +14,8 @@
 //! - [`telemetry`] — PUS packets, CCSDS sequence counts, CRC, COBS framing on the link;
 //!   [`telecommand`] — acceptance of received commands.
 //! - [`config`] — what runs: parts, channels, rate, arrangement, model (built-in table or
-//!   command); [`time`] — the time base.
+//!   command); [`time`] — the time base; [`scenario`] — the built-in scenario of boards
+//!   without parts (sample sets from [`sampler::synthetic`], a scripted uplink).
 //!
 //! The tasks are async functions ([`sampler::sampling_task`], [`app::app_task`],
 //! [`app::uplink_task`]) joined by bounded queues; a board spawns them on the embassy
@@ -29,6 +30,7 @@ pub mod config;
 pub mod drivers;
 pub mod estimation;
 pub mod sampler;
+pub mod scenario;
 pub mod telecommand;
 pub mod telemetry;
 pub mod time;

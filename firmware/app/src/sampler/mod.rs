@@ -14,6 +14,7 @@
 
 pub mod conversion_clock;
 pub mod health;
+pub mod synthetic;
 pub mod part;
 
 use embassy_sync::blocking_mutex::raw::RawMutex;

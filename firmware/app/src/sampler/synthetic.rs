@@ -1,0 +1,164 @@
+//! A built-in scenario in place of the parts: sample sets computed from a known motion, for
+//! boards without accelerometers (QEMU in CI) and as a reference the ground can recompute.
+//!
+//! The body tumbles smoothly ([`motion`]); each channel reads paper eq. (4),
+//! `p = s·(σ0 + Ω′×R + Ω×(Ω×R))`, plus a deterministic pseudo-noise of the channel's RMS. One
+//! part can be silenced for a while ([`Outage`]) so that the health, event and exclusion paths
+//! run too.
+
+use embassy_sync::blocking_mutex::raw::RawMutex;
+use embassy_sync::channel::Sender;
+use estimator_core::linalg::{add, cross, dot, Vec3};
+
+use super::{Health, HealthBoard, LoopHealth, PartHealth, SampleSet};
+use crate::config::{AppConfig, MAX_PARTS};
+use crate::time::{seconds, Nanos, TimeBase};
+
+/// The motion at time `t` (s since the first instant): σ0, Ω′, Ω (body frame).
+pub fn motion(t: f64) -> (Vec3<f64>, Vec3<f64>, Vec3<f64>) {
+    use libm::{cos, sin};
+    let omega = [
+        0.3 + 0.4 * sin(0.5 * t),
+        -0.4 + 0.3 * cos(0.3 * t),
+        0.8 + 0.2 * sin(0.7 * t),
+    ];
+    let domega = [0.2 * cos(0.5 * t), -0.09 * sin(0.3 * t), 0.14 * cos(0.7 * t)];
+    let sigma0 = [0.02 * sin(t), -0.01, 0.03 * cos(0.3 * t)];
+    (sigma0, domega, omega)
+}
+
+/// A part silenced from `from` to `to` (s since the first instant).
+#[derive(Clone, Copy, Debug)]
+pub struct Outage {
+    /// The part slot.
+    pub part: usize,
+    /// Start, s.
+    pub from: f64,
+    /// End, s.
+    pub to: f64,
+}
+
+/// Sets in a row without a value after which a part is reported down (as the sampler does).
+const DOWN_AFTER: u32 = 10;
+
+/// Geometry of one channel: position, axis, noise.
+type Geometry = ([f64; 3], [f64; 3], f64);
+
+/// The built-in scenario's sample source.
+pub struct Synthetic {
+    period: Nanos,
+    channels: [[Option<Geometry>; 3]; MAX_PARTS],
+    outage: Option<Outage>,
+    parts: [Option<PartHealth>; MAX_PARTS],
+    silent: [u32; MAX_PARTS],
+    health: LoopHealth,
+}
+
+impl Synthetic {
+    /// Samples for the parts and arrangement of `config`.
+    pub fn new(config: &AppConfig, outage: Option<Outage>) -> Self {
+        let mut channels = [[None; 3]; MAX_PARTS];
+        let mut parts = [None; MAX_PARTS];
+        for (i, p) in config.sampling.parts() {
+            parts[i] = Some(PartHealth {
+                running: true,
+                ..PartHealth::default()
+            });
+            for (slot, c) in channels[i].iter_mut().zip(p.channels.iter()) {
+                *slot = c
+                    .and_then(|c| config.arrangement.channels().get(usize::from(c)))
+                    .map(|ch| (ch.position, ch.axis, ch.noise));
+            }
+        }
+        Synthetic {
+            period: config.sampling.period_ns(),
+            channels,
+            outage,
+            parts,
+            silent: [0; MAX_PARTS],
+            health: LoopHealth::default(),
+        }
+    }
+
+    /// The sample period, ns.
+    pub fn period(&self) -> Nanos {
+        self.period
+    }
+
+    /// The set of index `k`, at instant `t` (time base), `k` periods after the first.
+    pub fn set(&mut self, k: u32, t: Nanos) -> SampleSet {
+        let s = seconds(u64::from(k) * self.period);
+        let (sigma0, domega, omega) = motion(s);
+        let mut out = [None; MAX_PARTS];
+        for (i, (chans, slot)) in self.channels.iter().zip(out.iter_mut()).enumerate() {
+            let Some(h) = self.parts[i].as_mut() else {
+                continue;
+            };
+            h.reads = h.reads.wrapping_add(1);
+            if self.outage.is_some_and(|o| o.part == i && s >= o.from && s < o.to) {
+                h.missed = h.missed.wrapping_add(1);
+                self.silent[i] += 1;
+                if self.silent[i] >= DOWN_AFTER {
+                    h.running = false;
+                }
+                continue;
+            }
+            self.silent[i] = 0;
+            h.running = true;
+            let mut v = [0.0f32; 3];
+            for (j, (x, g)) in v.iter_mut().zip(chans.iter()).enumerate() {
+                let Some((r, axis, noise)) = g else { continue };
+                // Paper eq. (4).
+                let field = add(
+                    &add(&sigma0, &cross(&domega, r)),
+                    &cross(&omega, &cross(&omega, r)),
+                );
+                let n = noise * 1.732 * pseudo_uniform(k, (3 * i + j) as u32);
+                *x = (dot(axis, &field) + n) as f32;
+            }
+            *slot = Some(v);
+        }
+        self.health.sets = self.health.sets.wrapping_add(1);
+        SampleSet { k, t, parts: out }
+    }
+
+    /// Every counter.
+    pub fn snapshot(&self) -> Health {
+        Health {
+            parts: self.parts,
+            sampling: self.health,
+        }
+    }
+}
+
+/// A deterministic number in [-1, 1) from a sample index and a channel.
+fn pseudo_uniform(k: u32, channel: u32) -> f64 {
+    let mut x = (u64::from(k) << 8 | u64::from(channel)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    x ^= x >> 29;
+    x = x.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x ^= x >> 32;
+    (x >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+}
+
+/// The sampling task of a board without parts: the set of each instant `t0 + k/rate` from
+/// the built-in scenario, for `instants` instants (or for ever).
+pub async fn synthetic_task<T: TimeBase, M: RawMutex, const Q: usize>(
+    source: &mut Synthetic,
+    time: &mut T,
+    queue: Sender<'_, M, SampleSet, Q>,
+    board: &HealthBoard<M>,
+    t0: Nanos,
+    instants: Option<u32>,
+) {
+    let mut k = 0u32;
+    while instants.is_none_or(|n| k < n) {
+        let t = t0 + u64::from(k) * source.period();
+        time.wait_until(t).await;
+        let set = source.set(k, t);
+        if queue.try_send(set).is_err() {
+            source.health.dropped = source.health.dropped.wrapping_add(1);
+        }
+        board.publish(source.snapshot());
+        k += 1;
+    }
+}

@@ -1,0 +1,114 @@
+//! The built-in scenario: what a board without accelerometers runs (QEMU in CI), and what
+//! the host recomputes to check it. The `tetra` board on the synthetic motion of
+//! [`crate::sampler::synthetic`] for [`SETS`] sets, one part silent for half a second, and a
+//! script of telecommands on the uplink ([`SCRIPT`]) that exercises every path: mode changes,
+//! a housekeeping request, line noise, a damaged command, a model change, an exclusion.
+
+use arbitrary_int::{u11, u14};
+use embedded_io_async::{ErrorType, Read};
+use spacepackets::ecss::tc::{AckFlags, PusTcCreator, PusTcSecondaryHeader};
+use spacepackets::ecss::{CreatorConfig, MessageTypeId};
+use spacepackets::SpHeader;
+
+use crate::config::{tetra, AppConfig};
+use crate::sampler::synthetic::Outage;
+use crate::telemetry::framing;
+use crate::telemetry::packets::{service, sid, subtype, APID};
+use crate::time::{Nanos, TimeBase};
+
+/// Sample sets of the run (10 s at 100 Hz).
+pub const SETS: u32 = 1000;
+
+/// Part u3 silent from 4.0 s to 4.5 s.
+pub const OUTAGE: Outage = Outage {
+    part: 3,
+    from: 4.0,
+    to: 4.5,
+};
+
+/// The configuration: the built-in `tetra` board.
+pub fn config() -> AppConfig {
+    tetra()
+}
+
+/// What arrives on the uplink.
+#[derive(Clone, Copy, Debug)]
+pub enum Step {
+    /// A telecommand TC[service, subtype] with application data, all acknowledgements asked.
+    Command(u8, u8, &'static [u8]),
+    /// The same, its CRC damaged on the line.
+    Damaged(u8, u8, &'static [u8]),
+    /// Line noise.
+    Noise(&'static [u8]),
+}
+
+/// The uplink script: (seconds after the first instant, what arrives). Times sit between
+/// two sample instants, so a command is handled between the same two sets on every machine.
+pub const SCRIPT: [(f64, Step); 9] = [
+    (2.005, Step::Command(service::BALLISTOMETER, subtype::SET_MODE, &[0])),
+    (2.505, Step::Command(service::BALLISTOMETER, subtype::SET_MODE, &[1])),
+    (3.005, Step::Command(service::HOUSEKEEPING, subtype::HK_ONE_SHOT, &[1, 0, sid::HOUSEKEEPING as u8])),
+    (3.505, Step::Noise(&[0x55, 0xAA, 0x00, 0x13])),
+    (3.605, Step::Damaged(service::BALLISTOMETER, subtype::SET_MODEL, &[1])),
+    (6.005, Step::Command(service::BALLISTOMETER, subtype::SET_MODEL, &[1])),
+    (7.005, Step::Command(service::BALLISTOMETER, subtype::EXCLUDE, &[11])),
+    (8.005, Step::Command(service::BALLISTOMETER, subtype::INCLUDE, &[11])),
+    (9.005, Step::Command(service::TEST, subtype::ARE_YOU_ALIVE, &[])),
+];
+
+/// The frame of a script step with sequence count `seq`; its length.
+pub fn frame(step: Step, seq: u16, out: &mut [u8]) -> usize {
+    let (s, st, data, damaged) = match step {
+        Step::Noise(bytes) => {
+            let n = bytes.len().min(out.len());
+            out[..n].copy_from_slice(&bytes[..n]);
+            return n;
+        }
+        Step::Command(s, st, d) => (s, st, d, false),
+        Step::Damaged(s, st, d) => (s, st, d, true),
+    };
+    let sp = SpHeader::new_for_unseg_tc(u11::new(APID), u14::new(seq & 0x3FFF), 0);
+    let sec = PusTcSecondaryHeader::new(MessageTypeId::new(s, st), AckFlags::ALL, 0);
+    let mut raw = [0u8; 64];
+    let Ok(n) = PusTcCreator::new(sp, sec, data, CreatorConfig::default()).write_to_slice(&mut raw)
+    else {
+        return 0;
+    };
+    if damaged {
+        raw[n - 1] ^= 0x5A;
+    }
+    framing::encode(&raw[..n], out).unwrap_or(0)
+}
+
+/// The uplink of the built-in scenario: each step of [`SCRIPT`] once the time base reaches
+/// it, then nothing.
+pub struct ScriptedUplink<'a, T> {
+    time: &'a T,
+    t0: Nanos,
+    next: usize,
+}
+
+impl<'a, T: TimeBase> ScriptedUplink<'a, T> {
+    /// The script, its times counted from the first sample instant `t0`.
+    pub fn new(time: &'a T, t0: Nanos) -> Self {
+        ScriptedUplink { time, t0, next: 0 }
+    }
+}
+
+impl<T> ErrorType for ScriptedUplink<'_, T> {
+    type Error = core::convert::Infallible;
+}
+
+impl<T: TimeBase> Read for ScriptedUplink<'_, T> {
+    async fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
+        let Some(&(at, step)) = SCRIPT.get(self.next) else {
+            return core::future::pending().await;
+        };
+        let at = self.t0 + (at * 1e9) as Nanos;
+        while self.time.now() < at {
+            embassy_futures::yield_now().await;
+        }
+        self.next += 1;
+        Ok(frame(step, self.next as u16, buf))
+    }
+}

@@ -1,0 +1,194 @@
+//! The ballistometer on QEMU mps2-an386 (Cortex-M4F): the application of the `firmware`
+//! crate on the embassy executor, with
+//! - a SysTick time base (24-bit counter at 25 MHz, wraps counted in its exception),
+//! - the built-in scenario in place of the parts (QEMU has no accelerometers) and its
+//!   scripted uplink,
+//! - the telemetry link written to `telemetry.bin` in QEMU's working directory through
+//!   semihosting.
+//!
+//! It runs [`firmware::scenario::SETS`] sets, prints a summary and exits with status 0, or 1
+//! if telemetry was lost, the file could not be written or nothing was estimated.
+//! `cargo run -p board-qemu --release --target thumbv7em-none-eabihf` (the runner,
+//! `.cargo/qemu-runner.sh`, writes into `out/qemu/`).
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(target_os = "none")]
+mod board {
+    use core::sync::atomic::{AtomicU32, Ordering};
+
+    use cortex_m::peripheral::syst::SystClkSource;
+    use cortex_m::peripheral::SYST;
+    use cortex_m_rt::exception;
+    use cortex_m_semihosting::{debug, hprintln, syscall};
+    use embassy_executor::Spawner;
+    use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex as Cs;
+    use embassy_sync::channel::Channel;
+    use embedded_io_async::{ErrorKind, ErrorType, Write};
+    use firmware::app::{app_task, uplink_task, App, Incoming, Mode, COMMAND_QUEUE};
+    use firmware::sampler::synthetic::{synthetic_task, Synthetic};
+    use firmware::sampler::{HealthBoard, SampleSet};
+    use firmware::scenario::{self, ScriptedUplink, SETS};
+    use firmware::telemetry::Telemetry;
+    use firmware::time::{Nanos, TimeBase};
+    use static_cell::StaticCell;
+
+    /// SysTick counts the 25 MHz core clock: 40 ns per count.
+    const NS_PER_COUNT: u64 = 40;
+    const RELOAD: u32 = 0x00FF_FFFF;
+    static WRAPS: AtomicU32 = AtomicU32::new(0);
+
+    #[exception]
+    fn SysTick() {
+        WRAPS.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// The time base: SysTick counts extended by the wrap count.
+    #[derive(Clone, Copy)]
+    struct SysTickTime;
+
+    impl TimeBase for SysTickTime {
+        fn now(&self) -> Nanos {
+            loop {
+                let before = WRAPS.load(Ordering::Acquire);
+                let count = SYST::get_current();
+                if WRAPS.load(Ordering::Acquire) == before {
+                    let ticks = (u64::from(before) << 24) | u64::from(RELOAD - count);
+                    return ticks * NS_PER_COUNT;
+                }
+            }
+        }
+
+        async fn wait_until(&mut self, at: Nanos) {
+            // The executor polls again at once: under QEMU's instruction counting the loop
+            // costs virtual time, not a sleep (an interrupt-driven timer is the STM32's).
+            while self.now() < at {
+                embassy_futures::yield_now().await;
+            }
+        }
+    }
+
+    /// A host file opened through semihosting.
+    struct HostFile(usize);
+
+    impl HostFile {
+        /// `name` must end with a NUL.
+        fn create(name: &str) -> Option<Self> {
+            let mode = cortex_m_semihosting::nr::open::W_TRUNC_BINARY;
+            // SAFETY: SYS_OPEN reads `len` bytes at `ptr` (a NUL-terminated name).
+            let fd = unsafe { syscall!(OPEN, name.as_ptr(), mode, name.len() - 1) } as isize;
+            (fd >= 0).then_some(HostFile(fd as usize))
+        }
+    }
+
+    impl ErrorType for HostFile {
+        type Error = ErrorKind;
+    }
+
+    impl Write for HostFile {
+        async fn write(&mut self, buf: &[u8]) -> Result<usize, ErrorKind> {
+            // SAFETY: SYS_WRITE reads `len` bytes at `ptr`; returns the count NOT written.
+            let left = unsafe { syscall!(WRITE, self.0, buf.as_ptr(), buf.len()) };
+            match left {
+                0 => Ok(buf.len()),
+                n if n < buf.len() => Ok(buf.len() - n),
+                _ => Err(ErrorKind::Other),
+            }
+        }
+
+        async fn flush(&mut self) -> Result<(), ErrorKind> {
+            Ok(())
+        }
+    }
+
+    static SAMPLES: Channel<Cs, SampleSet, { firmware::QUEUE }> = Channel::new();
+    static COMMANDS: Channel<Cs, Incoming, COMMAND_QUEUE> = Channel::new();
+    static HEALTH: HealthBoard<Cs> = HealthBoard::new();
+    static APP: StaticCell<App> = StaticCell::new();
+    static SOURCE: StaticCell<Synthetic> = StaticCell::new();
+    static TELEMETRY: StaticCell<Telemetry<HostFile>> = StaticCell::new();
+
+    #[embassy_executor::task]
+    async fn sampling(source: &'static mut Synthetic, t0: Nanos) {
+        let queue = SAMPLES.sender();
+        synthetic_task(source, &mut SysTickTime, queue, &HEALTH, t0, Some(SETS)).await;
+    }
+
+    #[embassy_executor::task]
+    async fn uplink(t0: Nanos) {
+        uplink_task(ScriptedUplink::new(&SysTickTime, t0), COMMANDS.sender()).await;
+    }
+
+    #[embassy_executor::task]
+    async fn application(app: &'static mut App, tm: &'static mut Telemetry<HostFile>) {
+        let (samples, commands) = (SAMPLES.receiver(), COMMANDS.receiver());
+        let time = SysTickTime;
+        app_task(app, &time, samples, commands, &HEALTH, tm, &mut (), Some(SETS)).await;
+        let hk = app.housekeeping(tm.lost());
+        hprintln!(
+            "board-qemu: {} sets, {} estimates, {} packets sent ({} lost), {} telecommands accepted, {} refused, {} garbage frames; {} s on board",
+            hk.sets,
+            hk.estimates,
+            tm.sent(),
+            tm.lost(),
+            hk.tc_accepted,
+            hk.tc_rejected,
+            hk.frames_garbage,
+            time.now() / 1_000_000_000
+        );
+        finish(tm.lost() == 0 && hk.estimates > 0);
+    }
+
+    fn finish(ok: bool) -> ! {
+        debug::exit(if ok {
+            debug::EXIT_SUCCESS
+        } else {
+            debug::EXIT_FAILURE
+        });
+        loop {
+            cortex_m::asm::wfi();
+        }
+    }
+
+    #[embassy_executor::main]
+    async fn main(spawner: Spawner) {
+        let Some(mut p) = cortex_m::Peripherals::take() else {
+            finish(false)
+        };
+        p.SYST.set_clock_source(SystClkSource::Core);
+        p.SYST.set_reload(RELOAD);
+        p.SYST.clear_current();
+        p.SYST.enable_interrupt();
+        p.SYST.enable_counter();
+
+        let Some(file) = HostFile::create("telemetry.bin\0") else {
+            hprintln!("board-qemu: cannot create telemetry.bin");
+            finish(false)
+        };
+        let config = scenario::config();
+        let Ok(app) = App::new(&config, Mode::Operate) else {
+            hprintln!("board-qemu: the built-in configuration is invalid");
+            finish(false)
+        };
+        let app = APP.init(app);
+        let source = SOURCE.init(Synthetic::new(&config, Some(scenario::OUTAGE)));
+        let tm = TELEMETRY.init(Telemetry::new(file));
+        let t0 = SysTickTime.now() + source.period();
+        spawner.spawn(sampling(source, t0).unwrap());
+        spawner.spawn(uplink(t0).unwrap());
+        spawner.spawn(application(app, tm).unwrap());
+    }
+
+    #[panic_handler]
+    fn panic(info: &core::panic::PanicInfo) -> ! {
+        hprintln!("board-qemu panicked: {}", info);
+        finish(false)
+    }
+}
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    eprintln!(
+        "board-qemu runs under QEMU: cargo run -p board-qemu --release --target thumbv7em-none-eabihf"
+    );
+    std::process::exit(2);
+}
