@@ -1,11 +1,11 @@
-//! Puts the workspace's `memory.x` (QEMU mps2-an386 layout) on the linker search path.
+//! Puts the QEMU board's `memory.x` (mps2-an386 layout) on the linker search path.
 use std::path::PathBuf;
 
 fn main() {
     if std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
         let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
         let memory =
-            PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap()).join("../../memory.x");
+            PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap()).join("../boards/qemu/memory.x");
         std::fs::copy(&memory, out.join("memory.x")).unwrap();
         println!("cargo:rustc-link-search={}", out.display());
         println!("cargo:rerun-if-changed={}", memory.display());

@@ -18,6 +18,7 @@ use embassy_futures::select::select;
 use embassy_futures::yield_now;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::channel::Channel;
+use embassy_sync::zerocopy_channel::Channel as ZeroCopyChannel;
 use embedded_hal::digital::{ErrorType, OutputPin};
 use firmware::config::{
     Alignment, AppConfig, PartConfig, PartKind, SamplingConfig, MAX_CHANNELS, MAX_PARTS,
@@ -300,7 +301,9 @@ pub fn run_firmware_with(
     let mut time = SimTime(rig.clock.clone());
     let app_time = SimTime(rig.clock.clone());
     let queue = Channel::<NoopRawMutex, SampleSet, { firmware::QUEUE }>::new();
-    let commands = Channel::<NoopRawMutex, Incoming, COMMAND_QUEUE>::new();
+    let mut slots: [Incoming; COMMAND_QUEUE] = Default::default();
+    let mut commands = ZeroCopyChannel::<NoopRawMutex, Incoming>::new(&mut slots);
+    let (command_tx, command_rx) = commands.split();
     let health = HealthBoard::<NoopRawMutex>::new();
     let mut telemetry = Telemetry::new(Downlink::default());
     let mut sink = HostSink {
@@ -334,7 +337,7 @@ pub fn run_firmware_with(
             &mut app,
             &app_time,
             queue.receiver(),
-            commands.receiver(),
+            command_rx,
             &health,
             &mut telemetry,
             &mut sink,
@@ -346,7 +349,7 @@ pub fn run_firmware_with(
             next: 0,
         };
         let receiving = async {
-            uplink_task(link, commands.sender()).await;
+            uplink_task(link, command_tx).await;
             core::future::pending::<()>().await
         };
         task_sizes = (

@@ -12,7 +12,8 @@
 
 use embassy_futures::select::{select, Either};
 use embassy_sync::blocking_mutex::raw::RawMutex;
-use embassy_sync::channel::{Receiver, Sender};
+use embassy_sync::channel::Receiver;
+use embassy_sync::zerocopy_channel::{self, Sender};
 use embedded_io_async::{Read, Write};
 use estimator_core::{ConfigError, Model};
 
@@ -23,7 +24,7 @@ use crate::telecommand::{self, Accepted, Command, Context};
 use crate::telemetry::framing::{max_encoded_len, Deframed, Deframer};
 use crate::telemetry::packets::{
     config_error_code, service, subtype, Event, EventId, FailureCode, Housekeeping,
-    MotionReport, PartCounters, PartState, RequestId, Verification, TC_MAX, TM_MAX,
+    MotionReport, PartCounters, PartState, RequestId, Verification, TC_MAX,
 };
 use crate::telemetry::Telemetry;
 use crate::time::{Nanos, TimeBase};
@@ -56,29 +57,60 @@ pub enum Mode {
     Operate = 1,
 }
 
-/// One telecommand packet as received (or the news that a frame was garbage).
-#[derive(Clone, Copy)]
-pub enum Incoming {
-    /// A whole packet.
-    Packet {
-        /// Its length.
-        len: u16,
-        /// Its octets (the first `len`).
-        bytes: [u8; TC_MAX],
-    },
-    /// A frame that was not valid COBS or longer than [`TC_MAX`].
-    Garbage,
+/// One telecommand packet as received, or the news that a frame was garbage. Filled in place
+/// in the slot of a zero-copy channel (a packet is up to [`TC_MAX`] octets).
+pub struct Incoming {
+    len: u16,
+    garbage: bool,
+    bytes: [u8; TC_MAX],
 }
 
-/// Depth of the queue between the uplink and the application task.
+impl Default for Incoming {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Incoming {
+    /// An empty slot.
+    pub const fn new() -> Self {
+        Incoming {
+            len: 0,
+            garbage: false,
+            bytes: [0; TC_MAX],
+        }
+    }
+
+    /// Holds a received packet (one longer than [`TC_MAX`] is garbage).
+    pub fn set_packet(&mut self, packet: &[u8]) {
+        match self.bytes.get_mut(..packet.len()) {
+            Some(dst) => {
+                dst.copy_from_slice(packet);
+                self.len = packet.len() as u16;
+                self.garbage = false;
+            }
+            None => self.set_garbage(),
+        }
+    }
+
+    /// Holds the news of a garbage frame.
+    pub fn set_garbage(&mut self) {
+        self.len = 0;
+        self.garbage = true;
+    }
+
+    /// The packet, or `None` for a garbage frame.
+    pub fn packet(&self) -> Option<&[u8]> {
+        (!self.garbage).then(|| &self.bytes[..usize::from(self.len).min(TC_MAX)])
+    }
+}
+
+/// Slots between the uplink and the application task.
 pub const COMMAND_QUEUE: usize = 1;
 
 /// The uplink task: the command link's byte stream → frames → the application task. Ends
 /// when the link ends (or fails).
-pub async fn uplink_task<R: Read, M: RawMutex, const C: usize>(
-    mut link: R,
-    commands: Sender<'_, M, Incoming, C>,
-) {
+pub async fn uplink_task<R: Read, M: RawMutex>(mut link: R, mut commands: Sender<'_, M, Incoming>) {
     let mut deframer = Deframer::<{ max_encoded_len(TC_MAX) }>::new();
     let mut chunk = [0u8; 64];
     loop {
@@ -88,20 +120,11 @@ pub async fn uplink_task<R: Read, M: RawMutex, const C: usize>(
         };
         for &b in &chunk[..n] {
             match deframer.push(b) {
-                Deframed::Pending => {}
-                Deframed::Garbage => commands.send(Incoming::Garbage).await,
-                Deframed::Packet(len) if len > TC_MAX => commands.send(Incoming::Garbage).await,
-                Deframed::Packet(len) => {
-                    let mut bytes = [0u8; TC_MAX];
-                    bytes[..len].copy_from_slice(deframer.packet(len));
-                    commands
-                        .send(Incoming::Packet {
-                            len: len as u16,
-                            bytes,
-                        })
-                        .await;
-                }
+                Deframed::Pending => continue,
+                Deframed::Garbage => commands.send().await.set_garbage(),
+                Deframed::Packet(len) => commands.send().await.set_packet(deframer.packet(len)),
             }
+            commands.send_done();
         }
     }
 }
@@ -208,13 +231,10 @@ impl App {
         t: Nanos,
         tm: &mut Telemetry<W>,
     ) {
-        let raw = match incoming {
-            Incoming::Garbage => {
-                self.frames_garbage = self.frames_garbage.wrapping_add(1);
-                let n = self.frames_garbage;
-                return self.event(t, tm, EventId::FrameRejected, 1, n).await;
-            }
-            Incoming::Packet { len, bytes } => &bytes[..usize::from(*len).min(TC_MAX)],
+        let Some(raw) = incoming.packet() else {
+            self.frames_garbage = self.frames_garbage.wrapping_add(1);
+            let n = self.frames_garbage;
+            return self.event(t, tm, EventId::FrameRejected, 1, n).await;
         };
         let ctx = Context {
             channels: self.estimation.channels(),
@@ -262,7 +282,7 @@ impl App {
     /// Executes an accepted command; on failure nothing has changed.
     async fn execute<W: Write>(
         &mut self,
-        command: Command,
+        command: Command<'_>,
         t: Nanos,
         tm: &mut Telemetry<W>,
     ) -> Result<(), (FailureCode, u32)> {
@@ -302,11 +322,8 @@ impl App {
                     .set_commanded(commanded)
                     .map_err(refused)?;
             }
-            Command::LoadArrangement(arrangement) => {
-                let model = self.estimation.estimator().model();
-                self.estimation
-                    .configure(&arrangement, model)
-                    .map_err(refused)?;
+            Command::LoadArrangement(data) => {
+                self.load_arrangement(data)?;
                 self.reconfigured(t, tm).await;
             }
             Command::SetRates {
@@ -322,6 +339,16 @@ impl App {
             Command::AreYouAlive => tm.send(t, service::TEST, subtype::ALIVE, &[]).await,
         }
         Ok(())
+    }
+
+    /// TC[200,6] execution: the arrangement built (on the stack, not in the task's state)
+    /// and handed to the estimator, which keeps its configuration if it refuses.
+    fn load_arrangement(&mut self, data: &[u8]) -> Result<(), (FailureCode, u32)> {
+        let arrangement = telecommand::arrangement(data)?;
+        let model = self.estimation.estimator().model();
+        self.estimation
+            .configure(&arrangement, model)
+            .map_err(|e| (FailureCode::Refused, config_error_code(&e)))
     }
 
     /// The housekeeping report as of now.
@@ -366,20 +393,19 @@ impl App {
     }
 
     async fn send_housekeeping<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
-        let mut data = [0u8; TM_MAX];
-        if let Some(n) = self.housekeeping(tm.lost()).encode(&mut data) {
-            tm.send(t, service::HOUSEKEEPING, subtype::HK_REPORT, &data[..n])
-                .await;
-        }
+        let lost = tm.lost();
+        let framed = tm.stage(t, service::HOUSEKEEPING, subtype::HK_REPORT, |buf| {
+            self.housekeeping(lost).encode(buf)
+        });
+        tm.transmit(framed).await;
     }
 
     async fn send_motion<W: Write>(&self, tm: &mut Telemetry<W>, motion: &Motion) {
-        let mut data = [0u8; TM_MAX];
-        let report = MotionReport::of(motion, self.estimation.excluded_channels());
-        if let Some(n) = report.encode(&mut data) {
-            tm.send(motion.t, service::HOUSEKEEPING, subtype::HK_REPORT, &data[..n])
-                .await;
-        }
+        let excluded = self.estimation.excluded_channels();
+        let framed = tm.stage(motion.t, service::HOUSEKEEPING, subtype::HK_REPORT, |buf| {
+            MotionReport::of(motion, excluded).encode(buf)
+        });
+        tm.transmit(framed).await;
     }
 
     async fn event<W: Write>(
@@ -486,11 +512,11 @@ pub fn model_code(model: Model) -> u8 {
 /// The application task: boots, then handles sample sets and telecommands as they come.
 /// Returns after the set of index `sets − 1` (a finite run), or never.
 #[allow(clippy::too_many_arguments)]
-pub async fn app_task<M, W, K, T, const Q: usize, const C: usize>(
+pub async fn app_task<M, W, K, T, const Q: usize>(
     app: &mut App,
     time: &T,
     samples: Receiver<'_, M, SampleSet, Q>,
-    commands: Receiver<'_, M, Incoming, C>,
+    mut commands: zerocopy_channel::Receiver<'_, M, Incoming>,
     health: &HealthBoard<M>,
     tm: &mut Telemetry<W>,
     tap: &mut K,
@@ -511,7 +537,10 @@ pub async fn app_task<M, W, K, T, const Q: usize, const C: usize>(
                     return;
                 }
             }
-            Either::Second(incoming) => app.on_incoming(&incoming, time.now(), tm).await,
+            Either::Second(incoming) => {
+                app.on_incoming(incoming, time.now(), tm).await;
+                commands.receive_done();
+            }
         }
     }
 }

@@ -31,9 +31,9 @@ pub const MOTION_EVERY_MAX: u16 = 10_000;
 /// Octets per channel in TC[200,6]: position (3 × f32), axis (3 × f32), noise (f32).
 pub const CHANNEL_LEN: usize = 28;
 
-/// One accepted command.
-#[derive(Clone, Debug)]
-pub enum Command {
+/// One accepted command (borrowing the received packet).
+#[derive(Clone, Copy, Debug)]
+pub enum Command<'a> {
     /// TC[200,1].
     SetMode(Mode),
     /// TC[200,2].
@@ -44,8 +44,9 @@ pub enum Command {
     Exclude(u8),
     /// TC[200,5]: put a commanded-out channel back.
     Include(u8),
-    /// TC[200,6]: a new geometry for the same channels.
-    LoadArrangement(Arrangement<MAX_CHANNELS>),
+    /// TC[200,6]: a new geometry for the same channels (the application data, already
+    /// checked; [`arrangement`] builds it).
+    LoadArrangement(&'a [u8]),
     /// TC[200,7]: one motion report per `motion_every` sets, one housekeeping report per
     /// `housekeeping_every` sets.
     SetRates {
@@ -61,8 +62,8 @@ pub enum Command {
 }
 
 /// A command that passed acceptance.
-#[derive(Clone, Debug)]
-pub struct Accepted {
+#[derive(Clone, Copy, Debug)]
+pub struct Accepted<'a> {
     /// Identifier for its verification reports.
     pub request: RequestId,
     /// Report successful acceptance (ack flag bit 3).
@@ -70,7 +71,7 @@ pub struct Accepted {
     /// Report successful completion (ack flag bit 0).
     pub ack_completion: bool,
     /// What to do.
-    pub command: Command,
+    pub command: Command<'a>,
 }
 
 /// A command refused at acceptance.
@@ -96,7 +97,7 @@ const SECONDARY_LEN: usize = 5;
 const CRC_LEN: usize = 2;
 
 /// Acceptance of one received packet.
-pub fn parse(raw: &[u8], ctx: Context) -> Result<Accepted, Rejected> {
+pub fn parse(raw: &[u8], ctx: Context) -> Result<Accepted<'_>, Rejected> {
     let reject = |request, code, data| Rejected {
         request,
         code,
@@ -151,7 +152,7 @@ pub fn parse(raw: &[u8], ctx: Context) -> Result<Accepted, Rejected> {
 type Refusal = (FailureCode, u32);
 
 /// The application data of TC[`s`,`st`].
-fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command, Refusal> {
+fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refusal> {
     let length = |n: usize| {
         if data.len() == n {
             Ok(())
@@ -196,7 +197,19 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command, Refusal>
                 Command::Include(data[0])
             })
         }
-        (service::BALLISTOMETER, subtype::LOAD_ARRANGEMENT) => arrangement(data, ctx),
+        (service::BALLISTOMETER, subtype::LOAD_ARRANGEMENT) => {
+            let n = usize::from(*data.first().ok_or((FailureCode::DataLength, 1))?);
+            let expected = 1 + CHANNEL_LEN * n;
+            if data.len() != expected {
+                return Err((FailureCode::DataLength, expected as u32));
+            }
+            if n != ctx.channels {
+                // The parts feed a fixed set of channels: another count cannot apply.
+                return Err((FailureCode::OutOfRange, 0));
+            }
+            arrangement(data)?;
+            Ok(Command::LoadArrangement(data))
+        }
         (service::BALLISTOMETER, subtype::SET_RATES) => {
             length(4)?;
             let motion_every = g.u16().unwrap_or(0);
@@ -248,17 +261,14 @@ fn real(v: f32, field: usize, max: f32) -> Result<f64, Refusal> {
     Ok(f64::from(v))
 }
 
-/// TC[200,6]: N (u8), then per channel position, axis, noise. Field indices count the
-/// reals from 0 after N: channel `c`, value `j` is field `1 + 7c + j`.
-fn arrangement(data: &[u8], ctx: Context) -> Result<Command, Refusal> {
+/// The arrangement of TC[200,6] application data: N (u8), then per channel position, axis,
+/// noise (7 × f32). Field indices count the reals from 0 after N: channel `c`, value `j` is
+/// field `1 + 7c + j`.
+pub fn arrangement(data: &[u8]) -> Result<Arrangement<MAX_CHANNELS>, (FailureCode, u32)> {
     let n = usize::from(*data.first().ok_or((FailureCode::DataLength, 1))?);
     let expected = 1 + CHANNEL_LEN * n;
-    if data.len() != expected {
+    if data.len() != expected || n > MAX_CHANNELS {
         return Err((FailureCode::DataLength, expected as u32));
-    }
-    if n != ctx.channels {
-        // The parts feed a fixed set of channels: a geometry for another count cannot apply.
-        return Err((FailureCode::OutOfRange, 0));
     }
     let mut g = Get::new(&data[1..]);
     let mut arr = Arrangement::<MAX_CHANNELS>::new();
@@ -282,7 +292,7 @@ fn arrangement(data: &[u8], ctx: Context) -> Result<Command, Refusal> {
         arr.push(position, axis, noise)
             .map_err(|e| (FailureCode::Refused, config_error_code(&e)))?;
     }
-    Ok(Command::LoadArrangement(arr))
+    Ok(arr)
 }
 
 /// Runs the parser on arbitrary octets: the fuzz target's body (and the host tests' own

@@ -12,7 +12,7 @@ use firmware::sampler::{Health, SampleSet};
 use firmware::telecommand::{fuzz_one, CHANNEL_LEN};
 use firmware::telemetry::framing::{Deframed, Deframer};
 use firmware::telemetry::packets::{
-    decode, service, subtype, Decoded, EventId, FailureCode, Report, APID, TC_MAX,
+    decode, service, subtype, Decoded, EventId, FailureCode, Report, APID,
 };
 use firmware::telemetry::Telemetry;
 use futures::executor::block_on;
@@ -62,12 +62,9 @@ fn tc(s: u8, st: u8, data: &[u8], seq: u16) -> Vec<u8> {
 }
 
 fn incoming(raw: &[u8]) -> Incoming {
-    let mut bytes = [0u8; TC_MAX];
-    bytes[..raw.len()].copy_from_slice(raw);
-    Incoming::Packet {
-        len: raw.len() as u16,
-        bytes,
-    }
+    let mut i = Incoming::new();
+    i.set_packet(raw);
+    i
 }
 
 /// A sample set of a body spinning at 0.5 rad/s about z (all parts present).
@@ -380,7 +377,9 @@ fn malformed_commands_are_refused_with_their_reason_and_change_nothing() {
 fn garbage_on_the_link_is_counted_and_reported() {
     let mut u = Unit::new();
     let before = u.all().len();
-    block_on(u.app.on_incoming(&Incoming::Garbage, 5, &mut u.tm));
+    let mut garbage = Incoming::new();
+    garbage.set_garbage();
+    block_on(u.app.on_incoming(&garbage, 5, &mut u.tm));
     u.command(&[0x18, 0xBA]);
     let r = &u.all()[before..];
     assert!(matches!(r[0].report, Report::Event(e) if e.id == EventId::FrameRejected && e.a == 1 && e.b == 1));

@@ -21,6 +21,7 @@ use packets::{cuc, APID, TM_MAX};
 pub struct Telemetry<W> {
     link: W,
     sequence: u16,
+    data: [u8; TM_MAX],
     packet: [u8; TM_MAX],
     frame: [u8; framing::max_encoded_len(TM_MAX)],
     sent: u32,
@@ -33,6 +34,7 @@ impl<W: Write> Telemetry<W> {
         Telemetry {
             link,
             sequence: 0,
+            data: [0; TM_MAX],
             packet: [0; TM_MAX],
             frame: [0; framing::max_encoded_len(TM_MAX)],
             sent: 0,
@@ -58,6 +60,26 @@ impl<W: Write> Telemetry<W> {
 
     /// Sends one packet TM[`service`,`subtype`] stamped `t` with application data `data`.
     pub async fn send(&mut self, t: Nanos, service: u8, subtype: u8, data: &[u8]) {
+        let framed = self.stage(t, service, subtype, |buf| {
+            let out = buf.get_mut(..data.len())?;
+            out.copy_from_slice(data);
+            Some(data.len())
+        });
+        self.transmit(framed).await;
+    }
+
+    /// Builds and frames packet TM[`service`,`subtype`] stamped `t`, its application data
+    /// written by `encode` into the writer's own buffer (nothing large is held by the
+    /// caller's future); returns the frame length for [`Self::transmit`], or `None` if the
+    /// data did not fit. Takes the next sequence count either way.
+    pub fn stage(
+        &mut self,
+        t: Nanos,
+        service: u8,
+        subtype: u8,
+        encode: impl FnOnce(&mut [u8]) -> Option<usize>,
+    ) -> Option<usize> {
+        let n = encode(&mut self.data)?;
         let stamp = cuc(t);
         let header = SpHeader::new_for_unseg_tm(
             u11::new(APID),
@@ -66,11 +88,13 @@ impl<W: Write> Telemetry<W> {
         );
         self.sequence = (self.sequence + 1) & 0x3FFF;
         let sec = PusTmSecondaryHeader::new_simple(MessageTypeId::new(service, subtype), &stamp);
-        let tm = PusTmCreator::new(header, sec, data, CreatorConfig::default());
-        let framed = tm
-            .write_to_slice(&mut self.packet)
-            .ok()
-            .and_then(|n| framing::encode(&self.packet[..n], &mut self.frame));
+        let tm = PusTmCreator::new(header, sec, &self.data[..n], CreatorConfig::default());
+        let len = tm.write_to_slice(&mut self.packet).ok()?;
+        framing::encode(&self.packet[..len], &mut self.frame)
+    }
+
+    /// Sends the frame [`Self::stage`] built (`None`: counted as lost).
+    pub async fn transmit(&mut self, framed: Option<usize>) {
         let ok = match framed {
             Some(n) => self.link.write_all(&self.frame[..n]).await.is_ok(),
             None => false,

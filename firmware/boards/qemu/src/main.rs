@@ -23,6 +23,7 @@ mod board {
     use embassy_executor::Spawner;
     use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex as Cs;
     use embassy_sync::channel::Channel;
+    use embassy_sync::zerocopy_channel::{self, Channel as ZeroCopyChannel};
     use embedded_io_async::{ErrorKind, ErrorType, Write};
     use firmware::app::{app_task, uplink_task, App, Incoming, Mode, COMMAND_QUEUE};
     use firmware::sampler::synthetic::{synthetic_task, Synthetic};
@@ -101,7 +102,8 @@ mod board {
     }
 
     static SAMPLES: Channel<Cs, SampleSet, { firmware::QUEUE }> = Channel::new();
-    static COMMANDS: Channel<Cs, Incoming, COMMAND_QUEUE> = Channel::new();
+    static SLOTS: StaticCell<[Incoming; COMMAND_QUEUE]> = StaticCell::new();
+    static COMMANDS: StaticCell<ZeroCopyChannel<'static, Cs, Incoming>> = StaticCell::new();
     static HEALTH: HealthBoard<Cs> = HealthBoard::new();
     static APP: StaticCell<App> = StaticCell::new();
     static SOURCE: StaticCell<Synthetic> = StaticCell::new();
@@ -114,13 +116,17 @@ mod board {
     }
 
     #[embassy_executor::task]
-    async fn uplink(t0: Nanos) {
-        uplink_task(ScriptedUplink::new(&SysTickTime, t0), COMMANDS.sender()).await;
+    async fn uplink(t0: Nanos, commands: zerocopy_channel::Sender<'static, Cs, Incoming>) {
+        uplink_task(ScriptedUplink::new(&SysTickTime, t0), commands).await;
     }
 
     #[embassy_executor::task]
-    async fn application(app: &'static mut App, tm: &'static mut Telemetry<HostFile>) {
-        let (samples, commands) = (SAMPLES.receiver(), COMMANDS.receiver());
+    async fn application(
+        app: &'static mut App,
+        tm: &'static mut Telemetry<HostFile>,
+        commands: zerocopy_channel::Receiver<'static, Cs, Incoming>,
+    ) {
+        let samples = SAMPLES.receiver();
         let time = SysTickTime;
         app_task(app, &time, samples, commands, &HEALTH, tm, &mut (), Some(SETS)).await;
         let hk = app.housekeeping(tm.lost());
@@ -174,8 +180,10 @@ mod board {
         let tm = TELEMETRY.init(Telemetry::new(file));
         let t0 = SysTickTime.now() + source.period();
         spawner.spawn(sampling(source, t0).unwrap());
-        spawner.spawn(uplink(t0).unwrap());
-        spawner.spawn(application(app, tm).unwrap());
+        let slots = SLOTS.init_with(|| core::array::from_fn(|_| Incoming::new()));
+        let (command_tx, command_rx) = COMMANDS.init(ZeroCopyChannel::new(slots)).split();
+        spawner.spawn(uplink(t0, command_tx).unwrap());
+        spawner.spawn(application(app, tm, command_rx).unwrap());
     }
 
     #[panic_handler]

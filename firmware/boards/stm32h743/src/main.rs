@@ -1,0 +1,208 @@
+//! The ballistometer on the STM32H743 (NUCLEO-H743ZI2). This file only wires the board: clocks,
+//! pins and peripherals to the application of the `firmware` crate.
+//!
+//! | function | peripheral | pins (Nucleo header) |
+//! |---|---|---|
+//! | ADXL355 × 4 | SPI1 at 10 MHz, DMA1 ch0/1 | SCK PA5 (D13), MISO PA6 (D12), MOSI PB5 (D11); CS PD14 (D10), PD15 (D9), PF12 (D8), PF13 (D7) |
+//! | SYNC line | GPIO | PE9 (D6) |
+//! | LIS3DH | I2C1 at 400 kHz, DMA1 ch2/3 | SCL PB8 (D15), SDA PB9 (D14) |
+//! | spacecraft link (RS-422 transceiver) | USART2 at 921 600 Bd, DMA1 ch4/5 | TX PD5, RX PD6 |
+//!
+//! Time base: embassy-time (TIM2, 1 MHz ticks). Log: defmt over RTT. Flash and run from this
+//! directory with `cargo run --profile flight` (probe-rs runner, see `.cargo/config.toml`).
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(target_os = "none")]
+mod board {
+    use defmt::{error, info};
+    use defmt_rtt as _;
+    use embassy_embedded_hal::shared_bus::asynch::{i2c::I2cDevice, spi::SpiDevice};
+    use embassy_executor::Spawner;
+    use embassy_stm32::gpio::{Level, Output, Speed};
+    use embassy_stm32::i2c::{self, I2c};
+    use embassy_stm32::mode::Async;
+    use embassy_stm32::peripherals;
+    use embassy_stm32::spi::{self, Spi};
+    use embassy_stm32::time::Hertz;
+    use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartTx};
+    use embassy_stm32::{bind_interrupts, dma, rcc};
+    use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex as Cs;
+    use embassy_sync::channel::Channel;
+    use embassy_sync::mutex::Mutex;
+    use embassy_sync::zerocopy_channel::{self, Channel as ZeroCopyChannel};
+    use embassy_time::{Instant, Timer};
+    use firmware::app::{app_task, uplink_task, App, Incoming, Mode, COMMAND_QUEUE};
+    use firmware::config::{builtin, PartKind, MAX_PARTS};
+    use firmware::sampler::{sampling_task, HealthBoard, PartBus, SampleSet, Sampler};
+    use firmware::telemetry::Telemetry;
+    use firmware::time::{Nanos, TimeBase};
+    use panic_probe as _;
+    use static_cell::StaticCell;
+
+    bind_interrupts!(struct Irqs {
+        USART2 => usart::InterruptHandler<peripherals::USART2>;
+        I2C1_EV => i2c::EventInterruptHandler<peripherals::I2C1>;
+        I2C1_ER => i2c::ErrorInterruptHandler<peripherals::I2C1>;
+        DMA1_STREAM0 => dma::InterruptHandler<peripherals::DMA1_CH0>;
+        DMA1_STREAM1 => dma::InterruptHandler<peripherals::DMA1_CH1>;
+        DMA1_STREAM2 => dma::InterruptHandler<peripherals::DMA1_CH2>;
+        DMA1_STREAM3 => dma::InterruptHandler<peripherals::DMA1_CH3>;
+        DMA1_STREAM4 => dma::InterruptHandler<peripherals::DMA1_CH4>;
+        DMA1_STREAM5 => dma::InterruptHandler<peripherals::DMA1_CH5>;
+    });
+
+    type SpiBus = Spi<'static, Async, spi::mode::Master>;
+    type I2cBus = I2c<'static, Async, i2c::mode::Master>;
+    type Part = SpiDevice<'static, Cs, SpiBus, Output<'static>>;
+    type I2cPart = I2cDevice<'static, Cs, I2cBus>;
+    type Board = Sampler<Part, I2cPart, Output<'static>>;
+
+    /// The time base: embassy-time's instant in nanoseconds.
+    #[derive(Clone, Copy)]
+    struct EmbassyTime;
+
+    impl TimeBase for EmbassyTime {
+        fn now(&self) -> Nanos {
+            Instant::now().as_micros() * 1000
+        }
+
+        async fn wait_until(&mut self, at: Nanos) {
+            Timer::at(Instant::from_micros(at / 1000)).await;
+        }
+    }
+
+    static SAMPLES: Channel<Cs, SampleSet, { firmware::QUEUE }> = Channel::new();
+    static HEALTH: HealthBoard<Cs> = HealthBoard::new();
+    static SPI1: StaticCell<Mutex<Cs, SpiBus>> = StaticCell::new();
+    static I2C1: StaticCell<Mutex<Cs, I2cBus>> = StaticCell::new();
+    static SAMPLER: StaticCell<Board> = StaticCell::new();
+    static APP: StaticCell<App> = StaticCell::new();
+    static TELEMETRY: StaticCell<Telemetry<UartTx<'static, Async>>> = StaticCell::new();
+    static SLOTS: StaticCell<[Incoming; COMMAND_QUEUE]> = StaticCell::new();
+    static COMMANDS: StaticCell<ZeroCopyChannel<'static, Cs, Incoming>> = StaticCell::new();
+    static RX_DMA: StaticCell<[u8; 256]> = StaticCell::new();
+
+    #[embassy_executor::task]
+    async fn sampling(sampler: &'static mut Board) {
+        let mut time = EmbassyTime;
+        sampler.start(&time, None).await;
+        sampling_task(sampler, &mut time, SAMPLES.sender(), &HEALTH, None).await;
+    }
+
+    #[embassy_executor::task]
+    async fn uplink(
+        rx: RingBufferedUartRx<'static>,
+        commands: zerocopy_channel::Sender<'static, Cs, Incoming>,
+    ) {
+        uplink_task(rx, commands).await;
+        error!("uplink: the receiver stopped");
+    }
+
+    #[embassy_executor::task]
+    async fn application(
+        app: &'static mut App,
+        tm: &'static mut Telemetry<UartTx<'static, Async>>,
+        commands: zerocopy_channel::Receiver<'static, Cs, Incoming>,
+    ) {
+        let samples = SAMPLES.receiver();
+        app_task(app, &EmbassyTime, samples, commands, &HEALTH, tm, &mut (), None).await;
+    }
+
+    /// HSI 64 MHz → PLL1 400 MHz core (VOS1), 200 MHz AXI/AHB, 100 MHz APB.
+    fn clocks() -> embassy_stm32::Config {
+        let mut config = embassy_stm32::Config::default();
+        let rcc = &mut config.rcc;
+        rcc.hsi = Some(rcc::HSIPrescaler::DIV1);
+        rcc.pll1 = Some(rcc::Pll {
+            source: rcc::PllSource::HSI,
+            prediv: rcc::PllPreDiv::DIV4,
+            mul: rcc::PllMul::MUL50,
+            fracn: None,
+            divp: Some(rcc::PllDiv::DIV2),
+            divq: Some(rcc::PllDiv::DIV8),
+            divr: None,
+        });
+        rcc.sys = rcc::Sysclk::PLL1_P;
+        rcc.ahb_pre = rcc::AHBPrescaler::DIV2;
+        rcc.apb1_pre = rcc::APBPrescaler::DIV2;
+        rcc.apb2_pre = rcc::APBPrescaler::DIV2;
+        rcc.apb3_pre = rcc::APBPrescaler::DIV2;
+        rcc.apb4_pre = rcc::APBPrescaler::DIV2;
+        rcc.voltage_scale = rcc::VoltageScale::Scale1;
+        config
+    }
+
+    #[embassy_executor::main]
+    async fn main(spawner: Spawner) {
+        let p = embassy_stm32::init(clocks());
+        info!("ballistometer {}", env!("CARGO_PKG_VERSION"));
+        let Some(config) = builtin("tetra") else {
+            error!("no built-in configuration");
+            return;
+        };
+
+        let mut spi_config = spi::Config::default();
+        spi_config.frequency = Hertz(10_000_000);
+        spi_config.mode = spi::MODE_0;
+        let spi = Spi::new(
+            p.SPI1, p.PA5, p.PB5, p.PA6, p.DMA1_CH0, p.DMA1_CH1, Irqs, spi_config,
+        );
+        let spi = &*SPI1.init(Mutex::new(spi));
+        let mut i2c_config = i2c::Config::default();
+        i2c_config.frequency = Hertz(400_000);
+        let i2c = I2c::new(p.I2C1, p.PB8, p.PB9, p.DMA1_CH2, p.DMA1_CH3, Irqs, i2c_config);
+        let i2c = &*I2C1.init(Mutex::new(i2c));
+
+        let cs = [
+            Output::new(p.PD14, Level::High, Speed::VeryHigh),
+            Output::new(p.PD15, Level::High, Speed::VeryHigh),
+            Output::new(p.PF12, Level::High, Speed::VeryHigh),
+            Output::new(p.PF13, Level::High, Speed::VeryHigh),
+        ];
+        let mut buses: [Option<PartBus<Part, I2cPart>>; MAX_PARTS] = Default::default();
+        for (slot, cs) in buses.iter_mut().zip(cs) {
+            *slot = Some(PartBus::Spi(SpiDevice::new(spi, cs)));
+        }
+        // LIS3DH parts of other configurations sit on I2C1 at 0x18 / 0x19.
+        for (i, part) in config.sampling.parts() {
+            if matches!(part.kind, PartKind::Lis3dh { .. }) {
+                let address = if i % 2 == 0 { 0x18 } else { 0x19 };
+                buses[i] = Some(PartBus::I2c(I2cDevice::new(i2c), address));
+            }
+        }
+        let sync = Output::new(p.PE9, Level::Low, Speed::VeryHigh);
+        let sampler = SAMPLER.init(Sampler::new(&config.sampling, buses, sync));
+
+        let mut uart_config = usart::Config::default();
+        uart_config.baudrate = 921_600;
+        let Ok(uart) = Uart::new(
+            p.USART2, p.PD6, p.PD5, p.DMA1_CH4, p.DMA1_CH5, Irqs, uart_config,
+        ) else {
+            error!("USART2 configuration refused");
+            return;
+        };
+        let (tx, rx) = uart.split();
+        let rx = rx.into_ring_buffered(RX_DMA.init([0; 256]));
+
+        let Ok(app) = App::new(&config, Mode::Operate) else {
+            error!("the built-in configuration is invalid");
+            return;
+        };
+        let app = APP.init(app);
+        let tm = TELEMETRY.init(Telemetry::new(tx));
+        let slots = SLOTS.init_with(|| core::array::from_fn(|_| Incoming::new()));
+        let (command_tx, command_rx) = COMMANDS.init(ZeroCopyChannel::new(slots)).split();
+
+        spawner.spawn(sampling(sampler).unwrap());
+        spawner.spawn(uplink(rx, command_tx).unwrap());
+        spawner.spawn(application(app, tm, command_rx).unwrap());
+    }
+}
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    eprintln!(
+        "board-stm32h743 runs on the STM32H743: cd firmware/boards/stm32h743 && cargo run --profile flight"
+    );
+    std::process::exit(2);
+}
