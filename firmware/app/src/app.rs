@@ -21,7 +21,7 @@ use crate::config::{AppConfig, MAX_PARTS};
 use crate::estimation::{Estimation, Motion, Tap};
 use crate::sampler::{Health, HealthBoard, SampleSet};
 use crate::telecommand::{self, Accepted, Command, Context};
-use crate::telemetry::framing::{max_encoded_len, Deframed, Deframer};
+use crate::telemetry::framing::{Decoder, Deframed};
 use crate::telemetry::packets::{
     config_error_code, service, subtype, Event, EventId, FailureCode, Housekeeping,
     MotionReport, PartCounters, PartState, RequestId, Verification, TC_MAX,
@@ -93,6 +93,23 @@ impl Incoming {
         }
     }
 
+    /// Decodes one byte from the line into this slot; true once it holds a whole packet or
+    /// the news of a garbage frame.
+    pub fn push(&mut self, decoder: &mut Decoder, byte: u8) -> bool {
+        match decoder.push(byte, &mut self.bytes) {
+            Deframed::Pending => false,
+            Deframed::Packet(len) => {
+                self.len = len as u16;
+                self.garbage = false;
+                true
+            }
+            Deframed::Garbage => {
+                self.set_garbage();
+                true
+            }
+        }
+    }
+
     /// Holds the news of a garbage frame.
     pub fn set_garbage(&mut self) {
         self.len = 0;
@@ -108,23 +125,21 @@ impl Incoming {
 /// Slots between the uplink and the application task.
 pub const COMMAND_QUEUE: usize = 1;
 
-/// The uplink task: the command link's byte stream → frames → the application task. Ends
-/// when the link ends (or fails).
+/// The uplink task: the command link's byte stream, decoded straight into the free command
+/// slot, → the application task. While the application still holds the slot, bytes wait in
+/// the link's receive buffer. Ends when the link ends (or fails).
 pub async fn uplink_task<R: Read, M: RawMutex>(mut link: R, mut commands: Sender<'_, M, Incoming>) {
-    let mut deframer = Deframer::<{ max_encoded_len(TC_MAX) }>::new();
-    let mut chunk = [0u8; 64];
+    let mut decoder = Decoder::new();
+    let mut chunk = [0u8; 32];
     loop {
         let n = match link.read(&mut chunk).await {
             Ok(0) | Err(_) => return,
             Ok(n) => n,
         };
         for &b in &chunk[..n] {
-            match deframer.push(b) {
-                Deframed::Pending => continue,
-                Deframed::Garbage => commands.send().await.set_garbage(),
-                Deframed::Packet(len) => commands.send().await.set_packet(deframer.packet(len)),
+            if commands.send().await.push(&mut decoder, b) {
+                commands.send_done();
             }
-            commands.send_done();
         }
     }
 }

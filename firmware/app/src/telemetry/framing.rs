@@ -48,54 +48,88 @@ pub fn encode(packet: &[u8], out: &mut [u8]) -> Option<usize> {
     Some(w + 1)
 }
 
-/// Decodes one frame body (without its delimiter) in place; returns the packet length, or
-/// `None` if the body is not valid COBS (a zero byte, or a code running past the end).
-pub fn decode_in_place(frame: &mut [u8]) -> Option<usize> {
-    let mut r = 0;
-    let mut w = 0;
-    while r < frame.len() {
-        let code = frame[r];
-        if code == 0 {
-            return None;
-        }
-        let end = r + usize::from(code);
-        if end > frame.len() {
-            return None;
-        }
-        r += 1;
-        while r < end {
-            if frame[r] == 0 {
-                return None;
-            }
-            frame[w] = frame[r];
-            w += 1;
-            r += 1;
-        }
-        // A code below 0xFF stands for a zero, except after the last group.
-        if code < 0xFF && r < frame.len() {
-            frame[w] = 0;
-            w += 1;
-        }
-    }
-    Some(w)
-}
-
-/// What [`Deframer::push`] found.
+/// What [`Decoder::push`] found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Deframed {
     /// Nothing complete yet.
     Pending,
-    /// A packet of this length is in [`Deframer::packet`].
+    /// A packet of this length is in the output buffer.
     Packet(usize),
     /// A frame ended but could not be used: too long for the buffer, or not valid COBS.
     Garbage,
 }
 
-/// Receives a byte stream and hands out whole packets; resynchronises at every delimiter.
+/// Decodes COBS as the bytes arrive, straight into the caller's buffer (no frame buffer of
+/// its own); resynchronises at every delimiter.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Decoder {
+    /// Octets written to the output so far.
+    len: usize,
+    /// Data octets left in the current group (0: the next octet is a code).
+    left: u8,
+    /// The current group stands for a zero at its end (code below 0xFF).
+    zero_after: bool,
+    /// Any octet seen since the last delimiter.
+    started: bool,
+    /// The frame did not fit the output.
+    overflow: bool,
+}
+
+impl Decoder {
+    /// A decoder waiting for a frame.
+    pub const fn new() -> Self {
+        Decoder {
+            len: 0,
+            left: 0,
+            zero_after: false,
+            started: false,
+            overflow: false,
+        }
+    }
+
+    /// One byte from the line; decoded octets go to `out` (the same buffer for the whole
+    /// frame).
+    pub fn push(&mut self, byte: u8, out: &mut [u8]) -> Deframed {
+        if byte == DELIMITER {
+            let frame = *self;
+            *self = Decoder::new();
+            return match frame {
+                Decoder { started: false, .. } => Deframed::Pending,
+                Decoder { overflow: true, .. } => Deframed::Garbage,
+                Decoder { left: 0, len, .. } => Deframed::Packet(len),
+                _ => Deframed::Garbage,
+            };
+        }
+        self.started = true;
+        if self.left == 0 {
+            // A code octet: the zero the previous group stood for, then a new group.
+            if self.zero_after {
+                self.emit(0, out);
+            }
+            self.left = byte - 1;
+            self.zero_after = byte < 0xFF;
+        } else {
+            self.emit(byte, out);
+            self.left -= 1;
+        }
+        Deframed::Pending
+    }
+
+    fn emit(&mut self, b: u8, out: &mut [u8]) {
+        match out.get_mut(self.len) {
+            Some(slot) => {
+                *slot = b;
+                self.len += 1;
+            }
+            None => self.overflow = true,
+        }
+    }
+}
+
+/// A [`Decoder`] with a buffer of `N` octets: hands out whole packets.
 pub struct Deframer<const N: usize> {
     buf: [u8; N],
-    len: usize,
-    overflow: bool,
+    decoder: Decoder,
 }
 
 impl<const N: usize> Default for Deframer<N> {
@@ -105,40 +139,17 @@ impl<const N: usize> Default for Deframer<N> {
 }
 
 impl<const N: usize> Deframer<N> {
-    /// An empty receiver (frames longer than `N` bytes are dropped as garbage).
+    /// An empty receiver (packets longer than `N` octets are dropped as garbage).
     pub const fn new() -> Self {
         Deframer {
             buf: [0; N],
-            len: 0,
-            overflow: false,
+            decoder: Decoder::new(),
         }
     }
 
     /// One byte from the line.
     pub fn push(&mut self, byte: u8) -> Deframed {
-        if byte != DELIMITER {
-            if self.len < N {
-                self.buf[self.len] = byte;
-                self.len += 1;
-            } else {
-                self.overflow = true;
-            }
-            return Deframed::Pending;
-        }
-        let (len, overflow) = (self.len, self.overflow);
-        self.len = 0;
-        self.overflow = false;
-        if len == 0 && !overflow {
-            // Back-to-back delimiters (idle line, or a sender flushing): no frame.
-            return Deframed::Pending;
-        }
-        if overflow {
-            return Deframed::Garbage;
-        }
-        match decode_in_place(&mut self.buf[..len]) {
-            Some(n) => Deframed::Packet(n),
-            None => Deframed::Garbage,
-        }
+        self.decoder.push(byte, &mut self.buf)
     }
 
     /// The packet announced by the last [`Deframed::Packet`] (valid until the next `push`).

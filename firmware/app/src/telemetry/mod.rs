@@ -10,18 +10,22 @@ pub mod packets;
 
 use arbitrary_int::{u11, u14};
 use embedded_io_async::Write;
-use spacepackets::ecss::tm::{PusTmCreator, PusTmSecondaryHeader};
-use spacepackets::ecss::{CreatorConfig, MessageTypeId};
+use spacepackets::ecss::tm::{PusTmCreatorWithReservedSourceData, PusTmSecondaryHeader};
+use spacepackets::ecss::MessageTypeId;
 use spacepackets::SpHeader;
 
 use crate::time::Nanos;
-use packets::{cuc, APID, TM_MAX};
+use packets::{cuc, APID, TIME_LEN, TM_MAX};
+
+/// Primary header, PUS-C TM secondary header and time field.
+const HEADERS_LEN: usize = 6 + 7 + TIME_LEN;
+/// The packet error control field.
+const CRC_LEN: usize = 2;
 
 /// The telemetry writer: builds, frames and sends packets on a link.
 pub struct Telemetry<W> {
     link: W,
     sequence: u16,
-    data: [u8; TM_MAX],
     packet: [u8; TM_MAX],
     frame: [u8; framing::max_encoded_len(TM_MAX)],
     sent: u32,
@@ -34,7 +38,6 @@ impl<W: Write> Telemetry<W> {
         Telemetry {
             link,
             sequence: 0,
-            data: [0; TM_MAX],
             packet: [0; TM_MAX],
             frame: [0; framing::max_encoded_len(TM_MAX)],
             sent: 0,
@@ -79,7 +82,6 @@ impl<W: Write> Telemetry<W> {
         subtype: u8,
         encode: impl FnOnce(&mut [u8]) -> Option<usize>,
     ) -> Option<usize> {
-        let n = encode(&mut self.data)?;
         let stamp = cuc(t);
         let header = SpHeader::new_for_unseg_tm(
             u11::new(APID),
@@ -87,9 +89,13 @@ impl<W: Write> Telemetry<W> {
             0,
         );
         self.sequence = (self.sequence + 1) & 0x3FFF;
+        // The application data is encoded in place, after the headers; the headers and the
+        // CRC are then written around it.
+        let n = encode(self.packet.get_mut(HEADERS_LEN..TM_MAX - CRC_LEN)?)?;
         let sec = PusTmSecondaryHeader::new_simple(MessageTypeId::new(service, subtype), &stamp);
-        let tm = PusTmCreator::new(header, sec, &self.data[..n], CreatorConfig::default());
-        let len = tm.write_to_slice(&mut self.packet).ok()?;
+        let tm = PusTmCreatorWithReservedSourceData::new(&mut self.packet, header, sec, n, true)
+            .ok()?;
+        let len = tm.finalize();
         framing::encode(&self.packet[..len], &mut self.frame)
     }
 
