@@ -1,4 +1,5 @@
-//! Puts the QEMU board's `memory.x` (mps2-an386 layout) on the linker search path.
+//! Puts the QEMU board's memory map (mps2-an386) on the linker search path as
+//! `board-memory.x` (the workspace's `memory.x` includes it).
 use std::path::PathBuf;
 
 fn main() {
@@ -6,7 +7,7 @@ fn main() {
         let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
         let memory =
             PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap()).join("../boards/qemu/memory.x");
-        std::fs::copy(&memory, out.join("memory.x")).unwrap();
+        std::fs::copy(&memory, out.join("board-memory.x")).unwrap();
         println!("cargo:rustc-link-search={}", out.display());
         println!("cargo:rerun-if-changed={}", memory.display());
     }

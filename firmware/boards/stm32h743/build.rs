@@ -1,12 +1,13 @@
-//! Links the workspace's `memory.x` (STM32H743 layout) and defmt's linker script.
+//! Puts this board's memory map on the linker search path as `board-memory.x` (the
+//! workspace's `memory.x` includes it) and links defmt's linker script.
 use std::path::PathBuf;
 
 fn main() {
     if std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
         let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
         let memory =
-            PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap()).join("../../../memory.x");
-        std::fs::copy(&memory, out.join("memory.x")).unwrap();
+            PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap()).join("memory.x");
+        std::fs::copy(&memory, out.join("board-memory.x")).unwrap();
         println!("cargo:rustc-link-search={}", out.display());
         println!("cargo:rustc-link-arg-bins=--nmagic");
         println!("cargo:rustc-link-arg-bins=-Tdefmt.x");

@@ -1,0 +1,181 @@
+//! The built-in scenario (what board-qemu runs in CI), on the host: the same tasks, the same
+//! synthetic samples and scripted uplink, decoded from the telemetry link; and, when CI hands
+//! it QEMU's telemetry.bin, the Cortex-M4F's stream checked against the host's.
+
+use std::cell::Cell;
+use std::rc::Rc;
+
+use embassy_futures::join::join;
+use embassy_futures::select::select;
+use embassy_sync::blocking_mutex::raw::NoopRawMutex;
+use embassy_sync::channel::Channel;
+use embassy_sync::zerocopy_channel::Channel as ZeroCopyChannel;
+use firmware::app::{app_task, uplink_task, App, Incoming, Mode, COMMAND_QUEUE};
+use firmware::sampler::synthetic::{motion, synthetic_task, Synthetic};
+use firmware::sampler::{HealthBoard, SampleSet};
+use firmware::scenario::{self, ScriptedUplink, SETS};
+use firmware::telemetry::packets::{EventId, FailureCode, MotionReport, Report};
+use firmware::telemetry::Telemetry;
+use firmware::time::{Nanos, TimeBase};
+use hal_sim::decode::{decode_stream, Stream};
+use hal_sim::firmware_host::Downlink;
+
+/// Time that jumps to each instant waited for.
+#[derive(Clone)]
+struct StepTime(Rc<Cell<Nanos>>);
+
+impl TimeBase for StepTime {
+    fn now(&self) -> Nanos {
+        self.0.get()
+    }
+
+    async fn wait_until(&mut self, at: Nanos) {
+        self.0.set(self.0.get().max(at));
+        embassy_futures::yield_now().await;
+    }
+}
+
+/// The built-in scenario on the host, booting at 0 with the first instant one period later.
+fn host_run() -> Vec<u8> {
+    let config = scenario::config();
+    let mut app = App::new(&config, Mode::Operate).unwrap();
+    let mut source = Synthetic::new(&config, Some(scenario::OUTAGE));
+    let mut time = StepTime(Rc::new(Cell::new(0)));
+    let app_time = time.clone();
+    let t0 = source.period();
+    let samples = Channel::<NoopRawMutex, SampleSet, { firmware::QUEUE }>::new();
+    let mut slots: [Incoming; COMMAND_QUEUE] = Default::default();
+    let mut commands = ZeroCopyChannel::<NoopRawMutex, Incoming>::new(&mut slots);
+    let (tx, rx) = commands.split();
+    let health = HealthBoard::<NoopRawMutex>::new();
+    let mut tm = Telemetry::new(Downlink::default());
+    let mut tap = ();
+    {
+        let application = app_task(
+            &mut app,
+            &app_time,
+            samples.receiver(),
+            rx,
+            &health,
+            &mut tm,
+            &mut tap,
+            Some(SETS),
+        );
+        let sampling = synthetic_task(&mut source, &mut time, samples.sender(), &health, t0, Some(SETS));
+        let uplink = uplink_task(ScriptedUplink::new(&app_time, t0), tx);
+        embassy_futures::block_on(select(application, join(sampling, uplink)));
+    }
+    std::mem::take(&mut tm.link().0)
+}
+
+fn motions(s: &Stream) -> Vec<(f64, MotionReport)> {
+    s.packets
+        .iter()
+        .filter_map(|p| match &p.report {
+            Report::Motion(m) => Some((p.t, *m)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// RMS of |Ω − truth| over the estimates (not predictions) from set `from` on, and the RMS of
+/// the standard deviation the estimator reported for them (|sd_Ω|).
+fn omega_rms(m: &[(f64, MotionReport)], from: u32) -> (f64, f64) {
+    let e: Vec<(f64, f64)> = m
+        .iter()
+        .filter(|(_, r)| r.k >= from && r.estimate.flags.0 & 0x20 == 0)
+        .map(|(_, r)| {
+            let (_, _, w) = motion(f64::from(r.k) * 0.01);
+            let e = &r.estimate;
+            let err = (0..3).map(|j| (f64::from(e.omega[j]) - w[j]).powi(2)).sum::<f64>();
+            let sd = e.sd_omega.iter().map(|s| f64::from(*s).powi(2)).sum::<f64>();
+            (err, sd)
+        })
+        .collect();
+    let n = e.len() as f64;
+    (
+        (e.iter().map(|x| x.0).sum::<f64>() / n).sqrt(),
+        (e.iter().map(|x| x.1).sum::<f64>() / n).sqrt(),
+    )
+}
+
+#[test]
+fn the_builtin_scenario_exercises_every_path_and_estimates_the_motion() {
+    let stream = decode_stream(&host_run());
+    assert!(stream.problems.is_empty(), "{:?}", stream.problems);
+    let m = motions(&stream);
+    // Standby from 2.005 s to 2.505 s: 50 sets without estimates.
+    assert_eq!(m.len(), SETS as usize - 50);
+    // The error is what the estimator says it is (its first-order sd, noise 2 mm/s² per
+    // channel) and well under 1 % of |Ω| ≈ 1 rad/s.
+    let (rms, sd) = omega_rms(&m, 100);
+    assert!(rms < 2.0 * sd && rms > 0.5 * sd, "Ω RMS {rms:.2e} rad/s, reported sd {sd:.2e}");
+    assert!(rms < 5e-3, "Ω RMS {rms:.2e} rad/s");
+    let events: Vec<EventId> = stream
+        .packets
+        .iter()
+        .filter_map(|p| match &p.report {
+            Report::Event(e) => Some(e.id),
+            _ => None,
+        })
+        .collect();
+    use EventId::*;
+    assert_eq!(
+        events,
+        [Boot, ModeChanged, ModeChanged, FrameRejected, FrameRejected, PartDown, PartUp, Reconfigured]
+    );
+    let failures: Vec<(u8, Option<FailureCode>)> = stream
+        .packets
+        .iter()
+        .filter_map(|p| match &p.report {
+            Report::Verification(v) if v.subtype % 2 == 0 => Some((v.subtype, v.failure.map(|f| f.0))),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(failures, [(2, Some(FailureCode::Checksum))]);
+    assert!(stream.packets.iter().any(|p| matches!(p.report, Report::Alive)));
+}
+
+/// QEMU's stream (CI sets `BOARD_QEMU_TELEMETRY` after running board-qemu): intact, every
+/// path taken as on the host, and each estimate the Cortex-M4F sent identical, bit for bit, to
+/// the host's for the same set until the first set it had to drop (a reconfiguration in
+/// soft-float f64 takes longer than a sample period on the M4F under QEMU's clock).
+#[test]
+#[ignore = "needs board-qemu's telemetry.bin: run by scripts/test.sh after QEMU"]
+fn qemu_stream_matches_the_host_run() {
+    let path = std::env::var("BOARD_QEMU_TELEMETRY").expect("BOARD_QEMU_TELEMETRY");
+    let qemu = decode_stream(&std::fs::read(&path).unwrap());
+    assert!(qemu.problems.is_empty(), "{:?}", qemu.problems);
+    let host = decode_stream(&host_run());
+    let (q, h) = (motions(&qemu), motions(&host));
+    let mut same = 0;
+    for (a, b) in q.iter().zip(h.iter()) {
+        if a.1.k != b.1.k {
+            break;
+        }
+        let (x, y) = (&a.1.estimate, &b.1.estimate);
+        assert_eq!(
+            (x.sigma0, x.domega, x.omega, x.field.0, x.flags.0),
+            (y.sigma0, y.domega, y.omega, y.field.0, y.flags.0),
+            "set {}",
+            a.1.k
+        );
+        same += 1;
+    }
+    println!("QEMU: {} estimates, the first {same} identical to the host's; host {}", q.len(), h.len());
+    assert!(same >= 500, "{same}");
+    let (rms, sd) = omega_rms(&q, 100);
+    println!("QEMU: Ω RMS {rms:.3e} rad/s (reported sd {sd:.3e})");
+    assert!(rms < 2.0 * sd && rms < 5e-3, "Ω RMS {rms:.2e} rad/s, reported sd {sd:.2e}");
+    let kinds = |s: &Stream| -> Vec<String> {
+        s.packets
+            .iter()
+            .filter_map(|p| match &p.report {
+                Report::Event(e) if e.id != EventId::SetsLost => Some(e.id.name().to_string()),
+                Report::Verification(v) => Some(format!("tc{}:{}", v.request.sequence & 0x3FFF, v.subtype)),
+                _ => None,
+            })
+            .collect()
+    };
+    assert_eq!(kinds(&qemu), kinds(&host));
+}
