@@ -1,12 +1,16 @@
 #!/usr/bin/env bash
-# The test command: formatting, lints, every test, the target build and its instruction
-# counts under QEMU (which fail if the per-sample budget is exceeded).
+# The test command: formatting, lints, every test, the target builds and their figures:
+# instruction counts of the estimate under QEMU (which fail if the per-sample budget is
+# exceeded), the STM32H743 build, the QEMU board running the built-in scenario with its
+# telemetry decoded and checked against the host, and the flash / RAM report.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets -- -D warnings
 cargo clippy -p qemu-bench --release --target thumbv7em-none-eabihf -- -D warnings
 cargo clippy -p firmware --target thumbv7em-none-eabihf -- -D warnings
+cargo clippy -p board-qemu --profile flight --target thumbv7em-none-eabihf -- -D warnings
+(cd firmware/boards/stm32h743 && cargo clippy --profile flight -- -D warnings)
 if cargo nextest --version >/dev/null 2>&1; then
   cargo nextest run --workspace --no-fail-fast
 else
@@ -14,3 +18,14 @@ else
 fi
 cargo test --workspace --doc
 cargo qemu-bench
+
+# The boards. STM32H743: built from its directory (its .cargo/config.toml: Cortex-M7 FPU,
+# probe-rs runner). QEMU: runs the built-in scenario, writes out/qemu/telemetry.bin.
+(cd firmware/boards/stm32h743 && cargo build --profile flight)
+cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf
+cargo build --release --bin ballisto
+./target/release/ballisto decode out/qemu/telemetry.bin --out out/qemu/estimates.csv \
+  --log out/qemu/log.txt
+BOARD_QEMU_TELEMETRY="$PWD/out/qemu/telemetry.bin" \
+  cargo test --release -p e2e-tests --test builtin_scenario -- --ignored --nocapture
+bash scripts/size-report.sh

@@ -150,7 +150,12 @@ pub fn log_line(p: &Decoded, time_offset: f64) -> Option<String> {
                 v.request.packet_id, v.request.sequence
             );
             if let Some((code, data)) = v.failure {
-                let _ = write!(s, ": {} (code {}, data {data:#x})", code.describe(), code as u16);
+                let _ = write!(
+                    s,
+                    ": {} (code {}, data {data:#x})",
+                    code.describe(),
+                    code as u16
+                );
             }
             s
         }
@@ -173,7 +178,11 @@ fn housekeeping_text(h: &Housekeeping) -> String {
         if c.state == PartState::Absent {
             continue;
         }
-        let state = if c.state == PartState::Running { "running" } else { "DOWN" };
+        let state = if c.state == PartState::Running {
+            "running"
+        } else {
+            "DOWN"
+        };
         let _ = write!(
             s,
             " | part{i} {state} reads={} bus_errors={} implausible={} missed={} failed_starts={} resyncs={}",
@@ -194,8 +203,8 @@ pub fn decode_file(
     let bytes =
         std::fs::read(input).map_err(|e| format!("{}: cannot read: {e}", input.display()))?;
     let stream = decode_stream(&bytes);
-    let file = std::fs::File::create(out)
-        .map_err(|e| format!("{}: cannot create: {e}", out.display()))?;
+    let file =
+        std::fs::File::create(out).map_err(|e| format!("{}: cannot create: {e}", out.display()))?;
     let mut w = std::io::BufWriter::new(file);
     let rows = write_estimates(&mut w, &stream, time_offset)
         .and_then(|n| w.flush().map(|_| n))

@@ -20,11 +20,11 @@ use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::zerocopy_channel::Channel as ZeroCopyChannel;
 use embedded_hal::digital::{ErrorType, OutputPin};
+use firmware::app::{app_task, uplink_task, App, Incoming, Mode, COMMAND_QUEUE};
 use firmware::config::{
     Alignment, AppConfig, PartConfig, PartKind, SamplingConfig, MAX_CHANNELS, MAX_PARTS,
 };
 use firmware::drivers::{adxl355, lis3dh};
-use firmware::app::{app_task, uplink_task, App, Incoming, Mode, COMMAND_QUEUE};
 use firmware::estimation::{Motion, Tap};
 use firmware::sampler::{
     sampling_task, HealthBoard, LoopHealth, PartBus, PartHealth, SampleSet, Sampler,

@@ -289,12 +289,20 @@ fn decode(input: &Path, out: &Path) -> std::process::Output {
 fn decoding_the_firmwares_telemetry_gives_its_estimates() {
     let d = tmpdir("decode");
     let out = sim_firmware("tetra-orbit", &d, "interpolate");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("telemetry: "), "{stdout}");
     let decoded = d.join("decoded.csv");
     let out = decode(&d.join("telemetry.bin"), &decoded);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let want = std::fs::read_to_string(d.join("estimates.csv")).unwrap();
     let got = std::fs::read_to_string(&decoded).unwrap();
     let (want, got): (Vec<&str>, Vec<&str>) = (want.lines().collect(), got.lines().collect());
@@ -306,7 +314,10 @@ fn decoding_the_firmwares_telemetry_gives_its_estimates() {
         assert_eq!(g.len(), n + 4);
     }
     let log = std::fs::read_to_string(decoded.with_extension("txt")).unwrap();
-    assert!(log.starts_with("t=0.000000 seq=    0 EVENT boot (info) version=0.1.0 channels=12"), "{log}");
+    assert!(
+        log.starts_with("t=0.000000 seq=    0 EVENT boot (info) version=0.1.0 channels=12"),
+        "{log}"
+    );
     // Housekeeping at boot and once a second (100 sets), at the set that completes it.
     assert_eq!(log.matches(" HK ").count(), 21, "{log}");
     assert!(log.contains("t=19.990000 seq= 2021 HK v0.1.0 mode=operate model=G channels=12 rate=100Hz motion_every=1 hk_every=100 sets=2000"), "{log}");
@@ -334,11 +345,23 @@ fn decode_reports_damage_and_keeps_the_rest() {
     let out = decode(&damaged, &decoded);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("not a PUS-C TM packet (length or CRC)") || err.contains("not a COBS frame"), "{err}");
+    assert!(
+        err.contains("not a PUS-C TM packet (length or CRC)") || err.contains("not a COBS frame"),
+        "{err}"
+    );
     assert!(err.contains("packets lost"), "{err}");
-    assert!(err.contains(&format!("byte {}: not a", starts[500])), "{err}");
-    assert!(err.contains("sequence count 501 where 500 was due (1 packets lost)"), "{err}");
-    assert!(err.contains("sequence count 1501 where 1500 was due (1 packets lost)"), "{err}");
+    assert!(
+        err.contains(&format!("byte {}: not a", starts[500])),
+        "{err}"
+    );
+    assert!(
+        err.contains("sequence count 501 where 500 was due (1 packets lost)"),
+        "{err}"
+    );
+    assert!(
+        err.contains("sequence count 1501 where 1500 was due (1 packets lost)"),
+        "{err}"
+    );
     let rows = std::fs::read_to_string(&decoded).unwrap().lines().count();
     assert_eq!(rows, 1 + 2001 - 2, "{err}");
 }

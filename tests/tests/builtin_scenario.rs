@@ -61,7 +61,14 @@ fn host_run() -> Vec<u8> {
             &mut tap,
             Some(SETS),
         );
-        let sampling = synthetic_task(&mut source, &mut time, samples.sender(), &health, t0, Some(SETS));
+        let sampling = synthetic_task(
+            &mut source,
+            &mut time,
+            samples.sender(),
+            &health,
+            t0,
+            Some(SETS),
+        );
         let uplink = uplink_task(ScriptedUplink::new(&app_time, t0), tx);
         embassy_futures::block_on(select(application, join(sampling, uplink)));
     }
@@ -87,8 +94,14 @@ fn omega_rms(m: &[(f64, MotionReport)], from: u32) -> (f64, f64) {
         .map(|(_, r)| {
             let (_, _, w) = motion(f64::from(r.k) * 0.01);
             let e = &r.estimate;
-            let err = (0..3).map(|j| (f64::from(e.omega[j]) - w[j]).powi(2)).sum::<f64>();
-            let sd = e.sd_omega.iter().map(|s| f64::from(*s).powi(2)).sum::<f64>();
+            let err = (0..3)
+                .map(|j| (f64::from(e.omega[j]) - w[j]).powi(2))
+                .sum::<f64>();
+            let sd = e
+                .sd_omega
+                .iter()
+                .map(|s| f64::from(*s).powi(2))
+                .sum::<f64>();
             (err, sd)
         })
         .collect();
@@ -109,7 +122,10 @@ fn the_builtin_scenario_exercises_every_path_and_estimates_the_motion() {
     // The error is what the estimator says it is (its first-order sd, noise 2 mm/s² per
     // channel) and well under 1 % of |Ω| ≈ 1 rad/s.
     let (rms, sd) = omega_rms(&m, 100);
-    assert!(rms < 2.0 * sd && rms > 0.5 * sd, "Ω RMS {rms:.2e} rad/s, reported sd {sd:.2e}");
+    assert!(
+        rms < 2.0 * sd && rms > 0.5 * sd,
+        "Ω RMS {rms:.2e} rad/s, reported sd {sd:.2e}"
+    );
     assert!(rms < 5e-3, "Ω RMS {rms:.2e} rad/s");
     let events: Vec<EventId> = stream
         .packets
@@ -122,18 +138,32 @@ fn the_builtin_scenario_exercises_every_path_and_estimates_the_motion() {
     use EventId::*;
     assert_eq!(
         events,
-        [Boot, ModeChanged, ModeChanged, FrameRejected, FrameRejected, PartDown, PartUp, Reconfigured]
+        [
+            Boot,
+            ModeChanged,
+            ModeChanged,
+            FrameRejected,
+            FrameRejected,
+            PartDown,
+            PartUp,
+            Reconfigured
+        ]
     );
     let failures: Vec<(u8, Option<FailureCode>)> = stream
         .packets
         .iter()
         .filter_map(|p| match &p.report {
-            Report::Verification(v) if v.subtype % 2 == 0 => Some((v.subtype, v.failure.map(|f| f.0))),
+            Report::Verification(v) if v.subtype % 2 == 0 => {
+                Some((v.subtype, v.failure.map(|f| f.0)))
+            }
             _ => None,
         })
         .collect();
     assert_eq!(failures, [(2, Some(FailureCode::Checksum))]);
-    assert!(stream.packets.iter().any(|p| matches!(p.report, Report::Alive)));
+    assert!(stream
+        .packets
+        .iter()
+        .any(|p| matches!(p.report, Report::Alive)));
 }
 
 /// QEMU's stream (CI sets `BOARD_QEMU_TELEMETRY` after running board-qemu): intact, every
@@ -162,17 +192,26 @@ fn qemu_stream_matches_the_host_run() {
         );
         same += 1;
     }
-    println!("QEMU: {} estimates, the first {same} identical to the host's; host {}", q.len(), h.len());
+    println!(
+        "QEMU: {} estimates, the first {same} identical to the host's; host {}",
+        q.len(),
+        h.len()
+    );
     assert!(same >= 500, "{same}");
     let (rms, sd) = omega_rms(&q, 100);
     println!("QEMU: Ω RMS {rms:.3e} rad/s (reported sd {sd:.3e})");
-    assert!(rms < 2.0 * sd && rms < 5e-3, "Ω RMS {rms:.2e} rad/s, reported sd {sd:.2e}");
+    assert!(
+        rms < 2.0 * sd && rms < 5e-3,
+        "Ω RMS {rms:.2e} rad/s, reported sd {sd:.2e}"
+    );
     let kinds = |s: &Stream| -> Vec<String> {
         s.packets
             .iter()
             .filter_map(|p| match &p.report {
                 Report::Event(e) if e.id != EventId::SetsLost => Some(e.id.name().to_string()),
-                Report::Verification(v) => Some(format!("tc{}:{}", v.request.sequence & 0x3FFF, v.subtype)),
+                Report::Verification(v) => {
+                    Some(format!("tc{}:{}", v.request.sequence & 0x3FFF, v.subtype))
+                }
                 _ => None,
             })
             .collect()

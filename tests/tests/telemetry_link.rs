@@ -40,14 +40,23 @@ fn commands_on_the_uplink_take_effect_and_are_verified_on_the_downlink() {
         // Line noise with a delimiter in it, then a command whose octets were damaged.
         (7.0, vec![0x55, 0xAA, 0x00, 0x13]),
         (7.005, damaged),
-        (8.0, frame(service::HOUSEKEEPING, subtype::HK_ONE_SHOT, &[1, 0, 2], 5)),
+        (
+            8.0,
+            frame(service::HOUSEKEEPING, subtype::HK_ONE_SHOT, &[1, 0, 2], 5),
+        ),
         // Model G needs all 12 channels: the exclusion is refused at completion.
         (9.0, frame(b, subtype::EXCLUDE, &[0], 6)),
     ];
     let mut truth = Vec::new();
-    let report = run_firmware_with(&sc, &config, sc.samples() as u32, &uplink, &mut |s, _, tr| {
-        truth.push((s.k, tr.omega));
-    })
+    let report = run_firmware_with(
+        &sc,
+        &config,
+        sc.samples() as u32,
+        &uplink,
+        &mut |s, _, tr| {
+            truth.push((s.k, tr.omega));
+        },
+    )
     .unwrap();
     let stream = decode_stream(&report.telemetry);
     assert!(stream.problems.is_empty(), "{:?}", stream.problems);
@@ -63,7 +72,11 @@ fn commands_on_the_uplink_take_effect_and_are_verified_on_the_downlink() {
         .collect();
     assert_eq!(motions.len(), 2001 - 100);
     assert_eq!(truth.len(), motions.len());
-    let gap: Vec<u32> = motions.windows(2).filter(|w| w[1].1.k != w[0].1.k + 1).map(|w| w[1].1.k - w[0].1.k).collect();
+    let gap: Vec<u32> = motions
+        .windows(2)
+        .filter(|w| w[1].1.k != w[0].1.k + 1)
+        .map(|w| w[1].1.k - w[0].1.k)
+        .collect();
     assert_eq!(gap, [101]);
     // After the restart (hint = the last Ω before standby), the estimates follow the truth.
     let after: Vec<f64> = motions
@@ -89,7 +102,11 @@ fn commands_on_the_uplink_take_effect_and_are_verified_on_the_downlink() {
         .packets
         .iter()
         .filter_map(|p| match &p.report {
-            Report::Verification(v) => Some((v.request.sequence & 0x3FFF, v.subtype, v.failure.map(|f| f.0))),
+            Report::Verification(v) => Some((
+                v.request.sequence & 0x3FFF,
+                v.subtype,
+                v.failure.map(|f| f.0),
+            )),
             _ => None,
         })
         .collect();
@@ -130,7 +147,10 @@ fn commands_on_the_uplink_take_effect_and_are_verified_on_the_downlink() {
     // frames ("55 AA" and "13" are not COBS; the damaged command's leading delimiter ends the
     // noise, so the command itself arrives whole and fails its CRC).
     let hk = &report.housekeeping;
-    assert_eq!((hk.tc_accepted, hk.tc_rejected, hk.frames_garbage), (4, 1, 2));
+    assert_eq!(
+        (hk.tc_accepted, hk.tc_rejected, hk.frames_garbage),
+        (4, 1, 2)
+    );
     assert_eq!(hk.excluded_channels, 0);
     assert!(log.iter().any(|l| l.contains("HK") && l.contains("tc_accepted=3 tc_rejected=1 frames_garbage=2")), "{log:#?}");
 }
@@ -163,6 +183,12 @@ fn a_dead_part_is_reported_down_and_up_again() {
         _ => None,
     });
     let down = down.expect("a housekeeping report during the outage");
-    assert_eq!(down.parts[3].state, firmware::telemetry::packets::PartState::Down);
-    assert!(down.parts[3].missed >= 10 && down.parts[3].implausible >= 10, "{down:?}");
+    assert_eq!(
+        down.parts[3].state,
+        firmware::telemetry::packets::PartState::Down
+    );
+    assert!(
+        down.parts[3].missed >= 10 && down.parts[3].implausible >= 10,
+        "{down:?}"
+    );
 }

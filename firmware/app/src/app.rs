@@ -23,8 +23,8 @@ use crate::sampler::{Health, HealthBoard, SampleSet};
 use crate::telecommand::{self, Accepted, Command, Context};
 use crate::telemetry::framing::{Decoder, Deframed};
 use crate::telemetry::packets::{
-    config_error_code, service, subtype, Event, EventId, FailureCode, Housekeeping,
-    MotionReport, PartCounters, PartState, RequestId, Verification, TC_MAX,
+    config_error_code, service, subtype, Event, EventId, FailureCode, Housekeeping, MotionReport,
+    PartCounters, PartState, RequestId, Verification, TC_MAX,
 };
 use crate::telemetry::Telemetry;
 use crate::time::{Nanos, TimeBase};
@@ -283,9 +283,7 @@ impl App {
             self.verify(t, tm, subtype::ACCEPTED, request, None).await;
         }
         match self.execute(command, t, tm).await {
-            Ok(()) if ack_completion => {
-                self.verify(t, tm, subtype::COMPLETED, request, None).await
-            }
+            Ok(()) if ack_completion => self.verify(t, tm, subtype::COMPLETED, request, None).await,
             Ok(()) => {}
             Err(failure) => {
                 self.verify(t, tm, subtype::NOT_COMPLETED, request, Some(failure))
@@ -333,9 +331,7 @@ impl App {
                     Command::Exclude(_) => self.estimation.commanded() | bit,
                     _ => self.estimation.commanded() & !bit,
                 };
-                self.estimation
-                    .set_commanded(commanded)
-                    .map_err(refused)?;
+                self.estimation.set_commanded(commanded).map_err(refused)?;
             }
             Command::LoadArrangement(data) => {
                 self.load_arrangement(data)?;
@@ -423,14 +419,7 @@ impl App {
         tm.transmit(framed).await;
     }
 
-    async fn event<W: Write>(
-        &self,
-        t: Nanos,
-        tm: &mut Telemetry<W>,
-        id: EventId,
-        a: u32,
-        b: u32,
-    ) {
+    async fn event<W: Write>(&self, t: Nanos, tm: &mut Telemetry<W>, id: EventId, a: u32, b: u32) {
         let mut data = [0u8; 16];
         if let Some(n) = (Event { id, a, b }).encode(&mut data) {
             tm.send(t, service::EVENT, id.severity(), &data[..n]).await;

@@ -140,8 +140,7 @@ impl Estimation {
             initial_omega: self.last_omega,
             ..self.options
         };
-        self.estimator
-            .configure(arrangement, model, mask, options)
+        self.estimator.configure(arrangement, model, mask, options)
     }
 
     /// A rate hint (settles sign and branch from the next set on).

@@ -45,15 +45,43 @@ pub enum Step {
 /// The uplink script: (seconds after the first instant, what arrives). Times sit between
 /// two sample instants, so a command is handled between the same two sets on every machine.
 pub const SCRIPT: [(f64, Step); 9] = [
-    (2.005, Step::Command(service::BALLISTOMETER, subtype::SET_MODE, &[0])),
-    (2.505, Step::Command(service::BALLISTOMETER, subtype::SET_MODE, &[1])),
-    (3.005, Step::Command(service::HOUSEKEEPING, subtype::HK_ONE_SHOT, &[1, 0, sid::HOUSEKEEPING as u8])),
+    (
+        2.005,
+        Step::Command(service::BALLISTOMETER, subtype::SET_MODE, &[0]),
+    ),
+    (
+        2.505,
+        Step::Command(service::BALLISTOMETER, subtype::SET_MODE, &[1]),
+    ),
+    (
+        3.005,
+        Step::Command(
+            service::HOUSEKEEPING,
+            subtype::HK_ONE_SHOT,
+            &[1, 0, sid::HOUSEKEEPING as u8],
+        ),
+    ),
     (3.505, Step::Noise(&[0x55, 0xAA, 0x00, 0x13])),
-    (3.605, Step::Damaged(service::BALLISTOMETER, subtype::SET_MODEL, &[1])),
-    (6.005, Step::Command(service::BALLISTOMETER, subtype::SET_MODEL, &[1])),
-    (7.005, Step::Command(service::BALLISTOMETER, subtype::EXCLUDE, &[11])),
-    (8.005, Step::Command(service::BALLISTOMETER, subtype::INCLUDE, &[11])),
-    (9.005, Step::Command(service::TEST, subtype::ARE_YOU_ALIVE, &[])),
+    (
+        3.605,
+        Step::Damaged(service::BALLISTOMETER, subtype::SET_MODEL, &[1]),
+    ),
+    (
+        6.005,
+        Step::Command(service::BALLISTOMETER, subtype::SET_MODEL, &[1]),
+    ),
+    (
+        7.005,
+        Step::Command(service::BALLISTOMETER, subtype::EXCLUDE, &[11]),
+    ),
+    (
+        8.005,
+        Step::Command(service::BALLISTOMETER, subtype::INCLUDE, &[11]),
+    ),
+    (
+        9.005,
+        Step::Command(service::TEST, subtype::ARE_YOU_ALIVE, &[]),
+    ),
 ];
 
 /// The frame of a script step with sequence count `seq`; its length.

@@ -127,7 +127,12 @@ impl Unit {
         let cfg = config();
         let app = App::new(&cfg, Mode::Operate).unwrap();
         let mut tm = Telemetry::new(Capture::default());
-        let mut unit = Unit { cfg, app, tm: Telemetry::new(Capture::default()), k: 0 };
+        let mut unit = Unit {
+            cfg,
+            app,
+            tm: Telemetry::new(Capture::default()),
+            k: 0,
+        };
         block_on(unit.app.boot(0, &mut tm));
         unit.tm = tm;
         unit
@@ -136,7 +141,10 @@ impl Unit {
     fn sets(&mut self, n: u32) {
         for _ in 0..n {
             let s = set(&self.cfg, self.k);
-            block_on(self.app.on_set(&s, health(&self.cfg), &mut self.tm, &mut ()));
+            block_on(
+                self.app
+                    .on_set(&s, health(&self.cfg), &mut self.tm, &mut ()),
+            );
             self.k += 1;
         }
     }
@@ -211,7 +219,10 @@ fn the_stream_decodes_with_contiguous_counts_and_the_estimates_sent() {
     }
     // The estimate is the spin: Ω = (0, 0, ±0.5) within the noise-free solve's precision.
     let w = motions[249].1.estimate.omega;
-    assert!((w[2].abs() - 0.5).abs() < 1e-3 && w[0].abs() < 1e-3, "{w:?}");
+    assert!(
+        (w[2].abs() - 0.5).abs() < 1e-3 && w[0].abs() < 1e-3,
+        "{w:?}"
+    );
 }
 
 #[test]
@@ -233,10 +244,16 @@ fn every_command_is_verified_and_takes_effect() {
 
     let r = u.command(&tc(b, subtype::SET_MODE, &[0], 3));
     ok(&r);
-    assert!(matches!(r[1].report, Report::Event(e) if e.id == EventId::ModeChanged && e.a == 1 && e.b == 0));
+    assert!(
+        matches!(r[1].report, Report::Event(e) if e.id == EventId::ModeChanged && e.a == 1 && e.b == 0)
+    );
     let before = motion_values(&mut u).len();
     u.sets(5);
-    assert_eq!(motion_values(&mut u).len(), before, "no estimates in standby");
+    assert_eq!(
+        motion_values(&mut u).len(),
+        before,
+        "no estimates in standby"
+    );
     ok(&u.command(&tc(b, subtype::SET_MODE, &[1], 4)));
     u.sets(5);
     assert_eq!(motion_values(&mut u).len(), before + 5);
@@ -244,9 +261,14 @@ fn every_command_is_verified_and_takes_effect() {
     let r = u.command(&tc(b, subtype::SET_MODEL, &[0], 5));
     ok(&r);
     assert_eq!(u.app.estimation().estimator().model(), Model::General);
-    assert!(matches!(r[1].report, Report::Event(e) if e.id == EventId::Reconfigured && e.a == 12 && e.b == 0));
+    assert!(
+        matches!(r[1].report, Report::Event(e) if e.id == EventId::Reconfigured && e.a == 12 && e.b == 0)
+    );
 
-    let hint: Vec<u8> = [0.0f32, 0.0, 0.5].iter().flat_map(|v| v.to_be_bytes()).collect();
+    let hint: Vec<u8> = [0.0f32, 0.0, 0.5]
+        .iter()
+        .flat_map(|v| v.to_be_bytes())
+        .collect();
     ok(&u.command(&tc(b, subtype::SET_HINT, &hint, 6)));
 
     // The same geometry, shifted by 1 cm in x: accepted, and the estimator has it.
@@ -267,8 +289,15 @@ fn every_command_is_verified_and_takes_effect() {
     u.sets(100);
     assert_eq!(motion_values(&mut u).len(), before + 10);
 
-    let r = u.command(&tc(service::HOUSEKEEPING, subtype::HK_ONE_SHOT, &[1, 0, 2], 9));
-    assert!(matches!(&r[1].report, Report::Housekeeping(h) if h.tc_accepted == 9 && h.motion_every == 10));
+    let r = u.command(&tc(
+        service::HOUSEKEEPING,
+        subtype::HK_ONE_SHOT,
+        &[1, 0, 2],
+        9,
+    ));
+    assert!(
+        matches!(&r[1].report, Report::Housekeeping(h) if h.tc_accepted == 9 && h.motion_every == 10)
+    );
     let r = u.command(&tc(service::TEST, subtype::ARE_YOU_ALIVE, &[], 10));
     assert!(matches!(r[1].report, Report::Alive));
     ok(&r);
@@ -296,43 +325,159 @@ fn bad_commands(cfg: &AppConfig) -> Vec<(&'static str, Vec<u8>, u8, FailureCode,
             .to_vec()
             .unwrap()
     };
-    let nan: Vec<u8> = [0.0f32, f32::NAN, 0.5].iter().flat_map(|v| v.to_be_bytes()).collect();
-    let fast: Vec<u8> = [0.0f32, 0.0, 80.0].iter().flat_map(|v| v.to_be_bytes()).collect();
+    let nan: Vec<u8> = [0.0f32, f32::NAN, 0.5]
+        .iter()
+        .flat_map(|v| v.to_be_bytes())
+        .collect();
+    let fast: Vec<u8> = [0.0f32, 0.0, 80.0]
+        .iter()
+        .flat_map(|v| v.to_be_bytes())
+        .collect();
     let mut arrangement = vec![12u8];
     for (i, ch) in cfg.arrangement.channels().iter().enumerate() {
         let noise = if i == 5 { -1.0 } else { ch.noise };
-        for v in ch.position.iter().chain(ch.axis.iter()).chain([noise].iter()) {
+        for v in ch
+            .position
+            .iter()
+            .chain(ch.axis.iter())
+            .chain([noise].iter())
+        {
             arrangement.extend((*v as f32).to_be_bytes());
         }
     }
     // Every channel at the same point: Ω′ is not observable (the estimator refuses it).
     let mut collapsed = vec![12u8];
     for ch in cfg.arrangement.channels() {
-        for v in [0.0, 0.0, 0.0].iter().chain(ch.axis.iter()).chain([ch.noise].iter()) {
+        for v in [0.0, 0.0, 0.0]
+            .iter()
+            .chain(ch.axis.iter())
+            .chain([ch.noise].iter())
+        {
             collapsed.extend((*v as f32).to_be_bytes());
         }
     }
     let na = subtype::NOT_ACCEPTED;
     vec![
-        ("truncated", good[..good.len() - 1].to_vec(), na, FailureCode::Truncated, good.len() as u32),
-        ("trailing octet", trailing, na, FailureCode::TrailingOctets, good.len() as u32),
+        (
+            "truncated",
+            good[..good.len() - 1].to_vec(),
+            na,
+            FailureCode::Truncated,
+            good.len() as u32,
+        ),
+        (
+            "trailing octet",
+            trailing,
+            na,
+            FailureCode::TrailingOctets,
+            good.len() as u32,
+        ),
         ("bad CRC", bad_crc, na, FailureCode::Checksum, 0),
-        ("telemetry type", tm_type, na, FailureCode::NotTelecommand, 0),
+        (
+            "telemetry type",
+            tm_type,
+            na,
+            FailureCode::NotTelecommand,
+            0,
+        ),
         ("PUS-A", pus_a, na, FailureCode::PusVersion, 1),
         ("other APID", wrong_apid, na, FailureCode::WrongApid, 0x123),
-        ("unknown subtype", tc(b, 99, &[], 23), na, FailureCode::UnknownCommand, 200 << 8 | 99),
-        ("unknown service", tc(8, 1, &[], 24), na, FailureCode::UnknownCommand, 8 << 8 | 1),
-        ("short data", tc(b, subtype::SET_HINT, &[0; 8], 25), na, FailureCode::DataLength, 12),
-        ("mode 2", tc(b, subtype::SET_MODE, &[2], 26), na, FailureCode::OutOfRange, 0),
-        ("model 7", tc(b, subtype::SET_MODEL, &[7], 27), na, FailureCode::OutOfRange, 0),
-        ("channel 12", tc(b, subtype::EXCLUDE, &[12], 28), na, FailureCode::OutOfRange, 0),
-        ("NaN hint", tc(b, subtype::SET_HINT, &nan, 29), na, FailureCode::NotFinite, 1),
-        ("80 rad/s hint", tc(b, subtype::SET_HINT, &fast, 30), na, FailureCode::OutOfRange, 2),
-        ("negative noise", tc(b, subtype::LOAD_ARRANGEMENT, &arrangement, 31), na, FailureCode::OutOfRange, 1 + 7 * 5 + 6),
-        ("9 channels", tc(b, subtype::LOAD_ARRANGEMENT, &arrangement[..1 + 9 * CHANNEL_LEN], 32), na, FailureCode::DataLength, 1 + 12 * CHANNEL_LEN as u32),
-        ("zero decimation", tc(b, subtype::SET_RATES, &[0, 0, 0, 1], 33), na, FailureCode::OutOfRange, 0),
-        ("unknown SID", tc(service::HOUSEKEEPING, subtype::HK_ONE_SHOT, &[1, 0, 9], 34), na, FailureCode::OutOfRange, 1),
-        ("collapsed geometry", tc(b, subtype::LOAD_ARRANGEMENT, &collapsed, 35), subtype::NOT_COMPLETED, FailureCode::Refused, 8 << 16),
+        (
+            "unknown subtype",
+            tc(b, 99, &[], 23),
+            na,
+            FailureCode::UnknownCommand,
+            200 << 8 | 99,
+        ),
+        (
+            "unknown service",
+            tc(8, 1, &[], 24),
+            na,
+            FailureCode::UnknownCommand,
+            8 << 8 | 1,
+        ),
+        (
+            "short data",
+            tc(b, subtype::SET_HINT, &[0; 8], 25),
+            na,
+            FailureCode::DataLength,
+            12,
+        ),
+        (
+            "mode 2",
+            tc(b, subtype::SET_MODE, &[2], 26),
+            na,
+            FailureCode::OutOfRange,
+            0,
+        ),
+        (
+            "model 7",
+            tc(b, subtype::SET_MODEL, &[7], 27),
+            na,
+            FailureCode::OutOfRange,
+            0,
+        ),
+        (
+            "channel 12",
+            tc(b, subtype::EXCLUDE, &[12], 28),
+            na,
+            FailureCode::OutOfRange,
+            0,
+        ),
+        (
+            "NaN hint",
+            tc(b, subtype::SET_HINT, &nan, 29),
+            na,
+            FailureCode::NotFinite,
+            1,
+        ),
+        (
+            "80 rad/s hint",
+            tc(b, subtype::SET_HINT, &fast, 30),
+            na,
+            FailureCode::OutOfRange,
+            2,
+        ),
+        (
+            "negative noise",
+            tc(b, subtype::LOAD_ARRANGEMENT, &arrangement, 31),
+            na,
+            FailureCode::OutOfRange,
+            1 + 7 * 5 + 6,
+        ),
+        (
+            "9 channels",
+            tc(
+                b,
+                subtype::LOAD_ARRANGEMENT,
+                &arrangement[..1 + 9 * CHANNEL_LEN],
+                32,
+            ),
+            na,
+            FailureCode::DataLength,
+            1 + 12 * CHANNEL_LEN as u32,
+        ),
+        (
+            "zero decimation",
+            tc(b, subtype::SET_RATES, &[0, 0, 0, 1], 33),
+            na,
+            FailureCode::OutOfRange,
+            0,
+        ),
+        (
+            "unknown SID",
+            tc(service::HOUSEKEEPING, subtype::HK_ONE_SHOT, &[1, 0, 9], 34),
+            na,
+            FailureCode::OutOfRange,
+            1,
+        ),
+        (
+            "collapsed geometry",
+            tc(b, subtype::LOAD_ARRANGEMENT, &collapsed, 35),
+            subtype::NOT_COMPLETED,
+            FailureCode::Refused,
+            8 << 16,
+        ),
     ]
 }
 
@@ -356,7 +501,10 @@ fn malformed_commands_are_refused_with_their_reason_and_change_nothing() {
     }
     let r = u.command(&tc(service::BALLISTOMETER, subtype::EXCLUDE, &[4], 43));
     let (st, failure) = verification(r.last().unwrap());
-    assert_eq!((st, failure.map(|f| (f.0, f.1 >> 16))), (subtype::NOT_COMPLETED, Some((FailureCode::Refused, 6))));
+    assert_eq!(
+        (st, failure.map(|f| (f.0, f.1 >> 16))),
+        (subtype::NOT_COMPLETED, Some((FailureCode::Refused, 6)))
+    );
     assert_eq!(u.app.estimation().excluded_channels(), 0b111);
     for (c, seq) in [(0u8, 44u16), (1, 45), (2, 46)] {
         u.command(&tc(service::BALLISTOMETER, subtype::INCLUDE, &[c], seq));
@@ -382,8 +530,12 @@ fn garbage_on_the_link_is_counted_and_reported() {
     block_on(u.app.on_incoming(&garbage, 5, &mut u.tm));
     u.command(&[0x18, 0xBA]);
     let r = &u.all()[before..];
-    assert!(matches!(r[0].report, Report::Event(e) if e.id == EventId::FrameRejected && e.a == 1 && e.b == 1));
-    assert!(matches!(r[1].report, Report::Event(e) if e.id == EventId::FrameRejected && e.a == 2 && e.b == 2));
+    assert!(
+        matches!(r[0].report, Report::Event(e) if e.id == EventId::FrameRejected && e.a == 1 && e.b == 1)
+    );
+    assert!(
+        matches!(r[1].report, Report::Event(e) if e.id == EventId::FrameRejected && e.a == 2 && e.b == 2)
+    );
     assert_eq!(u.app.housekeeping(0).frames_garbage, 2);
 }
 
@@ -394,7 +546,12 @@ fn garbage_on_the_link_is_counted_and_reported() {
 fn mutated_commands_never_panic() {
     let cfg = config();
     let mut seeds: Vec<Vec<u8>> = bad_commands(&cfg).into_iter().map(|c| c.1).collect();
-    seeds.push(tc(service::BALLISTOMETER, subtype::SET_RATES, &[0, 1, 0, 1], 1));
+    seeds.push(tc(
+        service::BALLISTOMETER,
+        subtype::SET_RATES,
+        &[0, 1, 0, 1],
+        1,
+    ));
     let mut x = 0x2545F4914F6CDD1Du64;
     let mut rnd = || {
         x ^= x << 13;

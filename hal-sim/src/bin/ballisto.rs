@@ -104,7 +104,12 @@ enum Command {
         #[arg(long, value_name = "FILE.txt")]
         log: Option<PathBuf>,
         /// Seconds added to the on-board time (time since boot) of every packet.
-        #[arg(long, value_name = "S", default_value = "0", allow_hyphen_values = true)]
+        #[arg(
+            long,
+            value_name = "S",
+            default_value = "0",
+            allow_hyphen_values = true
+        )]
         time_offset: f64,
     },
     /// RMS errors of an estimates file against a truth file (matched by column name and t).

@@ -14,8 +14,8 @@
 
 pub mod conversion_clock;
 pub mod health;
-pub mod synthetic;
 pub mod part;
+pub mod synthetic;
 
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::channel::Sender;

@@ -22,7 +22,11 @@ pub fn motion(t: f64) -> (Vec3<f64>, Vec3<f64>, Vec3<f64>) {
         -0.4 + 0.3 * cos(0.3 * t),
         0.8 + 0.2 * sin(0.7 * t),
     ];
-    let domega = [0.2 * cos(0.5 * t), -0.09 * sin(0.3 * t), 0.14 * cos(0.7 * t)];
+    let domega = [
+        0.2 * cos(0.5 * t),
+        -0.09 * sin(0.3 * t),
+        0.14 * cos(0.7 * t),
+    ];
     let sigma0 = [0.02 * sin(t), -0.01, 0.03 * cos(0.3 * t)];
     (sigma0, domega, omega)
 }
@@ -95,7 +99,10 @@ impl Synthetic {
                 continue;
             };
             h.reads = h.reads.wrapping_add(1);
-            if self.outage.is_some_and(|o| o.part == i && s >= o.from && s < o.to) {
+            if self
+                .outage
+                .is_some_and(|o| o.part == i && s >= o.from && s < o.to)
+            {
                 h.missed = h.missed.wrapping_add(1);
                 self.silent[i] += 1;
                 if self.silent[i] >= DOWN_AFTER {

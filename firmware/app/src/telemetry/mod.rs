@@ -83,18 +83,15 @@ impl<W: Write> Telemetry<W> {
         encode: impl FnOnce(&mut [u8]) -> Option<usize>,
     ) -> Option<usize> {
         let stamp = cuc(t);
-        let header = SpHeader::new_for_unseg_tm(
-            u11::new(APID),
-            u14::new(self.sequence & 0x3FFF),
-            0,
-        );
+        let header =
+            SpHeader::new_for_unseg_tm(u11::new(APID), u14::new(self.sequence & 0x3FFF), 0);
         self.sequence = (self.sequence + 1) & 0x3FFF;
         // The application data is encoded in place, after the headers; the headers and the
         // CRC are then written around it.
         let n = encode(self.packet.get_mut(HEADERS_LEN..TM_MAX - CRC_LEN)?)?;
         let sec = PusTmSecondaryHeader::new_simple(MessageTypeId::new(service, subtype), &stamp);
-        let tm = PusTmCreatorWithReservedSourceData::new(&mut self.packet, header, sec, n, true)
-            .ok()?;
+        let tm =
+            PusTmCreatorWithReservedSourceData::new(&mut self.packet, header, sec, n, true).ok()?;
         let len = tm.finalize();
         framing::encode(&self.packet[..len], &mut self.frame)
     }

@@ -22,6 +22,9 @@ pub const TIME_LEN: usize = 8;
 
 /// Longest telemetry packet the unit sends (the housekeeping report), octets.
 pub const TM_MAX: usize = 320;
+// The longest packet (housekeeping) fits the telemetry buffer.
+const _: () = assert!(6 + 7 + TIME_LEN + HOUSEKEEPING_LEN + 2 <= TM_MAX);
+
 /// Longest telecommand packet the unit accepts (a 24-channel arrangement), octets.
 pub const TC_MAX: usize = 704;
 
@@ -814,18 +817,31 @@ mod tests {
 
     #[test]
     fn cuc_round_trips_to_the_fine_resolution() {
-        for t in [0u64, 1, 999_999_999, 1_000_000_000, 12_345_678_901, 86_400_000_000_017] {
+        for t in [
+            0u64,
+            1,
+            999_999_999,
+            1_000_000_000,
+            12_345_678_901,
+            86_400_000_000_017,
+        ] {
             let s = cuc_seconds(&cuc(t)).unwrap();
-            assert!((s - t as f64 / 1e9).abs() <= 0.5 / f64::from(1u32 << 24) + 1e-12, "{t}");
+            assert!(
+                (s - t as f64 / 1e9).abs() <= 0.5 / f64::from(1u32 << 24) + 1e-12,
+                "{t}"
+            );
         }
-        assert_eq!(cuc(999_999_999_9)[5..], [0, 0, 0]);
+        assert_eq!(cuc(9_999_999_999)[1..], [0, 0, 0, 10, 0, 0, 0]);
         assert_eq!(cuc_seconds(&[0x2E, 0, 0, 0, 1, 0, 0, 0]), None);
     }
 
     #[test]
     fn layouts_have_their_documented_lengths() {
         let mut buf = [0u8; TM_MAX];
-        assert_eq!(Housekeeping::default().encode(&mut buf), Some(HOUSEKEEPING_LEN));
+        assert_eq!(
+            Housekeeping::default().encode(&mut buf),
+            Some(HOUSEKEEPING_LEN)
+        );
         let m = MotionReport {
             k: 1,
             estimate: Estimate::default(),
@@ -841,7 +857,5 @@ mod tests {
         };
         assert_eq!(e.encode(&mut buf), Some(EVENT_LEN));
         assert_eq!(m.encode(&mut buf[..MOTION_LEN - 1]), None);
-        // The longest packet fits the buffer the link uses.
-        assert!(6 + 7 + TIME_LEN + HOUSEKEEPING_LEN + 2 <= TM_MAX);
     }
 }

@@ -128,7 +128,17 @@ mod board {
     ) {
         let samples = SAMPLES.receiver();
         let time = SysTickTime;
-        app_task(app, &time, samples, commands, &HEALTH, tm, &mut (), Some(SETS)).await;
+        app_task(
+            app,
+            &time,
+            samples,
+            commands,
+            &HEALTH,
+            tm,
+            &mut (),
+            Some(SETS),
+        )
+        .await;
         let hk = app.housekeeping(tm.lost());
         hprintln!(
             "board-qemu: {} sets, {} estimates, {} packets sent ({} lost), {} telecommands accepted, {} refused, {} garbage frames; {} s on board",

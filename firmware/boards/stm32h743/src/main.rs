@@ -105,7 +105,17 @@ mod board {
         commands: zerocopy_channel::Receiver<'static, Cs, Incoming>,
     ) {
         let samples = SAMPLES.receiver();
-        app_task(app, &EmbassyTime, samples, commands, &HEALTH, tm, &mut (), None).await;
+        app_task(
+            app,
+            &EmbassyTime,
+            samples,
+            commands,
+            &HEALTH,
+            tm,
+            &mut (),
+            None,
+        )
+        .await;
     }
 
     /// HSI 64 MHz → PLL1 400 MHz core (VOS1), 200 MHz AXI/AHB, 100 MHz APB.
@@ -150,7 +160,9 @@ mod board {
         let spi = &*SPI1.init(Mutex::new(spi));
         let mut i2c_config = i2c::Config::default();
         i2c_config.frequency = Hertz(400_000);
-        let i2c = I2c::new(p.I2C1, p.PB8, p.PB9, p.DMA1_CH2, p.DMA1_CH3, Irqs, i2c_config);
+        let i2c = I2c::new(
+            p.I2C1, p.PB8, p.PB9, p.DMA1_CH2, p.DMA1_CH3, Irqs, i2c_config,
+        );
         let i2c = &*I2C1.init(Mutex::new(i2c));
 
         let cs = [
@@ -176,7 +188,13 @@ mod board {
         let mut uart_config = usart::Config::default();
         uart_config.baudrate = 921_600;
         let Ok(uart) = Uart::new(
-            p.USART2, p.PD6, p.PD5, p.DMA1_CH4, p.DMA1_CH5, Irqs, uart_config,
+            p.USART2,
+            p.PD6,
+            p.PD5,
+            p.DMA1_CH4,
+            p.DMA1_CH5,
+            Irqs,
+            uart_config,
         ) else {
             error!("USART2 configuration refused");
             return;

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Flash and static RAM of the two board builds (flight profile), against the STM32H743 budget
+# (96 KiB flash, 32 KiB static RAM). Prints the figures; exits non-zero only if a build is
+# missing. Flash = vector table + .text + .rodata + .data (its load image); static RAM =
+# .data + .bss + .uninit (the stack is not static).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+SIZE="$(command -v size || command -v llvm-size)"
+report() {
+  local name="$1" elf="$2" flash_budget="$3" ram_budget="$4"
+  [ -f "$elf" ] || { echo "size-report: $elf is missing (build it first)" >&2; exit 1; }
+  "$SIZE" -A "$elf" | awk -v name="$name" -v fb="$flash_budget" -v rb="$ram_budget" '
+    $1 == ".vector_table" || $1 == ".text" || $1 == ".rodata" { flash += $2 }
+    $1 == ".data" { flash += $2; ram += $2 }
+    $1 == ".bss" || $1 == ".uninit" { ram += $2 }
+    END {
+      fl = sprintf("%.1f KiB", flash / 1024); rl = sprintf("%.1f KiB", ram / 1024)
+      if (fb > 0) {
+        fs = (flash <= fb * 1024) ? "within" : "OVER"
+        rs = (ram <= rb * 1024) ? "within" : "OVER"
+        printf "%-16s flash %7d B (%s, %s the %d KiB budget)  static RAM %6d B (%s, %s the %d KiB budget)\n", name, flash, fl, fs, fb, ram, rl, rs, rb
+      } else {
+        printf "%-16s flash %7d B (%s)  static RAM %6d B (%s)\n", name, flash, fl, ram, rl
+      }
+    }'
+}
+report board-stm32h743 target/thumbv7em-none-eabihf/flight/board-stm32h743 96 32
+report board-qemu target/thumbv7em-none-eabihf/flight/board-qemu 0 0
