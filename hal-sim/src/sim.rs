@@ -170,6 +170,9 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
         crate::plot::plot_files(&path("truth.csv"), &est, &png)?;
         report.files.push(png);
     }
+    if job.firmware.is_some() {
+        report.files.push(path("telemetry.bin"));
+    }
     Ok(report)
 }
 

@@ -296,6 +296,7 @@ fn decoding_the_firmwares_telemetry_gives_its_estimates() {
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("telemetry: "), "{stdout}");
+    assert!(stdout.contains("telemetry.bin\n"), "{stdout}");
     let decoded = d.join("decoded.csv");
     let out = decode(&d.join("telemetry.bin"), &decoded);
     assert!(
