@@ -7,9 +7,7 @@ use std::io::Write;
 use std::path::Path;
 
 use firmware::telemetry::framing::{max_encoded_len, Deframed, Deframer};
-use firmware::telemetry::packets::{
-    decode, Decoded, EventId, Housekeeping, PartState, Report, TC_MAX,
-};
+use firmware::telemetry::packets::{decode, Decoded, EventId, Housekeeping, Report, TC_MAX};
 
 /// Extra columns of the decoded estimates file, after the estimates-file columns.
 pub const LINK_COLUMNS: [&str; 4] = ["k", "missing_parts", "excluded_parts", "excluded_channels"];
@@ -170,19 +168,13 @@ fn housekeeping_text(h: &Housekeeping) -> String {
         h.version[0], h.version[1], h.version[2],
         if h.mode == 1 { "operate" } else { "standby" },
         if h.model == 1 { "F" } else { "G" },
-        h.channels, h.rate_hz, h.motion_every, h.housekeeping_every, h.sets, h.skipped,
-        h.dropped, h.sync_errors, h.estimates, h.excluded_parts, h.commanded_out,
+        h.channels, h.rate_hz, h.motion_every, h.housekeeping_every, h.sampling.sets,
+        h.sampling.skipped, h.sampling.dropped, h.sampling.sync_errors, h.estimates, h.excluded_parts, h.commanded_out,
         h.excluded_channels, h.tc_accepted, h.tc_rejected, h.frames_garbage, h.tm_lost
     );
     for (i, c) in h.parts.iter().enumerate() {
-        if c.state == PartState::Absent {
-            continue;
-        }
-        let state = if c.state == PartState::Running {
-            "running"
-        } else {
-            "DOWN"
-        };
+        let Some(c) = c else { continue };
+        let state = if c.running { "running" } else { "DOWN" };
         let _ = write!(
             s,
             " | part{i} {state} reads={} bus_errors={} implausible={} missed={} failed_starts={} resyncs={}",

@@ -24,7 +24,7 @@ use crate::telecommand::{self, Accepted, Command, Context};
 use crate::telemetry::framing::{Decoder, Deframed};
 use crate::telemetry::packets::{
     config_error_code, service, subtype, Event, EventId, FailureCode, Housekeeping, MotionReport,
-    PartCounters, PartState, RequestId, Verification, TC_MAX,
+    PartState, RequestId, Verification, TC_MAX,
 };
 use crate::telemetry::Telemetry;
 use crate::time::{Nanos, TimeBase};
@@ -158,7 +158,6 @@ pub struct App {
     tc_rejected: u32,
     frames_garbage: u32,
     parts_seen: [PartState; MAX_PARTS],
-    excluded_seen: u32,
     lost_seen: (u32, u32),
     health: Health,
 }
@@ -184,7 +183,6 @@ impl App {
             tc_rejected: 0,
             frames_garbage: 0,
             parts_seen,
-            excluded_seen: 0,
             lost_seen: (0, 0),
             health: Health::default(),
         })
@@ -221,10 +219,12 @@ impl App {
         self.part_events(set.t, tm).await;
         if self.mode == Mode::Operate {
             tap.sample_set(set).await;
+            let excluded_before = self.estimation.excluded_parts();
             let motion = self.estimation.process(set);
             self.estimates = self.estimates.wrapping_add(1);
             tap.motion(&motion).await;
-            self.exclusion_events(set.t, tm, &motion).await;
+            self.exclusion_events(set.t, tm, excluded_before, &motion)
+                .await;
             self.since_motion += 1;
             if self.since_motion >= self.motion_every {
                 self.since_motion = 0;
@@ -247,9 +247,7 @@ impl App {
         tm: &mut Telemetry<W>,
     ) {
         let Some(raw) = incoming.packet() else {
-            self.frames_garbage = self.frames_garbage.wrapping_add(1);
-            let n = self.frames_garbage;
-            return self.event(t, tm, EventId::FrameRejected, 1, n).await;
+            return self.frame_rejected(t, tm, 1).await;
         };
         let ctx = Context {
             channels: self.estimation.channels(),
@@ -264,11 +262,7 @@ impl App {
                         self.verify(t, tm, subtype::NOT_ACCEPTED, request, failure)
                             .await
                     }
-                    None => {
-                        self.frames_garbage = self.frames_garbage.wrapping_add(1);
-                        let n = self.frames_garbage;
-                        self.event(t, tm, EventId::FrameRejected, 2, n).await
-                    }
+                    None => self.frame_rejected(t, tm, 2).await,
                 };
             }
         };
@@ -292,6 +286,14 @@ impl App {
         }
     }
 
+    /// A command-link frame that was no packet (`reason` 1) or too short to answer (2):
+    /// counted and reported.
+    async fn frame_rejected<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>, reason: u32) {
+        self.frames_garbage = self.frames_garbage.wrapping_add(1);
+        let n = self.frames_garbage;
+        self.event(t, tm, EventId::FrameRejected, reason, n).await
+    }
+
     /// Executes an accepted command; on failure nothing has changed.
     async fn execute<W: Write>(
         &mut self,
@@ -299,7 +301,6 @@ impl App {
         t: Nanos,
         tm: &mut Telemetry<W>,
     ) -> Result<(), (FailureCode, u32)> {
-        let refused = |e: ConfigError| (FailureCode::Refused, config_error_code(&e));
         match command {
             Command::SetMode(mode) => {
                 if mode != self.mode {
@@ -359,26 +360,11 @@ impl App {
         let model = self.estimation.estimator().model();
         self.estimation
             .configure(&arrangement, model)
-            .map_err(|e| (FailureCode::Refused, config_error_code(&e)))
+            .map_err(refused)
     }
 
     /// The housekeeping report as of now.
     pub fn housekeeping(&self, tm_lost: u32) -> Housekeeping {
-        let h = &self.health;
-        let mut parts = [PartCounters::default(); MAX_PARTS];
-        for ((c, p), seen) in parts.iter_mut().zip(h.parts.iter()).zip(self.parts_seen) {
-            if let Some(p) = p {
-                *c = PartCounters {
-                    state: seen,
-                    reads: p.reads,
-                    bus_errors: p.bus_errors,
-                    implausible: p.implausible,
-                    missed: p.missed,
-                    failed_starts: p.failed_starts,
-                    resyncs: p.resyncs,
-                };
-            }
-        }
         Housekeeping {
             version: VERSION,
             mode: self.mode as u8,
@@ -387,10 +373,7 @@ impl App {
             rate_hz: self.rate_hz,
             motion_every: self.motion_every,
             housekeeping_every: self.housekeeping_every,
-            sets: h.sampling.sets,
-            skipped: h.sampling.skipped,
-            dropped: h.sampling.dropped,
-            sync_errors: h.sampling.sync_errors,
+            sampling: self.health.sampling,
             estimates: self.estimates,
             excluded_parts: self.estimation.excluded_parts() as u8,
             commanded_out: self.estimation.commanded(),
@@ -399,7 +382,7 @@ impl App {
             tc_rejected: self.tc_rejected,
             frames_garbage: self.frames_garbage,
             tm_lost,
-            parts,
+            parts: self.health.parts,
         }
     }
 
@@ -455,15 +438,8 @@ impl App {
     /// Parts marked down or answering again since the last set.
     async fn part_events<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
         for i in 0..MAX_PARTS {
-            let Some(p) = self.health.parts[i] else {
-                continue;
-            };
-            let now = if p.running {
-                PartState::Running
-            } else {
-                PartState::Down
-            };
-            if now != self.parts_seen[i] {
+            let now = PartState::of(self.health.parts[i].as_ref());
+            if now != PartState::Absent && now != self.parts_seen[i] {
                 self.parts_seen[i] = now;
                 let id = match now {
                     PartState::Down => EventId::PartDown,
@@ -474,22 +450,23 @@ impl App {
         }
     }
 
-    /// Parts excluded or included by the estimation in this set.
+    /// Parts excluded or included by the estimation in this set (`before`: the parts excluded
+    /// before it).
     async fn exclusion_events<W: Write>(
-        &mut self,
+        &self,
         t: Nanos,
         tm: &mut Telemetry<W>,
+        before: u32,
         motion: &Motion,
     ) {
-        if motion.excluded == self.excluded_seen {
+        if motion.excluded == before {
             return;
         }
-        let id = if motion.excluded & !self.excluded_seen != 0 {
+        let id = if motion.excluded & !before != 0 {
             EventId::PartsExcluded
         } else {
             EventId::PartsIncluded
         };
-        self.excluded_seen = motion.excluded;
         let out = self.estimation.excluded_channels();
         self.event(t, tm, id, motion.excluded, out).await;
     }
@@ -503,6 +480,11 @@ impl App {
             self.event(t, tm, EventId::SetsLost, lost.0, lost.1).await;
         }
     }
+}
+
+/// The completion failure of a configuration the estimator refused (it keeps the old one).
+fn refused(e: ConfigError) -> (FailureCode, u32) {
+    (FailureCode::Refused, config_error_code(&e))
 }
 
 /// Model code in housekeeping and TC[200,2]: 0 general, 1 free float.

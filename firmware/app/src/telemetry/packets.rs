@@ -10,6 +10,7 @@ use spacepackets::ecss::tm::PusTmReader;
 use spacepackets::CcsdsPacket;
 
 use crate::estimation::Motion;
+use crate::sampler::{LoopHealth, PartHealth};
 use crate::time::Nanos;
 
 /// Application process identifier of the ballistometer (telemetry and telecommands).
@@ -317,23 +318,15 @@ pub enum PartState {
     Down = 2,
 }
 
-/// Counters of one part in the housekeeping report (see [`crate::sampler::PartHealth`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct PartCounters {
-    /// Absent, running or down.
-    pub state: PartState,
-    /// Read transactions.
-    pub reads: u32,
-    /// Transfers the bus reported failed.
-    pub bus_errors: u32,
-    /// Transfers whose data failed the plausibility check.
-    pub implausible: u32,
-    /// Sample sets without a value from this part.
-    pub missed: u32,
-    /// Failed start attempts.
-    pub failed_starts: u32,
-    /// Conversion clock resynchronisations.
-    pub resyncs: u32,
+impl PartState {
+    /// The state of a part slot: absent, or running / down by its health.
+    pub fn of(part: Option<&PartHealth>) -> Self {
+        match part {
+            None => PartState::Absent,
+            Some(p) if p.running => PartState::Running,
+            Some(_) => PartState::Down,
+        }
+    }
 }
 
 /// The housekeeping report (TM[3,25], SID 2).
@@ -353,14 +346,8 @@ pub struct Housekeeping {
     pub motion_every: u16,
     /// Housekeeping reports: one per this many sample sets.
     pub housekeeping_every: u16,
-    /// Sample sets produced by the sampler.
-    pub sets: u32,
-    /// Instants skipped (a set overran its period).
-    pub skipped: u32,
-    /// Sets dropped (estimation queue full).
-    pub dropped: u32,
-    /// SYNC line failures.
-    pub sync_errors: u32,
+    /// The sampling loop's counters: sets, instants skipped, sets dropped, SYNC failures.
+    pub sampling: LoopHealth,
     /// Estimates computed.
     pub estimates: u32,
     /// Parts excluded automatically (bit per part).
@@ -377,8 +364,9 @@ pub struct Housekeeping {
     pub frames_garbage: u32,
     /// Telemetry packets the link failed to take.
     pub tm_lost: u32,
-    /// Per part slot.
-    pub parts: [PartCounters; crate::config::MAX_PARTS],
+    /// Per part slot: its counters, `None` if no part is configured there. On the link each
+    /// slot is a [`PartState`] (absent, or running / down by `running`) and six counters.
+    pub parts: [Option<PartHealth>; crate::config::MAX_PARTS],
 }
 
 /// Application data length of the housekeeping report.
@@ -396,10 +384,10 @@ impl Housekeeping {
             .f32(self.rate_hz)
             .u16(self.motion_every)
             .u16(self.housekeeping_every)
-            .u32(self.sets)
-            .u32(self.skipped)
-            .u32(self.dropped)
-            .u32(self.sync_errors)
+            .u32(self.sampling.sets)
+            .u32(self.sampling.skipped)
+            .u32(self.sampling.dropped)
+            .u32(self.sampling.sync_errors)
             .u32(self.estimates)
             .u8(self.excluded_parts)
             .u32(self.commanded_out)
@@ -408,8 +396,9 @@ impl Housekeeping {
             .u32(self.tc_rejected)
             .u32(self.frames_garbage)
             .u32(self.tm_lost);
-        for c in &self.parts {
-            p.u8(c.state as u8)
+        for part in &self.parts {
+            let c = part.unwrap_or_default();
+            p.u8(PartState::of(part.as_ref()) as u8)
                 .u32(c.reads)
                 .u32(c.bus_errors)
                 .u32(c.implausible)
@@ -429,10 +418,12 @@ impl Housekeeping {
             rate_hz: g.f32()?,
             motion_every: g.u16()?,
             housekeeping_every: g.u16()?,
-            sets: g.u32()?,
-            skipped: g.u32()?,
-            dropped: g.u32()?,
-            sync_errors: g.u32()?,
+            sampling: LoopHealth {
+                sets: g.u32()?,
+                skipped: g.u32()?,
+                dropped: g.u32()?,
+                sync_errors: g.u32()?,
+            },
             estimates: g.u32()?,
             excluded_parts: g.u8()?,
             commanded_out: g.u32()?,
@@ -443,19 +434,22 @@ impl Housekeeping {
             tm_lost: g.u32()?,
             ..Housekeeping::default()
         };
-        for c in h.parts.iter_mut() {
-            c.state = match g.u8()? {
-                0 => PartState::Absent,
-                1 => PartState::Running,
-                2 => PartState::Down,
+        for slot in h.parts.iter_mut() {
+            let state = g.u8()?;
+            let c = PartHealth {
+                reads: g.u32()?,
+                bus_errors: g.u32()?,
+                implausible: g.u32()?,
+                missed: g.u32()?,
+                failed_starts: g.u32()?,
+                resyncs: g.u32()?,
+                running: state == PartState::Running as u8,
+            };
+            *slot = match state {
+                0 => None,
+                1 | 2 => Some(c),
                 _ => return None,
             };
-            c.reads = g.u32()?;
-            c.bus_errors = g.u32()?;
-            c.implausible = g.u32()?;
-            c.missed = g.u32()?;
-            c.failed_starts = g.u32()?;
-            c.resyncs = g.u32()?;
         }
         Some(h)
     }

@@ -142,7 +142,7 @@ mod board {
         let hk = app.housekeeping(tm.lost());
         hprintln!(
             "board-qemu: {} sets, {} estimates, {} packets sent ({} lost), {} telecommands accepted, {} refused, {} garbage frames; {} s on board",
-            hk.sets,
+            hk.sampling.sets,
             hk.estimates,
             tm.sent(),
             tm.lost(),
