@@ -1,6 +1,7 @@
 //! The arrangement: where each single-axis channel sits, which way it points, how noisy it is.
 
 use crate::error::ConfigError;
+use crate::real::Real;
 
 /// One single-axis accelerometer (a tri-axial part is three channels).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -92,7 +93,7 @@ impl<const CAP: usize> Arrangement<CAP> {
         if !axis.iter().all(|v| v.is_finite()) {
             return Err(ConfigError::AxisNotFinite { channel });
         }
-        let norm = libm::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+        let norm = Real::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
         if !(norm > 1e-9) || !norm.is_finite() {
             return Err(ConfigError::AxisZero { channel });
         }

@@ -155,7 +155,7 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
         // Equilibrate columns (unit norm) so the condition number does not depend on units.
         let mut col_norm = [0.0f64; MAX_COLS];
         for c in 0..k {
-            let norm = libm::sqrt(cols[c][..n].iter().map(|x| x * x).sum::<f64>());
+            let norm = Real::sqrt(cols[c][..n].iter().map(|x| x * x).sum::<f64>());
             col_norm[c] = norm;
             if norm > 0.0 {
                 for x in cols[c][..n].iter_mut() {
@@ -429,13 +429,13 @@ fn general_covariance<const CAP: usize>(
                     acc += v[i][k] * z[3 + 3 * b + i][3 + 3 * b + j] * v[j][k];
                 }
             }
-            *o = libm::sqrt(acc.max(0.0));
+            *o = Real::sqrt(acc.max(0.0));
         }
         out
     };
     let mut sd_field = Sym3::<f64>::zero();
     for (i, o) in sd_field.0.iter_mut().enumerate() {
-        *o = libm::sqrt(field[i][i].max(0.0));
+        *o = Real::sqrt(field[i][i].max(0.0));
     }
     let gc = GeneralCovariance {
         sd_sigma0: body_sd(0),
@@ -506,7 +506,7 @@ pub fn check_structural<const CAP: usize>(
         for c in 0..k {
             colmax[c] = colmax[c].max(libm::fabs(g[c]));
         }
-        let rn = libm::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+        let rn = Real::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
         scale = scale.max(rn);
     }
     for (c, &cm) in colmax.iter().enumerate().take(k) {

@@ -374,7 +374,7 @@ pub fn solve3<T: Real>(m: &Mat3<T>, b: &Vec3<T>) -> Option<Vec3<T>> {
 /// Rotation matrix (rows = frame axes in body coordinates) of a unit quaternion `[w, x, y, z]`,
 /// normalised here.
 pub fn quat_to_mat(q: [f64; 4]) -> Mat3<f64> {
-    let n = libm::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    let n = Real::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
     let (w, x, y, z) = (q[0] / n, q[1] / n, q[2] / n, q[3] / n);
     [
         [

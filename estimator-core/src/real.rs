@@ -185,6 +185,39 @@ extern "C" {
     fn ballisto_vsqrtf(x: f32) -> f32;
 }
 
+/// `vsqrt.f64` where the board declares a double-precision FPU (feature `double-fpu`: the
+/// Cortex-M7's FPv5-D16), `libm` elsewhere. The set-up code (SVD, projections) takes every
+/// square root in `f64`.
+#[inline]
+fn sqrt_f64(x: f64) -> f64 {
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf", feature = "double-fpu"))]
+    {
+        // SAFETY: `ballisto_vsqrt` (below) follows the hard-float AAPCS: argument and result in
+        // d0, touches nothing else.
+        unsafe { ballisto_vsqrt(x) }
+    }
+    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf", feature = "double-fpu")))]
+    {
+        libm::sqrt(x)
+    }
+}
+
+#[cfg(all(target_arch = "arm", target_abi = "eabihf", feature = "double-fpu"))]
+core::arch::global_asm!(
+    ".section .text.ballisto_vsqrt,\"ax\",%progbits",
+    ".fpu fpv5-d16",
+    ".thumb_func",
+    ".global ballisto_vsqrt",
+    "ballisto_vsqrt:",
+    "vsqrt.f64 d0, d0",
+    "bx lr",
+);
+
+#[cfg(all(target_arch = "arm", target_abi = "eabihf", feature = "double-fpu"))]
+extern "C" {
+    fn ballisto_vsqrt(x: f64) -> f64;
+}
+
 impl Real for f64 {
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;
@@ -199,7 +232,7 @@ impl Real for f64 {
     }
     #[inline]
     fn sqrt(self) -> Self {
-        libm::sqrt(self)
+        sqrt_f64(self)
     }
     #[inline]
     fn cbrt(self) -> Self {

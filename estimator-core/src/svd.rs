@@ -2,6 +2,8 @@
 //! range, in `f64`. Used only when the arrangement, channel mask or frame changes — never in the
 //! sample loop. One-sided Jacobi is chosen for its accuracy on small matrices and its short code.
 
+use crate::real::Real;
+
 /// Most columns a design matrix has (model G: σ0, Ω′, d).
 pub const MAX_COLS: usize = 9;
 
@@ -40,14 +42,14 @@ impl<const CAP: usize> Svd<CAP> {
                         beta += u[q][i] * u[q][i];
                         gamma += u[p][i] * u[q][i];
                     }
-                    if gamma == 0.0 || libm::fabs(gamma) <= 1e-15 * libm::sqrt(alpha * beta) {
+                    if gamma == 0.0 || libm::fabs(gamma) <= 1e-15 * Real::sqrt(alpha * beta) {
                         continue;
                     }
                     rotated = true;
                     let zeta = (beta - alpha) / (2.0 * gamma);
                     let t = libm::copysign(1.0, zeta)
-                        / (libm::fabs(zeta) + libm::sqrt(1.0 + zeta * zeta));
-                    let c = 1.0 / libm::sqrt(1.0 + t * t);
+                        / (libm::fabs(zeta) + Real::sqrt(1.0 + zeta * zeta));
+                    let c = 1.0 / Real::sqrt(1.0 + t * t);
                     let s = c * t;
                     for i in 0..n {
                         let (a, b) = (u[p][i], u[q][i]);
@@ -67,7 +69,7 @@ impl<const CAP: usize> Svd<CAP> {
         }
         let mut s = [0.0; MAX_COLS];
         for j in 0..k {
-            let norm = libm::sqrt(u[j][..n].iter().map(|x| x * x).sum::<f64>());
+            let norm = Real::sqrt(u[j][..n].iter().map(|x| x * x).sum::<f64>());
             s[j] = norm;
             if norm > 0.0 {
                 for x in u[j][..n].iter_mut() {
@@ -131,14 +133,14 @@ impl<const CAP: usize> Svd<CAP> {
         let mut refl = [[0.0; CAP]; MAX_COLS];
         for j in 0..k {
             // Reflector for a[j][j..n].
-            let norm = libm::sqrt(a[j][j..n].iter().map(|x| x * x).sum::<f64>());
+            let norm = Real::sqrt(a[j][j..n].iter().map(|x| x * x).sum::<f64>());
             let alpha = if a[j][j] > 0.0 { -norm } else { norm };
             let mut vj = [0.0; CAP];
             vj[j..n].copy_from_slice(&a[j][j..n]);
             vj[j] -= alpha;
             let vnorm2: f64 = vj[j..n].iter().map(|x| x * x).sum();
             if vnorm2 > 0.0 {
-                let inv = 1.0 / libm::sqrt(vnorm2);
+                let inv = 1.0 / Real::sqrt(vnorm2);
                 for x in vj[j..n].iter_mut() {
                     *x *= inv;
                 }

@@ -3,7 +3,7 @@
 //! arrangement, the model and the rate hint. Given at start-up from the built-in table
 //! ([`builtin`]) or by a command (the host simulator builds one from its scenario).
 
-use estimator_core::{Arrangement, Model};
+use estimator_core::{Arrangement, Model, Real};
 
 use crate::drivers::{adxl355, lis3dh};
 
@@ -263,7 +263,7 @@ pub fn tetra() -> AppConfig {
     ];
     let odr = adxl355::Odr::at_least(100.0);
     // ADXL355 noise density 22.5 µg/√Hz (2.2e-4 m/s²/√Hz) over its ODR/4 bandwidth.
-    let noise = 2.2e-4 * libm::sqrt(f64::from(odr.hz()) / 4.0);
+    let noise = 2.2e-4 * Real::sqrt(f64::from(odr.hz()) / 4.0);
     let mut arrangement = Arrangement::new();
     let mut parts = [None; MAX_PARTS];
     for (p, (pos, m)) in POSITIONS.iter().zip(ORIENTATIONS.iter()).enumerate() {

@@ -10,9 +10,8 @@ pub mod packets;
 
 use arbitrary_int::{u11, u14};
 use embedded_io_async::Write;
-use spacepackets::ecss::tm::{PusTmCreatorWithReservedSourceData, PusTmSecondaryHeader};
-use spacepackets::ecss::MessageTypeId;
-use spacepackets::SpHeader;
+use spacepackets::crc::CRC_CCITT_FALSE;
+use spacepackets::{CcsdsPacket, SpHeader};
 
 use crate::time::Nanos;
 use packets::{cuc, APID, TIME_LEN, TM_MAX};
@@ -21,6 +20,30 @@ use packets::{cuc, APID, TIME_LEN, TM_MAX};
 const HEADERS_LEN: usize = 6 + 7 + TIME_LEN;
 /// The packet error control field.
 const CRC_LEN: usize = 2;
+
+/// Writes the primary header (`spacepackets`' field layout for an unsegmented TM packet of
+/// `len` octets) and the PUS-C TM secondary header with the time field, octets
+/// `0..HEADERS_LEN`. Written here rather than by `PusTmCreatorWithReservedSourceData`, whose
+/// internal `unwrap`s link `core::fmt`'s `Debug` machinery (2.6 KB of the 96 KiB flash).
+fn write_headers(
+    packet: &mut [u8; TM_MAX],
+    sequence: u16,
+    len: usize,
+    service: u8,
+    subtype: u8,
+    stamp: &[u8; TIME_LEN],
+) {
+    // `len` ≤ TM_MAX: the data length field (total − 7) fits its 16 bits.
+    let data_len = (len - 7) as u16;
+    let mut header = SpHeader::new_for_unseg_tm(u11::new(APID), u14::new(sequence), data_len);
+    header.set_sec_header_flag();
+    packet[0..2].copy_from_slice(&header.packet_id().raw().to_be_bytes());
+    packet[2..4].copy_from_slice(&header.psc().raw().to_be_bytes());
+    packet[4..6].copy_from_slice(&header.data_len().to_be_bytes());
+    // PUS version 2 (PUS-C), time reference status 0; message counter and destination 0.
+    packet[6..13].copy_from_slice(&[0x20, service, subtype, 0, 0, 0, 0]);
+    packet[13..HEADERS_LEN].copy_from_slice(stamp);
+}
 
 /// The telemetry writer: builds, frames and sends packets on a link.
 pub struct Telemetry<W> {
@@ -82,17 +105,15 @@ impl<W: Write> Telemetry<W> {
         subtype: u8,
         encode: impl FnOnce(&mut [u8]) -> Option<usize>,
     ) -> Option<usize> {
-        let stamp = cuc(t);
-        let header =
-            SpHeader::new_for_unseg_tm(u11::new(APID), u14::new(self.sequence & 0x3FFF), 0);
+        let sequence = self.sequence;
         self.sequence = (self.sequence + 1) & 0x3FFF;
         // The application data is encoded in place, after the headers; the headers and the
         // CRC are then written around it.
         let n = encode(self.packet.get_mut(HEADERS_LEN..TM_MAX - CRC_LEN)?)?;
-        let sec = PusTmSecondaryHeader::new_simple(MessageTypeId::new(service, subtype), &stamp);
-        let tm =
-            PusTmCreatorWithReservedSourceData::new(&mut self.packet, header, sec, n, true).ok()?;
-        let len = tm.finalize();
+        let len = HEADERS_LEN + n + CRC_LEN;
+        write_headers(&mut self.packet, sequence, len, service, subtype, &cuc(t));
+        let crc = CRC_CCITT_FALSE.checksum(&self.packet[..len - CRC_LEN]);
+        self.packet[len - CRC_LEN..len].copy_from_slice(&crc.to_be_bytes());
         framing::encode(&self.packet[..len], &mut self.frame)
     }
 
