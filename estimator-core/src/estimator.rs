@@ -9,7 +9,7 @@ use crate::arrangement::{Arrangement, ChannelMask, Model};
 use crate::design::{check_structural, Projection};
 use crate::error::ConfigError;
 use crate::estimate::{Estimate, Flags};
-use crate::linalg::{dot, mat_t_vec, mat_vec, norm2, quat_to_mat, scale, Mat3, Sym3, Vec3};
+use crate::linalg::{copy3, dot, mat_t_vec, mat_vec, norm2, quat_to_mat, scale, Mat3, Sym3, Vec3};
 use crate::quadratic::{
     canonical_sign, closed_form, gauss_newton, rank_one_factor, refine, residual2, MAX_ROOTS,
 };
@@ -109,7 +109,9 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     /// sample (valid when `has_last`); the other slot receives the next output (a new estimate,
     /// which then becomes the last, or the prediction for an unusable sample, which does not).
     out: [Estimate<T>; 2],
-    last: usize,
+    /// The slot of `out` holding the last estimate (`false`: 0, `true`: 1; a `bool` so that
+    /// indexing needs no bounds check).
+    last: bool,
     has_last: bool,
     domega_var: T,
     work: Work<T, CAP>,
@@ -209,7 +211,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             tracker: Tracker::new(),
             last_t: None,
             out: [Estimate::default(); 2],
-            last: 0,
+            last: false,
             has_last: false,
             domega_var: T::ZERO,
             work: Work::new(),
@@ -447,7 +449,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         };
         let b = &branches[choice.candidate];
         let (lo, hi) = self.out.split_at_mut(1);
-        let (prev, est) = if self.last == 0 {
+        let (prev, est) = if !self.last {
             (&lo[0], &mut hi[0])
         } else {
             (&hi[0], &mut lo[0])
@@ -477,9 +479,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             rec.forward = *est;
         }
         self.last_t = Some(t);
-        self.last ^= 1;
+        self.last = !self.last;
         self.has_last = true;
-        &self.out[self.last]
+        &self.out[usize::from(self.last)]
     }
 
     /// Replaces the algebraic Ω of `est` by a hypothesis' filtered Ω (∫Ω′ fused with the
@@ -491,8 +493,8 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// Output when a sample cannot be used: the last estimate propagated by Ω′ over `dt`,
     /// flagged; recorded as invalid for the smoother.
     fn hold(&mut self, t: f64, dt: T, record: Option<&mut StepRecord<T>>) -> &Estimate<T> {
-        let last = self.out[self.last];
-        let est = &mut self.out[self.last ^ 1];
+        let last = self.out[usize::from(self.last)];
+        let est = &mut self.out[usize::from(!self.last)];
         *est = if self.has_last {
             last
         } else {
@@ -510,7 +512,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         if let Some(rec) = record {
             rec.invalidate(t, *est);
         }
-        &self.out[self.last ^ 1]
+        &self.out[usize::from(!self.last)]
     }
 }
 
@@ -841,13 +843,14 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         }
         for (i, (b, a)) in out.iter_mut().zip(roots.iter()).take(nr).enumerate() {
             let o = crate::linalg::outer6(a);
-            b.a = *a;
+            copy3(&mut b.a, a);
             for j in 0..k {
                 b.x[j] = y[j] - eps * pr.tq[j].quad_outer(&o);
             }
             if refined[i] {
                 b.fit = scratch.fit[i];
-                b.jtj = Some(scratch.jtj[i]);
+                let Sym3(j) = &scratch.jtj[i];
+                b.jtj = Some(Sym3([j[0], j[1], j[2], j[3], j[4], j[5]]));
             } else {
                 b.fit = residual2(forms, rhs, a);
                 b.jtj = None;

@@ -17,7 +17,7 @@
 //! is reported unresolved while a state with the same branch and opposite sign is within
 //! [`SIGN_MARGIN`].
 
-use crate::linalg::{norm2, scale, sub, Vec3};
+use crate::linalg::{copy3, norm2, scale, sub, Vec3};
 use crate::real::Real;
 
 /// Most candidate branches per sample.
@@ -72,9 +72,9 @@ impl<T: Real> State<T> {
     /// Copies `src` field by field (small copies stay inline instead of a `memmove` call).
     #[inline(always)]
     fn set(&mut self, src: &State<T>) {
-        self.omega = src.omega;
+        copy3(&mut self.omega, &src.omega);
         self.var = src.var;
-        self.domega = src.domega;
+        copy3(&mut self.domega, &src.domega);
         self.cost = src.cost;
         self.candidate = src.candidate;
         self.sign = src.sign;

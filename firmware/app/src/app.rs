@@ -136,7 +136,7 @@ pub async fn uplink_task<R: Read, M: RawMutex>(mut link: R, mut commands: Sender
             Ok(0) | Err(_) => return,
             Ok(n) => n,
         };
-        for &b in &chunk[..n] {
+        for &b in chunk.iter().take(n) {
             if commands.send().await.push(&mut decoder, b) {
                 commands.send_done();
             }
@@ -207,15 +207,15 @@ impl App {
         self.send_housekeeping(t, tm).await;
     }
 
-    /// One sample set, with the sampler's health after it.
-    pub async fn on_set<W: Write, K: Tap>(
+    /// One sample set, with the sampler's health after it (read from `health`).
+    pub async fn on_set<M: RawMutex, W: Write, K: Tap>(
         &mut self,
         set: &SampleSet,
-        health: Health,
+        health: &HealthBoard<M>,
         tm: &mut Telemetry<W>,
         tap: &mut K,
     ) {
-        self.health = health;
+        health.latest_into(&mut self.health);
         self.part_events(set.t, tm).await;
         if self.mode == Mode::Operate {
             tap.sample_set(set).await;
@@ -404,8 +404,9 @@ impl App {
 
     async fn event<W: Write>(&self, t: Nanos, tm: &mut Telemetry<W>, id: EventId, a: u32, b: u32) {
         let mut data = [0u8; 16];
-        if let Some(n) = (Event { id, a, b }).encode(&mut data) {
-            tm.send(t, service::EVENT, id.severity(), &data[..n]).await;
+        let n = (Event { id, a, b }).encode(&mut data);
+        if let Some(bytes) = n.and_then(|n| data.get(..n)) {
+            tm.send(t, service::EVENT, id.severity(), bytes).await;
         }
     }
 
@@ -423,8 +424,9 @@ impl App {
             request,
             failure,
         };
-        if let Some(n) = report.encode(&mut data) {
-            tm.send(t, service::VERIFICATION, st, &data[..n]).await;
+        let n = report.encode(&mut data);
+        if let Some(bytes) = n.and_then(|n| data.get(..n)) {
+            tm.send(t, service::VERIFICATION, st, bytes).await;
         }
     }
 
@@ -517,7 +519,7 @@ pub async fn app_task<M, W, K, T, const Q: usize>(
     loop {
         match select(samples.receive(), commands.receive()).await {
             Either::First(set) => {
-                app.on_set(&set, health.latest(), tm, tap).await;
+                app.on_set(&set, health, tm, tap).await;
                 if sets.is_some_and(|n| set.k + 1 >= n) {
                     tm.flush().await;
                     return;

@@ -5,10 +5,11 @@
 use std::convert::Infallible;
 
 use arbitrary_int::{u11, u14};
+use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use estimator_core::Model;
 use firmware::app::{App, Incoming, Mode};
 use firmware::config::{tetra, AppConfig, MAX_PARTS};
-use firmware::sampler::{Health, SampleSet};
+use firmware::sampler::{Health, HealthBoard, SampleSet};
 use firmware::telecommand::{fuzz_one, CHANNEL_LEN};
 use firmware::telemetry::framing::{Deframed, Deframer};
 use firmware::telemetry::packets::{
@@ -141,10 +142,9 @@ impl Unit {
     fn sets(&mut self, n: u32) {
         for _ in 0..n {
             let s = set(&self.cfg, self.k);
-            block_on(
-                self.app
-                    .on_set(&s, health(&self.cfg), &mut self.tm, &mut ()),
-            );
+            let board = HealthBoard::<NoopRawMutex>::new();
+            board.publish(health(&self.cfg));
+            block_on(self.app.on_set(&s, &board, &mut self.tm, &mut ()));
             self.k += 1;
         }
     }

@@ -53,4 +53,9 @@ impl<M: RawMutex> HealthBoard<M> {
     pub fn latest(&self) -> Health {
         self.latest.lock(Cell::get)
     }
+
+    /// Copies the latest snapshot into `dst` (no intermediate copy of the 240-byte snapshot).
+    pub fn latest_into(&self, dst: &mut Health) {
+        self.latest.lock(|c| *dst = c.get());
+    }
 }

@@ -300,7 +300,11 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
 
     fn remember(&mut self, index: u64, value: [f32; 3]) {
         if self.recent_len == RECENT {
-            self.recent.copy_within(1.., 0);
+            // Drop the oldest: swap it to the end (where the new one goes). Swaps rather than
+            // `copy_within`, which would be this firmware's only call of `memmove` (1.6 KB).
+            for j in 1..RECENT {
+                self.recent.swap(j - 1, j);
+            }
             self.recent_len -= 1;
         }
         self.recent[self.recent_len] = (index, value);

@@ -35,14 +35,19 @@ fn write_headers(
 ) {
     // `len` ≤ TM_MAX: the data length field (total − 7) fits its 16 bits.
     let data_len = (len - 7) as u16;
-    let mut header = SpHeader::new_for_unseg_tm(u11::new(APID), u14::new(sequence), data_len);
+    let mut header =
+        SpHeader::new_for_unseg_tm(u11::new(APID), u14::new(sequence & 0x3FFF), data_len);
     header.set_sec_header_flag();
-    packet[0..2].copy_from_slice(&header.packet_id().raw().to_be_bytes());
-    packet[2..4].copy_from_slice(&header.psc().raw().to_be_bytes());
-    packet[4..6].copy_from_slice(&header.data_len().to_be_bytes());
+    let [id0, id1] = header.packet_id().raw().to_be_bytes();
+    let [sc0, sc1] = header.psc().raw().to_be_bytes();
+    let [dl0, dl1] = header.data_len().to_be_bytes();
+    let [t0, t1, t2, t3, t4, t5, t6, t7] = *stamp;
     // PUS version 2 (PUS-C), time reference status 0; message counter and destination 0.
-    packet[6..13].copy_from_slice(&[0x20, service, subtype, 0, 0, 0, 0]);
-    packet[13..HEADERS_LEN].copy_from_slice(stamp);
+    let headers: [u8; HEADERS_LEN] = [
+        id0, id1, sc0, sc1, dl0, dl1, 0x20, service, subtype, 0, 0, 0, 0, t0, t1, t2, t3, t4, t5,
+        t6, t7,
+    ];
+    packet[..HEADERS_LEN].copy_from_slice(&headers);
 }
 
 /// The telemetry writer: builds, frames and sends packets on a link.
