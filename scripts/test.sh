@@ -2,7 +2,8 @@
 # The test command: formatting, lints, every test, the target builds and their figures:
 # instruction counts of the estimate under QEMU (which fail if the per-sample budget is
 # exceeded), the STM32H743 build, the QEMU board running the built-in scenario with its
-# telemetry decoded and checked against the host, and the flash / RAM report.
+# telemetry decoded and checked against the host, and the flash / RAM report (which fails if
+# the STM32H743 build is over its budget).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo fmt --all -- --check

@@ -102,6 +102,13 @@ impl<const CAP: usize> Svd<CAP> {
         Svd { u, s, v, n, k }
     }
 
+    /// `(n, k)` within the capacities (as `new` made them): stated again here so that the
+    /// compiler sees every index below is in range and emits no bounds-check panic paths.
+    fn dims(&self) -> (usize, usize) {
+        let n = self.n.min(CAP);
+        (n, self.k.min(MAX_COLS).min(n))
+    }
+
     /// Ratio of largest to smallest singular value (infinite when the smallest is 0).
     pub fn condition(&self) -> f64 {
         if self.k == 0 {
@@ -117,10 +124,11 @@ impl<const CAP: usize> Svd<CAP> {
 
     /// Pseudo-inverse `G⁺ = V diag(1/s) Uᵀ` into `out[row][..n]` (`k` rows).
     pub fn pseudo_inverse(&self, out: &mut [[f64; CAP]]) {
-        for (r, out_row) in out.iter_mut().enumerate().take(self.k) {
-            for i in 0..self.n {
+        let (n, k) = self.dims();
+        for (r, out_row) in out.iter_mut().enumerate().take(k) {
+            for i in 0..n {
                 let mut acc = 0.0;
-                for j in 0..self.k {
+                for j in 0..k {
                     if self.s[j] > 0.0 {
                         acc += self.v[r][j] / self.s[j] * self.u[j][i];
                     }
@@ -134,7 +142,7 @@ impl<const CAP: usize> Svd<CAP> {
     /// of `G`): `n − k` vectors written as rows of `out`. Householder QR of `U`, then the last
     /// `n − k` columns of `Q`.
     pub fn left_null_space(&self, out: &mut [[f64; CAP]]) {
-        let (n, k) = (self.n, self.k);
+        let (n, k) = self.dims();
         let mut a = self.u; // columns, reduced in place
         let mut refl = [[0.0; CAP]; MAX_COLS];
         for j in 0..k {
