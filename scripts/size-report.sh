@@ -2,8 +2,8 @@
 # Flash and static RAM of the two board builds (flight profile), against the STM32H743 budget
 # (96 KiB flash, 32 KiB static RAM). Prints the figures; exits non-zero if a build is missing
 # or the STM32H743 build is over either budget (the sizes are deterministic for a toolchain, so
-# this is a check, not a timed test). Flash = vector table + .text + .rodata + .data (its load image); static RAM =
-# .data + .bss + .uninit (the stack is not static).
+# this is a check, not a timed test). Flash = vector table + .text + .rodata + .data (its load
+# image); static RAM = .data + .bss + .uninit (the stack is not static).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SIZE="$(command -v size || command -v llvm-size)"

@@ -49,12 +49,8 @@ impl<M: RawMutex> HealthBoard<M> {
         self.latest.lock(|c| c.set(health));
     }
 
-    /// The latest snapshot.
-    pub fn latest(&self) -> Health {
-        self.latest.lock(Cell::get)
-    }
-
-    /// Copies the latest snapshot into `dst` (no intermediate copy of the 240-byte snapshot).
+    /// Copies the latest snapshot into `dst` (straight from the board: no intermediate copy
+    /// of the 240-byte snapshot).
     pub fn latest_into(&self, dst: &mut Health) {
         self.latest.lock(|c| *dst = c.get());
     }

@@ -301,7 +301,7 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
     fn remember(&mut self, index: u64, value: [f32; 3]) {
         if self.recent_len == RECENT {
             // Drop the oldest: swap it to the end (where the new one goes). Swaps rather than
-            // `copy_within`, which would be this firmware's only call of `memmove` (1.6 KB).
+            // `copy_within`, which would link `memmove` (1.6 KB of flash).
             for j in 1..RECENT {
                 self.recent.swap(j - 1, j);
             }
