@@ -135,7 +135,7 @@ pub fn firmware_config(
         *slot = Some(PartConfig { kind, channels });
     }
     // The model `ballisto sim --estimate` uses for the same record.
-    let model = crate::run::choose_model(None, loaded);
+    let model = crate::arrangement_file::choose_model(None, loaded);
     let config = AppConfig {
         sampling: SamplingConfig {
             rate_hz: sc.rate as f32,

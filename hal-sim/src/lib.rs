@@ -1,26 +1,24 @@
 //! # hal-sim
 //!
-//! Host simulation for the ballistometer: rigid-body motion (truth), arrangement families, the
-//! file formats of interfaces.md, and the host binary `ballisto`; register-level sensor models
-//! ([`sensors`]) on simulated buses ([`bus`]) in simulated time ([`clock`]).
+//! Host simulation of the ballistometer: rigid-body motion (truth, [`motion`]), register-level
+//! sensor models ([`sensors`]) on simulated buses ([`bus`]) in simulated time ([`clock`]) with
+//! injected [`faults`], the hardware of a [`scenario`] ([`rig`]), the simulator's own reader
+//! ([`bench`], [`recorder`]), ideal channel outputs ([`ideal`]), and the firmware's tasks run on
+//! the simulated buses ([`firmware_host`]). The arrangement file format ([`arrangement_file`])
+//! lives here because a scenario describes its parts with it. The ground tool `ballisto` is its
+//! own crate.
 #![deny(missing_docs)]
 
 pub mod arrangement_file;
 pub mod bench;
 pub mod bus;
 pub mod clock;
-pub mod compare;
-pub mod decode;
-pub mod estimates_csv;
-pub mod families;
 pub mod faults;
 pub mod firmware_host;
+pub mod ideal;
 pub mod motion;
 pub mod noise;
-pub mod plot;
+pub mod recorder;
 pub mod rig;
-pub mod run;
-pub mod samples_csv;
 pub mod scenario;
 pub mod sensors;
-pub mod sim;

@@ -4,8 +4,8 @@
 //! noise; each scheduled fault of a named scenario shows in the record at its time.
 
 use hal_sim::motion::Truth;
+use hal_sim::recorder::Recorder;
 use hal_sim::scenario::{PartSpec, Scenario};
-use hal_sim::sim::Recorder;
 
 const G0: f64 = 9.80665;
 

@@ -5,11 +5,11 @@
 
 use estimator_core::Model;
 use hal_sim::arrangement_file::{ArrangementFile, LoadedArrangement};
-use hal_sim::families;
+use hal_sim::ideal::simulate_outputs;
 use hal_sim::motion::{Environment, Motion, Rotation, Torque, Truth};
-use hal_sim::run::simulate_outputs;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use test_fixtures::families;
 
 /// Arrangement family.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -69,7 +69,7 @@ pub fn make(family: Family, motion: MotionKind, model: Model, seed: u64, samples
         Family::MixedNoise => families::mixed_noise(&mut rng, 6, 0.15, NOISE, 5.0),
     };
     let loaded = file.load("case").expect("family arrangement loads");
-    let dir = hal_sim::families::random_rotation(&mut rng)[0];
+    let dir = test_fixtures::families::random_rotation(&mut rng)[0];
     let rate = rng.gen_range(1.0..3.0);
     let m = match motion {
         MotionKind::Tumble => Motion {

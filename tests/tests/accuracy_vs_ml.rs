@@ -2,12 +2,12 @@
 //! multi-start maximum-likelihood reference, on every arrangement family and motion family of
 //! the issue, both models, raw and filtered output.
 
+use ballisto::estimate::HostEstimator;
 use e2e_tests::cases::{make, Case, Family, MotionKind};
 use e2e_tests::ml::MlReference;
 use e2e_tests::stats::{rms3, rms_sym};
 use estimator_core::{Estimator, Model, Options};
 use hal_sim::arrangement_file::HOST_CAP;
-use hal_sim::run::HostEstimator;
 
 const SAMPLES: usize = 1500;
 const LIMIT: f64 = 1.10;

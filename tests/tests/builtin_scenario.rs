@@ -5,6 +5,7 @@
 use std::cell::Cell;
 use std::rc::Rc;
 
+use ballisto::decode::{decode_stream, Stream};
 use embassy_futures::join::join;
 use embassy_futures::select::select;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
@@ -17,7 +18,6 @@ use firmware::scenario::{self, ScriptedUplink, SETS};
 use firmware::telemetry::packets::{EventId, FailureCode, MotionReport, Report};
 use firmware::telemetry::Telemetry;
 use firmware::time::{Nanos, TimeBase};
-use hal_sim::decode::{decode_stream, Stream};
 use hal_sim::firmware_host::Downlink;
 
 /// Time that jumps to each instant waited for.

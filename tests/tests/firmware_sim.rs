@@ -63,11 +63,11 @@ fn reference_estimates<T: estimator_core::Real>(
     sc: &Scenario,
     name: &str,
 ) -> std::path::PathBuf {
+    use ballisto::samples_csv::SamplesReader;
     use hal_sim::arrangement_file::load_arrangement;
-    use hal_sim::samples_csv::SamplesReader;
     use std::io::Write;
     let loaded = load_arrangement(&dir.join("arrangement.toml")).unwrap();
-    let model = hal_sim::run::choose_model(None, &loaded);
+    let model = hal_sim::arrangement_file::choose_model(None, &loaded);
     let options = estimator_core::Options {
         initial_omega: sc.initial_omega,
         ..Default::default()
@@ -77,13 +77,13 @@ fn reference_estimates<T: estimator_core::Real>(
     let mut rd = SamplesReader::open(&dir.join("samples.csv"), &loaded.names).unwrap();
     let out = dir.join(format!("reference-{name}.csv"));
     let mut w = std::io::BufWriter::new(std::fs::File::create(&out).unwrap());
-    hal_sim::estimates_csv::write_header(&mut w).unwrap();
+    ballisto::estimates_csv::write_header(&mut w).unwrap();
     let mut p = vec![0.0; loaded.names.len()];
     let mut pt = vec![T::ZERO; loaded.names.len()];
     while let Some(t) = rd.next_row(&mut p).unwrap() {
         pt.iter_mut().zip(&p).for_each(|(a, b)| *a = T::of(*b));
         let e = est.update(t, &pt);
-        hal_sim::estimates_csv::write_row(&mut w, t, e).unwrap();
+        ballisto::estimates_csv::write_row(&mut w, t, e).unwrap();
     }
     w.flush().unwrap();
     out
@@ -91,8 +91,8 @@ fn reference_estimates<T: estimator_core::Real>(
 
 #[test]
 fn named_scenarios_through_the_firmware_match_estimator_core_on_the_same_samples() {
-    use hal_sim::compare::compare;
-    use hal_sim::sim::{run_sim, SimJob};
+    use ballisto::compare::compare;
+    use ballisto::sim::{run_sim, SimJob};
     for name in [
         "tetra-orbit",
         "nine-channel",

@@ -4,11 +4,11 @@
 
 use std::path::PathBuf;
 
+use ballisto::estimate::HostEstimator;
+use ballisto::samples_csv::SamplesReader;
 use e2e_tests::stats::rms3;
 use estimator_core::{Model, Options};
 use hal_sim::arrangement_file::load_arrangement;
-use hal_sim::run::HostEstimator;
-use hal_sim::samples_csv::SamplesReader;
 
 fn data_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/realdata/mimu4444_exp6")

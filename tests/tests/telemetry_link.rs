@@ -3,10 +3,10 @@
 //! a damaged command) and the decoded downlink that shows their effect; fault events.
 
 use arbitrary_int::{u11, u14};
+use ballisto::decode::decode_stream;
 use firmware::config::Alignment;
 use firmware::telemetry::framing;
 use firmware::telemetry::packets::{service, subtype, EventId, FailureCode, Report, APID};
-use hal_sim::decode::decode_stream;
 use hal_sim::firmware_host::{firmware_config, run_firmware, run_firmware_with};
 use hal_sim::scenario::Scenario;
 use spacepackets::ecss::tc::{AckFlags, PusTcCreator, PusTcSecondaryHeader};
@@ -95,7 +95,7 @@ fn commands_on_the_uplink_take_effect_and_are_verified_on_the_downlink() {
     let log: Vec<String> = stream
         .packets
         .iter()
-        .filter_map(|p| hal_sim::decode::log_line(p, -0.05))
+        .filter_map(|p| ballisto::decode::log_line(p, -0.05))
         .filter(|l| !l.contains(" HK ") || l.contains("tc_accepted=3"))
         .collect();
     let verifications: Vec<(u16, u8, Option<FailureCode>)> = stream

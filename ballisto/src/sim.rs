@@ -8,12 +8,13 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use crate::arrangement_file::LoadedArrangement;
-use crate::bench::{BenchError, BenchReader};
+use hal_sim::arrangement_file::LoadedArrangement;
+use hal_sim::recorder::Recorder;
+use hal_sim::scenario::Scenario;
+
 use crate::compare::{compare, Comparison};
-use crate::rig::Rig;
-use crate::run::{estimate_files, write_truth_header, write_truth_row, EstimateJob, Precision};
-use crate::scenario::Scenario;
+use crate::estimate::{estimate_files, EstimateJob, Precision};
+use crate::truth_csv::{write_truth_header, write_truth_row};
 
 /// What to run.
 pub struct SimJob<'a> {
@@ -59,66 +60,7 @@ pub struct SimReport {
     /// With `--estimate`: rows flagged, per flag bit.
     pub flag_counts: [u64; 16],
     /// With `--firmware`: what the firmware counted and measured.
-    pub firmware: Option<crate::firmware_host::FirmwareReport>,
-}
-
-/// A scenario being recorded: the rig and the bench reader that reads every part at the
-/// scenario's rate (pulsing the SYNC line first when a part samples on it).
-pub struct Recorder {
-    rig: Rig,
-    reader: BenchReader,
-    rate: f64,
-    any_sync: bool,
-    /// Bus usage of the start-up (identification and configuration).
-    start_up: Vec<(String, u64, f64)>,
-}
-
-impl Recorder {
-    /// Builds the rig and starts the reader (identification and configuration of every part
-    /// before t = 0).
-    pub fn new(sc: &Scenario) -> Result<Self, String> {
-        let rig = Rig::build(sc)?;
-        let reader = BenchReader::start(sc, &rig.ports)?;
-        let start_up = rig.bus_usage();
-        Ok(Recorder {
-            start_up,
-            rig,
-            reader,
-            rate: sc.rate,
-            any_sync: sc.parts.iter().any(|p| sc.sync(p)),
-        })
-    }
-
-    /// Sample set `k` at `t = k / rate`: each part's reading (m/s², part axes) or its error.
-    pub fn sample_set(&mut self, k: usize) -> (f64, Vec<Result<[f64; 3], BenchError>>) {
-        let t = k as f64 / self.rate;
-        self.rig.clock.advance_to(t);
-        if self.any_sync {
-            self.rig.sync.pulse(t);
-        }
-        let n = self.rig.ports.len();
-        (t, (0..n).map(|i| self.reader.read(i)).collect())
-    }
-
-    /// The truth at `t`.
-    pub fn truth(&self, t: f64) -> crate::motion::Truth {
-        self.rig.truth.borrow_mut().truth_at(t)
-    }
-
-    /// The rig (clock, buses).
-    pub fn rig(&self) -> &Rig {
-        &self.rig
-    }
-
-    /// Bus usage of the sample sets so far (start-up excluded): name, bytes, busy seconds.
-    pub fn sampling_usage(&self) -> Vec<(String, u64, f64)> {
-        self.rig.bus_usage_since(&self.start_up)
-    }
-
-    /// The reader's counts.
-    pub fn reader(&self) -> &BenchReader {
-        &self.reader
-    }
+    pub firmware: Option<hal_sim::firmware_host::FirmwareReport>,
 }
 
 /// Runs a scenario (see the module doc).
@@ -263,7 +205,7 @@ fn record_firmware(
     samples: &mut impl Write,
     truth: &mut impl Write,
 ) -> Result<SimReport, Box<dyn Error>> {
-    use crate::firmware_host::{firmware_config, run_firmware, SimTime};
+    use hal_sim::firmware_host::{firmware_config, run_firmware, SimTime};
     let sc = job.scenario;
     let config = firmware_config(sc, loaded, alignment)?;
     let path = job.out.join("estimates.csv");
@@ -276,7 +218,7 @@ fn record_firmware(
     let mut failure: Option<std::io::Error> = None;
     let mut emit = |set: &firmware::sampler::SampleSet,
                     m: &firmware::estimation::Motion,
-                    tr: &crate::motion::Truth| {
+                    tr: &hal_sim::motion::Truth| {
         let t = SimTime::seconds(set.t);
         row.iter_mut().for_each(|v| *v = None);
         for (value, p) in set.parts.iter().zip(config.sampling.parts.iter()) {
@@ -288,7 +230,7 @@ fn record_firmware(
                 }
             }
         }
-        crate::run::count_flags(&mut flag_counts, m.estimate.flags);
+        crate::estimate::count_flags(&mut flag_counts, m.estimate.flags);
         let r = write_samples_row(samples, t, &row)
             .and_then(|_| write_truth_row(truth, tr))
             .and_then(|_| crate::estimates_csv::write_row(&mut estimates, t, &m.estimate));

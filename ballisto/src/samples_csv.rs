@@ -6,8 +6,10 @@
 
 use std::fmt;
 use std::fs::File;
-use std::io::BufReader;
+use std::io::{BufReader, BufWriter, Write};
 use std::path::Path;
+
+use hal_sim::motion::Truth;
 
 /// An error in a samples file, naming the file and line.
 #[derive(Debug)]
@@ -169,4 +171,23 @@ impl<R: std::io::Read> SamplesReader<R> {
         }
         Ok(Some(t))
     }
+}
+
+/// Writes a samples file.
+pub fn write_samples(
+    path: &Path,
+    names: &[String],
+    truth: &[Truth],
+    outputs: &[Vec<f64>],
+) -> std::io::Result<()> {
+    let mut w = BufWriter::new(File::create(path)?);
+    writeln!(w, "t,{}", names.join(","))?;
+    for (tr, row) in truth.iter().zip(outputs.iter()) {
+        write!(w, "{}", tr.t)?;
+        for v in row {
+            write!(w, ",{v}")?;
+        }
+        writeln!(w)?;
+    }
+    w.flush()
 }

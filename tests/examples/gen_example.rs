@@ -2,14 +2,16 @@
 //! four tri-axial parts on a regular tetrahedron (circumradius 0.15 m, 0.003 m/s² noise),
 //! torque-free tumbling of an asymmetric body in low Earth orbit, 100 Hz for 20 s.
 //!
-//! `cargo run -p hal-sim --example gen_example -- DIR`
+//! `cargo run -p e2e-tests --example gen_example -- DIR`
 
 use std::path::PathBuf;
 
-use hal_sim::families;
+use ballisto::samples_csv::write_samples;
+use ballisto::truth_csv::write_truth;
+use hal_sim::ideal::simulate_outputs;
 use hal_sim::motion::{Environment, Motion, Rotation, Torque};
-use hal_sim::run::{simulate_outputs, write_samples, write_truth};
 use rand::SeedableRng;
+use test_fixtures::families;
 
 fn main() {
     let dir = PathBuf::from(

@@ -3,11 +3,13 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use ballisto::samples_csv::write_samples;
+use ballisto::truth_csv::write_truth;
 use hal_sim::arrangement_file::ArrangementFile;
-use hal_sim::families;
+use hal_sim::ideal::simulate_outputs;
 use hal_sim::motion::{Environment, Motion, Rotation, Torque};
-use hal_sim::run::{simulate_outputs, write_samples, write_truth};
 use rand::SeedableRng;
+use test_fixtures::families;
 
 fn ballisto() -> Command {
     Command::new(env!("CARGO_BIN_EXE_ballisto"))

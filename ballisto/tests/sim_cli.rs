@@ -106,7 +106,7 @@ fn sim_writes_the_three_files_and_the_estimate_follows_the_truth() {
     assert_eq!(rows, 2002);
     // truth.csv: the estimate columns, then the attitude.
     let th = header(&d.join("truth.csv"));
-    assert_eq!(&th[..16], &hal_sim::estimates_csv::COLUMNS[..16]);
+    assert_eq!(&th[..16], &ballisto::estimates_csv::COLUMNS[..16]);
     assert_eq!(&th[16..], &["q_w", "q_x", "q_y", "q_z"]);
     // The PNG signature.
     let png = std::fs::read(d.join("estimates.png")).unwrap();

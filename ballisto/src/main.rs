@@ -3,9 +3,9 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use ballisto::estimate::{estimate_files, EstimateJob, Precision, FLAG_NAMES};
 use clap::{Parser, Subcommand};
 use hal_sim::arrangement_file::parse_model;
-use hal_sim::run::{estimate_files, EstimateJob, Precision, FLAG_NAMES};
 
 const FLAGS_HELP: &str = "The flags column of estimates.csv is a bit set:
   1   sign unresolved: Ω may be −Ω (steady spin, no hint yet)
@@ -211,7 +211,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             };
             let sc = hal_sim::scenario::Scenario::load(&scenario)?;
             let started = std::time::Instant::now();
-            let r = hal_sim::sim::run_sim(&hal_sim::sim::SimJob {
+            let r = ballisto::sim::run_sim(&ballisto::sim::SimJob {
                 scenario: &sc,
                 out: &out,
                 estimate,
@@ -270,7 +270,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             time_offset,
         } => {
             let (stream, rows, text) =
-                hal_sim::decode::decode_file(&input, &out, log.as_deref(), time_offset)?;
+                ballisto::decode::decode_file(&input, &out, log.as_deref(), time_offset)?;
             if log.is_none() {
                 print!("{text}");
             }
@@ -291,7 +291,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             })
         }
         Command::Compare { truth, estimates } => {
-            let c = hal_sim::compare::compare(&truth, &estimates)?;
+            let c = ballisto::compare::compare(&truth, &estimates)?;
             println!("rows compared: {}", c.rows);
             println!("RMS error  sigma0 {:.3e} m/s^2", c.sigma0);
             println!("RMS error  domega {:.3e} rad/s^2", c.domega);

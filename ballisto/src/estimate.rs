@@ -1,4 +1,5 @@
-//! Running the estimator over files (streaming) and writing simulated records.
+//! `ballisto estimate`: the estimator over a samples file, streaming rows to the estimates file
+//! (host tools decide branch and sign with a fixed lag).
 
 use std::error::Error;
 use std::fs::File;
@@ -7,13 +8,9 @@ use std::path::Path;
 
 use estimator_core::smoother::Smoother;
 use estimator_core::{Estimate, Estimator, Flags, Model, Options, Real};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use hal_sim::arrangement_file::{choose_model, load_arrangement, LoadedArrangement, HOST_CAP};
 
-use crate::arrangement_file::{load_arrangement, LoadedArrangement, HOST_CAP};
 use crate::estimates_csv;
-use crate::motion::Truth;
-use crate::noise::gaussian;
 use crate::samples_csv::SamplesReader;
 
 /// The sample-loop scalar of a host run.
@@ -53,11 +50,6 @@ pub struct Summary {
     pub model: Option<Model>,
     /// Channels.
     pub channels: usize,
-}
-
-/// Picks the model: command line, else file, else general.
-pub fn choose_model(cli: Option<Model>, loaded: &LoadedArrangement) -> Model {
-    cli.or(loaded.model).unwrap_or(Model::General)
 }
 
 /// Runs the estimator over a samples file, streaming rows to the estimates file. Rows written
@@ -175,78 +167,6 @@ pub const FLAG_NAMES: [(u16, &str); 7] = [
     (Flags::RESIDUAL_HIGH, "residual high (fault suspected)"),
 ];
 
-/// Simulated channel outputs: truth through paper eq. (4) plus white noise of each channel's
-/// `noise` (seeded).
-pub fn simulate_outputs(
-    loaded: &LoadedArrangement,
-    truth: &[Truth],
-    noisy: bool,
-    seed: u64,
-) -> Vec<Vec<f64>> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    truth
-        .iter()
-        .map(|tr| {
-            loaded
-                .arrangement
-                .channels()
-                .iter()
-                .map(|c| {
-                    let v = tr.channel(&c.position, &c.axis);
-                    if noisy {
-                        v + c.noise * gaussian(&mut rng)
-                    } else {
-                        v
-                    }
-                })
-                .collect()
-        })
-        .collect()
-}
-
-/// Writes a samples file.
-pub fn write_samples(
-    path: &Path,
-    names: &[String],
-    truth: &[Truth],
-    outputs: &[Vec<f64>],
-) -> std::io::Result<()> {
-    let mut w = BufWriter::new(File::create(path)?);
-    writeln!(w, "t,{}", names.join(","))?;
-    for (tr, row) in truth.iter().zip(outputs.iter()) {
-        write!(w, "{}", tr.t)?;
-        for v in row {
-            write!(w, ",{v}")?;
-        }
-        writeln!(w)?;
-    }
-    w.flush()
-}
-
-/// Writes a truth file (same column names as the estimates file).
-pub fn write_truth(path: &Path, truth: &[Truth]) -> std::io::Result<()> {
-    let mut w = BufWriter::new(File::create(path)?);
-    write_truth_header(&mut w)?;
-    for tr in truth {
-        write_truth_row(&mut w, tr)?;
-    }
-    w.flush()
-}
-
-/// Columns of the truth file after the estimate columns: the attitude (body → inertial
-/// quaternion).
-pub const TRUTH_EXTRA_COLUMNS: [&str; 4] = ["q_w", "q_x", "q_y", "q_z"];
-
-/// The header of a truth file: the estimate columns up to `A_yz`, then the attitude.
-pub fn write_truth_header(w: &mut impl Write) -> std::io::Result<()> {
-    writeln!(
-        w,
-        "{},{}",
-        estimates_csv::COLUMNS[..16].join(","),
-        TRUTH_EXTRA_COLUMNS.join(",")
-    )
-}
-
 /// Adds one row's flags to the counts per flag bit.
 pub fn count_flags(counts: &mut [u64; 16], flags: Flags) {
     for (bit, c) in counts.iter_mut().enumerate() {
@@ -254,20 +174,4 @@ pub fn count_flags(counts: &mut [u64; 16], flags: Flags) {
             *c += 1;
         }
     }
-}
-
-/// One row of a truth file.
-pub fn write_truth_row(w: &mut impl Write, tr: &Truth) -> std::io::Result<()> {
-    write!(w, "{}", tr.t)?;
-    for v in tr
-        .sigma0
-        .iter()
-        .chain(tr.domega.iter())
-        .chain(tr.omega.iter())
-        .chain(tr.field.0.iter())
-        .chain(tr.attitude.iter())
-    {
-        write!(w, ",{v}")?;
-    }
-    writeln!(w)
 }

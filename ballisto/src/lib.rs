@@ -1,0 +1,18 @@
+//! # ballisto
+//!
+//! The ground tool of the ballistometer (interfaces.md): the `ballisto` command line and its
+//! jobs — `estimate` (estimator-core over a samples file), `sim` (a hal-sim scenario recorded by
+//! the simulator's reader or by the firmware's tasks), `decode` (the spacecraft link's telemetry
+//! stream back into an estimates file), `compare` — with the file formats they read and write
+//! and the plots they draw. The simulation itself (motion, sensors, buses, scenarios, the
+//! firmware host) is `hal-sim`'s.
+#![deny(missing_docs)]
+
+pub mod compare;
+pub mod decode;
+pub mod estimate;
+pub mod estimates_csv;
+pub mod plot;
+pub mod samples_csv;
+pub mod sim;
+pub mod truth_csv;
