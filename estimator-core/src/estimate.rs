@@ -115,7 +115,7 @@ impl<T: Real> Estimate<T> {
 
 #[cfg(test)]
 mod tests {
-    use super::chi2_999;
+    use super::{chi2_999, Estimate};
 
     /// The table and the Wilson–Hilferty continuation against published 99.9 % points
     /// (Abramowitz & Stegun table 26.8): 40 → 73.402, 50 → 86.661, 100 → 149.449.
@@ -133,5 +133,22 @@ mod tests {
         }
         // Monotone across the table's end.
         assert!(chi2_999(31) > chi2_999(30));
+    }
+
+    #[test]
+    fn estimate_finiteness_sees_every_component() {
+        let e = Estimate::<f32>::default();
+        assert!(e.is_finite());
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let mut x = e;
+            x.sd_field.0[5] = bad;
+            assert!(!x.is_finite());
+            let mut x = e;
+            x.sigma0[0] = bad;
+            assert!(!x.is_finite());
+            let mut x = e;
+            x.chi2 = bad;
+            assert!(!x.is_finite());
+        }
     }
 }

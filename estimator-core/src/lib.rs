@@ -9,14 +9,19 @@
 //! on the target, `f64` on the host. Precomputation (SVD per channel mask and frame) is done in
 //! `f64` whatever the sample-loop scalar.
 //!
+//! The public interface:
 //! - [`arrangement`]: channels (position, axis, noise), the models, channel masks.
-//! - [`design`]: the precomputed matrices of paper eq. (10)–(11) per mask and frame.
-//! - [`quadratic`]: the quadratic forms for `a` (closed form for m = 3, Gauss–Newton).
-//! - [`tracker`]: branch and sign tracking by kinematic consistency, with a rate filter per
-//!   hypothesis (Ω′ integration fused with the algebraic Ω).
-//! - [`estimator`]: the per-sample solve tying these together.
+//! - [`estimator`]: configuration (precomputation) and the per-sample solve.
 //! - [`estimate`]: the outputs and their status flags.
 //! - [`smoother`]: fixed-lag smoothing of branch and sign decisions (host tools).
+//! - [`error`], [`linalg`] (the small fixed-size vectors and matrices of the interface),
+//!   [`real`] (the scalar).
+//!
+//! Inside (crate-private; reachable by tests and benches through the hidden `internals`):
+//! `svd` (configuration-time SVD), `design` (the precomputed matrices of paper eq. (10)–(11)
+//! per mask and frame), `quadratic` (the quadratic forms for `a`: closed form for m = 3,
+//! Kelvin's decomposition, Gauss–Newton), `tracker` (branch and sign tracking by kinematic
+//! consistency, a rate filter per hypothesis).
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
 #![deny(unsafe_op_in_unsafe_fn)]
@@ -26,16 +31,16 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod arrangement;
-pub mod design;
 pub mod error;
 pub mod estimate;
 pub mod estimator;
 pub mod linalg;
-pub mod quadratic;
 pub mod real;
 pub mod smoother;
-pub mod svd;
-pub mod tracker;
+
+#[doc(hidden)]
+pub mod internals;
+pub(crate) use internals::{design, quadratic, svd, tracker};
 
 pub use arrangement::{Arrangement, Channel, ChannelMask, Model};
 pub use error::{ConfigError, Unknown};

@@ -4,8 +4,8 @@
 mod common;
 
 use common::uniform3;
+use estimator_core::internals::quadratic::{closed_form, gauss_newton, residual2, MAX_ROOTS};
 use estimator_core::linalg::{add, norm2, sub, Sym3};
-use estimator_core::quadratic::{closed_form, gauss_newton, residual2, MAX_ROOTS};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -89,10 +89,10 @@ fn closed_form_finds_every_branch_found_by_brute_force() {
 /// inverts `o = ε (a₁a₂, a₁a₃, a₂a₃)`.
 #[test]
 fn general_model_forms_have_zero_diagonal_and_kelvin_inverts() {
-    use estimator_core::design::Projection;
     use estimator_core::estimator::FRAME_QUATERNIONS;
+    use estimator_core::internals::design::Projection;
+    use estimator_core::internals::quadratic::kelvin;
     use estimator_core::linalg::quat_to_mat;
-    use estimator_core::quadratic::kelvin;
     use estimator_core::{Arrangement, ChannelMask, Model};
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     for _ in 0..20 {

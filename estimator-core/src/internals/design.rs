@@ -520,3 +520,118 @@ pub fn check_structural<const CAP: usize>(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimator::FRAME_QUATERNIONS;
+    use crate::linalg::{dot, quat_to_mat};
+
+    const CAP: usize = 24;
+
+    /// Five tri-axial parts at irregular positions, tilted axes, unequal noise: N = 15.
+    fn arrangement() -> Arrangement<CAP> {
+        let mut arr = Arrangement::new();
+        let positions = [
+            [0.12, 0.01, -0.03],
+            [-0.05, 0.11, 0.02],
+            [0.02, -0.09, 0.10],
+            [-0.08, -0.04, -0.07],
+            [0.04, 0.06, 0.09],
+        ];
+        for (p, r) in positions.iter().enumerate() {
+            let tilt = 0.1 * (p as f64 + 1.0);
+            for (j, axis) in [
+                [1.0, tilt, 0.0],
+                [-tilt, 1.0, 0.5 * tilt],
+                [0.0, -0.5 * tilt, 1.0],
+            ]
+            .iter()
+            .enumerate()
+            {
+                let noise = 0.002 * (1.0 + ((p + j) % 3) as f64);
+                arr.push(*r, *axis, noise).unwrap();
+            }
+        }
+        arr
+    }
+
+    /// `y = W p` for the first `k + m` rows.
+    fn apply(pr: &Projection<f64, CAP>, p: &[f64]) -> [f64; CAP] {
+        let mut y = [0.0; CAP];
+        for (r, yr) in y.iter_mut().enumerate().take(pr.k + pr.m) {
+            *yr = p.iter().enumerate().map(|(i, v)| pr.wt[i][r] * v).sum();
+        }
+        y
+    }
+
+    /// Paper eq. (10)–(11): `W = [G⁺; U⊥ᵀ] diag(1/σ)` gives back the linear unknowns of a
+    /// field with `a = 0` and zero in the null-space rows, in every frame, for both models.
+    #[test]
+    fn w_inverts_the_design_and_its_null_rows_annihilate_it() {
+        let arr = arrangement();
+        let n = arr.len();
+        for model in [Model::General, Model::FreeFloat] {
+            for (f, q) in FRAME_QUATERNIONS.iter().enumerate() {
+                let v = quat_to_mat(*q);
+                let mut pr = Projection::<f64, CAP>::empty();
+                pr.build(&arr, ChannelMask::all(n), model, &v, f as u8)
+                    .unwrap();
+                assert_eq!((pr.k, pr.m), (model.linear_unknowns(), n - pr.k));
+                let x: [f64; MAX_COLS] = core::array::from_fn(|j| 0.3 * j as f64 - 1.1);
+                let p: Vec<f64> = arr
+                    .channels()
+                    .iter()
+                    .map(|c| {
+                        let g = design_row(&mat_vec(&v, &c.axis), &mat_vec(&v, &c.position));
+                        (0..pr.k).map(|j| g[j] * x[j]).sum()
+                    })
+                    .collect();
+                let y = apply(&pr, &p);
+                for j in 0..pr.k {
+                    assert!((y[j] - x[j]).abs() < 1e-9, "{model:?} frame {f} x{j}");
+                }
+                for e in 0..pr.m {
+                    assert!(y[pr.k + e].abs() < 1e-9, "{model:?} frame {f} null row {e}");
+                }
+            }
+        }
+    }
+
+    /// Model F (`A = {a}²`, Γ = 0): the null-space rows of `W p` are the quadratic forms
+    /// `aᵀ M_k a`, and `y_lin − [aᵀ T_j a]` gives σ0 and Ω′ back (estimator.md: "G⁺ q(a) is nine
+    /// quadratic forms").
+    #[test]
+    fn forms_reproduce_the_centripetal_term() {
+        let arr = arrangement();
+        let n = arr.len();
+        let mut pr = Projection::<f64, CAP>::empty();
+        let id = quat_to_mat(FRAME_QUATERNIONS[0]);
+        pr.build(&arr, ChannelMask::all(n), Model::FreeFloat, &id, 0)
+            .unwrap();
+        let (sigma0, domega, a) = ([0.2, -9.7, 0.4], [1.5, -0.3, 0.8], [0.7, -1.9, 2.4]);
+        let field = Sym3::skew_squared(&a);
+        let p: Vec<f64> = arr
+            .channels()
+            .iter()
+            .map(|c| {
+                let (s, r) = (&c.axis, &c.position);
+                dot(s, &sigma0) + dot(&cross(r, s), &domega) + dot(s, &field.mul_vec(r))
+            })
+            .collect();
+        let y = apply(&pr, &p);
+        let x = [sigma0, domega].concat();
+        for j in 0..6 {
+            let lin = y[j] - pr.tq[j].quad(&a);
+            assert!((lin - x[j]).abs() < 1e-8, "x{j}: {lin} vs {}", x[j]);
+        }
+        for e in 0..pr.m {
+            let form = pr.mq[e].quad(&a);
+            assert!(
+                (y[6 + e] - form).abs() < 1e-8,
+                "form {e}: {} vs {form}",
+                y[6 + e]
+            );
+        }
+    }
+}

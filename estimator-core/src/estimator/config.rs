@@ -1,0 +1,115 @@
+//! The configuration and its precomputation (paper eq. 10–11 per frame): validated as a whole;
+//! on error the configuration in force stays untouched.
+
+use super::frames::{FRAME_QUATERNIONS, NUM_FRAMES};
+use super::Config;
+use crate::arrangement::{Arrangement, ChannelMask, Model};
+use crate::design::check_structural;
+use crate::error::ConfigError;
+use crate::linalg::{dot, quat_to_mat, Sym3};
+use crate::real::Real;
+
+/// Options of the estimator.
+#[derive(Clone, Copy, Debug)]
+pub struct Options {
+    /// Per-sample output without the rate filter (continuity is still used for branch and sign).
+    pub raw: bool,
+    /// Approximate Ω at the first sample (settles sign and starting branch).
+    pub initial_omega: Option<[f64; 3]>,
+    /// Gravity-gradient tensor Γ (body frame), known; default 0.
+    pub gamma: Sym3<f64>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            raw: false,
+            initial_omega: None,
+            gamma: Sym3::zero(),
+        }
+    }
+}
+
+impl<T: Real, const CAP: usize> Config<T, CAP> {
+    /// Validates and precomputes a configuration; on error `self` is unchanged.
+    pub(super) fn configure(
+        &mut self,
+        arr: &Arrangement<CAP>,
+        model: Model,
+        mask: ChannelMask,
+        options: Options,
+    ) -> Result<(), ConfigError> {
+        if let Some(w) = options.initial_omega {
+            if !w.iter().all(|v| v.is_finite()) {
+                return Err(ConfigError::NotFinite {
+                    what: "initial omega",
+                });
+            }
+        }
+        if !options.gamma.0.iter().all(|v| v.is_finite()) {
+            return Err(ConfigError::NotFinite {
+                what: "gravity gradient Γ",
+            });
+        }
+        for i in 0..64 {
+            if mask.contains(i) && i >= arr.len() {
+                return Err(ConfigError::NoSuchChannel { channel: i });
+            }
+        }
+        check_structural(arr, mask, model)?;
+        let frames = match model {
+            Model::General => NUM_FRAMES,
+            Model::FreeFloat => 1,
+        };
+        // Frame 0 (body axes) decides errors; nothing is changed before it succeeds.
+        self.proj[0].build(arr, mask, model, &quat_to_mat(FRAME_QUATERNIONS[0]), 0)?;
+        self.usable = [false; NUM_FRAMES];
+        self.usable[0] = true;
+        for f in 1..frames {
+            self.usable[f] = self.proj[f]
+                .build(
+                    arr,
+                    mask,
+                    model,
+                    &quat_to_mat(FRAME_QUATERNIONS[f]),
+                    f as u8,
+                )
+                .is_ok();
+        }
+        self.arr = arr.clone();
+        self.model = model;
+        self.mask = mask;
+        self.frames = frames;
+        self.options = options;
+        self.set_gamma(&options.gamma);
+        Ok(())
+    }
+
+    /// Γ in the body frame, in every frame `V`, and (model F) its offset `W (s·Γ R)`.
+    pub(super) fn set_gamma(&mut self, gamma: &Sym3<f64>) {
+        self.gamma = gamma.cast();
+        for f in 0..NUM_FRAMES {
+            let v = quat_to_mat(FRAME_QUATERNIONS[f]);
+            self.gamma_frame[f] = gamma.rotate(&v).cast();
+        }
+        // Model F: p_i − s_i·Γ R_i enters the linear solve; precompute W (s·Γ R).
+        self.gamma_offset = [T::ZERO; CAP];
+        if self.model == Model::FreeFloat {
+            let pr = &self.proj[0];
+            let mut c = [0.0f64; CAP];
+            for (i, ch) in self.arr.channels().iter().enumerate() {
+                if self.mask.contains(i) {
+                    c[i] = dot(&ch.axis, &gamma.mul_vec(&ch.position));
+                }
+            }
+            for r in 0..pr.k + pr.m {
+                let mut acc = 0.0;
+                for (i, ci) in c.iter().enumerate().take(self.arr.len()) {
+                    acc += pr.wt[i][r].to_f64() * ci;
+                }
+                self.gamma_offset[r] = T::of(acc);
+            }
+        }
+        self.gamma_offset_nonzero = self.gamma_offset.iter().any(|g| *g != T::ZERO);
+    }
+}

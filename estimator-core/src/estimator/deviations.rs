@@ -1,0 +1,228 @@
+//! Standard deviations of the estimate (estimator.md, "Outputs"): `cov(a)` of the `a` solve,
+//! first-order propagation to σ0, Ω′ and Ω through it (model F and model G without constant
+//! covariances), and Ω's variances from the constant covariance of A (model G).
+
+use super::{Branch, Config};
+use crate::arrangement::Model;
+use crate::linalg::{dot, mat_t_vec, mat_vec, norm2, scale, Sym3, Vec3};
+use crate::real::Real;
+
+/// Reciprocal condition (`det(JᵀJ)` over the cube of its mean eigenvalue) of the `a` solve
+/// below which an estimate is flagged ill-conditioned: the Jacobian's condition number is then
+/// several hundred (noise, and rounding in f32, amplified accordingly).
+pub(super) const ILL_RCOND: f64 = 1e-5;
+
+impl<T: Real, const CAP: usize> Config<T, CAP> {
+    /// `cov(a) = (JᵀJ)⁻¹` with `J` rows `2 ε M_k a` (whitened equations: unit noise), and
+    /// whether `JᵀJ` is nearly singular. Regularised so that `a = 0` (no rotation) gives large
+    /// but finite variances. `jtj`: `JᵀJ` if the solver already formed it.
+    #[inline(never)]
+    pub(super) fn a_covariance(
+        &self,
+        f: usize,
+        a: &Vec3<T>,
+        jtj: Option<&Sym3<T>>,
+    ) -> (Sym3<T>, bool) {
+        let pr = &self.proj[f];
+        let jtj = match jtj {
+            Some(j) => *j,
+            None => {
+                let mut jtj = Sym3::<T>::zero();
+                for mk in pr.mq.iter().take(pr.m) {
+                    jtj.add_outer(&scale(T::of(2.0), &mk.mul_vec(a)));
+                }
+                jtj
+            }
+        };
+        let third = jtj.trace() / T::of(3.0);
+        let det = jtj.det();
+        let ill = !(det > T::of(ILL_RCOND) * third * third * third);
+        let reg = T::of(1e-6) * third + T::of(1e-12);
+        let mut jr = jtj;
+        for i in 0..3 {
+            jr.0[i] += reg;
+        }
+        let big = T::of(1e12);
+        let cov = jr
+            .inverse(T::ZERO)
+            .unwrap_or(Sym3([big, big, big, T::ZERO, T::ZERO, T::ZERO]));
+        (cov, ill)
+    }
+
+    /// First-order standard deviations of σ0, Ω′ and Ω (body frame) through `cov(a)`:
+    /// `cov(x) = cov0 + H cov(a) Hᵀ` with `H = ∂x/∂a = −2 ε T_j a`.
+    /// Ω's deviation only `with_omega` (zero otherwise).
+    pub(super) fn deviations_linearised(
+        &self,
+        f: usize,
+        eps: T,
+        b: &Branch<T>,
+        omega: &Vec3<T>,
+        with_omega: bool,
+    ) -> (Vec3<T>, Vec3<T>, Vec3<T>) {
+        let pr = &self.proj[f];
+        let v = &pr.frame;
+        let k = pr.k;
+        let cov_a = b.cov_a;
+        // σ0 and Ω′ in the body frame: x_c = (Vᵀ y)_c − ε aᵀ T′_c a, so
+        // var(x_c) = var0_c + 4 (T′_c a)ᵀ cov(a) (T′_c a) (T′_c: `tq_body`).
+        let mut sd6 = [T::ZERO; 6];
+        for (c, sd) in sd6.iter_mut().enumerate() {
+            let g = pr.tq_body[c].mul_vec(&b.a);
+            *sd = (pr.var0_body[c] + T::of(4.0) * cov_a.quad(&g))
+                .max(T::ZERO)
+                .sqrt();
+        }
+        let sd_sigma0 = [sd6[0], sd6[1], sd6[2]];
+        let sd_domega = [sd6[3], sd6[4], sd6[5]];
+        // Standard deviations in the body frame: diag(Vᵀ C V)_k = v_kᵀ C v_k, v_k = column k of V.
+        let vcols = [
+            [v[0][0], v[1][0], v[2][0]],
+            [v[0][1], v[1][1], v[2][1]],
+            [v[0][2], v[1][2], v[2][2]],
+        ];
+        let sd = |c: &Sym3<T>| {
+            [
+                c.quad(&vcols[0]).max(T::ZERO).sqrt(),
+                c.quad(&vcols[1]).max(T::ZERO).sqrt(),
+                c.quad(&vcols[2]).max(T::ZERO).sqrt(),
+            ]
+        };
+        let sd_omega = match self.model {
+            _ if !with_omega => [T::ZERO; 3],
+            Model::FreeFloat => sd(&cov_a),
+            Model::General => {
+                let wv = mat_vec(v, omega);
+                let w2 = norm2(&wv);
+                if w2 > T::ZERO {
+                    // ∂Ω/∂(a, d) from dΩ = (dM Ω − Ω (Ωᵀ dM Ω)/(2|Ω|²))/|Ω|².
+                    let mut jac = [[T::ZERO; 6]; 3];
+                    let aw = dot(&b.a, &wv);
+                    for i in 0..3 {
+                        // da_i: dM = ε(e_i aᵀ + a e_iᵀ).
+                        let mut dmw = scale(eps * wv[i], &b.a);
+                        dmw[i] += eps * aw;
+                        let q = T::of(2.0) * eps * wv[i] * aw;
+                        for r in 0..3 {
+                            jac[r][i] = (dmw[r] - wv[r] * q / (T::of(2.0) * w2)) / w2;
+                        }
+                        // dd_i: dM = e_i e_iᵀ − ½ I.
+                        let mut dmw = scale(-T::of(0.5), &wv);
+                        dmw[i] += wv[i];
+                        let q = wv[i] * wv[i] - T::of(0.5) * w2;
+                        for r in 0..3 {
+                            jac[r][3 + i] = (dmw[r] - wv[r] * q / (T::of(2.0) * w2)) / w2;
+                        }
+                    }
+                    // Joint covariance of (a, d): d = y_d − ε aᵀT a, so cov(d, a) = H_d cov(a)
+                    // with H_d rows −2 ε T_j a (j = 6, 7, 8), and
+                    // cov(d) = cov0_d + H_d cov(a) H_dᵀ.
+                    let ca = cov_a.to_mat();
+                    let mut h = [[T::ZERO; 3]; 3];
+                    for (r, hr) in h.iter_mut().enumerate().take(k.saturating_sub(6)) {
+                        *hr = scale(-T::of(2.0) * eps, &pr.tq[6 + r].mul_vec(&b.a));
+                    }
+                    let mut cd = pr.cov0[2].to_mat();
+                    for r in 0..3 {
+                        let hc = mat_t_vec(&ca, &h[r]);
+                        for c in 0..3 {
+                            cd[r][c] += dot(&hc, &h[c]);
+                        }
+                    }
+                    let mut c6 = [[T::ZERO; 6]; 6];
+                    for r in 0..3 {
+                        let cda = mat_t_vec(&ca, &h[r]);
+                        for c in 0..3 {
+                            c6[r][c] = ca[r][c];
+                            c6[3 + r][3 + c] = cd[r][c];
+                            c6[3 + r][c] = cda[c];
+                            c6[c][3 + r] = cda[c];
+                        }
+                    }
+                    // cov(Ω) = J C Jᵀ.
+                    let mut jc = [[T::ZERO; 6]; 3];
+                    for r in 0..3 {
+                        for i in 0..6 {
+                            let mut acc = T::ZERO;
+                            for j in 0..6 {
+                                acc += jac[r][j] * c6[j][i];
+                            }
+                            jc[r][i] = acc;
+                        }
+                    }
+                    let mut cw = [[T::ZERO; 3]; 3];
+                    for r in 0..3 {
+                        for s in r..3 {
+                            let mut acc = T::ZERO;
+                            for i in 0..6 {
+                                acc += jc[r][i] * jac[s][i];
+                            }
+                            cw[r][s] = acc;
+                            cw[s][r] = acc;
+                        }
+                    }
+                    sd(&Sym3::from_mat(&cw))
+                } else {
+                    [T::of(1e6); 3]
+                }
+            }
+        };
+        (sd_sigma0, sd_domega, sd_omega)
+    }
+}
+
+/// Frame score of `a` below which Kelvin's decomposition is flagged ill-conditioned.
+pub(super) const KELVIN_MIN_SCORE: f64 = 0.02;
+
+/// Variances of Ω (body frame) from the covariance of A (`[xx, yy, zz, xy, xz, yz]`), by
+/// `dΩ = (dM Ω − Ω (Ωᵀ dM Ω)/(2|Ω|²)) / |Ω|²` with `dM = dA − ½ tr(dA) I` (first order of
+/// `ΩΩᵀ = A − ½ tr A I`). Large but finite at Ω = 0.
+pub(super) fn omega_variances<T: Real>(c: &[[T; 6]; 6], w: &Vec3<T>) -> Vec3<T> {
+    let w2 = norm2(w);
+    if !(w2 > T::ZERO) {
+        return [T::of(1e12); 3];
+    }
+    let half = T::of(0.5);
+    let two = T::of(2.0);
+    // Columns of ∂Ω/∂A for the six components.
+    let mut jac = [[T::ZERO; 6]; 3];
+    let dmw: [(Vec3<T>, T); 6] = [
+        (
+            [half * w[0], -half * w[1], -half * w[2]],
+            w[0] * w[0] - half * w2,
+        ),
+        (
+            [-half * w[0], half * w[1], -half * w[2]],
+            w[1] * w[1] - half * w2,
+        ),
+        (
+            [-half * w[0], -half * w[1], half * w[2]],
+            w[2] * w[2] - half * w2,
+        ),
+        ([w[1], w[0], T::ZERO], two * w[0] * w[1]),
+        ([w[2], T::ZERO, w[0]], two * w[0] * w[2]),
+        ([T::ZERO, w[2], w[1]], two * w[1] * w[2]),
+    ];
+    let inv = T::ONE / w2;
+    for (col, (d, q)) in dmw.iter().enumerate() {
+        let k = *q * half * inv;
+        for r in 0..3 {
+            jac[r][col] = (d[r] - w[r] * k) * inv;
+        }
+    }
+    // jᵀ C j with C symmetric: the diagonal once, the upper triangle twice.
+    let mut var = [T::ZERO; 3];
+    for r in 0..3 {
+        let j = &jac[r];
+        let mut acc = T::ZERO;
+        for i in 0..6 {
+            let mut inner = T::of(0.5) * c[i][i] * j[i];
+            for l in (i + 1)..6 {
+                inner += c[i][l] * j[l];
+            }
+            acc += j[i] * inner;
+        }
+        var[r] = (T::of(2.0) * acc).max(T::ZERO);
+    }
+    var
+}

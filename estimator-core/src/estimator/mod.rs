@@ -1,0 +1,474 @@
+//! The estimator: configuration (precomputation) and the per-sample solve.
+//!
+//! Per sample (no SVD, no allocation): `y = W p` (one matrix–vector product), the `a` solve
+//! from the `m` null-space equations, `x = G⁺(p − ε q(a))` as `y_lin − ε [aᵀ T_j a]` for each
+//! branch, branch and sign tracking, first-order standard deviations of the chosen branch, and
+//! (unless raw) the rate filter.
+
+//! One concept per file:
+//! - [`config`]: the options, validation and precomputation of a configuration;
+//! - [`frames`]: the frames `V` of model G and the choice among them;
+//! - [`solve`]: one frame's per-sample solve (`W p`, the `a` solve, the branches);
+//! - [`deviations`]: `cov(a)` and the standard deviations;
+//! - [`output`]: the estimate of the chosen branch.
+//!
+//! This file holds the state (configuration, working storage, tracker, output slots) and the
+//! per-sample sequence that ties them together.
+
+mod config;
+mod deviations;
+mod frames;
+mod output;
+mod solve;
+
+pub use config::Options;
+pub use frames::{FRAME_QUATERNIONS, NUM_FRAMES};
+
+use crate::arrangement::{Arrangement, ChannelMask, Model};
+use crate::design::Projection;
+use crate::error::ConfigError;
+use crate::estimate::{Estimate, Flags};
+use crate::linalg::{norm2, Sym3, Vec3};
+use crate::real::Real;
+use crate::smoother::StepRecord;
+use crate::svd::MAX_COLS;
+use crate::tracker::{Candidate, Tracker, MAX_CANDIDATES};
+
+use crate::quadratic::MAX_ROOTS;
+use deviations::{omega_variances, KELVIN_MIN_SCORE};
+use frames::frame_score;
+use output::CommonFlags;
+use solve::{readings_usable, MAX_STARTS};
+
+/// One branch at one sample, in frame coordinates.
+#[derive(Clone, Copy, Debug, Default)]
+struct Branch<T> {
+    a: Vec3<T>,
+    x: [T; MAX_COLS],
+    fit: T,
+    /// `JᵀJ` of the `a` solve when the solver formed it (else computed for `cov_a`).
+    jtj: Option<Sym3<T>>,
+    /// `cov(a)` and whether its solve is ill-conditioned (filled after the solve).
+    cov_a: Sym3<T>,
+    ill: bool,
+    /// Model G: standard deviations of Ω (body frame), from the constant covariance of A.
+    omega_sd: Vec3<T>,
+}
+
+/// The estimator for up to `CAP` channels.
+pub struct Estimator<T: Real, const CAP: usize = 32> {
+    cfg: Config<T, CAP>,
+    /// Frame in use.
+    frame: usize,
+    tracker: Tracker<T>,
+    last_t: Option<f64>,
+    /// Two estimate slots, written in place: `out[last]` is the last estimate from a usable
+    /// sample (valid when `has_last`); the other slot receives the next output (a new estimate,
+    /// which then becomes the last, or the prediction for an unusable sample, which does not).
+    out: [Estimate<T>; 2],
+    /// The slot of `out` holding the last estimate (`false`: 0, `true`: 1; a `bool` so that
+    /// indexing needs no bounds check).
+    last: bool,
+    has_last: bool,
+    domega_var: T,
+    work: Work<T, CAP>,
+}
+
+/// The configuration and everything precomputed from it (paper eq. 10–11): read-only in the
+/// sample loop.
+struct Config<T: Real, const CAP: usize> {
+    arr: Arrangement<CAP>,
+    model: Model,
+    mask: ChannelMask,
+    proj: [Projection<T, CAP>; NUM_FRAMES],
+    usable: [bool; NUM_FRAMES],
+    frames: usize,
+    gamma: Sym3<T>,
+    gamma_frame: [Sym3<T>; NUM_FRAMES],
+    gamma_offset: [T; CAP],
+    gamma_offset_nonzero: bool,
+    options: Options,
+}
+
+/// Per-sample working storage, kept in the estimator so that the sample loop neither zeroes
+/// nor copies it (every slot is written before it is read).
+struct Work<T: Real, const CAP: usize> {
+    branches: [Branch<T>; MAX_CANDIDATES],
+    trial: [Branch<T>; MAX_CANDIDATES],
+    cands: [Candidate<T>; MAX_CANDIDATES],
+    scratch: Scratch<T, CAP>,
+    /// The readings with excluded channels zeroed.
+    masked: [T; CAP],
+}
+
+/// What one frame's solve reads: the readings, the time step and the tracker's predictions.
+#[derive(Clone, Copy)]
+struct Sample<'a, T> {
+    p: &'a [T],
+    dt: T,
+    tracker: &'a Tracker<T>,
+}
+
+/// Working vectors of one frame's solve.
+struct Scratch<T: Real, const CAP: usize> {
+    /// `y = W p`.
+    y: [T; CAP],
+    /// `ε P`, the right-hand sides of the quadratic forms.
+    pe: [T; CAP],
+    /// The roots of the `a` solve and the Gauss–Newton starts.
+    roots: [Vec3<T>; MAX_CANDIDATES],
+    starts: [Vec3<T>; MAX_STARTS + MAX_ROOTS + 2],
+    /// Residual and `JᵀJ` of each root found by [`refine`].
+    fit: [T; MAX_CANDIDATES],
+    jtj: [Sym3<T>; MAX_CANDIDATES],
+}
+
+impl<T: Real, const CAP: usize> Work<T, CAP> {
+    fn new() -> Self {
+        Work {
+            branches: [Branch::default(); MAX_CANDIDATES],
+            trial: [Branch::default(); MAX_CANDIDATES],
+            cands: [Candidate::default(); MAX_CANDIDATES],
+            masked: [T::ZERO; CAP],
+            scratch: Scratch {
+                y: [T::ZERO; CAP],
+                pe: [T::ZERO; CAP],
+                roots: [[T::ZERO; 3]; MAX_CANDIDATES],
+                starts: [[T::ZERO; 3]; MAX_STARTS + MAX_ROOTS + 2],
+                fit: [T::ZERO; MAX_CANDIDATES],
+                jtj: [Sym3::zero(); MAX_CANDIDATES],
+            },
+        }
+    }
+}
+
+impl<T: Real, const CAP: usize> Estimator<T, CAP> {
+    /// Builds an estimator: validates the arrangement for the model and precomputes every
+    /// frame (paper eq. 10–11).
+    pub fn new(
+        arr: &Arrangement<CAP>,
+        model: Model,
+        options: Options,
+    ) -> Result<Self, ConfigError> {
+        let mut e = Estimator {
+            cfg: Config {
+                arr: Arrangement::new(),
+                model,
+                mask: ChannelMask::all(0),
+                proj: core::array::from_fn(|_| Projection::empty()),
+                usable: [false; NUM_FRAMES],
+                frames: 0,
+                gamma: Sym3::zero(),
+                gamma_frame: [Sym3::zero(); NUM_FRAMES],
+                gamma_offset: [T::ZERO; CAP],
+                gamma_offset_nonzero: false,
+                options: Options::default(),
+            },
+            frame: 0,
+            tracker: Tracker::new(),
+            last_t: None,
+            out: [Estimate::default(); 2],
+            last: false,
+            has_last: false,
+            domega_var: T::ZERO,
+            work: Work::new(),
+        };
+        e.configure(arr, model, ChannelMask::all(arr.len()), options)?;
+        Ok(e)
+    }
+
+    /// Reconfigures (new arrangement, model, channel mask or options). On error the previous
+    /// configuration stays in force, untouched.
+    pub fn configure(
+        &mut self,
+        arr: &Arrangement<CAP>,
+        model: Model,
+        mask: ChannelMask,
+        options: Options,
+    ) -> Result<(), ConfigError> {
+        self.cfg.configure(arr, model, mask, options)?;
+        self.frame = 0;
+        self.reset();
+        Ok(())
+    }
+
+    /// Excludes or includes channels (new precomputation); on error nothing changes.
+    pub fn set_mask(&mut self, mask: ChannelMask) -> Result<(), ConfigError> {
+        let arr = self.cfg.arr.clone();
+        self.configure(&arr, self.cfg.model, mask, self.cfg.options)
+    }
+
+    /// Sets the known gravity-gradient tensor Γ (body frame). Cheap (no SVD).
+    pub fn set_gamma(&mut self, gamma: &Sym3<f64>) -> Result<(), ConfigError> {
+        if !gamma.0.iter().all(|v| v.is_finite()) {
+            return Err(ConfigError::NotFinite {
+                what: "gravity gradient Γ",
+            });
+        }
+        self.cfg.options.gamma = *gamma;
+        self.cfg.set_gamma(gamma);
+        Ok(())
+    }
+
+    /// Sets (or clears) the rate hint and restarts branch and sign tracking.
+    pub fn set_hint(&mut self, omega: Option<[f64; 3]>) -> Result<(), ConfigError> {
+        if let Some(w) = omega {
+            if !w.iter().all(|v| v.is_finite()) {
+                return Err(ConfigError::NotFinite { what: "rate hint" });
+            }
+        }
+        self.cfg.options.initial_omega = omega;
+        self.reset();
+        Ok(())
+    }
+
+    /// Forgets the history (tracker, filter, time).
+    pub fn reset(&mut self) {
+        self.tracker.reset();
+        self.last_t = None;
+        self.has_last = false;
+        self.domega_var = T::ZERO;
+    }
+
+    /// The model in use.
+    pub fn model(&self) -> Model {
+        self.cfg.model
+    }
+
+    /// The arrangement in use.
+    pub fn arrangement(&self) -> &Arrangement<CAP> {
+        &self.cfg.arr
+    }
+
+    /// The channel mask in use.
+    pub fn mask(&self) -> ChannelMask {
+        self.cfg.mask
+    }
+
+    /// Equilibrated condition number of the design matrix of frame `f` (None if unusable).
+    pub fn condition(&self, f: usize) -> Option<f64> {
+        (f < self.cfg.frames && self.cfg.usable[f]).then(|| self.cfg.proj[f].condition)
+    }
+
+    /// Variance per step of the rate model error learnt by the tracker (trapezoidal integration
+    /// of Ω′: jerk, sampling), rad²/s² — a health figure for telemetry.
+    pub fn rate_model_variance(&self) -> T {
+        self.tracker.model_variance()
+    }
+
+    /// Degrees of freedom of the residual (`N − 12` in model G, `N − 9` in model F).
+    pub fn dof(&self) -> usize {
+        self.cfg.proj[0].m.saturating_sub(3)
+    }
+
+    /// One sample set: `p[i]` is channel `i`'s specific force (m/s²) at time `t` (s).
+    /// Never panics; never returns NaN (a non-finite reading gives the prediction, flagged).
+    pub fn update(&mut self, t: f64, p: &[T]) -> &Estimate<T> {
+        self.update_with(t, p, None)
+    }
+
+    /// As [`Estimator::update`], and also fills `record` with every candidate branch and every
+    /// hypothesis of the tracker, for a fixed-lag smoother ([`crate::smoother::Smoother`]).
+    #[inline(never)]
+    pub fn update_with(
+        &mut self,
+        t: f64,
+        p: &[T],
+        record: Option<&mut StepRecord<T>>,
+    ) -> &Estimate<T> {
+        let cfg = &self.cfg;
+        let n = cfg.arr.len();
+        let input_ok = readings_usable(p, n, cfg.mask) && t.is_finite();
+        let dt = match self.last_t {
+            Some(t0) if t > t0 && (t - t0).is_finite() => t - t0,
+            _ => 0.0,
+        };
+        let dt_t = T::of(dt);
+        if !input_ok {
+            return self.hold(t, dt_t, record);
+        }
+        let excluded = cfg.mask.count(n) < n;
+        let Work {
+            branches,
+            trial,
+            cands,
+            scratch,
+            masked,
+        } = &mut self.work;
+        // Excluded channels' readings may be anything (a dead part gives NaN): zero them, as
+        // `W` has zero weight there and 0 × NaN would poison the solve.
+        let p: &[T] = if excluded {
+            for (i, (m, v)) in masked.iter_mut().zip(p.iter()).enumerate().take(n) {
+                *m = if cfg.mask.contains(i) { *v } else { T::ZERO };
+            }
+            &masked[..n]
+        } else {
+            p
+        };
+        let tracker = &self.tracker;
+        let sample = Sample {
+            p,
+            dt: dt_t,
+            tracker,
+        };
+
+        // Candidate branches.
+        let mut fallback = false;
+        let mut nb = 0;
+        let mut eps = T::ONE;
+        let mut frame = self.frame;
+        let pred = tracker.predicted_omega(dt_t);
+        let hint: Option<Vec3<T>> = cfg
+            .options
+            .initial_omega
+            .map(|w| [T::of(w[0]), T::of(w[1]), T::of(w[2])]);
+        let steer = pred.or(if tracker.has_history() { None } else { hint });
+        match (cfg.model, steer) {
+            (Model::General, Some(w)) if norm2(&w) > T::ZERO => {
+                frame = cfg.choose_frame(frame, &w);
+                let e0 = cfg.epsilon(frame, &w);
+                let (k, fb, e) = cfg.solve_frame(frame, &sample, e0, scratch, branches);
+                nb = k;
+                fallback = fb;
+                eps = e;
+            }
+            (Model::General, _) => {
+                // No prediction: try every frame, keep the best-conditioned decomposition.
+                let mut best_score = -T::ONE;
+                for f in 0..cfg.frames {
+                    if !cfg.usable[f] {
+                        continue;
+                    }
+                    let (k, fb, e) = cfg.solve_frame(f, &sample, T::ONE, scratch, trial);
+                    let mut score = if fb { -T::of(0.5) } else { T::ZERO };
+                    for b in trial.iter().take(k) {
+                        score = score.max(frame_score(&b.a) - if fb { T::ONE } else { T::ZERO });
+                    }
+                    if score > best_score {
+                        best_score = score;
+                        frame = f;
+                        branches[..k].copy_from_slice(&trial[..k]);
+                        nb = k;
+                        fallback = fb;
+                        eps = e;
+                    }
+                }
+            }
+            (Model::FreeFloat, _) => {
+                frame = 0;
+                let (k, fb, _) = cfg.solve_frame(0, &sample, T::ONE, scratch, branches);
+                nb = k;
+                fallback = fb;
+            }
+        }
+        self.frame = frame;
+        for (c, b) in cands.iter_mut().zip(branches.iter_mut()).take(nb) {
+            let omega = cfg.omega_of(frame, eps, b);
+            let omega_var = match &cfg.proj[frame].general_cov {
+                Some(gc) => {
+                    // Model G: A is linear in p, its covariance a constant; Ω's follows from it.
+                    let var = omega_variances(&gc.field, &omega);
+                    b.omega_sd = [var[0].sqrt(), var[1].sqrt(), var[2].sqrt()];
+                    b.ill = frame_score(&b.a) < T::of(KELVIN_MIN_SCORE);
+                    (var[0] + var[1] + var[2]) / T::of(3.0)
+                }
+                None => {
+                    let (cov_a, ill) = cfg.a_covariance(frame, &b.a, b.jtj.as_ref());
+                    b.cov_a = cov_a;
+                    b.ill = ill;
+                    cov_a.trace() / T::of(3.0)
+                }
+            };
+            *c = Candidate {
+                omega,
+                omega_var,
+                domega: cfg.proj[frame].to_body(&[b.x[3], b.x[4], b.x[5]]),
+                fit: b.fit,
+            };
+        }
+        let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
+        // Several histories per output only where mirror branches exist and can merge.
+        let histories = if cfg.model == Model::FreeFloat && cfg.proj[0].m == 3 {
+            2
+        } else {
+            1
+        };
+        let Some(choice) =
+            self.tracker
+                .step(&cands[..nb], dt_t, self.domega_var, hint_var, histories)
+        else {
+            return self.hold(t, dt_t, record);
+        };
+        let common = CommonFlags {
+            fallback,
+            excluded,
+            branches: nb as u8,
+        };
+        let b = &branches[choice.candidate];
+        let (lo, hi) = self.out.split_at_mut(1);
+        let (prev, est) = if !self.last {
+            (&lo[0], &mut hi[0])
+        } else {
+            (&hi[0], &mut lo[0])
+        };
+        let prev = self.has_last.then_some(prev);
+        cfg.finish(frame, eps, b, &choice.omega, !cfg.options.raw, prev, est);
+        common.apply(est, choice.sign_unresolved, choice.branch_ambiguous);
+        let sd = &est.sd_domega;
+        self.domega_var = (sd[0].sq() + sd[1].sq() + sd[2].sq()) / T::of(3.0);
+        if !cfg.options.raw {
+            cfg.apply_filtered(est, choice.filtered);
+        }
+        if let Some(rec) = record {
+            rec.t = t;
+            rec.valid = true;
+            rec.raw = cfg.options.raw;
+            rec.n_candidates = nb as u8;
+            for (ci, b) in branches.iter().enumerate().take(nb) {
+                let e = &mut rec.candidates[ci];
+                cfg.finish(frame, eps, b, &cands[ci].omega, false, prev, e);
+                common.apply(e, false, false);
+            }
+            let states = self.tracker.states();
+            rec.n_states = states.len() as u8;
+            rec.states[..states.len()].copy_from_slice(states);
+            rec.best = choice.state as u8;
+            rec.forward = *est;
+        }
+        self.last_t = Some(t);
+        self.last = !self.last;
+        self.has_last = true;
+        &self.out[usize::from(self.last)]
+    }
+
+    /// Replaces the algebraic Ω of `est` by a hypothesis' filtered Ω (∫Ω′ fused with the
+    /// algebraic Ω) and its deviation; in model F also `A = Γ + {Ω}²`.
+    pub fn apply_filtered(&self, est: &mut Estimate<T>, filtered: (Vec3<T>, T)) {
+        self.cfg.apply_filtered(est, filtered);
+    }
+
+    /// Output when a sample cannot be used: the last estimate propagated by Ω′ over `dt`,
+    /// flagged; recorded as invalid for the smoother.
+    fn hold(&mut self, t: f64, dt: T, record: Option<&mut StepRecord<T>>) -> &Estimate<T> {
+        let last = self.out[usize::from(self.last)];
+        let est = &mut self.out[usize::from(!self.last)];
+        *est = if self.has_last {
+            last
+        } else {
+            Estimate::default()
+        };
+        est.omega = [
+            est.omega[0] + est.domega[0] * dt,
+            est.omega[1] + est.domega[1] * dt,
+            est.omega[2] + est.domega[2] * dt,
+        ];
+        est.flags = Flags(est.flags.0 | Flags::INPUT_INVALID);
+        if !self.has_last {
+            est.flags = Flags(est.flags.0 | Flags::SIGN_UNRESOLVED);
+        }
+        if let Some(rec) = record {
+            rec.invalidate(t, *est);
+        }
+        &self.out[usize::from(!self.last)]
+    }
+}
