@@ -9,17 +9,6 @@ pub type Vec3<T> = [T; 3];
 /// A 3×3 matrix, row-major.
 pub type Mat3<T> = [[T; 3]; 3];
 
-/// `*dst = *src`, element by element. For the per-sample path: at `opt-level = "z"` a plain
-/// assignment of a small array, when the compiler cannot rule out overlap, becomes a call to
-/// `memmove` (slower than three stores, and linking the 1.6 KB `memmove` into flash).
-#[inline(always)]
-pub fn copy3<T: Copy>(dst: &mut Vec3<T>, src: &Vec3<T>) {
-    let [a, b, c] = *src;
-    dst[0] = a;
-    dst[1] = b;
-    dst[2] = c;
-}
-
 /// `a · b`.
 #[inline]
 pub fn dot<T: Real>(a: &Vec3<T>, b: &Vec3<T>) -> T {

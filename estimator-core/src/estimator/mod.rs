@@ -66,9 +66,8 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     /// sample (valid when `has_last`); the other slot receives the next output (a new estimate,
     /// which then becomes the last, or the prediction for an unusable sample, which does not).
     out: [Estimate<T>; 2],
-    /// The slot of `out` holding the last estimate (`false`: 0, `true`: 1; a `bool` so that
-    /// indexing needs no bounds check).
-    last: bool,
+    /// The slot of `out` holding the last estimate (0 or 1).
+    last: usize,
     has_last: bool,
     domega_var: T,
     work: Work<T, CAP>,
@@ -168,7 +167,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             tracker: Tracker::new(),
             last_t: None,
             out: [Estimate::default(); 2],
-            last: false,
+            last: 0,
             has_last: false,
             domega_var: T::ZERO,
             work: Work::new(),
@@ -406,7 +405,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         };
         let b = &branches[choice.candidate];
         let (lo, hi) = self.out.split_at_mut(1);
-        let (prev, est) = if !self.last {
+        let (prev, est) = if self.last == 0 {
             (&lo[0], &mut hi[0])
         } else {
             (&hi[0], &mut lo[0])
@@ -436,9 +435,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             rec.forward = *est;
         }
         self.last_t = Some(t);
-        self.last = !self.last;
+        self.last = 1 - self.last;
         self.has_last = true;
-        &self.out[usize::from(self.last)]
+        &self.out[self.last]
     }
 
     /// Replaces the algebraic Ω of `est` by a hypothesis' filtered Ω (∫Ω′ fused with the
@@ -450,8 +449,8 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// Output when a sample cannot be used: the last estimate propagated by Ω′ over `dt`,
     /// flagged; recorded as invalid for the smoother.
     fn hold(&mut self, t: f64, dt: T, record: Option<&mut StepRecord<T>>) -> &Estimate<T> {
-        let last = self.out[usize::from(self.last)];
-        let est = &mut self.out[usize::from(!self.last)];
+        let last = self.out[self.last];
+        let est = &mut self.out[1 - self.last];
         *est = if self.has_last {
             last
         } else {
@@ -469,6 +468,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         if let Some(rec) = record {
             rec.invalidate(t, *est);
         }
-        &self.out[usize::from(!self.last)]
+        &self.out[1 - self.last]
     }
 }

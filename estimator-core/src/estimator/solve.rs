@@ -5,7 +5,7 @@
 
 use super::{Branch, Config, Sample, Scratch};
 use crate::arrangement::ChannelMask;
-use crate::linalg::{copy3, norm2, Sym3};
+use crate::linalg::{norm2, Sym3};
 use crate::quadratic::{
     canonical_sign, closed_form, gauss_newton, rank_one_factor, refine, residual2, MAX_ROOTS,
 };
@@ -206,7 +206,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         }
         for (i, (b, a)) in out.iter_mut().zip(roots.iter()).take(nr).enumerate() {
             let o = crate::linalg::outer6(a);
-            copy3(&mut b.a, a);
+            b.a = *a;
             for j in 0..k {
                 b.x[j] = y[j] - eps * pr.tq[j].quad_outer(&o);
             }

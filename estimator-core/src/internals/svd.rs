@@ -87,13 +87,7 @@ impl<const CAP: usize> Svd<CAP> {
             }
             if best != a {
                 s.swap(a, best);
-                // Element by element over the `n` rows in use (a swap of whole columns is a
-                // `memmove` of `CAP` values).
-                for r in 0..n {
-                    let t = u[a][r];
-                    u[a][r] = u[best][r];
-                    u[best][r] = t;
-                }
+                u.swap(a, best);
                 for row in v.iter_mut().take(k) {
                     row.swap(a, best);
                 }

@@ -17,7 +17,7 @@
 //! is reported unresolved while a state with the same branch and opposite sign is within
 //! [`SIGN_MARGIN`].
 
-use crate::linalg::{copy3, norm2, scale, sub, Vec3};
+use crate::linalg::{norm2, scale, sub, Vec3};
 use crate::real::Real;
 
 /// Most candidate branches per sample.
@@ -69,16 +69,33 @@ pub struct State<T> {
 const SIGNS: [i8; 2] = [1, -1];
 
 impl<T: Real> State<T> {
-    /// Copies `src` field by field (small copies stay inline instead of a `memmove` call).
+    /// Copies `src` field by field. Measured: with a whole-struct assignment instead, the
+    /// per-sample estimate takes ~90 instructions more on the Cortex-M4F (`cargo qemu-bench`,
+    /// flashed profile, mean: model F 4 030 vs 3 939, over the 4 000 budget; G 3 785 vs 3 694).
     #[inline(always)]
     fn set(&mut self, src: &State<T>) {
-        copy3(&mut self.omega, &src.omega);
-        self.var = src.var;
-        copy3(&mut self.domega, &src.domega);
-        self.cost = src.cost;
-        self.candidate = src.candidate;
-        self.sign = src.sign;
-        self.from = src.from;
+        let State {
+            omega,
+            var,
+            domega,
+            cost,
+            candidate,
+            sign,
+            from,
+        } = *src;
+        let [w0, w1, w2] = omega;
+        let [d0, d1, d2] = domega;
+        self.omega[0] = w0;
+        self.omega[1] = w1;
+        self.omega[2] = w2;
+        self.var = var;
+        self.domega[0] = d0;
+        self.domega[1] = d1;
+        self.domega[2] = d2;
+        self.cost = cost;
+        self.candidate = candidate;
+        self.sign = sign;
+        self.from = from;
     }
 }
 

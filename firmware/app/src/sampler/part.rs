@@ -3,6 +3,7 @@
 
 use embedded_hal_async::i2c::I2c;
 use embedded_hal_async::spi::SpiDevice;
+use heapless::HistoryBuf;
 
 use super::conversion_clock::ConversionClock;
 use crate::config::{Alignment, PartConfig, PartKind};
@@ -78,6 +79,9 @@ impl<E> From<lis3dh::Error<E>> for Fault {
     }
 }
 
+/// A recent sample: (conversion index, x, y, z).
+type Recent = (u64, [f32; 3]);
+
 /// One part.
 pub struct Part<SPI, I2C> {
     config: PartConfig,
@@ -86,9 +90,8 @@ pub struct Part<SPI, I2C> {
     clock: ConversionClock,
     /// Samples popped from the FIFO since the count was last lost.
     popped: u64,
-    /// The most recent samples, oldest first: (conversion index, x, y, z).
-    recent: [(u64, [f32; 3]); RECENT],
-    recent_len: usize,
+    /// The most recent samples: (conversion index, x, y, z); a new one replaces the oldest.
+    recent: HistoryBuf<Recent, RECENT>,
     failures: u16,
     health: PartHealth,
 }
@@ -112,8 +115,7 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
             driver,
             clock: ConversionClock::new(period, ODR_TOLERANCE, TIMING_MARGIN),
             popped: 0,
-            recent: [(0, [0.0; 3]); RECENT],
-            recent_len: 0,
+            recent: HistoryBuf::new(),
             failures: 0,
             health: PartHealth::default(),
         })
@@ -169,7 +171,7 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
         self.health.running = r.is_ok();
         self.failures = 0;
         self.popped = 0;
-        self.recent_len = 0;
+        self.recent.clear();
         self.clock.unlock();
         if r.is_err() {
             self.health.failed_starts += 1;
@@ -287,7 +289,7 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
             self.clock.unlock();
             self.health.resyncs += 1;
             self.popped = 0;
-            self.recent_len = 0;
+            self.recent.clear();
         }
         let n = self.popped + level as u64;
         self.clock.observe(seconds(a), seconds(b), n);
@@ -299,35 +301,37 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
     }
 
     fn remember(&mut self, index: u64, value: [f32; 3]) {
-        if self.recent_len == RECENT {
-            // Drop the oldest: swap it to the end (where the new one goes). Swaps rather than
-            // `copy_within`, which would link `memmove` (1.6 KB of flash).
-            for j in 1..RECENT {
-                self.recent.swap(j - 1, j);
-            }
-            self.recent_len -= 1;
-        }
-        self.recent[self.recent_len] = (index, value);
-        self.recent_len += 1;
+        self.recent.write((index, value));
     }
 
     /// Linear interpolation between the two recent samples around `t`, or extrapolation
     /// from the last two by at most one and a half periods.
     fn value_at(&self, t: f64) -> Option<[f32; 3]> {
-        let recent = &self.recent[..self.recent_len];
-        if recent.len() < 2 || !self.clock.is_locked() {
+        if self.recent.len() < 2 || !self.clock.is_locked() {
             return None;
         }
-        let time = |i: usize| self.clock.time_of(recent[i].0);
-        let last = recent.len() - 1;
-        let j = (1..recent.len()).find(|&j| time(j) >= t).unwrap_or(last);
-        let (t0, t1) = (time(j - 1), time(j));
+        let time = |s: &Recent| self.clock.time_of(s.0);
+        // The first two consecutive samples whose later one is at or after `t`, else the last
+        // two.
+        let mut pair: Option<(Recent, Recent)> = None;
+        let mut before: Option<Recent> = None;
+        for s in self.recent.oldest_ordered() {
+            if let Some(b) = before {
+                pair = Some((b, *s));
+                if time(s) >= t {
+                    break;
+                }
+            }
+            before = Some(*s);
+        }
+        let (sa, sb) = pair?;
+        let (t0, t1) = (time(&sa), time(&sb));
         let reach = 1.5 * self.clock.period();
         if !(t1 > t0) || t > t1 + reach || t < t0 - reach {
             return None;
         }
         let w = ((t - t0) / (t1 - t0)) as f32;
-        let (a, b) = (recent[j - 1].1, recent[j].1);
+        let (a, b) = (sa.1, sb.1);
         Some(core::array::from_fn(|k| a[k] + w * (b[k] - a[k])))
     }
 }

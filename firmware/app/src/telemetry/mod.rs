@@ -24,8 +24,8 @@ const CRC_LEN: usize = 2;
 /// Writes the primary header (`spacepackets`' field layout for an unsegmented TM packet of
 /// `len` octets) and the PUS-C TM secondary header with the time field, octets
 /// `0..HEADERS_LEN`. Written here rather than by `PusTmCreatorWithReservedSourceData`, whose
-/// internal `unwrap`s link `core::fmt`'s `Debug` machinery (with the creator, 3.9 KB of the
-/// 96 KiB flash).
+/// internal `unwrap`s link `core::fmt`'s `Debug` machinery (3.9 KB more flash with the
+/// creator).
 fn write_headers(
     packet: &mut [u8; TM_MAX],
     sequence: u16,

@@ -8,7 +8,7 @@
 //!
 //! It runs [`firmware::scenario::SETS`] sets, prints a summary and exits with status 0, or 1
 //! if telemetry was lost, the file could not be written or nothing was estimated.
-//! `cargo run -p board-qemu --release --target thumbv7em-none-eabihf` (the runner,
+//! `cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf` (the runner,
 //! `.cargo/qemu-runner.sh`, writes into `out/qemu/`).
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
@@ -206,7 +206,7 @@ mod board {
 #[cfg(not(target_os = "none"))]
 fn main() {
     eprintln!(
-        "board-qemu runs under QEMU: cargo run -p board-qemu --release --target thumbv7em-none-eabihf"
+        "board-qemu runs under QEMU: cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf"
     );
     std::process::exit(2);
 }
