@@ -6,8 +6,10 @@ use std::fmt::Write as _;
 use std::io::Write;
 use std::path::Path;
 
-use firmware::telemetry::framing::{max_encoded_len, Deframed, Deframer};
-use firmware::telemetry::packets::{decode, Decoded, EventId, Housekeeping, Report, TC_MAX};
+use ballisto_link::decode::{decode, Decoded, Report};
+use ballisto_link::framing::{max_encoded_len, Deframed, Deframer};
+use ballisto_link::ids::TC_MAX;
+use ballisto_link::{EventId, Housekeeping, PartState};
 
 /// Extra columns of the decoded estimates file, after the estimates-file columns.
 pub const LINK_COLUMNS: [&str; 4] = ["k", "missing_parts", "excluded_parts", "excluded_channels"];
@@ -173,8 +175,11 @@ fn housekeeping_text(h: &Housekeeping) -> String {
         h.excluded_channels, h.tc_accepted, h.tc_rejected, h.frames_garbage, h.tm_lost
     );
     for (i, c) in h.parts.iter().enumerate() {
-        let Some(c) = c else { continue };
-        let state = if c.running { "running" } else { "DOWN" };
+        let state = match c.state {
+            PartState::Absent => continue,
+            PartState::Running => "running",
+            PartState::Down => "DOWN",
+        };
         let _ = write!(
             s,
             " | part{i} {state} reads={} bus_errors={} implausible={} missed={} failed_starts={} resyncs={}",

@@ -175,7 +175,7 @@ pub struct FirmwareReport {
     /// Size of the application state, estimation included (bytes).
     pub app_size: usize,
     /// The application's last housekeeping values.
-    pub housekeeping: firmware::telemetry::packets::Housekeeping,
+    pub housekeeping: ballisto_link::Housekeeping,
     /// Every byte the firmware sent on its telemetry link.
     pub telemetry: Vec<u8>,
     /// Per free-running part: half-width of its conversion-time interval at the end (s).

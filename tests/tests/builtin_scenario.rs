@@ -6,6 +6,8 @@ use std::cell::Cell;
 use std::rc::Rc;
 
 use ballisto::decode::{decode_stream, Stream};
+use ballisto_link::decode::Report;
+use ballisto_link::{EventId, FailureCode, MotionReport};
 use embassy_futures::join::join;
 use embassy_futures::select::select;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
@@ -15,7 +17,6 @@ use firmware::app::{app_task, uplink_task, App, Incoming, Mode, COMMAND_QUEUE};
 use firmware::sampler::synthetic::{motion, synthetic_task, Synthetic};
 use firmware::sampler::{HealthBoard, SampleSet};
 use firmware::scenario::{self, ScriptedUplink, SETS};
-use firmware::telemetry::packets::{EventId, FailureCode, MotionReport, Report};
 use firmware::telemetry::Telemetry;
 use firmware::time::{Nanos, TimeBase};
 use hal_sim::firmware_host::Downlink;

@@ -4,9 +4,10 @@
 
 use arbitrary_int::{u11, u14};
 use ballisto::decode::decode_stream;
+use ballisto_link::decode::Report;
+use ballisto_link::framing;
+use ballisto_link::{service, subtype, EventId, FailureCode, APID};
 use firmware::config::Alignment;
-use firmware::telemetry::framing;
-use firmware::telemetry::packets::{service, subtype, EventId, FailureCode, Report, APID};
 use hal_sim::firmware_host::{firmware_config, run_firmware, run_firmware_with};
 use hal_sim::scenario::Scenario;
 use spacepackets::ecss::tc::{AckFlags, PusTcCreator, PusTcSecondaryHeader};
@@ -183,10 +184,7 @@ fn a_dead_part_is_reported_down_and_up_again() {
         _ => None,
     });
     let down = down.expect("a housekeeping report during the outage");
-    let u3 = down.parts[3].expect("u3 configured");
-    assert_eq!(
-        firmware::telemetry::packets::PartState::of(Some(&u3)),
-        firmware::telemetry::packets::PartState::Down
-    );
+    let u3 = down.parts[3];
+    assert_eq!(u3.state, ballisto_link::PartState::Down);
     assert!(u3.missed >= 10 && u3.implausible >= 10, "{down:?}");
 }

@@ -10,22 +10,24 @@
 //! One task owns the estimator, the mode and the telemetry, so commands and sample sets are
 //! handled one at a time and a command never meets a half-processed set.
 
+use ballisto_link::framing::{Decoder, Deframed};
+use ballisto_link::ids::TC_MAX;
+use ballisto_link::telecommand::{self, Accepted, Command, Context};
+use ballisto_link::verification::config_error_code;
+use ballisto_link::{
+    service, subtype, Event, EventId, FailureCode, Housekeeping, LoopCounters, ModelCode,
+    MotionReport, PartCounters, PartState, RequestId, Verification,
+};
 use embassy_futures::select::{select, Either};
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::channel::Receiver;
 use embassy_sync::zerocopy_channel::{self, Sender};
 use embedded_io_async::{Read, Write};
-use estimator_core::{ConfigError, Model};
+use estimator_core::ConfigError;
 
 use crate::config::{AppConfig, MAX_PARTS};
 use crate::estimation::{Estimation, Motion, Tap};
-use crate::sampler::{Health, HealthBoard, SampleSet};
-use crate::telecommand::{self, Accepted, Command, Context};
-use crate::telemetry::framing::{Decoder, Deframed};
-use crate::telemetry::packets::{
-    config_error_code, service, subtype, Event, EventId, FailureCode, Housekeeping, MotionReport,
-    PartState, RequestId, Verification, TC_MAX,
-};
+use crate::sampler::{Health, HealthBoard, LoopHealth, PartHealth, SampleSet};
 use crate::telemetry::Telemetry;
 use crate::time::{Nanos, TimeBase};
 
@@ -47,15 +49,8 @@ const fn parse_u8(s: &str) -> u8 {
     v
 }
 
-/// Operating mode.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u8)]
-pub enum Mode {
-    /// Sampling and housekeeping only; no estimates.
-    Standby = 0,
-    /// Estimating at sample rate.
-    Operate = 1,
-}
+/// Operating mode (the link's codes).
+pub use ballisto_link::Mode;
 
 /// One telecommand packet as received, or the news that a frame was garbage. Filled in place
 /// in the slot of a zero-copy channel (a packet is up to [`TC_MAX`] octets).
@@ -368,12 +363,12 @@ impl App {
         Housekeeping {
             version: VERSION,
             mode: self.mode as u8,
-            model: model_code(self.estimation.estimator().model()),
+            model: ModelCode::from(self.estimation.estimator().model()) as u8,
             channels: self.estimation.channels() as u8,
             rate_hz: self.rate_hz,
             motion_every: self.motion_every,
             housekeeping_every: self.housekeeping_every,
-            sampling: self.health.sampling,
+            sampling: loop_counters(&self.health.sampling),
             estimates: self.estimates,
             excluded_parts: self.estimation.excluded_parts() as u8,
             commanded_out: self.estimation.commanded(),
@@ -382,7 +377,7 @@ impl App {
             tc_rejected: self.tc_rejected,
             frames_garbage: self.frames_garbage,
             tm_lost,
-            parts: self.health.parts,
+            parts: self.health.parts.map(|p| part_counters(p.as_ref())),
         }
     }
 
@@ -397,7 +392,7 @@ impl App {
     async fn send_motion<W: Write>(&self, tm: &mut Telemetry<W>, motion: &Motion) {
         let excluded = self.estimation.excluded_channels();
         let framed = tm.stage(motion.t, service::HOUSEKEEPING, subtype::HK_REPORT, |buf| {
-            MotionReport::of(motion, excluded).encode(buf)
+            motion_report(motion, excluded).encode(buf)
         });
         tm.transmit(framed).await;
     }
@@ -432,7 +427,7 @@ impl App {
 
     async fn reconfigured<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
         let channels = self.estimation.channels() as u32;
-        let model = u32::from(model_code(self.estimation.estimator().model()));
+        let model = ModelCode::from(self.estimation.estimator().model()) as u32;
         self.event(t, tm, EventId::Reconfigured, channels, model)
             .await;
     }
@@ -440,7 +435,7 @@ impl App {
     /// Parts marked down or answering again since the last set.
     async fn part_events<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
         for i in 0..MAX_PARTS {
-            let now = PartState::of(self.health.parts[i].as_ref());
+            let now = part_state(self.health.parts[i].as_ref());
             if now != PartState::Absent && now != self.parts_seen[i] {
                 self.parts_seen[i] = now;
                 let id = match now {
@@ -489,11 +484,47 @@ fn refused(e: ConfigError) -> (FailureCode, u32) {
     (FailureCode::Refused, config_error_code(&e))
 }
 
-/// Model code in housekeeping and TC[200,2]: 0 general, 1 free float.
-pub fn model_code(model: Model) -> u8 {
-    match model {
-        Model::General => 0,
-        Model::FreeFloat => 1,
+/// The state of a part slot on the link: absent, or running / down by its health.
+pub fn part_state(part: Option<&PartHealth>) -> PartState {
+    match part {
+        None => PartState::Absent,
+        Some(p) if p.running => PartState::Running,
+        Some(_) => PartState::Down,
+    }
+}
+
+/// A part slot's housekeeping entry: its state and counters (zero for an absent slot).
+fn part_counters(part: Option<&PartHealth>) -> PartCounters {
+    let c = part.copied().unwrap_or_default();
+    PartCounters {
+        state: part_state(part),
+        reads: c.reads,
+        bus_errors: c.bus_errors,
+        implausible: c.implausible,
+        missed: c.missed,
+        failed_starts: c.failed_starts,
+        resyncs: c.resyncs,
+    }
+}
+
+/// The sampling loop's housekeeping entry.
+fn loop_counters(l: &LoopHealth) -> LoopCounters {
+    LoopCounters {
+        sets: l.sets,
+        skipped: l.skipped,
+        dropped: l.dropped,
+        sync_errors: l.sync_errors,
+    }
+}
+
+/// The motion report of one output of the estimation.
+pub fn motion_report(motion: &Motion, excluded_channels: u32) -> MotionReport {
+    MotionReport {
+        k: motion.k,
+        estimate: motion.estimate,
+        missing_parts: motion.missing as u8,
+        excluded_parts: motion.excluded as u8,
+        excluded_channels,
     }
 }
 

@@ -8,9 +8,11 @@ use estimator_core::{Arrangement, Model, Real};
 use crate::drivers::{adxl355, lis3dh};
 
 /// Most parts on one board.
-pub const MAX_PARTS: usize = 8;
+pub const MAX_PARTS: usize = ballisto_link::ids::PART_SLOTS;
 /// Most estimator channels (three per part).
-pub const MAX_CHANNELS: usize = 3 * MAX_PARTS;
+pub const MAX_CHANNELS: usize = ballisto_link::ids::MAX_CHANNELS;
+// Every channel of every part fits the link's channel masks and arrangement command.
+const _: () = assert!(3 * MAX_PARTS <= MAX_CHANNELS);
 
 /// A part type and its settings.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -11,8 +11,9 @@
 //!   exclusion (sampler → estimator).
 //! - [`app`] — the application task: estimates, housekeeping and events out as telemetry,
 //!   telecommands in, mode (estimator → telemetry).
-//! - [`telemetry`] — PUS packets, CCSDS sequence counts, CRC, COBS framing on the link;
-//!   [`telecommand`] — acceptance of received commands.
+//! - [`telemetry`] — the downlink writer: PUS packets (the layouts are `ballisto_link`'s, shared
+//!   with the ground), CCSDS sequence counts, COBS framing on the link. Telecommand acceptance
+//!   is `ballisto_link::telecommand`.
 //! - [`config`] — what runs: parts, channels, rate, arrangement, model (built-in table or
 //!   command); [`time`] — the time base; [`scenario`] — the built-in scenario of boards
 //!   without parts (sample sets from [`sampler::synthetic`], a scripted uplink).
@@ -31,7 +32,6 @@ pub mod drivers;
 pub mod estimation;
 pub mod sampler;
 pub mod scenario;
-pub mod telecommand;
 pub mod telemetry;
 pub mod time;
 

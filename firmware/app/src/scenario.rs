@@ -4,16 +4,13 @@
 //! script of telecommands on the uplink ([`SCRIPT`]) that exercises every path: mode changes,
 //! a housekeeping request, line noise, a damaged command, a model change, an exclusion.
 
-use arbitrary_int::{u11, u14};
+use ballisto_link::framing;
+use ballisto_link::telecommand::{self, ACK_ACCEPTANCE, ACK_COMPLETION};
+use ballisto_link::{service, sid, subtype};
 use embedded_io_async::{ErrorType, Read};
-use spacepackets::ecss::tc::{AckFlags, PusTcCreator, PusTcSecondaryHeader};
-use spacepackets::ecss::{CreatorConfig, MessageTypeId};
-use spacepackets::SpHeader;
 
 use crate::config::{tetra, AppConfig};
 use crate::sampler::synthetic::Outage;
-use crate::telemetry::framing;
-use crate::telemetry::packets::{service, sid, subtype, APID};
 use crate::time::{Nanos, TimeBase};
 
 /// Sample sets of the run (10 s at 100 Hz).
@@ -95,11 +92,10 @@ pub fn frame(step: Step, seq: u16, out: &mut [u8]) -> usize {
         Step::Command(s, st, d) => (s, st, d, false),
         Step::Damaged(s, st, d) => (s, st, d, true),
     };
-    let sp = SpHeader::new_for_unseg_tc(u11::new(APID), u14::new(seq & 0x3FFF), 0);
-    let sec = PusTcSecondaryHeader::new(MessageTypeId::new(s, st), AckFlags::ALL, 0);
     let mut raw = [0u8; 64];
-    let Ok(n) = PusTcCreator::new(sp, sec, data, CreatorConfig::default()).write_to_slice(&mut raw)
-    else {
+    // Every acknowledgement asked (start and progress too: accepted, not reported).
+    let ack = ACK_ACCEPTANCE | 0x4 | 0x2 | ACK_COMPLETION;
+    let Some(n) = telecommand::build(&mut raw, seq, ack, s, st, data) else {
         return 0;
     };
     if damaged {

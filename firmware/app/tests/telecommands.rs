@@ -5,16 +5,15 @@
 use std::convert::Infallible;
 
 use arbitrary_int::{u11, u14};
+use ballisto_link::decode::{decode, Decoded, Report};
+use ballisto_link::framing::{Deframed, Deframer};
+use ballisto_link::telecommand::{fuzz_one, CHANNEL_LEN};
+use ballisto_link::{service, subtype, EventId, FailureCode, APID};
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use estimator_core::Model;
 use firmware::app::{App, Incoming, Mode};
 use firmware::config::{tetra, AppConfig, MAX_PARTS};
 use firmware::sampler::{Health, HealthBoard, SampleSet};
-use firmware::telecommand::{fuzz_one, CHANNEL_LEN};
-use firmware::telemetry::framing::{Deframed, Deframer};
-use firmware::telemetry::packets::{
-    decode, service, subtype, Decoded, EventId, FailureCode, Report, APID,
-};
 use firmware::telemetry::Telemetry;
 use futures::executor::block_on;
 use spacepackets::ecss::tc::{AckFlags, PusTcCreator, PusTcSecondaryHeader};

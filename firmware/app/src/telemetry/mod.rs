@@ -1,55 +1,16 @@
-//! Telemetry on the spacecraft bus: PUS packets ([`packets`]) framed for a serial link
-//! ([`framing`]), written by [`Telemetry`] with one contiguous CCSDS sequence count.
+//! Telemetry on the spacecraft bus: PUS packets (`ballisto_link`'s layouts) framed for a serial
+//! link, written by [`Telemetry`] with one contiguous CCSDS sequence count.
 //!
 //! Every packet carries the PUS packet error control (CRC-16-CCITT), a CUC time stamp (time
 //! since boot) and the next sequence count, so the ground sees corruption and loss. The
 //! layouts are described for ground segments in `docs/telemetry.md`.
 
-pub mod framing;
-pub mod packets;
-
-use arbitrary_int::{u11, u14};
+use ballisto_link::framing;
+use ballisto_link::ids::TM_MAX;
+use ballisto_link::tm;
 use embedded_io_async::Write;
-use spacepackets::crc::CRC_CCITT_FALSE;
-use spacepackets::{CcsdsPacket, SpHeader};
 
 use crate::time::Nanos;
-use packets::{cuc, APID, TIME_LEN, TM_MAX};
-
-/// Primary header, PUS-C TM secondary header and time field.
-const HEADERS_LEN: usize = 6 + 7 + TIME_LEN;
-/// The packet error control field.
-const CRC_LEN: usize = 2;
-
-/// Writes the primary header (`spacepackets`' field layout for an unsegmented TM packet of
-/// `len` octets) and the PUS-C TM secondary header with the time field, octets
-/// `0..HEADERS_LEN`. Written here rather than by `PusTmCreatorWithReservedSourceData`, whose
-/// internal `unwrap`s link `core::fmt`'s `Debug` machinery (3.9 KB more flash with the
-/// creator).
-fn write_headers(
-    packet: &mut [u8; TM_MAX],
-    sequence: u16,
-    len: usize,
-    service: u8,
-    subtype: u8,
-    stamp: &[u8; TIME_LEN],
-) {
-    // `len` ≤ TM_MAX: the data length field (total − 7) fits its 16 bits.
-    let data_len = (len - 7) as u16;
-    let mut header =
-        SpHeader::new_for_unseg_tm(u11::new(APID), u14::new(sequence & 0x3FFF), data_len);
-    header.set_sec_header_flag();
-    let [id0, id1] = header.packet_id().raw().to_be_bytes();
-    let [sc0, sc1] = header.psc().raw().to_be_bytes();
-    let [dl0, dl1] = header.data_len().to_be_bytes();
-    let [t0, t1, t2, t3, t4, t5, t6, t7] = *stamp;
-    // PUS version 2 (PUS-C), time reference status 0; message counter and destination 0.
-    let headers: [u8; HEADERS_LEN] = [
-        id0, id1, sc0, sc1, dl0, dl1, 0x20, service, subtype, 0, 0, 0, 0, t0, t1, t2, t3, t4, t5,
-        t6, t7,
-    ];
-    packet[..HEADERS_LEN].copy_from_slice(&headers);
-}
 
 /// The telemetry writer: builds, frames and sends packets on a link.
 pub struct Telemetry<W> {
@@ -115,11 +76,7 @@ impl<W: Write> Telemetry<W> {
         self.sequence = (self.sequence + 1) & 0x3FFF;
         // The application data is encoded in place, after the headers; the headers and the
         // CRC are then written around it.
-        let n = encode(self.packet.get_mut(HEADERS_LEN..TM_MAX - CRC_LEN)?)?;
-        let len = HEADERS_LEN + n + CRC_LEN;
-        write_headers(&mut self.packet, sequence, len, service, subtype, &cuc(t));
-        let crc = CRC_CCITT_FALSE.checksum(&self.packet[..len - CRC_LEN]);
-        self.packet[len - CRC_LEN..len].copy_from_slice(&crc.to_be_bytes());
+        let len = tm::build(&mut self.packet, sequence, service, subtype, t, encode)?;
         framing::encode(&self.packet[..len], &mut self.frame)
     }
 

@@ -1,11 +1,14 @@
-//! Framing on the serial link: COBS (consistent overhead byte stuffing) with a `0x00`
-//! delimiter after every packet.
+//! Framing on the serial link: COBS (consistent overhead byte stuffing, the `cobs` crate) with
+//! a `0x00` delimiter before and after every packet.
 //!
 //! COBS removes every zero byte from the packet, so a zero on the line always ends a frame: a
 //! receiver that starts mid-stream, or loses bytes to line noise, is back in step at the next
 //! zero. Every frame also starts with a delimiter, so noise on an idle line ends before the
-//! frame instead of merging with it. The overhead is one byte per 254 plus two delimiters. Integrity is the packet's own
-//! CRC (the PUS packet error control field); framing only delimits.
+//! frame instead of merging with it. The overhead is the two delimiters plus COBS's own (at
+//! least one byte, plus one per run of 254). Integrity is the packet's own CRC (the PUS packet
+//! error control field); framing only delimits.
+
+use cobs::{DecodeResult, DecoderState};
 
 /// The frame delimiter.
 pub const DELIMITER: u8 = 0;
@@ -21,31 +24,7 @@ pub fn encode(packet: &[u8], out: &mut [u8]) -> Option<usize> {
     if out.len() < max_encoded_len(packet.len()) {
         return None;
     }
-    out[0] = DELIMITER;
-    let mut code_at = 1;
-    let mut w = 2;
-    let mut code = 1u8;
-    for &b in packet {
-        if b == 0 {
-            out[code_at] = code;
-            code_at = w;
-            w += 1;
-            code = 1;
-        } else {
-            out[w] = b;
-            w += 1;
-            code += 1;
-            if code == 0xFF {
-                out[code_at] = code;
-                code_at = w;
-                w += 1;
-                code = 1;
-            }
-        }
-    }
-    out[code_at] = code;
-    out[w] = DELIMITER;
-    Some(w + 1)
+    cobs::try_encode_including_sentinels(packet, out).ok()
 }
 
 /// What [`Decoder::push`] found.
@@ -60,17 +39,13 @@ pub enum Deframed {
 }
 
 /// Decodes COBS as the bytes arrive, straight into the caller's buffer (no frame buffer of
-/// its own); resynchronises at every delimiter.
-#[derive(Clone, Copy, Debug, Default)]
+/// its own: the `cobs` crate's state machine, the output handled here); resynchronises at
+/// every delimiter.
+#[derive(Debug, Default)]
 pub struct Decoder {
+    state: DecoderState,
     /// Octets written to the output so far.
     len: usize,
-    /// Data octets left in the current group (0: the next octet is a code).
-    left: u8,
-    /// The current group stands for a zero at its end (code below 0xFF).
-    zero_after: bool,
-    /// Any octet seen since the last delimiter.
-    started: bool,
     /// The frame did not fit the output.
     overflow: bool,
 }
@@ -79,10 +54,8 @@ impl Decoder {
     /// A decoder waiting for a frame.
     pub const fn new() -> Self {
         Decoder {
+            state: DecoderState::Idle,
             len: 0,
-            left: 0,
-            zero_after: false,
-            started: false,
             overflow: false,
         }
     }
@@ -90,38 +63,26 @@ impl Decoder {
     /// One byte from the line; decoded octets go to `out` (the same buffer for the whole
     /// frame).
     pub fn push(&mut self, byte: u8, out: &mut [u8]) -> Deframed {
-        if byte == DELIMITER {
-            let frame = *self;
-            *self = Decoder::new();
-            return match frame {
-                Decoder { started: false, .. } => Deframed::Pending,
-                Decoder { overflow: true, .. } => Deframed::Garbage,
-                Decoder { left: 0, len, .. } => Deframed::Packet(len),
-                _ => Deframed::Garbage,
-            };
-        }
-        self.started = true;
-        if self.left == 0 {
-            // A code octet: the zero the previous group stood for, then a new group.
-            if self.zero_after {
-                self.emit(0, out);
+        match self.state.feed(byte) {
+            Ok(DecodeResult::NoData) => Deframed::Pending,
+            Ok(DecodeResult::DataStart) => {
+                self.len = 0;
+                self.overflow = false;
+                Deframed::Pending
             }
-            self.left = byte - 1;
-            self.zero_after = byte < 0xFF;
-        } else {
-            self.emit(byte, out);
-            self.left -= 1;
-        }
-        Deframed::Pending
-    }
-
-    fn emit(&mut self, b: u8, out: &mut [u8]) {
-        match out.get_mut(self.len) {
-            Some(slot) => {
-                *slot = b;
-                self.len += 1;
+            Ok(DecodeResult::DataContinue(b)) => {
+                match out.get_mut(self.len) {
+                    Some(slot) => {
+                        *slot = b;
+                        self.len += 1;
+                    }
+                    None => self.overflow = true,
+                }
+                Deframed::Pending
             }
-            None => self.overflow = true,
+            Ok(DecodeResult::DataComplete) if self.overflow => Deframed::Garbage,
+            Ok(DecodeResult::DataComplete) => Deframed::Packet(self.len),
+            Err(_) => Deframed::Garbage,
         }
     }
 }

@@ -4,20 +4,22 @@
 //! executing it is checked here (header, length, CRC, APID, service, application data
 //! length, every field's range), so that a command is either accepted whole or refused
 //! with a [`FailureCode`] and nothing is touched. What only execution can find out (the
-//! estimator refusing a geometry or a mask) is reported as a completion failure, and the
-//! estimator then keeps its previous configuration (see [`crate::app`]).
+//! estimator refusing a geometry or a mask) is reported by the application as a completion
+//! failure, and the estimator then keeps its previous configuration.
+//!
+//! [`build`] is the other side: a telecommand packet as the ground sends it.
 //!
 //! Application data layouts are in `docs/telemetry.md`.
 
 use estimator_core::{Arrangement, Model};
+use spacepackets::crc::CRC_CCITT_FALSE;
 use spacepackets::ecss::tc::PusTcReader;
 use spacepackets::ecss::PusError;
 
-use crate::app::Mode;
-use crate::config::MAX_CHANNELS;
-use crate::telemetry::packets::{
-    config_error_code, service, sid, subtype, FailureCode, Get, RequestId, APID,
-};
+use crate::codec::{Get, Put};
+use crate::ids::{service, sid, subtype, APID, MAX_CHANNELS};
+use crate::mode::{Mode, ModelCode};
+use crate::verification::{config_error_code, FailureCode, RequestId};
 
 /// Largest rate-hint component accepted, rad/s.
 pub const HINT_MAX: f32 = 50.0;
@@ -164,19 +166,15 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
     match (s, st) {
         (service::BALLISTOMETER, subtype::SET_MODE) => {
             length(1)?;
-            match data[0] {
-                0 => Ok(Command::SetMode(Mode::Standby)),
-                1 => Ok(Command::SetMode(Mode::Operate)),
-                _ => Err((FailureCode::OutOfRange, 0)),
-            }
+            Mode::try_from(data[0])
+                .map(Command::SetMode)
+                .map_err(|_| (FailureCode::OutOfRange, 0))
         }
         (service::BALLISTOMETER, subtype::SET_MODEL) => {
             length(1)?;
-            match data[0] {
-                0 => Ok(Command::SetModel(Model::General)),
-                1 => Ok(Command::SetModel(Model::FreeFloat)),
-                _ => Err((FailureCode::OutOfRange, 0)),
-            }
+            ModelCode::try_from(data[0])
+                .map(|m| Command::SetModel(Model::from(m)))
+                .map_err(|_| (FailureCode::OutOfRange, 0))
         }
         (service::BALLISTOMETER, subtype::SET_HINT) => {
             length(12)?;
@@ -293,6 +291,42 @@ pub fn arrangement(data: &[u8]) -> Result<Arrangement<MAX_CHANNELS>, (FailureCod
             .map_err(|e| (FailureCode::Refused, config_error_code(&e)))?;
     }
     Ok(arr)
+}
+
+/// Acknowledgement flags of a telecommand (the low nibble of its secondary header's first
+/// octet): report successful acceptance.
+pub const ACK_ACCEPTANCE: u8 = 0x8;
+/// Acknowledgement flag: report successful completion.
+pub const ACK_COMPLETION: u8 = 0x1;
+
+/// Builds telecommand TC[`service`,`subtype`] with sequence count `sequence`, acknowledgement
+/// flags `ack` ([`ACK_ACCEPTANCE`], [`ACK_COMPLETION`]), source ID 0 and application data
+/// `data` into `out`: primary header, PUS-C secondary header, data, CRC. Returns the packet
+/// length, or `None` if `out` is too small.
+pub fn build(
+    out: &mut [u8],
+    sequence: u16,
+    ack: u8,
+    service: u8,
+    subtype: u8,
+    data: &[u8],
+) -> Option<usize> {
+    let len = PRIMARY_LEN + SECONDARY_LEN + data.len() + CRC_LEN;
+    let data_len = u16::try_from(len - 7).ok()?;
+    let mut p = Put::new(out.get_mut(..len)?);
+    // Version 0, type TC, secondary header; unsegmented.
+    p.u16(0x1800 | APID)
+        .u16(0xC000 | (sequence & 0x3FFF))
+        .u16(data_len)
+        .u8(0x20 | (ack & 0x0F))
+        .u8(service)
+        .u8(subtype)
+        .u16(0)
+        .bytes(data);
+    let body = p.finish()?;
+    let crc = CRC_CCITT_FALSE.checksum(&out[..body]);
+    out[body..len].copy_from_slice(&crc.to_be_bytes());
+    Some(len)
 }
 
 /// Runs the parser on arbitrary octets: the fuzz target's body (and the host tests' own

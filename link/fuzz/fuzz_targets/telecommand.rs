@@ -6,5 +6,5 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = firmware::telecommand::fuzz_one(data);
+    let _ = ballisto_link::telecommand::fuzz_one(data);
 });

@@ -1,0 +1,96 @@
+//! Event reports, TM[5,x]: the subtype is the severity.
+
+use crate::codec::Put;
+
+/// Event identifiers (TM[5,x]); the subtype is the severity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u16)]
+pub enum EventId {
+    /// The unit started: `a` = version (major·2¹⁶ + minor·2⁸ + patch), `b` = channels.
+    Boot = 1,
+    /// Mode changed: `a` = old mode, `b` = new mode.
+    ModeChanged = 2,
+    /// A part stopped answering and was marked down: `a` = part.
+    PartDown = 3,
+    /// A part answers again: `a` = part.
+    PartUp = 4,
+    /// Parts were excluded from the solve: `a` = excluded parts, `b` = channels out.
+    PartsExcluded = 5,
+    /// Parts were included again: `a` = excluded parts, `b` = channels out.
+    PartsIncluded = 6,
+    /// Arrangement or model changed by command: `a` = channels, `b` = model.
+    Reconfigured = 7,
+    /// A command-link frame was not a packet: `a` = reason (1 not COBS or too long,
+    /// 2 shorter than a packet header), `b` = such frames so far.
+    FrameRejected = 8,
+    /// Sample sets were lost since the last report: `a` = instants skipped, `b` = sets dropped
+    /// (both since boot).
+    SetsLost = 9,
+}
+
+impl EventId {
+    /// The event of a raw identifier.
+    pub fn from_u16(v: u16) -> Option<Self> {
+        use EventId::*;
+        [
+            Boot,
+            ModeChanged,
+            PartDown,
+            PartUp,
+            PartsExcluded,
+            PartsIncluded,
+            Reconfigured,
+            FrameRejected,
+            SetsLost,
+        ]
+        .into_iter()
+        .find(|e| *e as u16 == v)
+    }
+
+    /// Severity = the TM[5,x] subtype: 1 informative, 2 low, 3 medium, 4 high.
+    pub fn severity(self) -> u8 {
+        match self {
+            EventId::PartDown | EventId::FrameRejected | EventId::SetsLost => 2,
+            EventId::PartsExcluded => 3,
+            _ => 1,
+        }
+    }
+
+    /// The name used in decoded logs.
+    pub fn name(self) -> &'static str {
+        match self {
+            EventId::Boot => "boot",
+            EventId::ModeChanged => "mode-changed",
+            EventId::PartDown => "part-down",
+            EventId::PartUp => "part-up",
+            EventId::PartsExcluded => "parts-excluded",
+            EventId::PartsIncluded => "parts-included",
+            EventId::Reconfigured => "reconfigured",
+            EventId::FrameRejected => "frame-rejected",
+            EventId::SetsLost => "sets-lost",
+        }
+    }
+}
+
+/// An event report (TM[5,x]): identifier and two auxiliary words.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Event {
+    /// What happened.
+    pub id: EventId,
+    /// First auxiliary word.
+    pub a: u32,
+    /// Second auxiliary word.
+    pub b: u32,
+}
+
+/// Application data length of an event report.
+pub const EVENT_LEN: usize = 10;
+
+impl Event {
+    /// Encodes the application data.
+    pub fn encode(&self, out: &mut [u8]) -> Option<usize> {
+        let mut p = Put::new(out);
+        p.u16(self.id as u16).u32(self.a).u32(self.b);
+        p.finish()
+    }
+}

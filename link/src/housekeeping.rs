@@ -1,0 +1,183 @@
+//! The housekeeping report, TM[3,25] SID 2: mode, model, rates, the loop's and every part's
+//! counters, the link's counters.
+
+use crate::codec::{Get, Put};
+use crate::ids::{sid, PART_SLOTS};
+
+/// State of one part in the housekeeping report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(u8)]
+pub enum PartState {
+    /// No part configured in this slot.
+    #[default]
+    Absent = 0,
+    /// Configured and being read.
+    Running = 1,
+    /// Configured, not answering (marked down, restarted periodically).
+    Down = 2,
+}
+
+impl TryFrom<u8> for PartState {
+    type Error = u8;
+
+    fn try_from(v: u8) -> Result<Self, u8> {
+        match v {
+            0 => Ok(PartState::Absent),
+            1 => Ok(PartState::Running),
+            2 => Ok(PartState::Down),
+            _ => Err(v),
+        }
+    }
+}
+
+/// The sampling loop's counters (since boot).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoopCounters {
+    /// Sample sets produced.
+    pub sets: u32,
+    /// Instants skipped (a set overran its period).
+    pub skipped: u32,
+    /// Sets dropped (the estimation queue was full).
+    pub dropped: u32,
+    /// SYNC line failures.
+    pub sync_errors: u32,
+}
+
+/// One part slot's state and counters (since boot).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PartCounters {
+    /// Absent, running or down.
+    pub state: PartState,
+    /// Reads.
+    pub reads: u32,
+    /// Bus errors.
+    pub bus_errors: u32,
+    /// Implausible transfers (bits that always read zero were not).
+    pub implausible: u32,
+    /// Sample sets without a new value.
+    pub missed: u32,
+    /// Failed starts.
+    pub failed_starts: u32,
+    /// Conversion-clock resynchronisations.
+    pub resyncs: u32,
+}
+
+/// The housekeeping report (TM[3,25], SID 2).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Housekeeping {
+    /// Firmware version (major, minor, patch).
+    pub version: [u8; 3],
+    /// 0 standby, 1 operate.
+    pub mode: u8,
+    /// 0 general (G), 1 free float (F).
+    pub model: u8,
+    /// Channels in the arrangement.
+    pub channels: u8,
+    /// Sample rate, Hz.
+    pub rate_hz: f32,
+    /// Motion reports: one per this many sample sets.
+    pub motion_every: u16,
+    /// Housekeeping reports: one per this many sample sets.
+    pub housekeeping_every: u16,
+    /// The sampling loop's counters: sets, instants skipped, sets dropped, SYNC failures.
+    pub sampling: LoopCounters,
+    /// Estimates computed.
+    pub estimates: u32,
+    /// Parts excluded automatically (bit per part).
+    pub excluded_parts: u8,
+    /// Channels excluded by command (bit per channel).
+    pub commanded_out: u32,
+    /// Channels not in the solve, commanded or automatic (bit per channel).
+    pub excluded_channels: u32,
+    /// Telecommands accepted (their execution may still fail: TM[1,8]).
+    pub tc_accepted: u32,
+    /// Telecommands refused at acceptance (TM[1,2] sent, or a frame too short to answer).
+    pub tc_rejected: u32,
+    /// Frames on the command link that were not a packet (noise, overlong, truncated).
+    pub frames_garbage: u32,
+    /// Telemetry packets the link failed to take.
+    pub tm_lost: u32,
+    /// Per part slot: its state and counters.
+    pub parts: [PartCounters; PART_SLOTS],
+}
+
+/// Application data length of the housekeeping report.
+pub const HOUSEKEEPING_LEN: usize = 2 + 6 + 4 + 4 + 20 + 1 + 8 + 16 + 8 * 25;
+
+impl Housekeeping {
+    /// Encodes the application data; returns its length ([`HOUSEKEEPING_LEN`]).
+    pub fn encode(&self, out: &mut [u8]) -> Option<usize> {
+        let mut p = Put::new(out);
+        p.u16(sid::HOUSEKEEPING)
+            .bytes(&self.version)
+            .u8(self.mode)
+            .u8(self.model)
+            .u8(self.channels)
+            .f32(self.rate_hz)
+            .u16(self.motion_every)
+            .u16(self.housekeeping_every)
+            .u32(self.sampling.sets)
+            .u32(self.sampling.skipped)
+            .u32(self.sampling.dropped)
+            .u32(self.sampling.sync_errors)
+            .u32(self.estimates)
+            .u8(self.excluded_parts)
+            .u32(self.commanded_out)
+            .u32(self.excluded_channels)
+            .u32(self.tc_accepted)
+            .u32(self.tc_rejected)
+            .u32(self.frames_garbage)
+            .u32(self.tm_lost);
+        for c in &self.parts {
+            p.u8(c.state as u8)
+                .u32(c.reads)
+                .u32(c.bus_errors)
+                .u32(c.implausible)
+                .u32(c.missed)
+                .u32(c.failed_starts)
+                .u32(c.resyncs);
+        }
+        p.finish()
+    }
+
+    /// Decodes the application data after the SID.
+    #[cfg_attr(not(feature = "ground"), allow(dead_code))]
+    pub(crate) fn decode(g: &mut Get) -> Option<Self> {
+        let mut h = Housekeeping {
+            version: g.array()?,
+            mode: g.u8()?,
+            model: g.u8()?,
+            channels: g.u8()?,
+            rate_hz: g.f32()?,
+            motion_every: g.u16()?,
+            housekeeping_every: g.u16()?,
+            sampling: LoopCounters {
+                sets: g.u32()?,
+                skipped: g.u32()?,
+                dropped: g.u32()?,
+                sync_errors: g.u32()?,
+            },
+            estimates: g.u32()?,
+            excluded_parts: g.u8()?,
+            commanded_out: g.u32()?,
+            excluded_channels: g.u32()?,
+            tc_accepted: g.u32()?,
+            tc_rejected: g.u32()?,
+            frames_garbage: g.u32()?,
+            tm_lost: g.u32()?,
+            ..Housekeeping::default()
+        };
+        for slot in h.parts.iter_mut() {
+            *slot = PartCounters {
+                state: PartState::try_from(g.u8()?).ok()?,
+                reads: g.u32()?,
+                bus_errors: g.u32()?,
+                implausible: g.u32()?,
+                missed: g.u32()?,
+                failed_starts: g.u32()?,
+                resyncs: g.u32()?,
+            };
+        }
+        Some(h)
+    }
+}

@@ -1,0 +1,76 @@
+//! Identifiers of the link: the APID, the PUS services and subtypes, the housekeeping
+//! structure IDs, the largest packets, the capacities the layouts are sized for.
+
+/// Application process identifier of the ballistometer (telemetry and telecommands).
+pub const APID: u16 = 0x0BA;
+
+/// Longest telemetry packet the unit sends (the housekeeping report), octets.
+pub const TM_MAX: usize = 320;
+// The longest packet (housekeeping) fits the telemetry buffer.
+const _: () =
+    assert!(6 + 7 + crate::cuc::TIME_LEN + crate::housekeeping::HOUSEKEEPING_LEN + 2 <= TM_MAX);
+
+/// Longest telecommand packet the unit accepts (a 24-channel arrangement), octets.
+pub const TC_MAX: usize = 704;
+
+/// PUS service types used.
+pub mod service {
+    /// ST[01] request verification.
+    pub const VERIFICATION: u8 = 1;
+    /// ST[03] housekeeping.
+    pub const HOUSEKEEPING: u8 = 3;
+    /// ST[05] event reporting.
+    pub const EVENT: u8 = 5;
+    /// ST[17] test.
+    pub const TEST: u8 = 17;
+    /// ST[200] ballistometer (mission-specific).
+    pub const BALLISTOMETER: u8 = 200;
+}
+
+/// Message subtypes.
+pub mod subtype {
+    /// TM[1,1] successful acceptance.
+    pub const ACCEPTED: u8 = 1;
+    /// TM[1,2] failed acceptance.
+    pub const NOT_ACCEPTED: u8 = 2;
+    /// TM[1,7] successful completion.
+    pub const COMPLETED: u8 = 7;
+    /// TM[1,8] failed completion.
+    pub const NOT_COMPLETED: u8 = 8;
+    /// TM[3,25] housekeeping parameter report.
+    pub const HK_REPORT: u8 = 25;
+    /// TC[3,27] generate a one-shot report of housekeeping structures.
+    pub const HK_ONE_SHOT: u8 = 27;
+    /// TC[17,1] are-you-alive connection test.
+    pub const ARE_YOU_ALIVE: u8 = 1;
+    /// TM[17,2] are-you-alive connection report.
+    pub const ALIVE: u8 = 2;
+    /// TC[200,1] set mode.
+    pub const SET_MODE: u8 = 1;
+    /// TC[200,2] set model.
+    pub const SET_MODEL: u8 = 2;
+    /// TC[200,3] set the rate hint.
+    pub const SET_HINT: u8 = 3;
+    /// TC[200,4] exclude a channel.
+    pub const EXCLUDE: u8 = 4;
+    /// TC[200,5] include a channel.
+    pub const INCLUDE: u8 = 5;
+    /// TC[200,6] load an arrangement.
+    pub const LOAD_ARRANGEMENT: u8 = 6;
+    /// TC[200,7] set the telemetry rates.
+    pub const SET_RATES: u8 = 7;
+}
+
+/// Housekeeping structure identifiers (TM[3,25]).
+pub mod sid {
+    /// The motion report, one per sample set (or per decimation).
+    pub const MOTION: u16 = 1;
+    /// The housekeeping report.
+    pub const HOUSEKEEPING: u16 = 2;
+}
+
+/// Part slots in the housekeeping report.
+pub const PART_SLOTS: usize = 8;
+
+/// Most channels an arrangement on the link has (TC[200,6]; channel masks are 32 bits).
+pub const MAX_CHANNELS: usize = 24;

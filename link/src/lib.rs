@@ -1,0 +1,44 @@
+//! # ballisto-link
+//!
+//! The spacecraft link of the ballistometer, written once for both sides (as sat-rs shares its
+//! models crate): the firmware encodes with it, the ground (`ballisto decode`) decodes with it,
+//! and both test it. `no_std`, no allocation. `docs/telemetry.md` describes every byte for a
+//! ground segment that does not read Rust; `tests/tests/telemetry_doc.rs` checks it against
+//! these layouts.
+//!
+//! - [`ids`]: APID, services, subtypes, structure IDs, packet and layout capacities.
+//! - [`mode`]: the mode and model codes.
+//! - [`cuc`]: the time field (CUC 4+3, epoch = boot).
+//! - [`codec`]: big-endian field writer and reader.
+//! - One module per report: [`motion`], [`housekeeping`], [`event`], [`verification`].
+//! - [`tm`]: a telemetry packet around its application data (headers, CRC).
+//! - [`telecommand`]: acceptance (parse) and construction (build) of telecommands.
+//! - [`framing`]: COBS frames between zero delimiters.
+//! - `decode` (feature `ground`): a telemetry packet → its report.
+//!
+//! All multi-byte fields are big-endian (network order, as CCSDS); reals are IEEE-754 `f32`.
+#![no_std]
+#![deny(missing_docs)]
+// `!(x >= y)` rejects NaN along with the out-of-range values: intentional.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod codec;
+pub mod cuc;
+#[cfg(feature = "ground")]
+pub mod decode;
+pub mod event;
+pub mod framing;
+pub mod housekeeping;
+pub mod ids;
+pub mod mode;
+pub mod motion;
+pub mod telecommand;
+pub mod tm;
+pub mod verification;
+
+pub use event::{Event, EventId};
+pub use housekeeping::{Housekeeping, LoopCounters, PartCounters, PartState};
+pub use ids::{service, sid, subtype, APID};
+pub use mode::{Mode, ModelCode};
+pub use motion::MotionReport;
+pub use verification::{FailureCode, RequestId, Verification};

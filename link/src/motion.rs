@@ -1,0 +1,82 @@
+//! The motion report, TM[3,25] SID 1: one estimate and what it was computed from.
+
+use estimator_core::linalg::Sym3;
+use estimator_core::{Estimate, Flags};
+
+use crate::codec::{Get, Put};
+use crate::ids::sid;
+
+/// The motion report (TM[3,25], SID 1): one estimate and what it was computed from.
+#[derive(Clone, Copy, Debug)]
+pub struct MotionReport {
+    /// Sample set index.
+    pub k: u32,
+    /// The estimate (every field the estimates file has).
+    pub estimate: Estimate<f32>,
+    /// Parts without a value in this set (bit per part).
+    pub missing_parts: u8,
+    /// Parts excluded automatically (bit per part).
+    pub excluded_parts: u8,
+    /// Channels not in the solve, commanded or automatic (bit per channel).
+    pub excluded_channels: u32,
+}
+
+/// Application data length of the motion report.
+pub const MOTION_LEN: usize = 142;
+
+impl MotionReport {
+    /// Encodes the application data; returns its length ([`MOTION_LEN`]).
+    pub fn encode(&self, out: &mut [u8]) -> Option<usize> {
+        let e = &self.estimate;
+        let mut p = Put::new(out);
+        p.u16(sid::MOTION)
+            .u32(self.k)
+            .f32s(&e.sigma0)
+            .f32s(&e.domega)
+            .f32s(&e.omega)
+            .f32s(&e.field.0)
+            .u16(e.flags.0)
+            .f32(e.chi2)
+            .u8(e.dof)
+            .u8(e.branches)
+            .u8(e.frame)
+            .u8(e.epsilon as u8)
+            .f32s(&e.sd_sigma0)
+            .f32s(&e.sd_domega)
+            .f32s(&e.sd_omega)
+            .f32s(&e.sd_field.0)
+            .u8(self.missing_parts)
+            .u8(self.excluded_parts)
+            .u32(self.excluded_channels);
+        p.finish()
+    }
+
+    /// Decodes the application data after the SID and `k`.
+    #[cfg_attr(not(feature = "ground"), allow(dead_code))]
+    pub(crate) fn decode(g: &mut Get) -> Option<Self> {
+        let mut e = Estimate::<f32> {
+            sigma0: g.f32s()?,
+            domega: g.f32s()?,
+            omega: g.f32s()?,
+            field: Sym3(g.f32s()?),
+            flags: Flags(g.u16()?),
+            chi2: g.f32()?,
+            dof: g.u8()?,
+            branches: g.u8()?,
+            frame: g.u8()?,
+            ..Estimate::default()
+        };
+        e.epsilon = g.u8()? as i8;
+        e.sd_sigma0 = g.f32s()?;
+        e.sd_domega = g.f32s()?;
+        e.sd_omega = g.f32s()?;
+        e.sd_field = Sym3(g.f32s()?);
+        Some(MotionReport {
+            k: 0,
+            estimate: e,
+            missing_parts: g.u8()?,
+            excluded_parts: g.u8()?,
+            excluded_channels: g.u32()?,
+        })
+    }
+}

@@ -1,0 +1,133 @@
+//! Verification reports, TM[1,x], and the failure codes of a refused telecommand.
+
+use crate::codec::{Get, Put};
+
+/// Why a telecommand was rejected (the failure code of TM[1,2] / TM[1,8]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u16)]
+pub enum FailureCode {
+    /// Shorter than its headers, or than its packet length field says.
+    Truncated = 1,
+    /// Octets after the end the packet length field gives.
+    TrailingOctets = 2,
+    /// The packet error control (CRC-16-CCITT) does not match.
+    Checksum = 3,
+    /// Not a telecommand: packet type TM, no secondary header, or segmented.
+    NotTelecommand = 4,
+    /// PUS version other than PUS-C (2).
+    PusVersion = 5,
+    /// Addressed to another application process.
+    WrongApid = 6,
+    /// Service or subtype not implemented: data = service·2⁸ + subtype.
+    UnknownCommand = 7,
+    /// Application data of the wrong length: data = the expected length.
+    DataLength = 8,
+    /// A field out of range: data = the field index (from 0).
+    OutOfRange = 9,
+    /// A real field is NaN or infinite: data = the field index.
+    NotFinite = 10,
+    /// The estimator refused the new configuration (it keeps the old one): data = the
+    /// reason (see [`config_error_code`]).
+    Refused = 11,
+}
+
+impl FailureCode {
+    /// The code of a raw value.
+    pub fn from_u16(v: u16) -> Option<Self> {
+        use FailureCode::*;
+        [
+            Truncated,
+            TrailingOctets,
+            Checksum,
+            NotTelecommand,
+            PusVersion,
+            WrongApid,
+            UnknownCommand,
+            DataLength,
+            OutOfRange,
+            NotFinite,
+            Refused,
+        ]
+        .into_iter()
+        .find(|c| *c as u16 == v)
+    }
+
+    /// Short description for decoded logs.
+    pub fn describe(self) -> &'static str {
+        match self {
+            FailureCode::Truncated => "truncated",
+            FailureCode::TrailingOctets => "octets after the packet",
+            FailureCode::Checksum => "checksum mismatch",
+            FailureCode::NotTelecommand => "not an unsegmented telecommand",
+            FailureCode::PusVersion => "not PUS-C",
+            FailureCode::WrongApid => "wrong APID",
+            FailureCode::UnknownCommand => "unknown service or subtype",
+            FailureCode::DataLength => "wrong application data length",
+            FailureCode::OutOfRange => "field out of range",
+            FailureCode::NotFinite => "field not finite",
+            FailureCode::Refused => "refused by the estimator",
+        }
+    }
+}
+
+/// The failure data of [`FailureCode::Refused`]: which check of the estimator failed
+/// (high 16 bits) and the channel or unknown it names (low 16 bits).
+pub fn config_error_code(e: &estimator_core::ConfigError) -> u32 {
+    use estimator_core::ConfigError as E;
+    let (kind, detail): (u32, usize) = match *e {
+        E::TooManyChannels { capacity } => (1, capacity),
+        E::PositionNotFinite { channel } => (2, channel),
+        E::AxisNotFinite { channel } => (3, channel),
+        E::AxisZero { channel } => (4, channel),
+        E::NoiseInvalid { channel } => (5, channel),
+        E::TooFewChannels { have, .. } => (6, have),
+        E::NoSuchChannel { channel } => (7, channel),
+        E::NotObservable { .. } => (8, 0),
+        E::Degenerate { involved, .. } => (9, usize::from(involved)),
+        E::NotFinite { .. } => (10, 0),
+    };
+    (kind << 16) | (detail as u32 & 0xFFFF)
+}
+
+/// Request identifier of a telecommand: its packet ID and sequence control words.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RequestId {
+    /// Packet version, type, secondary header flag, APID.
+    pub packet_id: u16,
+    /// Sequence flags and count.
+    pub sequence: u16,
+}
+
+impl RequestId {
+    /// The identifier in the first four octets of a packet, if there are four.
+    pub fn of(raw: &[u8]) -> Option<Self> {
+        let mut g = Get::new(raw);
+        Some(RequestId {
+            packet_id: g.u16()?,
+            sequence: g.u16()?,
+        })
+    }
+}
+
+/// A verification report (TM[1,x]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Verification {
+    /// 1 accepted, 2 not accepted, 7 completed, 8 not completed.
+    pub subtype: u8,
+    /// The telecommand.
+    pub request: RequestId,
+    /// Failure code and data (subtypes 2 and 8).
+    pub failure: Option<(FailureCode, u32)>,
+}
+
+impl Verification {
+    /// Encodes the application data.
+    pub fn encode(&self, out: &mut [u8]) -> Option<usize> {
+        let mut p = Put::new(out);
+        p.u16(self.request.packet_id).u16(self.request.sequence);
+        if let Some((code, data)) = self.failure {
+            p.u16(code as u16).u32(data);
+        }
+        p.finish()
+    }
+}

@@ -1,0 +1,327 @@
+//! `docs/telemetry.md` agrees with the link crate's layouts, so the document a ground segment
+//! decodes from cannot drift from the bytes: every row of the motion and housekeeping tables
+//! (offset, type) is read back from a report encoded by `ballisto_link` with a distinct value
+//! in every field, the rows tile the application data without gap or overlap up to its
+//! length, and the lengths the document states are the crate's.
+
+use std::path::Path;
+
+use ballisto_link::event::EVENT_LEN;
+use ballisto_link::housekeeping::HOUSEKEEPING_LEN;
+use ballisto_link::motion::MOTION_LEN;
+use ballisto_link::{
+    Housekeeping, LoopCounters, MotionReport, PartCounters, PartState, RequestId, Verification,
+};
+use estimator_core::linalg::Sym3;
+use estimator_core::{Estimate, Flags};
+
+fn doc() -> String {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/telemetry.md");
+    std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+/// One documented field: offset, element type, count.
+#[derive(Debug)]
+struct Row {
+    offset: usize,
+    ty: String,
+    count: usize,
+    field: String,
+}
+
+/// The `| offset | type | field |` table under the heading that starts with `heading`.
+fn table(doc: &str, heading: &str) -> Vec<Row> {
+    let start = doc
+        .find(heading)
+        .unwrap_or_else(|| panic!("no section {heading}"));
+    let mut rows = Vec::new();
+    let mut in_table = false;
+    for line in doc[start..].lines().skip(1) {
+        if line.starts_with("| offset | type | field |") {
+            in_table = true;
+            continue;
+        }
+        if !in_table {
+            continue;
+        }
+        if !line.starts_with('|') {
+            break;
+        }
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        if cells[1].starts_with("---") {
+            continue;
+        }
+        let offset: usize = cells[1]
+            .parse()
+            .unwrap_or_else(|_| panic!("offset in {line}"));
+        let (count, ty) = match cells[2].split_once('×') {
+            Some((n, t)) => (n.trim().parse().expect("count"), t.trim().to_string()),
+            None => (1, cells[2].to_string()),
+        };
+        rows.push(Row {
+            offset,
+            ty,
+            count,
+            field: cells[3].to_string(),
+        });
+    }
+    assert!(!rows.is_empty(), "no table under {heading}");
+    rows
+}
+
+fn size(ty: &str) -> usize {
+    match ty {
+        "u8" | "i8" => 1,
+        "u16" => 2,
+        "u32" | "f32" => 4,
+        // A housekeeping part slot: state and six counters.
+        "25" => 25,
+        _ => panic!("unknown type {ty}"),
+    }
+}
+
+/// Reads the row's values as f64 (the part-slot rows are read as their 25 octets' sum).
+fn values(data: &[u8], row: &Row) -> Vec<f64> {
+    let n = size(&row.ty);
+    (0..row.count)
+        .map(|i| {
+            let b = &data[row.offset + i * n..row.offset + (i + 1) * n];
+            match row.ty.as_str() {
+                "u8" => f64::from(b[0]),
+                "i8" => f64::from(b[0] as i8),
+                "u16" => f64::from(u16::from_be_bytes([b[0], b[1]])),
+                "u32" => f64::from(u32::from_be_bytes(b.try_into().unwrap())),
+                "f32" => f64::from(f32::from_be_bytes(b.try_into().unwrap())),
+                _ => b.iter().map(|v| f64::from(*v)).sum(),
+            }
+        })
+        .collect()
+}
+
+/// Each row's field starts with its keyword and holds the expected values.
+fn check_rows(data: &[u8], rows: &[Row], expected: &[(&str, Vec<f64>)], what: &str) {
+    assert_eq!(rows.len(), expected.len(), "{what} rows");
+    for (row, (name, want)) in rows.iter().zip(expected.iter()) {
+        assert!(
+            row.field.starts_with(name),
+            "{what} offset {}: field \"{}\" is not {name}",
+            row.offset,
+            row.field
+        );
+        assert_eq!(
+            &values(data, row),
+            want,
+            "{what} {name} at offset {}",
+            row.offset
+        );
+    }
+}
+
+/// The rows tile `0..len`.
+fn check_tiling(rows: &[Row], len: usize, what: &str) {
+    let mut at = 0;
+    for r in rows {
+        assert_eq!(r.offset, at, "{what}: a gap or overlap before {r:?}");
+        at += size(&r.ty) * r.count;
+    }
+    assert_eq!(
+        at, len,
+        "{what}: the table ends at {at}, the layout at {len}"
+    );
+}
+
+#[test]
+fn motion_report_table_matches_the_encoder() {
+    let doc = doc();
+    let rows = table(&doc, "### Motion report");
+    check_tiling(&rows, MOTION_LEN, "motion");
+    let f = |base: f32| [base + 0.25, base + 0.5, base + 0.75];
+    let six = |base: f32| {
+        Sym3([
+            base,
+            base + 1.0,
+            base + 2.0,
+            base + 3.0,
+            base + 4.0,
+            base + 5.0,
+        ])
+    };
+    let estimate = Estimate::<f32> {
+        sigma0: f(10.0),
+        domega: f(20.0),
+        omega: f(30.0),
+        field: six(40.0),
+        flags: Flags(0x51),
+        chi2: 7.5,
+        dof: 3,
+        branches: 2,
+        frame: 1,
+        epsilon: -1,
+        sd_sigma0: f(50.0),
+        sd_domega: f(60.0),
+        sd_omega: f(70.0),
+        sd_field: six(80.0),
+        ..Estimate::default()
+    };
+    let report = MotionReport {
+        k: 123_456,
+        estimate,
+        missing_parts: 0x05,
+        excluded_parts: 0x02,
+        excluded_channels: 0x0F00,
+    };
+    let mut data = [0u8; MOTION_LEN];
+    assert_eq!(report.encode(&mut data), Some(MOTION_LEN));
+    // In the document's row order.
+    let v3 = |b: f32| f(b).map(f64::from).to_vec();
+    let v6 = |b: f32| six(b).0.map(f64::from).to_vec();
+    let expected = [
+        ("SID", vec![1.0]),
+        ("k", vec![123_456.0]),
+        ("σ0", v3(10.0)),
+        ("Ω′", v3(20.0)),
+        ("Ω", v3(30.0)),
+        ("A", v6(40.0)),
+        ("flags", vec![f64::from(0x51)]),
+        ("χ²", vec![7.5]),
+        ("degrees of freedom", vec![3.0]),
+        ("real branches", vec![2.0]),
+        ("estimation frame", vec![1.0]),
+        ("ε", vec![-1.0]),
+        ("sd σ0", v3(50.0)),
+        ("sd Ω′", v3(60.0)),
+        ("sd Ω", v3(70.0)),
+        ("sd A", v6(80.0)),
+        ("parts without a value", vec![5.0]),
+        ("parts excluded", vec![2.0]),
+        ("channels not in the solve", vec![f64::from(0x0F00)]),
+    ];
+    check_rows(&data, &rows, &expected, "motion");
+    let packet = format!("(packet {} octets)", 21 + MOTION_LEN + 2);
+    assert!(doc.contains(&format!("### Motion report — TM[3,25], SID 1 {packet}")));
+}
+
+#[test]
+fn housekeeping_table_matches_the_encoder() {
+    let doc = doc();
+    let rows = table(&doc, "### Housekeeping report");
+    check_tiling(&rows, HOUSEKEEPING_LEN, "housekeeping");
+    let mut parts = [PartCounters::default(); 8];
+    parts[1] = PartCounters {
+        state: PartState::Down,
+        reads: 1,
+        bus_errors: 2,
+        implausible: 3,
+        missed: 4,
+        failed_starts: 5,
+        resyncs: 6,
+    };
+    let hk = Housekeeping {
+        version: [1, 2, 3],
+        mode: 1,
+        model: 1,
+        channels: 12,
+        rate_hz: 100.0,
+        motion_every: 2,
+        housekeeping_every: 50,
+        sampling: LoopCounters {
+            sets: 1000,
+            skipped: 4,
+            dropped: 5,
+            sync_errors: 6,
+        },
+        estimates: 999,
+        excluded_parts: 0x08,
+        commanded_out: 0x800,
+        excluded_channels: 0xE00,
+        tc_accepted: 7,
+        tc_rejected: 8,
+        frames_garbage: 9,
+        tm_lost: 10,
+        parts,
+    };
+    let mut data = [0u8; HOUSEKEEPING_LEN];
+    assert_eq!(hk.encode(&mut data), Some(HOUSEKEEPING_LEN));
+    let expected = [
+        ("SID", vec![2.0]),
+        ("firmware version", vec![1.0, 2.0, 3.0]),
+        ("mode", vec![1.0]),
+        ("model", vec![1.0]),
+        ("channels in the arrangement", vec![12.0]),
+        ("sample rate", vec![100.0]),
+        ("motion_every", vec![2.0]),
+        ("housekeeping_every", vec![50.0]),
+        ("sample sets produced", vec![1000.0]),
+        ("instants skipped", vec![4.0]),
+        ("sets dropped", vec![5.0]),
+        ("SYNC line failures", vec![6.0]),
+        ("estimates computed", vec![999.0]),
+        ("parts excluded automatically", vec![8.0]),
+        ("channels excluded by command", vec![f64::from(0x800)]),
+        ("channels not in the solve", vec![f64::from(0xE00)]),
+        ("telecommands accepted", vec![7.0]),
+        ("telecommands refused", vec![8.0]),
+        ("command-link frames", vec![9.0]),
+        ("telemetry packets the link failed", vec![10.0]),
+        // Part slot 1: state 2, then counters 1..6 (their big-endian octets sum to 2 + 21).
+        (
+            "per part slot",
+            vec![0.0, 23.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        ),
+    ];
+    check_rows(&data, &rows, &expected, "housekeeping");
+    // Slot 1 octet by octet: the state, then six u32 counters.
+    let slot = &data[61 + 25..61 + 50];
+    assert_eq!(slot[0], PartState::Down as u8);
+    for (i, c) in slot[1..].chunks(4).enumerate() {
+        assert_eq!(u32::from_be_bytes(c.try_into().unwrap()), i as u32 + 1);
+    }
+    let packet = format!("(packet {} octets)", 21 + HOUSEKEEPING_LEN + 2);
+    assert!(doc.contains(&format!(
+        "### Housekeeping report — TM[3,25], SID 2 {packet}"
+    )));
+}
+
+/// The report overview's application data lengths are the crate's.
+#[test]
+fn stated_lengths_are_the_layouts() {
+    let doc = doc();
+    let mut buf = [0u8; 32];
+    let request = RequestId::default();
+    let ok = Verification {
+        subtype: 1,
+        request,
+        failure: None,
+    }
+    .encode(&mut buf)
+    .unwrap();
+    let failed = Verification {
+        subtype: 2,
+        request,
+        failure: Some((ballisto_link::FailureCode::Checksum, 0)),
+    }
+    .encode(&mut buf)
+    .unwrap();
+    for (report, len) in [
+        ("| motion | TM[3,25] SID 1 |", MOTION_LEN.to_string()),
+        (
+            "| housekeeping | TM[3,25] SID 2 |",
+            HOUSEKEEPING_LEN.to_string(),
+        ),
+        (
+            "| event | TM[5,1..4] (subtype = severity) |",
+            EVENT_LEN.to_string(),
+        ),
+        (
+            "| verification | TM[1,1] / [1,2] / [1,7] / [1,8] |",
+            format!("{ok} / {failed} / {ok} / {failed}"),
+        ),
+    ] {
+        let line = doc
+            .lines()
+            .find(|l| l.starts_with(report))
+            .unwrap_or_else(|| panic!("no row {report}"));
+        let cell = line[report.len()..].split('|').next().unwrap().trim();
+        assert_eq!(cell, len, "{report}");
+    }
+}
