@@ -1,9 +1,10 @@
 //! `ballisto compare`: RMS errors of an estimates file against a truth file, matched by column
 //! name and by `t` (interfaces.md: both files share the column names).
 
-use std::collections::HashMap;
 use std::error::Error;
 use std::path::Path;
+
+use crate::columns::Matched;
 
 /// RMS errors of one comparison.
 #[derive(Clone, Debug, Default)]
@@ -20,73 +21,31 @@ pub struct Comparison {
     pub field: f64,
 }
 
-/// Column index by name, and the rows (every field a number).
-pub(crate) type Table = (HashMap<String, usize>, Vec<Vec<f64>>);
+/// The compared columns, `t` first: σ0, Ω′, Ω, A.
+const COLUMNS: [&str; 16] = [
+    "t", "sigma0_x", "sigma0_y", "sigma0_z", "domega_x", "domega_y", "domega_z", "omega_x",
+    "omega_y", "omega_z", "A_xx", "A_yy", "A_zz", "A_xy", "A_xz", "A_yz",
+];
 
-pub(crate) fn read(path: &Path) -> Result<Table, Box<dyn Error>> {
-    let name = path.display().to_string();
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_path(path)
-        .map_err(|e| format!("{name}: cannot open: {e}"))?;
-    let header: HashMap<String, usize> = rdr
-        .headers()
-        .map_err(|e| format!("{name}: cannot read the header: {e}"))?
-        .iter()
-        .enumerate()
-        .map(|(i, h)| (h.to_string(), i))
-        .collect();
-    let mut rows = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| format!("{name}: {e}"))?;
-        let line = rec.position().map(|p| p.line()).unwrap_or(0);
-        let row = rec
-            .iter()
-            .map(|f| {
-                f.parse::<f64>()
-                    .map_err(|_| format!("{name} line {line}: \"{f}\" is not a number"))
-            })
-            .collect::<Result<Vec<f64>, String>>()?;
-        rows.push(row);
-    }
-    Ok((header, rows))
-}
-
-/// Compares `estimates` with `truth`.
+/// Compares `estimates` with `truth`, row by row (both in time order, matched by `t`;
+/// memory does not grow with the files).
 pub fn compare(truth: &Path, estimates: &Path) -> Result<Comparison, Box<dyn Error>> {
-    let (th, tr) = read(truth)?;
-    let (eh, er) = read(estimates)?;
-    let col = |h: &HashMap<String, usize>, file: &Path, c: &str| {
-        h.get(c)
-            .copied()
-            .ok_or_else(|| format!("{}: no column \"{c}\"", file.display()))
-    };
-    let groups: [(&str, &[&str]); 4] = [
-        ("sigma0", &["sigma0_x", "sigma0_y", "sigma0_z"]),
-        ("domega", &["domega_x", "domega_y", "domega_z"]),
-        ("omega", &["omega_x", "omega_y", "omega_z"]),
-        ("A", &["A_xx", "A_yy", "A_zz", "A_xy", "A_xz", "A_yz"]),
-    ];
-    let (tt, et) = (col(&th, truth, "t")?, col(&eh, estimates, "t")?);
+    let mut rows_in = Matched::open(truth, estimates, &COLUMNS, &[])?;
+    let (mut e, mut t) = ([0.0; 16], [0.0; 16]);
     let mut sums = [0.0f64; 4];
-    let truth_by_t: HashMap<u64, &Vec<f64>> = tr.iter().map(|r| (r[tt].to_bits(), r)).collect();
     let mut rows = 0;
-    for e in &er {
-        let Some(t) = truth_by_t.get(&e[et].to_bits()) else {
-            return Err(format!(
-                "{}: t = {} has no row in {}",
-                estimates.display(),
-                e[et],
-                truth.display()
-            )
-            .into());
-        };
-        for (g, (_, cols)) in groups.iter().enumerate() {
-            for (k, c) in cols.iter().enumerate() {
-                let d = e[col(&eh, estimates, c)?] - t[col(&th, truth, c)?];
-                // Off-diagonals of A count twice in the Frobenius norm.
-                sums[g] += if g == 3 && k >= 3 { 2.0 * d * d } else { d * d };
-            }
+    while rows_in.next_into(&mut e, &mut t)? {
+        for c in 1..16 {
+            let d = e[c] - t[c];
+            // Off-diagonals of A count twice in the Frobenius norm.
+            let (g, w) = match c {
+                1..=3 => (0, 1.0),
+                4..=6 => (1, 1.0),
+                7..=9 => (2, 1.0),
+                10..=12 => (3, 1.0),
+                _ => (3, 2.0),
+            };
+            sums[g] += w * d * d;
         }
         rows += 1;
     }

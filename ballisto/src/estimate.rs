@@ -3,14 +3,14 @@
 
 use std::error::Error;
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::BufWriter;
 use std::path::Path;
 
 use estimator_core::smoother::Smoother;
 use estimator_core::{Estimate, Estimator, Flags, Model, Options, Real};
 use hal_sim::arrangement_file::{choose_model, load_arrangement, LoadedArrangement, HOST_CAP};
 
-use crate::estimates_csv;
+use crate::estimates_csv::ThreadedWriter;
 use crate::samples_csv::SamplesReader;
 
 /// The sample-loop scalar of a host run.
@@ -104,7 +104,7 @@ impl<T: Real> HostEstimator<T> {
     }
 }
 
-fn run_typed<T: Real>(
+fn run_typed<T: Real + Send + 'static>(
     job: &EstimateJob,
     loaded: &LoadedArrangement,
     model: Model,
@@ -114,8 +114,7 @@ fn run_typed<T: Real>(
     let mut reader = SamplesReader::open(job.samples, &loaded.names)?;
     let out =
         File::create(job.out).map_err(|e| format!("{}: cannot create: {e}", job.out.display()))?;
-    let mut w = BufWriter::with_capacity(1 << 16, out);
-    estimates_csv::write_header(&mut w)?;
+    let mut w = ThreadedWriter::<T>::new(BufWriter::with_capacity(1 << 16, out));
     let mut row = vec![0.0f64; loaded.names.len()];
     let mut p = vec![T::ZERO; loaded.names.len()];
     let mut summary = Summary {
@@ -128,7 +127,7 @@ fn run_typed<T: Real>(
         if io_err.is_some() {
             return;
         }
-        if let Err(err) = estimates_csv::write_row(&mut w, t, e) {
+        if let Err(err) = w.push(t, e) {
             io_err = Some(err);
         }
         summary.rows += 1;
@@ -148,10 +147,10 @@ fn run_typed<T: Real>(
     };
     // Rows accepted before an error are still estimated and written.
     est.finish(&mut emit);
-    if let Some(e) = io_err {
+    let written = w.finish();
+    if let Some(e) = io_err.or(written.err()) {
         return Err(format!("{}: write failed: {e}", job.out.display()).into());
     }
-    w.flush()?;
     result?;
     Ok(summary)
 }

@@ -4,6 +4,8 @@ use std::io::Write;
 
 use estimator_core::{Estimate, Real};
 
+use crate::decimal::{push_f64, push_int};
+
 /// The contract columns, in order (interfaces.md).
 pub const COLUMNS: [&str; 17] = [
     "t", "sigma0_x", "sigma0_y", "sigma0_z", "domega_x", "domega_y", "domega_z", "omega_x",
@@ -39,30 +41,123 @@ pub fn write_header<W: Write>(w: &mut W) -> std::io::Result<()> {
     writeln!(w, "{},{}", COLUMNS.join(","), EXTRA_COLUMNS.join(","))
 }
 
-/// Writes one row.
+/// Writes one row (the text `Display` gives each number; see [`crate::decimal`]).
 pub fn write_row<W: Write, T: Real>(w: &mut W, t: f64, e: &Estimate<T>) -> std::io::Result<()> {
-    let f = |x: T| x.to_f64();
-    let a = &e.field.0;
-    write!(w, "{t}")?;
+    let mut line = Vec::with_capacity(768);
+    format_row(&mut line, t, e);
+    w.write_all(&line)
+}
+
+/// Appends one row, its line end included, to `line`.
+fn format_row<T: Real>(line: &mut Vec<u8>, t: f64, e: &Estimate<T>) {
+    let real = |line: &mut Vec<u8>, v: f64| {
+        line.push(b',');
+        push_f64(line, v);
+    };
+    push_f64(line, t);
     for v in e.sigma0.iter().chain(e.domega.iter()).chain(e.omega.iter()) {
-        write!(w, ",{}", f(*v))?;
+        real(line, v.to_f64());
     }
-    for v in a.iter() {
-        write!(w, ",{}", f(*v))?;
+    for v in e.field.0.iter() {
+        real(line, v.to_f64());
     }
-    write!(w, ",{}", e.flags.0)?;
-    write!(w, ",{},{},{},{}", f(e.chi2), e.dof, e.branches, e.frame)?;
+    line.push(b',');
+    push_int(line, e.flags.0);
+    real(line, e.chi2.to_f64());
+    for v in [e.dof, e.branches, e.frame] {
+        line.push(b',');
+        push_int(line, v);
+    }
     for v in e
         .sd_sigma0
         .iter()
         .chain(e.sd_domega.iter())
         .chain(e.sd_omega.iter())
     {
-        write!(w, ",{}", f(*v))?;
+        real(line, v.to_f64());
     }
-    write!(w, ",{}", e.epsilon)?;
+    line.push(b',');
+    push_int(line, e.epsilon);
     for v in e.sd_field.0.iter() {
-        write!(w, ",{}", f(*v))?;
+        real(line, v.to_f64());
     }
-    writeln!(w)
+    line.push(b'\n');
+}
+
+/// Rows handed to the writing thread at a time (with at most two batches queued, the memory
+/// in flight is a few hundred KB whatever the record's length).
+const BATCH: usize = 512;
+
+/// A batch of rows on its way to the writing thread.
+type Batch<T> = Vec<(f64, Estimate<T>)>;
+
+/// An estimates file written on a thread of its own: the caller estimates while the rows
+/// before are formatted and written (on two cores `ballisto estimate` then runs at the speed
+/// of the slower half instead of the sum; README, "Speed"). Rows are written in order; the
+/// first write error ends the thread and is returned by the next [`Self::push`] or by
+/// [`Self::finish`].
+pub struct ThreadedWriter<T> {
+    batch: Batch<T>,
+    tx: Option<std::sync::mpsc::SyncSender<Batch<T>>>,
+    thread: Option<std::thread::JoinHandle<std::io::Result<()>>>,
+}
+
+impl<T: Real + Send + 'static> ThreadedWriter<T> {
+    /// Writes the header, then every row pushed, to `w`.
+    pub fn new<W: Write + Send + 'static>(mut w: W) -> Self {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Batch<T>>(2);
+        let thread = std::thread::spawn(move || {
+            write_header(&mut w)?;
+            let mut text = Vec::with_capacity(768 * BATCH);
+            for batch in rx {
+                text.clear();
+                for (t, e) in &batch {
+                    format_row(&mut text, *t, e);
+                }
+                w.write_all(&text)?;
+            }
+            w.flush()
+        });
+        ThreadedWriter {
+            batch: Vec::with_capacity(BATCH),
+            tx: Some(tx),
+            thread: Some(thread),
+        }
+    }
+
+    /// Queues one row.
+    pub fn push(&mut self, t: f64, e: &Estimate<T>) -> std::io::Result<()> {
+        self.batch.push((t, *e));
+        if self.batch.len() >= BATCH {
+            self.send()?;
+        }
+        Ok(())
+    }
+
+    fn send(&mut self) -> std::io::Result<()> {
+        let batch = std::mem::replace(&mut self.batch, Vec::with_capacity(BATCH));
+        let sent = self.tx.as_ref().map(|tx| tx.send(batch).is_ok());
+        if sent == Some(true) {
+            return Ok(());
+        }
+        // The thread ended early: its error.
+        self.join()
+    }
+
+    fn join(&mut self) -> std::io::Result<()> {
+        self.tx = None;
+        match self.thread.take().map(|h| h.join()) {
+            Some(Ok(r)) => r,
+            Some(Err(_)) => Err(std::io::Error::other("the writing thread panicked")),
+            None => Err(std::io::Error::other("the writing thread has ended")),
+        }
+    }
+
+    /// Writes what is queued, flushes and ends the thread.
+    pub fn finish(mut self) -> std::io::Result<()> {
+        if !self.batch.is_empty() {
+            self.send()?;
+        }
+        self.join()
+    }
 }

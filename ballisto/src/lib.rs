@@ -8,7 +8,9 @@
 //! firmware host) is `hal-sim`'s.
 #![deny(missing_docs)]
 
+mod columns;
 pub mod compare;
+mod decimal;
 pub mod decode;
 pub mod estimate;
 pub mod estimates_csv;

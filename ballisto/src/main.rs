@@ -332,8 +332,8 @@ fn print_firmware(sc: &hal_sim::scenario::Scenario, fw: &hal_sim::firmware_host:
     let h = &fw.housekeeping;
     println!(
         "  telemetry: {} bytes in telemetry.bin ({:.0} bytes/s), {} estimates, {} telecommands accepted, {} refused, {} packets lost",
-        fw.telemetry.len(),
-        fw.telemetry.len() as f64 / (f64::from(l.sets.max(1)) / sc.rate),
+        fw.telemetry_bytes,
+        fw.telemetry_bytes as f64 / (f64::from(l.sets.max(1)) / sc.rate),
         h.estimates,
         h.tc_accepted,
         h.tc_rejected,

@@ -62,7 +62,8 @@ impl<R: std::io::Read> SamplesReader<R> {
     pub fn new(reader: R, file: &str, names: &[String]) -> Result<Self, SamplesError> {
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(true)
-            .trim(csv::Trim::All)
+            // Fields are trimmed where they are read (`str::trim`, as `Trim::All` would):
+            // the reader's own trimming allocates a record per row.
             .comment(Some(b'#'))
             .from_reader(reader);
         let err = |message: String| SamplesError {
@@ -76,7 +77,7 @@ impl<R: std::io::Read> SamplesReader<R> {
             .clone();
         let mut t_column = None;
         let mut column = vec![usize::MAX; names.len()];
-        for (i, h) in header.iter().enumerate() {
+        for (i, h) in header.iter().map(str::trim).enumerate() {
             if h == "t" {
                 if t_column.replace(i).is_some() {
                     return Err(err("column \"t\" appears twice".into()));
@@ -137,7 +138,7 @@ impl<R: std::io::Read> SamplesReader<R> {
             line: Some(line),
             message,
         };
-        let tf = &self.record[self.t_column];
+        let tf = self.record[self.t_column].trim();
         let t: f64 = tf
             .parse()
             .map_err(|_| err(format!("t = \"{tf}\" is not a number")))?;
@@ -153,7 +154,7 @@ impl<R: std::io::Read> SamplesReader<R> {
         }
         self.last_t = Some((t, line));
         for (o, &c) in out.iter_mut().zip(self.column.iter()) {
-            let field = &self.record[c];
+            let field = self.record[c].trim();
             *o = if field.is_empty() {
                 f64::NAN
             } else {

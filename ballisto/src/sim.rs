@@ -205,7 +205,7 @@ fn record_firmware(
     samples: &mut impl Write,
     truth: &mut impl Write,
 ) -> Result<SimReport, Box<dyn Error>> {
-    use hal_sim::firmware_host::{firmware_config, run_firmware, SimTime};
+    use hal_sim::firmware_host::{firmware_config, run_firmware_with, SimTime};
     let sc = job.scenario;
     let config = firmware_config(sc, loaded, alignment)?;
     let path = job.out.join("estimates.csv");
@@ -241,15 +241,18 @@ fn record_firmware(
             bar.set_position(u64::from(set.k));
         }
     };
-    let fw = run_firmware(sc, &config, n as u32, &mut emit)?;
+    let tm_path = job.out.join("telemetry.bin");
+    let mut downlink = create(&tm_path)?;
+    let fw = run_firmware_with(sc, &config, n as u32, &[], &mut downlink, &mut emit)
+        .map_err(|e| format!("{}: {e}", tm_path.display()))?;
     bar.finish_and_clear();
     if let Some(e) = failure {
         return Err(e.into());
     }
     estimates.flush()?;
-    let path = job.out.join("telemetry.bin");
-    std::fs::write(&path, &fw.telemetry)
-        .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    downlink
+        .flush()
+        .map_err(|e| format!("{}: cannot write: {e}", tm_path.display()))?;
     Ok(SimReport {
         samples: fw.estimates as usize,
         channels: loaded.names.len(),

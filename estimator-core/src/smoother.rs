@@ -129,23 +129,28 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
         &self.ring[(self.head + i) % LAG.max(1)]
     }
 
-    /// Ancestor state index at record 0 of state `s` of record `from` (None if the chain
-    /// breaks at an invalid sample).
-    fn ancestor(&self, from: usize, mut s: usize) -> Option<usize> {
-        let mut i = from;
-        while i > 0 {
-            let r = self.at(i);
-            if !r.valid || s >= r.n_states as usize {
-                return None;
-            }
-            let f = r.states[s].from;
-            if f == u8::MAX {
-                return None;
-            }
-            s = f as usize;
-            i -= 1;
+    /// For every state `s` of record `from`: its ancestor state index at record 0 (`None` if
+    /// the chain breaks at an invalid sample). One backward pass over the records for all
+    /// states (measured: following each state's chain on its own made this the largest cost
+    /// of `ballisto estimate` after number formatting).
+    fn ancestors(&self, from: usize, out: &mut [Option<usize>; MAX_STATES]) {
+        let n = (self.at(from).n_states as usize).min(MAX_STATES);
+        for (s, a) in out.iter_mut().enumerate() {
+            *a = (s < n).then_some(s);
         }
-        Some(s)
+        for i in (1..=from).rev() {
+            let r = self.at(i);
+            for a in out.iter_mut().take(n) {
+                if let Some(s) = *a {
+                    *a = if !r.valid || s >= r.n_states as usize {
+                        None
+                    } else {
+                        let f = r.states[s].from;
+                        (f != u8::MAX).then_some(f as usize)
+                    };
+                }
+            }
+        }
     }
 
     fn decide_oldest(&self) -> (f64, Estimate<T>) {
@@ -153,16 +158,24 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
         if !oldest.valid || oldest.n_states == 0 {
             return (oldest.t, oldest.forward);
         }
-        // The newest record whose chain reaches the oldest without a break.
+        // The newest record whose chain reaches the oldest without a break, and where each of
+        // its states' chains leads at the oldest record (one backward pass for all of them).
+        let mut anc = [None; MAX_STATES];
         let mut last = self.len - 1;
-        while last > 0 && !(self.at(last).valid && self.ancestor(last, 0).is_some()) {
+        while last > 0 {
+            if self.at(last).valid {
+                self.ancestors(last, &mut anc);
+                if anc[0].is_some() {
+                    break;
+                }
+            }
             last -= 1;
         }
         let newest = self.at(last);
         let (choice, chosen_cost) = if last == 0 {
             (oldest.best as usize, T::ZERO)
         } else {
-            match self.ancestor(last, newest.best as usize) {
+            match anc[newest.best as usize] {
                 Some(a) => (a, newest.states[newest.best as usize].cost),
                 None => (oldest.best as usize, T::ZERO),
             }
@@ -176,7 +189,7 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
             branch_ambiguous = oldest.forward.flags.has(Flags::BRANCH_AMBIGUOUS);
         } else {
             for j in 0..newest.n_states as usize {
-                if let Some(a) = self.ancestor(last, j) {
+                if let Some(a) = anc[j] {
                     let close = newest.states[j].cost - chosen_cost < margin;
                     let (sa, sc) = (&oldest.states[a], &oldest.states[choice]);
                     if close && sa.candidate == sc.candidate && sa.sign != sc.sign {

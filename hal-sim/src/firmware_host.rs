@@ -176,8 +176,8 @@ pub struct FirmwareReport {
     pub app_size: usize,
     /// The application's last housekeeping values.
     pub housekeeping: ballisto_link::Housekeeping,
-    /// Every byte the firmware sent on its telemetry link.
-    pub telemetry: Vec<u8>,
+    /// Octets the firmware sent on its telemetry link (written to the run's downlink).
+    pub telemetry_bytes: u64,
     /// Per free-running part: half-width of its conversion-time interval at the end (s).
     pub clock_uncertainty: Vec<Option<f64>>,
 }
@@ -243,44 +243,78 @@ impl embedded_io_async::Read for HostUplink<'_> {
     }
 }
 
-/// The host side of the telemetry link: keeps every byte.
-#[derive(Default)]
-pub struct Downlink(pub Vec<u8>);
-
-impl embedded_io_async::ErrorType for Downlink {
-    type Error = Infallible;
+/// The host side of the telemetry link: every byte goes straight to a writer (a file for
+/// `ballisto sim --firmware`, so memory does not grow with the run; a `Vec` in tests). The
+/// first host write error is kept for the caller; the firmware sees the failed write as a
+/// lost packet, as it would a link error.
+pub struct Downlink<'a> {
+    out: &'a mut dyn std::io::Write,
+    bytes: u64,
+    error: Option<std::io::Error>,
 }
 
-impl embedded_io_async::Write for Downlink {
-    async fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
-        self.0.extend_from_slice(buf);
-        Ok(buf.len())
+impl<'a> Downlink<'a> {
+    /// A link writing to `out`.
+    pub fn new(out: &'a mut dyn std::io::Write) -> Self {
+        Downlink {
+            out,
+            bytes: 0,
+            error: None,
+        }
     }
 
-    async fn flush(&mut self) -> Result<(), Infallible> {
-        Ok(())
+    /// Octets written so far.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+}
+
+impl embedded_io_async::ErrorType for Downlink<'_> {
+    type Error = embedded_io_async::ErrorKind;
+}
+
+impl embedded_io_async::Write for Downlink<'_> {
+    async fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
+        match self.out.write_all(buf) {
+            Ok(()) => {
+                self.bytes += buf.len() as u64;
+                Ok(buf.len())
+            }
+            Err(e) => {
+                self.error.get_or_insert(e);
+                Err(embedded_io_async::ErrorKind::Other)
+            }
+        }
+    }
+
+    async fn flush(&mut self) -> Result<(), Self::Error> {
+        self.out.flush().map_err(|e| {
+            self.error.get_or_insert(e);
+            embedded_io_async::ErrorKind::Other
+        })
     }
 }
 
 /// Runs the firmware on a scenario's rig over `instants` sample instants (sampled, or skipped
 /// after an overrun); `emit` gets every sample set with the estimate made from it and the
-/// truth at its instant.
+/// truth at its instant. The telemetry is discarded.
 pub fn run_firmware(
     sc: &Scenario,
     config: &AppConfig,
     instants: u32,
     emit: Emit,
 ) -> Result<FirmwareReport, String> {
-    run_firmware_with(sc, config, instants, &[], emit)
+    run_firmware_with(sc, config, instants, &[], &mut std::io::sink(), emit)
 }
 
 /// [`run_firmware`] with telecommands arriving on the command link (`uplink`, one chunk of
-/// bytes at a time).
+/// bytes at a time) and every byte of the telemetry link written to `downlink`.
 pub fn run_firmware_with(
     sc: &Scenario,
     config: &AppConfig,
     instants: u32,
     uplink: &Uplink,
+    downlink: &mut dyn std::io::Write,
     emit: Emit,
 ) -> Result<FirmwareReport, String> {
     let rig = Rig::build(sc)?;
@@ -305,7 +339,7 @@ pub fn run_firmware_with(
     let mut commands = ZeroCopyChannel::<NoopRawMutex, Incoming>::new(&mut slots);
     let (command_tx, command_rx) = commands.split();
     let health = HealthBoard::<NoopRawMutex>::new();
-    let mut telemetry = Telemetry::new(Downlink::default());
+    let mut telemetry = Telemetry::new(Downlink::new(downlink));
     let mut sink = HostSink {
         set: None,
         started: Instant::now(),
@@ -373,6 +407,11 @@ pub fn run_firmware_with(
     let (sum, max, n) = sink.cpu;
     let buses = rig.bus_usage_since(&start_up);
     let housekeeping = app.housekeeping(telemetry.lost());
+    let link = telemetry.link();
+    if let Some(e) = link.error.take() {
+        return Err(format!("telemetry: {e}"));
+    }
+    let telemetry_bytes = link.bytes;
     Ok(FirmwareReport {
         parts,
         sampling: sampler.health(),
@@ -385,6 +424,6 @@ pub fn run_firmware_with(
         buses,
         clock_uncertainty,
         housekeeping,
-        telemetry: std::mem::take(&mut telemetry.link().0),
+        telemetry_bytes,
     })
 }

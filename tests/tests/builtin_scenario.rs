@@ -49,7 +49,8 @@ fn host_run() -> Vec<u8> {
     let mut commands = ZeroCopyChannel::<NoopRawMutex, Incoming>::new(&mut slots);
     let (tx, rx) = commands.split();
     let health = HealthBoard::<NoopRawMutex>::new();
-    let mut tm = Telemetry::new(Downlink::default());
+    let mut bytes = Vec::new();
+    let mut tm = Telemetry::new(Downlink::new(&mut bytes));
     let mut tap = ();
     {
         let application = app_task(
@@ -73,7 +74,8 @@ fn host_run() -> Vec<u8> {
         let uplink = uplink_task(ScriptedUplink::new(&app_time, t0), tx);
         embassy_futures::block_on(select(application, join(sampling, uplink)));
     }
-    std::mem::take(&mut tm.link().0)
+    drop(tm);
+    bytes
 }
 
 fn motions(s: &Stream) -> Vec<(f64, MotionReport)> {

@@ -8,7 +8,7 @@ use ballisto_link::decode::Report;
 use ballisto_link::framing;
 use ballisto_link::{service, subtype, EventId, FailureCode, APID};
 use firmware::config::Alignment;
-use hal_sim::firmware_host::{firmware_config, run_firmware, run_firmware_with};
+use hal_sim::firmware_host::{firmware_config, run_firmware_with};
 use hal_sim::scenario::Scenario;
 use spacepackets::ecss::tc::{AckFlags, PusTcCreator, PusTcSecondaryHeader};
 use spacepackets::ecss::{CreatorConfig, MessageTypeId};
@@ -49,17 +49,20 @@ fn commands_on_the_uplink_take_effect_and_are_verified_on_the_downlink() {
         (9.0, frame(b, subtype::EXCLUDE, &[0], 6)),
     ];
     let mut truth = Vec::new();
+    let mut telemetry = Vec::new();
     let report = run_firmware_with(
         &sc,
         &config,
         sc.samples() as u32,
         &uplink,
+        &mut telemetry,
         &mut |s, _, tr| {
             truth.push((s.k, tr.omega));
         },
     )
     .unwrap();
-    let stream = decode_stream(&report.telemetry);
+    assert_eq!(report.telemetry_bytes, telemetry.len() as u64);
+    let stream = decode_stream(&telemetry);
     assert!(stream.problems.is_empty(), "{:?}", stream.problems);
 
     // Standby from 5 s to 6 s: no estimates for those 100 sets, then back to operate.
@@ -161,8 +164,18 @@ fn a_dead_part_is_reported_down_and_up_again() {
     let sc = Scenario::load("tetra-orbit-faults").unwrap();
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
-    let report = run_firmware(&sc, &config, sc.samples() as u32, &mut |_, _, _| {}).unwrap();
-    let stream = decode_stream(&report.telemetry);
+    let mut telemetry = Vec::new();
+    let samples = sc.samples() as u32;
+    run_firmware_with(
+        &sc,
+        &config,
+        samples,
+        &[],
+        &mut telemetry,
+        &mut |_, _, _| {},
+    )
+    .unwrap();
+    let stream = decode_stream(&telemetry);
     assert!(stream.problems.is_empty(), "{:?}", stream.problems);
     let events: Vec<(f64, EventId, u32)> = stream
         .packets

@@ -1,5 +1,11 @@
-//! The plot of `ballisto sim --estimate`: Ω, Ω′ and σ0 against time, estimate (light) over
-//! truth (dark), x red, y green, z blue — one PNG for a person to look at.
+//! The plot of `ballisto sim --estimate` / `--firmware`: what a person checking an estimate
+//! needs to see — the motion (Ω of the truth), then the **error** of Ω, Ω′ and σ0 against the
+//! truth over time with the band of ±3 reported standard deviations (grey) and the rows the
+//! estimator flagged (orange strip): an error outside the band without a flag is a silently
+//! wrong estimate. x red, y green, z blue. One PNG.
+//!
+//! The files are streamed (two passes; per pixel column the range of every series), so memory
+//! does not grow with the record.
 
 mod canvas;
 
@@ -8,60 +14,148 @@ use std::path::Path;
 
 pub use canvas::{Canvas, Rgb};
 
-use crate::compare;
+use crate::columns::{Columns, Matched};
 
 const WIDTH: i64 = 1200;
-const PANEL: i64 = 290;
+const PANEL: i64 = 220;
 const LEFT: i64 = 110;
 const RIGHT: i64 = 30;
 const TOP: i64 = 40;
 const GAP: i64 = 50;
-const DARK: [Rgb; 3] = [[170, 0, 0], [0, 120, 0], [0, 0, 170]];
-const LIGHT: [Rgb; 3] = [[250, 160, 160], [150, 220, 150], [160, 170, 250]];
+const PLOT_W: usize = (WIDTH - LEFT - RIGHT) as usize;
+const AXIS: [Rgb; 3] = [[200, 0, 0], [0, 140, 0], [0, 0, 200]];
+const BAND: Rgb = [215, 215, 215];
+const FLAGGED: Rgb = [255, 150, 0];
 const INK: Rgb = [30, 30, 30];
-const GRID: Rgb = [225, 225, 225];
+const GRID: Rgb = [235, 235, 235];
+
+/// Columns read from both files (`t` first), then the estimates' own.
+const SHARED: [&str; 10] = [
+    "t", "omega_x", "omega_y", "omega_z", "domega_x", "domega_y", "domega_z", "sigma0_x",
+    "sigma0_y", "sigma0_z",
+];
+const EXTRA: [&str; 10] = [
+    "sd_omega_x",
+    "sd_omega_y",
+    "sd_omega_z",
+    "sd_domega_x",
+    "sd_domega_y",
+    "sd_domega_z",
+    "sd_sigma0_x",
+    "sd_sigma0_y",
+    "sd_sigma0_z",
+    "flags",
+];
+
+/// The range of one series within one pixel column, and its first and last value there.
+#[derive(Clone, Copy)]
+struct Cell {
+    lo: f64,
+    hi: f64,
+    first: f64,
+    last: f64,
+}
+
+/// Per pixel column: every series' cell (`None`: no finite value there).
+type Track = Vec<Option<Cell>>;
+
+fn add(track: &mut Track, x: usize, v: f64) {
+    if !v.is_finite() {
+        return;
+    }
+    let c = track[x].get_or_insert(Cell {
+        lo: v,
+        hi: v,
+        first: v,
+        last: v,
+    });
+    c.lo = c.lo.min(v);
+    c.hi = c.hi.max(v);
+    c.last = v;
+}
 
 /// Plots the estimates file against the truth file into a PNG.
 pub fn plot_files(truth: &Path, estimates: &Path, png: &Path) -> Result<(), Box<dyn Error>> {
-    let (th, tr) = compare::read(truth)?;
-    let (eh, er) = compare::read(estimates)?;
-    let col = |h: &std::collections::HashMap<String, usize>, file: &Path, c: &str| {
-        h.get(c)
-            .copied()
-            .ok_or_else(|| format!("{}: no column \"{c}\"", file.display()))
+    // Pass 1: the time span.
+    let mut times = Columns::open(estimates, &["t"])?;
+    let mut t = [0.0];
+    let mut span = (f64::INFINITY, f64::NEG_INFINITY);
+    while times.next_into(&mut t)? {
+        if t[0].is_finite() {
+            span = (span.0.min(t[0]), span.1.max(t[0]));
+        }
+    }
+    if !(span.0.is_finite() && span.1 > span.0) {
+        // No rows, or one instant: a one-second window from it.
+        span = if span.0.is_finite() {
+            (span.0, span.0 + 1.0)
+        } else {
+            (0.0, 1.0)
+        };
+    }
+    // Pass 2: per pixel column, truth Ω (3), errors (9), the band (3 panels), flags.
+    let mut rows = Matched::open(truth, estimates, &SHARED, &EXTRA)?;
+    let (mut e, mut tr) = ([0.0; 20], [0.0; 10]);
+    let empty: Track = vec![None; PLOT_W];
+    let mut motion = vec![empty.clone(); 3];
+    let mut error = vec![empty.clone(); 9];
+    let mut band = vec![empty; 3];
+    let mut flagged = vec![false; PLOT_W];
+    let column = |t: f64| {
+        let f = (t - span.0) / (span.1 - span.0);
+        ((f * (PLOT_W - 1) as f64).round().max(0.0) as usize).min(PLOT_W - 1)
     };
-    let height = TOP + 3 * (PANEL + GAP) + 20;
+    while rows.next_into(&mut e, &mut tr)? {
+        let x = column(e[0]);
+        for a in 0..3 {
+            add(&mut motion[a], x, tr[1 + a]);
+        }
+        for s in 0..9 {
+            add(&mut error[s], x, e[1 + s] - tr[1 + s]);
+        }
+        for p in 0..3 {
+            let sd = (0..3).map(|a| e[10 + 3 * p + a]).fold(0.0f64, f64::max);
+            add(&mut band[p], x, 3.0 * sd);
+        }
+        flagged[x] |= e[19] != 0.0;
+    }
+    let height = TOP + 4 * (PANEL + GAP) + 20;
     let mut canvas = Canvas::new(WIDTH as usize, height as usize, [255, 255, 255]);
     canvas.text(
         LEFT,
         12,
-        "ESTIMATE (LIGHT) OVER TRUTH (DARK)   X RED  Y GREEN  Z BLUE",
+        "ERROR = ESTIMATE - TRUTH   GREY: +-3 REPORTED SD   ORANGE: FLAGGED   X RED Y GREEN Z BLUE",
         2,
         INK,
     );
-    let panels = [
-        ("omega", "OMEGA (RAD/S)"),
-        ("domega", "DOMEGA (RAD/S2)"),
-        ("sigma0", "SIGMA0 (M/S2)"),
+    let panels: [(&str, &[Track], Option<&Track>); 4] = [
+        ("OMEGA, TRUTH (RAD/S)", &motion, None),
+        ("OMEGA ERROR (RAD/S)", &error[0..3], Some(&band[0])),
+        ("DOMEGA ERROR (RAD/S2)", &error[3..6], Some(&band[1])),
+        ("SIGMA0 ERROR (M/S2)", &error[6..9], Some(&band[2])),
     ];
-    let (tt, et) = (col(&th, truth, "t")?, col(&eh, estimates, "t")?);
-    for (p, (key, title)) in panels.iter().enumerate() {
-        let y0 = TOP + p as i64 * (PANEL + GAP);
-        let mut truth_series = Vec::new();
-        let mut est_series = Vec::new();
-        for axis in ["x", "y", "z"] {
-            let c = format!("{key}_{axis}");
-            let (ct, ce) = (col(&th, truth, &c)?, col(&eh, estimates, &c)?);
-            truth_series.push(tr.iter().map(|r| (r[tt], r[ct])).collect::<Vec<_>>());
-            est_series.push(er.iter().map(|r| (r[et], r[ce])).collect::<Vec<_>>());
+    for (p, (title, series, band)) in panels.iter().enumerate() {
+        let top = TOP + p as i64 * (PANEL + GAP);
+        let frame = match band {
+            None => Frame::around(span, series, top),
+            Some(b) => Frame::symmetric(span, series, b, top),
+        };
+        frame.axes(&mut canvas, title, p == 3);
+        if let Some(b) = band {
+            for (x, c) in b.iter().enumerate() {
+                if let Some(c) = c {
+                    let (y0, y1) = (frame.y(c.hi), frame.y(-c.hi));
+                    canvas.fill(LEFT + x as i64, y0, 1, y1 - y0 + 1, BAND);
+                }
+            }
+            for (x, f) in flagged.iter().enumerate() {
+                if *f {
+                    canvas.fill(LEFT + x as i64, top + PANEL - 5, 1, 5, FLAGGED);
+                }
+            }
         }
-        let frame = Frame::fit(&truth_series, &est_series, y0);
-        frame.axes(&mut canvas, title, p == 2);
-        for (s, c) in est_series.iter().zip(LIGHT) {
-            frame.series(&mut canvas, s, c);
-        }
-        for (s, c) in truth_series.iter().zip(DARK) {
-            frame.series(&mut canvas, s, c);
+        for (s, colour) in series.iter().zip(AXIS) {
+            frame.track(&mut canvas, s, colour);
         }
     }
     canvas.save_png(png)?;
@@ -76,44 +170,49 @@ struct Frame {
 }
 
 impl Frame {
-    /// Time span of all series; values: the truth's range and the central 98 % of the
-    /// estimates, with a margin (outliers beyond are clipped so that they do not flatten the
-    /// plot).
-    fn fit(truth: &[Vec<(f64, f64)>], est: &[Vec<(f64, f64)>], top: i64) -> Frame {
-        let mut t = (f64::INFINITY, f64::NEG_INFINITY);
+    /// The range of the series with a margin.
+    fn around(t: (f64, f64), series: &[Track], top: i64) -> Frame {
         let mut v = (f64::INFINITY, f64::NEG_INFINITY);
-        for s in truth.iter().chain(est.iter()) {
-            for &(ti, _) in s {
-                t = (t.0.min(ti), t.1.max(ti));
-            }
-        }
-        for s in truth {
-            for &(_, vi) in s.iter().filter(|p| p.1.is_finite()) {
-                v = (v.0.min(vi), v.1.max(vi));
-            }
-        }
-        let mut e: Vec<f64> = est
-            .iter()
-            .flat_map(|s| s.iter().map(|p| p.1))
-            .filter(|x| x.is_finite())
-            .collect();
-        if !e.is_empty() {
-            e.sort_by(f64::total_cmp);
-            let at = |q: f64| e[((e.len() - 1) as f64 * q).round() as usize];
-            v = (v.0.min(at(0.01)), v.1.max(at(0.99)));
-        }
-        if !(t.0.is_finite() && t.1 > t.0) {
-            t = (0.0, 1.0);
+        for c in series.iter().flatten().flatten() {
+            v = (v.0.min(c.lo), v.1.max(c.hi));
         }
         if !v.0.is_finite() {
             v = (-1.0, 1.0);
         }
-        let span = (v.1 - v.0).max(1e-3 * v.0.abs().max(v.1.abs())).max(1e-9);
+        let pad = (v.1 - v.0).max(1e-3 * v.0.abs().max(v.1.abs())).max(1e-9);
         Frame {
             t,
-            v: (v.0 - 0.25 * span, v.1 + 0.25 * span),
+            v: (v.0 - 0.15 * pad, v.1 + 0.15 * pad),
             top,
         }
+    }
+
+    /// Symmetric about zero: the larger of the 98th percentiles (over pixel columns) of the
+    /// largest error and of the band, with a margin; rarer excursions are clipped at the edge.
+    fn symmetric(t: (f64, f64), series: &[Track], band: &Track, top: i64) -> Frame {
+        let q98 = |mut v: Vec<f64>| {
+            if v.is_empty() {
+                return 0.0;
+            }
+            v.sort_by(f64::total_cmp);
+            v[((v.len() - 1) as f64 * 0.98).round() as usize]
+        };
+        let errs: Vec<f64> = (0..PLOT_W)
+            .filter_map(|x| {
+                series
+                    .iter()
+                    .filter_map(|s| s[x].map(|c| c.lo.abs().max(c.hi.abs())))
+                    .reduce(f64::max)
+            })
+            .collect();
+        let bands: Vec<f64> = band.iter().flatten().map(|c| c.hi).collect();
+        let m = q98(errs).max(q98(bands));
+        let m = if m.is_finite() && m > 0.0 {
+            1.2 * m
+        } else {
+            1.0
+        };
+        Frame { t, v: (-m, m), top }
     }
 
     fn x(&self, t: f64) -> i64 {
@@ -159,22 +258,20 @@ impl Frame {
         }
     }
 
-    fn series(&self, c: &mut Canvas, s: &[(f64, f64)], colour: Rgb) {
-        let mut last: Option<(i64, i64)> = None;
-        for &(t, v) in s {
-            if !v.is_finite() {
-                last = None;
+    /// A series' range in every pixel column, joined from each column's last value to the
+    /// next one's first.
+    fn track(&self, c: &mut Canvas, s: &Track, colour: Rgb) {
+        let mut last: Option<(i64, f64)> = None;
+        for (x, cell) in s.iter().enumerate() {
+            let x = LEFT + x as i64;
+            let Some(cell) = cell else {
                 continue;
+            };
+            if let Some((px, pv)) = last {
+                c.line((px, self.y(pv)), (x, self.y(cell.first)), colour);
             }
-            let p = (self.x(t), self.y(v));
-            if let Some(q) = last {
-                if q != p {
-                    c.line(q, p, colour);
-                }
-            } else {
-                c.set(p.0, p.1, colour);
-            }
-            last = Some(p);
+            c.line((x, self.y(cell.lo)), (x, self.y(cell.hi)), colour);
+            last = Some((x, cell.last));
         }
     }
 }

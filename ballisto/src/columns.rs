@@ -1,0 +1,120 @@
+//! Streaming reader of named numeric columns of a CSV file (estimates, truth): one row at a
+//! time, so memory does not grow with the record.
+
+use std::collections::HashMap;
+use std::fs::File;
+use std::path::Path;
+
+/// Reads the columns `names` (in that order) of every row.
+pub(crate) struct Columns {
+    rdr: csv::Reader<File>,
+    record: csv::StringRecord,
+    index: Vec<usize>,
+    name: String,
+}
+
+impl Columns {
+    /// Opens `path` and finds the columns; an error names the file and the missing column.
+    pub(crate) fn open(path: &Path, names: &[&str]) -> Result<Self, String> {
+        let name = path.display().to_string();
+        let mut rdr = csv::ReaderBuilder::new()
+            .trim(csv::Trim::All)
+            .from_path(path)
+            .map_err(|e| format!("{name}: cannot open: {e}"))?;
+        let header: HashMap<String, usize> = rdr
+            .headers()
+            .map_err(|e| format!("{name}: cannot read the header: {e}"))?
+            .iter()
+            .enumerate()
+            .map(|(i, h)| (h.to_string(), i))
+            .collect();
+        let index = names
+            .iter()
+            .map(|c| {
+                header
+                    .get(*c)
+                    .copied()
+                    .ok_or_else(|| format!("{name}: no column \"{c}\""))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Columns {
+            rdr,
+            record: csv::StringRecord::new(),
+            index,
+            name,
+        })
+    }
+
+    /// The next row's values into `out` (one per column asked for); `false` at the end. An
+    /// error names the file and line.
+    pub(crate) fn next_into(&mut self, out: &mut [f64]) -> Result<bool, String> {
+        let more = self
+            .rdr
+            .read_record(&mut self.record)
+            .map_err(|e| format!("{}: {e}", self.name))?;
+        if !more {
+            return Ok(false);
+        }
+        let line = self.record.position().map(|p| p.line()).unwrap_or(0);
+        for (o, &i) in out.iter_mut().zip(self.index.iter()) {
+            let f = self.record.get(i).unwrap_or("");
+            *o = f
+                .parse::<f64>()
+                .map_err(|_| format!("{} line {line}: \"{f}\" is not a number", self.name))?;
+        }
+        Ok(true)
+    }
+
+    /// The file's name, for messages.
+    pub(crate) fn name(&self) -> &str {
+        &self.name
+    }
+}
+
+/// Estimates and truth read in step: each estimates row with the truth row of the same `t`
+/// (both files in time order; the truth may have rows the estimates do not).
+pub(crate) struct Matched {
+    truth: Columns,
+    estimates: Columns,
+    truth_row: Vec<f64>,
+}
+
+impl Matched {
+    /// `columns` of both files (the first must be `t`); `extra` further columns of the
+    /// estimates only (after `columns` in the estimates row).
+    pub(crate) fn open(
+        truth: &Path,
+        estimates: &Path,
+        columns: &[&str],
+        extra: &[&str],
+    ) -> Result<Self, String> {
+        let all: Vec<&str> = columns.iter().chain(extra.iter()).copied().collect();
+        Ok(Matched {
+            truth: Columns::open(truth, columns)?,
+            estimates: Columns::open(estimates, &all)?,
+            truth_row: vec![f64::NEG_INFINITY; columns.len()],
+        })
+    }
+
+    /// The next estimates row into `est` and its truth into `tru`; `false` at the end.
+    pub(crate) fn next_into(&mut self, est: &mut [f64], tru: &mut [f64]) -> Result<bool, String> {
+        if !self.estimates.next_into(est)? {
+            return Ok(false);
+        }
+        let t = est[0];
+        while self.truth_row[0] < t {
+            if !self.truth.next_into(&mut self.truth_row)? {
+                break;
+            }
+        }
+        if self.truth_row[0].to_bits() != t.to_bits() {
+            return Err(format!(
+                "{}: t = {t} has no row in {}",
+                self.estimates.name(),
+                self.truth.name()
+            ));
+        }
+        tru.copy_from_slice(&self.truth_row);
+        Ok(true)
+    }
+}
