@@ -320,9 +320,7 @@ fn print_firmware(sc: &hal_sim::scenario::Scenario, fw: &hal_sim::firmware_host:
         );
     }
     println!(
-        "  estimation CPU (host) {:.1} us mean, {:.1} us max per sample set; task futures {} + {} + {} bytes (sampling, application, uplink), application state {} bytes (estimation {})",
-        fw.cpu_mean * 1e6,
-        fw.cpu_max * 1e6,
+        "  task futures {} + {} + {} bytes (sampling, application, uplink), application state {} bytes (estimation {}); host CPU per set: cargo bench -p hal-sim --bench firmware_per_set",
         fw.task_sizes.0,
         fw.task_sizes.1,
         fw.task_sizes.2,

@@ -9,10 +9,7 @@
 //! one process, which embassy-executor's `run` (never returns, static task storage) does not
 //! allow. The tasks are the same functions either way.
 
-use std::cell::RefCell;
 use std::convert::Infallible;
-use std::rc::Rc;
-use std::time::Instant;
 
 use embassy_futures::select::select;
 use embassy_futures::yield_now;
@@ -20,12 +17,14 @@ use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::zerocopy_channel::Channel as ZeroCopyChannel;
 use embedded_hal::digital::{ErrorType, OutputPin};
-use firmware::app::{app_task, uplink_task, App, Incoming, Mode, COMMAND_QUEUE};
+use firmware::app::{
+    app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
+};
 use firmware::config::{
     Alignment, AppConfig, PartConfig, PartKind, SamplingConfig, MAX_CHANNELS, MAX_PARTS,
 };
 use firmware::drivers::{adxl355, lis3dh};
-use firmware::estimation::{Motion, Tap};
+use firmware::estimation::Motion;
 use firmware::sampler::{
     sampling_task, HealthBoard, LoopHealth, PartBus, PartHealth, SampleSet, Sampler,
 };
@@ -36,7 +35,7 @@ use crate::arrangement_file::LoadedArrangement;
 use crate::bus::i2c::SimI2cBus;
 use crate::bus::spi::SimSpiDevice;
 use crate::clock::SimClock;
-use crate::motion::{Propagator, Truth};
+use crate::motion::Truth;
 use crate::rig::{Port, Rig, POWER_ON};
 use crate::scenario::{PartType, Scenario};
 use crate::sensors::sync_line::SyncLine;
@@ -161,10 +160,6 @@ pub struct FirmwareReport {
     pub sampling: LoopHealth,
     /// Estimates produced.
     pub estimates: u64,
-    /// Host CPU time of the estimation per sample set (mean, max; s).
-    pub cpu_mean: f64,
-    /// See `cpu_mean`.
-    pub cpu_max: f64,
     /// Size of the sampling, application and uplink task futures (bytes): their static
     /// storage as embassy tasks (the application task's holds references to the state).
     pub task_sizes: (usize, usize, usize),
@@ -185,32 +180,6 @@ pub struct FirmwareReport {
 /// What the host gets per sample set: the set, the estimate made from it, and the truth at
 /// its instant.
 pub type Emit<'a> = &'a mut dyn FnMut(&SampleSet, &Motion, &Truth);
-
-/// The host's telemetry sink: hands each sample set and estimate, with the truth from the
-/// rig's motion, to a callback, and times the estimation.
-struct HostSink<'a> {
-    set: Option<SampleSet>,
-    started: Instant,
-    cpu: (f64, f64, u64),
-    truth: Rc<RefCell<Propagator>>,
-    emit: Emit<'a>,
-}
-
-impl Tap for HostSink<'_> {
-    async fn sample_set(&mut self, set: &SampleSet) {
-        self.set = Some(*set);
-        self.started = Instant::now();
-    }
-
-    async fn motion(&mut self, motion: &Motion) {
-        let dt = self.started.elapsed().as_secs_f64();
-        self.cpu = (self.cpu.0 + dt, self.cpu.1.max(dt), self.cpu.2 + 1);
-        if let Some(set) = self.set.take() {
-            let truth = self.truth.borrow_mut().truth_at(SimTime::seconds(set.t));
-            (self.emit)(&set, motion, &truth);
-        }
-    }
-}
 
 /// Telecommands for a run: at each time (scenario seconds) the bytes that arrive on the
 /// command link (normally COBS frames).
@@ -340,13 +309,11 @@ pub fn run_firmware_with(
     let (command_tx, command_rx) = commands.split();
     let health = HealthBoard::<NoopRawMutex>::new();
     let mut telemetry = Telemetry::new(Downlink::new(downlink));
-    let mut sink = HostSink {
-        set: None,
-        started: Instant::now(),
-        cpu: (0.0, 0.0, 0),
-        truth: rig.truth.clone(),
-        emit,
-    };
+    let observations = Observations::<NoopRawMutex>::new();
+    let mut observer = observations
+        .subscriber()
+        .map_err(|_| "the observation channel has no room for a subscriber".to_string())?;
+    let mut estimates = 0u64;
     let estimation_size = std::mem::size_of_val(app.estimation());
     let app_size = std::mem::size_of_val(&app);
     let first = (-POWER_ON_NS) as Nanos;
@@ -363,20 +330,35 @@ pub fn run_firmware_with(
                 Some(instants),
             )
             .await;
-            while !queue.is_empty() {
+            // The run ends once the application has handled every set and the observer has
+            // taken every observation (the application handles a set in one poll, up to
+            // publishing it).
+            while !queue.is_empty() || !observations.is_empty() {
                 yield_now().await;
             }
         };
         let application = app_task(
             &mut app,
             &app_time,
-            queue.receiver(),
-            command_rx,
-            &health,
-            &mut telemetry,
-            &mut sink,
-            None,
+            Links {
+                samples: queue.receiver(),
+                commands: command_rx,
+                health: &health,
+                telemetry: &mut telemetry,
+                observations: &observations,
+            },
         );
+        let truth = rig.truth.clone();
+        let observing = async {
+            loop {
+                let seen = observer.next_message_pure().await;
+                if let Some(motion) = &seen.motion {
+                    let tr = truth.borrow_mut().truth_at(SimTime::seconds(seen.set.t));
+                    emit(&seen.set, motion, &tr);
+                    estimates += 1;
+                }
+            }
+        };
         let link = HostUplink {
             clock: rig.clock.clone(),
             schedule: uplink,
@@ -391,7 +373,10 @@ pub fn run_firmware_with(
             std::mem::size_of_val(&application),
             std::mem::size_of_val(&receiving),
         );
-        embassy_futures::block_on(select(sampling, select(application, receiving)));
+        embassy_futures::block_on(select(
+            sampling,
+            select(application, select(receiving, observing)),
+        ));
     }
     let parts = (0..sc.parts.len())
         .map(|i| sampler.part_health(i).unwrap_or_default())
@@ -404,7 +389,6 @@ pub fn run_firmware_with(
                 .map(|p| p.clock().uncertainty())
         })
         .collect();
-    let (sum, max, n) = sink.cpu;
     let buses = rig.bus_usage_since(&start_up);
     let housekeeping = app.housekeeping(telemetry.lost());
     let link = telemetry.link();
@@ -415,9 +399,7 @@ pub fn run_firmware_with(
     Ok(FirmwareReport {
         parts,
         sampling: sampler.health(),
-        estimates: n,
-        cpu_mean: sum / n.max(1) as f64,
-        cpu_max: max,
+        estimates,
         task_sizes,
         estimation_size,
         app_size,

@@ -13,7 +13,9 @@ use embassy_futures::select::select;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::zerocopy_channel::Channel as ZeroCopyChannel;
-use firmware::app::{app_task, uplink_task, App, Incoming, Mode, COMMAND_QUEUE};
+use firmware::app::{
+    app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
+};
 use firmware::sampler::synthetic::{motion, synthetic_task, Synthetic};
 use firmware::sampler::{HealthBoard, SampleSet};
 use firmware::scenario::{self, ScriptedUplink, SETS};
@@ -51,18 +53,22 @@ fn host_run() -> Vec<u8> {
     let health = HealthBoard::<NoopRawMutex>::new();
     let mut bytes = Vec::new();
     let mut tm = Telemetry::new(Downlink::new(&mut bytes));
-    let mut tap = ();
+    let observations = Observations::<NoopRawMutex>::new();
+    let mut observer = observations.subscriber().unwrap();
     {
         let application = app_task(
             &mut app,
             &app_time,
-            samples.receiver(),
-            rx,
-            &health,
-            &mut tm,
-            &mut tap,
-            Some(SETS),
+            Links {
+                samples: samples.receiver(),
+                commands: rx,
+                health: &health,
+                telemetry: &mut tm,
+                observations: &observations,
+            },
         );
+        // As the QEMU board: the run ends with the last set handled.
+        let last_set = async { while observer.next_message_pure().await.set.k + 1 < SETS {} };
         let sampling = synthetic_task(
             &mut source,
             &mut time,
@@ -72,7 +78,10 @@ fn host_run() -> Vec<u8> {
             Some(SETS),
         );
         let uplink = uplink_task(ScriptedUplink::new(&app_time, t0), tx);
-        embassy_futures::block_on(select(application, join(sampling, uplink)));
+        embassy_futures::block_on(select(
+            last_set,
+            select(application, join(sampling, uplink)),
+        ));
     }
     drop(tm);
     bytes

@@ -9,8 +9,6 @@
 //! ([`Estimation::set_commanded`]); the solve uses every channel neither excluded automatically
 //! nor by command.
 
-use core::future::Future;
-
 use estimator_core::{Arrangement, ChannelMask, ConfigError, Estimate, Estimator, Model, Options};
 
 use crate::config::{AppConfig, MAX_CHANNELS, MAX_PARTS};
@@ -35,22 +33,6 @@ pub struct Motion {
     pub missing: u32,
     /// Parts excluded from the estimate (bit per part).
     pub excluded: u32,
-}
-
-/// A tap on the data path: sees each sample set and its estimate (the host simulator records
-/// them; a board passes `()`). Telemetry proper is [`crate::telemetry`].
-pub trait Tap {
-    /// One estimate.
-    fn motion(&mut self, motion: &Motion) -> impl Future<Output = ()>;
-
-    /// The sample set an estimate is about to be computed from (default: ignored).
-    fn sample_set(&mut self, _set: &SampleSet) -> impl Future<Output = ()> {
-        core::future::ready(())
-    }
-}
-
-impl Tap for () {
-    async fn motion(&mut self, _motion: &Motion) {}
 }
 
 /// The estimator and the channel bookkeeping.

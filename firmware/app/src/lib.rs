@@ -15,8 +15,10 @@
 //!   with the ground), CCSDS sequence counts, COBS framing on the link. Telecommand acceptance
 //!   is `ballisto_link::telecommand`.
 //! - [`config`] — what runs: parts, channels, rate, arrangement, model (built-in table or
-//!   command); [`time`] — the time base; [`scenario`] — the built-in scenario of boards
-//!   without parts (sample sets from [`sampler::synthetic`], a scripted uplink).
+//!   command); [`time`] — the time base.
+//! - Feature `demo` (not in the flight image): `scenario` — the built-in scenario of boards
+//!   without parts (sample sets from `sampler::synthetic`, a scripted uplink), run by the QEMU
+//!   board and checked on the host.
 //!
 //! The tasks are async functions ([`sampler::sampling_task`], [`app::app_task`],
 //! [`app::uplink_task`]) joined by bounded queues; a board spawns them on the embassy
@@ -31,6 +33,7 @@ pub mod config;
 pub mod drivers;
 pub mod estimation;
 pub mod sampler;
+#[cfg(feature = "demo")]
 pub mod scenario;
 pub mod telemetry;
 pub mod time;

@@ -143,7 +143,7 @@ impl Unit {
             let s = set(&self.cfg, self.k);
             let board = HealthBoard::<NoopRawMutex>::new();
             board.publish(health(&self.cfg));
-            block_on(self.app.on_set(&s, &board, &mut self.tm, &mut ()));
+            block_on(self.app.on_set(&s, &board, &mut self.tm));
             self.k += 1;
         }
     }

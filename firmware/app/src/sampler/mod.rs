@@ -15,6 +15,7 @@
 pub mod conversion_clock;
 pub mod health;
 pub mod part;
+#[cfg(feature = "demo")]
 pub mod synthetic;
 
 use embassy_sync::blocking_mutex::raw::RawMutex;

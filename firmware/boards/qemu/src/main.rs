@@ -25,7 +25,9 @@ mod board {
     use embassy_sync::channel::Channel;
     use embassy_sync::zerocopy_channel::{self, Channel as ZeroCopyChannel};
     use embedded_io_async::{ErrorKind, ErrorType, Write};
-    use firmware::app::{app_task, uplink_task, App, Incoming, Mode, COMMAND_QUEUE};
+    use firmware::app::{
+        app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
+    };
     use firmware::sampler::synthetic::{synthetic_task, Synthetic};
     use firmware::sampler::{HealthBoard, SampleSet};
     use firmware::scenario::{self, ScriptedUplink, SETS};
@@ -108,6 +110,7 @@ mod board {
     static APP: StaticCell<App> = StaticCell::new();
     static SOURCE: StaticCell<Synthetic> = StaticCell::new();
     static TELEMETRY: StaticCell<Telemetry<HostFile>> = StaticCell::new();
+    static OBSERVATIONS: Observations<Cs> = Observations::new();
 
     #[embassy_executor::task]
     async fn sampling(source: &'static mut Synthetic, t0: Nanos) {
@@ -126,32 +129,40 @@ mod board {
         tm: &'static mut Telemetry<HostFile>,
         commands: zerocopy_channel::Receiver<'static, Cs, Incoming>,
     ) {
-        let samples = SAMPLES.receiver();
-        let time = SysTickTime;
-        app_task(
-            app,
-            &time,
-            samples,
+        let links = Links {
+            samples: SAMPLES.receiver(),
             commands,
-            &HEALTH,
-            tm,
-            &mut (),
-            Some(SETS),
-        )
-        .await;
-        let hk = app.housekeeping(tm.lost());
-        hprintln!(
-            "board-qemu: {} sets, {} estimates, {} packets sent ({} lost), {} telecommands accepted, {} refused, {} garbage frames; {} s on board",
-            hk.sampling.sets,
-            hk.estimates,
-            tm.sent(),
-            tm.lost(),
-            hk.tc_accepted,
-            hk.tc_rejected,
-            hk.frames_garbage,
-            time.now() / 1_000_000_000
-        );
-        finish(tm.lost() == 0 && hk.estimates > 0);
+            health: &HEALTH,
+            telemetry: tm,
+            observations: &OBSERVATIONS,
+        };
+        app_task(app, &SysTickTime, links).await;
+    }
+
+    /// Ends the run once the application has handled the last set of the scenario.
+    #[embassy_executor::task]
+    async fn observer() {
+        let Ok(mut seen) = OBSERVATIONS.subscriber() else {
+            finish(false)
+        };
+        loop {
+            let o = seen.next_message_pure().await;
+            if o.set.k + 1 >= SETS {
+                let s = o.status;
+                hprintln!(
+                    "board-qemu: {} sets, {} estimates, {} packets sent ({} lost), {} telecommands accepted, {} refused, {} garbage frames; {} s on board",
+                    s.sampling.sets,
+                    s.estimates,
+                    s.tm_sent,
+                    s.tm_lost,
+                    s.tc_accepted,
+                    s.tc_rejected,
+                    s.frames_garbage,
+                    SysTickTime.now() / 1_000_000_000
+                );
+                finish(s.tm_lost == 0 && s.estimates > 0);
+            }
+        }
     }
 
     fn finish(ok: bool) -> ! {
@@ -193,6 +204,7 @@ mod board {
         let slots = SLOTS.init_with(|| core::array::from_fn(|_| Incoming::new()));
         let (command_tx, command_rx) = COMMANDS.init(ZeroCopyChannel::new(slots)).split();
         spawner.spawn(uplink(t0, command_tx).unwrap());
+        spawner.spawn(observer().unwrap());
         spawner.spawn(application(app, tm, command_rx).unwrap());
     }
 

@@ -31,7 +31,9 @@ mod board {
     use embassy_sync::mutex::Mutex;
     use embassy_sync::zerocopy_channel::{self, Channel as ZeroCopyChannel};
     use embassy_time::{Instant, Timer};
-    use firmware::app::{app_task, uplink_task, App, Incoming, Mode, COMMAND_QUEUE};
+    use firmware::app::{
+        app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
+    };
     use firmware::config::{builtin, PartKind, MAX_PARTS};
     use firmware::sampler::{sampling_task, HealthBoard, PartBus, SampleSet, Sampler};
     use firmware::telemetry::Telemetry;
@@ -81,6 +83,8 @@ mod board {
     static SLOTS: StaticCell<[Incoming; COMMAND_QUEUE]> = StaticCell::new();
     static COMMANDS: StaticCell<ZeroCopyChannel<'static, Cs, Incoming>> = StaticCell::new();
     static RX_DMA: StaticCell<[u8; 256]> = StaticCell::new();
+    /// No observer on the flight board: nothing is queued there.
+    static OBSERVATIONS: Observations<Cs> = Observations::new();
 
     #[embassy_executor::task]
     async fn sampling(sampler: &'static mut Board) {
@@ -104,18 +108,14 @@ mod board {
         tm: &'static mut Telemetry<UartTx<'static, Async>>,
         commands: zerocopy_channel::Receiver<'static, Cs, Incoming>,
     ) {
-        let samples = SAMPLES.receiver();
-        app_task(
-            app,
-            &EmbassyTime,
-            samples,
+        let links = Links {
+            samples: SAMPLES.receiver(),
             commands,
-            &HEALTH,
-            tm,
-            &mut (),
-            None,
-        )
-        .await;
+            health: &HEALTH,
+            telemetry: tm,
+            observations: &OBSERVATIONS,
+        };
+        app_task(app, &EmbassyTime, links).await;
     }
 
     /// HSI 64 MHz → PLL1 400 MHz core (VOS1), 200 MHz AXI/AHB, 100 MHz APB.
