@@ -16,6 +16,7 @@ pub struct Channel {
 
 /// The estimation model (paper section 7).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Model {
     /// Model G: general field `A = ε{a}² + diag(d)`, 9 linear columns (σ0, Ω′, d); N ≥ 12.
     General,

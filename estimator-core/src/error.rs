@@ -6,6 +6,7 @@ use crate::arrangement::Model;
 
 /// A component of the linear unknowns `x = [σ0; Ω′; d]`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Unknown {
     /// Specific force at the origin, component 0..3.
     Sigma0(u8),
@@ -41,6 +42,7 @@ impl fmt::Display for Unknown {
 
 /// Why the arrangement, mask or command cannot be used.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ConfigError {
     /// More channels than the compile-time capacity.
     TooManyChannels {

@@ -5,6 +5,7 @@ use crate::codec::Put;
 /// Event identifiers (TM[5,x]); the subtype is the severity.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u16)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum EventId {
     /// The unit started: `a` = version (major·2¹⁶ + minor·2⁸ + patch), `b` = channels.
     Boot = 1,

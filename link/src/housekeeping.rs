@@ -7,6 +7,7 @@ use crate::ids::{sid, PART_SLOTS};
 /// State of one part in the housekeeping report.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[repr(u8)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum PartState {
     /// No part configured in this slot.
     #[default]

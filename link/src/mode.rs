@@ -6,6 +6,7 @@ use estimator_core::Model;
 /// Operating mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Mode {
     /// Sampling and housekeeping only; no estimates.
     Standby = 0,
@@ -29,6 +30,7 @@ impl TryFrom<u8> for Mode {
 /// The estimator model's code on the link: 0 general (G), 1 free float (F).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ModelCode {
     /// Model G: general field, N ≥ 12.
     General = 0,

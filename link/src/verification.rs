@@ -5,6 +5,7 @@ use crate::codec::{Get, Put};
 /// Why a telecommand was rejected (the failure code of TM[1,2] / TM[1,8]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u16)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FailureCode {
     /// Shorter than its headers, or than its packet length field says.
     Truncated = 1,

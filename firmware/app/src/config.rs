@@ -111,6 +111,7 @@ pub struct AppConfig {
 
 /// What is wrong with a configuration.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ConfigError {
     /// The sample rate is not a positive finite number up to 10 kHz.
     Rate,

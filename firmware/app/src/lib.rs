@@ -28,6 +28,9 @@
 // `!(x >= y)` rejects NaN along with the out-of-range values: intentional.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+// The logging macros first: the modules below use them.
+mod fmt;
+
 pub mod app;
 pub mod config;
 pub mod drivers;

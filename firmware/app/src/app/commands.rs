@@ -28,6 +28,7 @@ impl App {
                         self.estimation.restart();
                         self.since_motion = 0;
                     }
+                    info!("mode {:?} -> {:?}", old, mode);
                     self.event(t, tm, EventId::ModeChanged, old as u32, mode as u32)
                         .await;
                 }
@@ -84,5 +85,9 @@ impl App {
 
 /// The completion failure of a configuration the estimator refused (it keeps the old one).
 pub(super) fn refused(e: ConfigError) -> (FailureCode, u32) {
+    warn!(
+        "configuration refused by the estimator (the old one stays): {:?}",
+        e
+    );
     (FailureCode::Refused, config_error_code(&e))
 }

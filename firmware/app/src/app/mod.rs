@@ -114,6 +114,14 @@ impl App {
         let [a, b, c] = VERSION;
         let version = (u32::from(a) << 16) | (u32::from(b) << 8) | u32::from(c);
         let channels = self.estimation.channels() as u32;
+        info!(
+            "boot: version {}.{}.{}, {} channels, model {:?}",
+            a,
+            b,
+            c,
+            channels,
+            self.estimation.estimator().model()
+        );
         self.event(t, tm, EventId::Boot, version, channels).await;
         self.send_housekeeping(t, tm).await;
     }
@@ -171,6 +179,10 @@ impl App {
             Ok(a) => a,
             Err(rejected) => {
                 self.tc_rejected = self.tc_rejected.wrapping_add(1);
+                warn!(
+                    "telecommand refused: {:?}, data {}",
+                    rejected.code, rejected.data
+                );
                 return match rejected.request {
                     Some(request) => {
                         let failure = Some((rejected.code, rejected.data));
@@ -206,6 +218,10 @@ impl App {
     async fn frame_rejected<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>, reason: u32) {
         self.frames_garbage = self.frames_garbage.wrapping_add(1);
         let n = self.frames_garbage;
+        warn!(
+            "command-link frame rejected (reason {}), {} since boot",
+            reason, n
+        );
         self.event(t, tm, EventId::FrameRejected, reason, n).await
     }
 }

@@ -103,8 +103,14 @@ impl App {
             if now != PartState::Absent && now != self.parts_seen[i] {
                 self.parts_seen[i] = now;
                 let id = match now {
-                    PartState::Down => EventId::PartDown,
-                    _ => EventId::PartUp,
+                    PartState::Down => {
+                        warn!("part {} is down (no valid reads)", i);
+                        EventId::PartDown
+                    }
+                    _ => {
+                        info!("part {} answers again", i);
+                        EventId::PartUp
+                    }
                 };
                 self.event(t, tm, id, i as u32, 0).await;
             }
@@ -129,6 +135,17 @@ impl App {
             EventId::PartsIncluded
         };
         let out = self.estimation.excluded_channels();
+        if id == EventId::PartsExcluded {
+            warn!(
+                "parts {:#x} excluded from the solve, channels out {:#x}",
+                motion.excluded, out
+            );
+        } else {
+            info!(
+                "parts included again: excluded {:#x}, channels out {:#x}",
+                motion.excluded, out
+            );
+        }
         self.event(t, tm, id, motion.excluded, out).await;
     }
 
@@ -138,6 +155,10 @@ impl App {
         let lost = (s.skipped, s.dropped);
         if lost != self.lost_seen {
             self.lost_seen = lost;
+            warn!(
+                "sample sets lost since boot: {} instants skipped, {} sets dropped",
+                lost.0, lost.1
+            );
             self.event(t, tm, EventId::SetsLost, lost.0, lost.1).await;
         }
     }

@@ -10,6 +10,7 @@ use crate::config::MAX_PARTS;
 
 /// A snapshot of every counter of the sampler.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Health {
     /// Per part slot (`None`: no part configured).
     pub parts: [Option<PartHealth>; MAX_PARTS],

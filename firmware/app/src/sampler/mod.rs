@@ -44,6 +44,7 @@ pub struct SampleSet {
 
 /// Counters of the sampling loop itself.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LoopHealth {
     /// Sample sets produced.
     pub sets: u32,

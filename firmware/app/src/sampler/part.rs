@@ -37,6 +37,7 @@ enum Driver<SPI, I2C> {
 
 /// Health counters of one part (telemetry).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PartHealth {
     /// Read transactions attempted.
     pub reads: u32,

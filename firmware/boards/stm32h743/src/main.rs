@@ -202,9 +202,12 @@ mod board {
         let (tx, rx) = uart.split();
         let rx = rx.into_ring_buffered(RX_DMA.init([0; 256]));
 
-        let Ok(app) = App::new(&config, Mode::Operate) else {
-            error!("the built-in configuration is invalid");
-            return;
+        let app = match App::new(&config, Mode::Operate) {
+            Ok(app) => app,
+            Err(e) => {
+                error!("the built-in configuration is refused: {:?}", e);
+                return;
+            }
         };
         let app = APP.init(app);
         let tm = TELEMETRY.init(Telemetry::new(tx));

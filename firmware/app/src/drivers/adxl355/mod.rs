@@ -96,6 +96,7 @@ pub struct Config {
 
 /// Errors of the driver.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error<E> {
     /// The bus failed.
     Bus(E),

@@ -124,6 +124,7 @@ pub struct FifoLevel {
 
 /// Errors of the driver.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error<E> {
     /// The bus failed (no acknowledge, timeout, …).
     Bus(E),
