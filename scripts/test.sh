@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets -- -D warnings
 cargo clippy -p qemu-bench --profile flight --target thumbv7em-none-eabihf -- -D warnings
-cargo clippy -p firmware --target thumbv7em-none-eabihf -- -D warnings
+cargo clippy -p ballisto-fw --target thumbv7em-none-eabihf -- -D warnings
 cargo clippy -p board-qemu --profile flight --target thumbv7em-none-eabihf -- -D warnings
 (cd firmware/boards/stm32h743 && cargo clippy --profile flight -- -D warnings)
 if cargo nextest --version >/dev/null 2>&1; then

@@ -88,7 +88,7 @@ pub fn write_estimates<W: Write>(
         writeln!(
             w,
             ",{},{},{},{}",
-            m.k, m.missing_parts, m.excluded_parts, m.excluded_channels
+            m.k, m.missing_parts.0, m.excluded_parts.0, m.excluded_channels.0
         )?;
         rows += 1;
     }
@@ -171,8 +171,8 @@ fn housekeeping_text(h: &Housekeeping) -> String {
         if h.mode == 1 { "operate" } else { "standby" },
         if h.model == 1 { "F" } else { "G" },
         h.channels, h.rate_hz, h.motion_every, h.housekeeping_every, h.sampling.sets,
-        h.sampling.skipped, h.sampling.dropped, h.sampling.sync_errors, h.estimates, h.excluded_parts, h.commanded_out,
-        h.excluded_channels, h.tc_accepted, h.tc_rejected, h.frames_garbage, h.tm_lost
+        h.sampling.skipped, h.sampling.dropped, h.sampling.sync_errors, h.estimates, h.excluded_parts.0, h.commanded_out.0,
+        h.excluded_channels.0, h.tc_accepted, h.tc_rejected, h.frames_garbage, h.tm_lost
     );
     for (i, c) in h.parts.iter().enumerate() {
         let state = match c.state {

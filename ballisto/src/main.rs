@@ -201,8 +201,8 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             align,
         } => {
             let alignment = match align.as_str() {
-                "interpolate" => firmware::config::Alignment::Interpolate,
-                "latest" => firmware::config::Alignment::Latest,
+                "interpolate" => ballisto_fw::config::Alignment::Interpolate,
+                "latest" => ballisto_fw::config::Alignment::Latest,
                 other => {
                     return Err(
                         format!("--align: \"{other}\" is not one of interpolate, latest").into(),

@@ -28,7 +28,7 @@ pub struct SimJob<'a> {
     pub progress: bool,
     /// Run the firmware's tasks instead of the bench reader: its samples and its estimates
     /// (implies the comparison and the plot), with this alignment of free-running parts.
-    pub firmware: Option<firmware::config::Alignment>,
+    pub firmware: Option<ballisto_fw::config::Alignment>,
 }
 
 /// Reads and failures of one part.
@@ -201,7 +201,7 @@ fn record_bench(
 fn record_firmware(
     job: &SimJob,
     loaded: &LoadedArrangement,
-    alignment: firmware::config::Alignment,
+    alignment: ballisto_fw::config::Alignment,
     samples: &mut impl Write,
     truth: &mut impl Write,
 ) -> Result<SimReport, Box<dyn Error>> {
@@ -216,8 +216,8 @@ fn record_firmware(
     let mut row: Vec<Option<f64>> = vec![None; loaded.names.len()];
     let mut flag_counts = [0u64; 16];
     let mut failure: Option<std::io::Error> = None;
-    let mut emit = |set: &firmware::sampler::SampleSet,
-                    m: &firmware::estimation::Motion,
+    let mut emit = |set: &ballisto_fw::sampler::SampleSet,
+                    m: &ballisto_fw::estimation::SetEstimate,
                     tr: &hal_sim::motion::Truth| {
         let t = SimTime::seconds(set.t);
         row.iter_mut().for_each(|v| *v = None);

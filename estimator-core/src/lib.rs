@@ -43,6 +43,10 @@ pub mod internals;
 pub(crate) use internals::{design, quadratic, svd, tracker};
 
 pub use arrangement::{Arrangement, Channel, ChannelMask, Model};
+
+/// Standard gravity, m/s² (the unit of the parts' ranges and of "g"); the one definition the
+/// workspace uses.
+pub const G0: f64 = 9.806_65;
 pub use error::{ConfigError, Unknown};
 pub use estimate::{Estimate, Flags};
 pub use estimator::{Estimator, Options};

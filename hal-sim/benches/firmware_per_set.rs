@@ -2,8 +2,8 @@
 //! ADXL355 of `tetra-orbit` through hal-sim's register models plus the estimation task, per
 //! sample set; and the estimation alone (`Estimation::process`, f32, N = 12).
 
+use ballisto_fw::config::Alignment;
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use firmware::config::Alignment;
 use hal_sim::firmware_host::{firmware_config, run_firmware};
 use hal_sim::scenario::Scenario;
 
@@ -23,13 +23,13 @@ fn bench(c: &mut Criterion) {
     run_firmware(&sc, &config, SETS, &mut |s, _, _| sets.push(*s)).expect("run");
     let mut group = c.benchmark_group("firmware");
     group.bench_function("estimation_per_set_tetra_f32", |b| {
-        let mut est = firmware::estimation::Estimation::new(&config).expect("estimator");
+        let mut est = ballisto_fw::estimation::Estimation::new(&config).expect("estimator");
         let mut i = 0usize;
         b.iter(|| {
             let m = est.process(black_box(&sets[i % sets.len()]));
             i += 1;
             if i.is_multiple_of(sets.len()) {
-                est = firmware::estimation::Estimation::new(&config).expect("estimator");
+                est = ballisto_fw::estimation::Estimation::new(&config).expect("estimator");
             }
             black_box(m.estimate.omega)
         })

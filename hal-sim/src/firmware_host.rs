@@ -11,25 +11,25 @@
 
 use std::convert::Infallible;
 
+use ballisto_fw::app::{
+    app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
+};
+use ballisto_fw::config::{
+    Alignment, AppConfig, PartConfig, PartKind, SamplingConfig, MAX_CHANNELS, MAX_PARTS,
+};
+use ballisto_fw::drivers::{adxl355, lis3dh};
+use ballisto_fw::estimation::SetEstimate;
+use ballisto_fw::sampler::{
+    sampling_task, HealthBoard, LoopHealth, PartBus, PartHealth, SampleSet, Sampler,
+};
+use ballisto_fw::telemetry::Telemetry;
+use ballisto_fw::time::{Nanos, TimeBase};
 use embassy_futures::select::select;
 use embassy_futures::yield_now;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::zerocopy_channel::Channel as ZeroCopyChannel;
 use embedded_hal::digital::{ErrorType, OutputPin};
-use firmware::app::{
-    app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
-};
-use firmware::config::{
-    Alignment, AppConfig, PartConfig, PartKind, SamplingConfig, MAX_CHANNELS, MAX_PARTS,
-};
-use firmware::drivers::{adxl355, lis3dh};
-use firmware::estimation::Motion;
-use firmware::sampler::{
-    sampling_task, HealthBoard, LoopHealth, PartBus, PartHealth, SampleSet, Sampler,
-};
-use firmware::telemetry::Telemetry;
-use firmware::time::{Nanos, TimeBase};
 
 use crate::arrangement_file::LoadedArrangement;
 use crate::bus::i2c::SimI2cBus;
@@ -179,7 +179,7 @@ pub struct FirmwareReport {
 
 /// What the host gets per sample set: the set, the estimate made from it, and the truth at
 /// its instant.
-pub type Emit<'a> = &'a mut dyn FnMut(&SampleSet, &Motion, &Truth);
+pub type Emit<'a> = &'a mut dyn FnMut(&SampleSet, &SetEstimate, &Truth);
 
 /// Telecommands for a run: at each time (scenario seconds) the bytes that arrive on the
 /// command link (normally COBS frames).
@@ -303,7 +303,7 @@ pub fn run_firmware_with(
         App::new(config, Mode::Operate).map_err(|e| format!("firmware estimator: {e}"))?;
     let mut time = SimTime(rig.clock.clone());
     let app_time = SimTime(rig.clock.clone());
-    let queue = Channel::<NoopRawMutex, SampleSet, { firmware::QUEUE }>::new();
+    let queue = Channel::<NoopRawMutex, SampleSet, { ballisto_fw::QUEUE }>::new();
     let mut slots: [Incoming; COMMAND_QUEUE] = Default::default();
     let mut commands = ZeroCopyChannel::<NoopRawMutex, Incoming>::new(&mut slots);
     let (command_tx, command_rx) = commands.split();

@@ -7,7 +7,7 @@ use hal_sim::motion::Truth;
 use hal_sim::recorder::Recorder;
 use hal_sim::scenario::{PartSpec, Scenario};
 
-const G0: f64 = 9.80665;
+use hal_sim::sensors::errors::G0;
 
 /// eq. (4) for the three axes of a part.
 fn ideal(tr: &Truth, p: &PartSpec) -> [f64; 3] {

@@ -3,6 +3,7 @@
 
 use crate::codec::{Get, Put};
 use crate::ids::{sid, PART_SLOTS};
+use crate::masks::{ChannelSet, PartSet};
 
 /// State of one part in the housekeeping report.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -84,12 +85,12 @@ pub struct Housekeeping {
     pub sampling: LoopCounters,
     /// Estimates computed.
     pub estimates: u32,
-    /// Parts excluded automatically (bit per part).
-    pub excluded_parts: u8,
-    /// Channels excluded by command (bit per channel).
-    pub commanded_out: u32,
-    /// Channels not in the solve, commanded or automatic (bit per channel).
-    pub excluded_channels: u32,
+    /// Parts excluded automatically.
+    pub excluded_parts: PartSet,
+    /// Channels excluded by command.
+    pub commanded_out: ChannelSet,
+    /// Channels not in the solve, commanded or automatic.
+    pub excluded_channels: ChannelSet,
     /// Telecommands accepted (their execution may still fail: TM[1,8]).
     pub tc_accepted: u32,
     /// Telecommands refused at acceptance (TM[1,2] sent, or a frame too short to answer).
@@ -122,9 +123,9 @@ impl Housekeeping {
             .u32(self.sampling.dropped)
             .u32(self.sampling.sync_errors)
             .u32(self.estimates)
-            .u8(self.excluded_parts)
-            .u32(self.commanded_out)
-            .u32(self.excluded_channels)
+            .u8(self.excluded_parts.0)
+            .u32(self.commanded_out.0)
+            .u32(self.excluded_channels.0)
             .u32(self.tc_accepted)
             .u32(self.tc_rejected)
             .u32(self.frames_garbage)
@@ -159,9 +160,9 @@ impl Housekeeping {
                 sync_errors: g.u32()?,
             },
             estimates: g.u32()?,
-            excluded_parts: g.u8()?,
-            commanded_out: g.u32()?,
-            excluded_channels: g.u32()?,
+            excluded_parts: PartSet(g.u8()?),
+            commanded_out: ChannelSet(g.u32()?),
+            excluded_channels: ChannelSet(g.u32()?),
             tc_accepted: g.u32()?,
             tc_rejected: g.u32()?,
             frames_garbage: g.u32()?,

@@ -7,7 +7,7 @@
 //! these layouts.
 //!
 //! - [`ids`]: APID, services, subtypes, structure IDs, packet and layout capacities.
-//! - [`mode`]: the mode and model codes.
+//! - [`mode`]: the mode and model codes; [`masks`]: sets of part slots and of channels.
 //! - [`cuc`]: the time field (CUC 4+3, epoch = boot).
 //! - [`codec`]: big-endian field writer and reader.
 //! - One module per report: [`motion`], [`housekeeping`], [`event`], [`verification`].
@@ -30,6 +30,7 @@ pub mod event;
 pub mod framing;
 pub mod housekeeping;
 pub mod ids;
+pub mod masks;
 pub mod mode;
 pub mod motion;
 pub mod telecommand;
@@ -39,6 +40,7 @@ pub mod verification;
 pub use event::{Event, EventId};
 pub use housekeeping::{Housekeeping, LoopCounters, PartCounters, PartState};
 pub use ids::{service, sid, subtype, APID};
+pub use masks::{ChannelSet, PartSet};
 pub use mode::{Mode, ModelCode};
 pub use motion::MotionReport;
 pub use verification::{FailureCode, RequestId, Verification};

@@ -5,6 +5,7 @@ use estimator_core::{Estimate, Flags};
 
 use crate::codec::{Get, Put};
 use crate::ids::sid;
+use crate::masks::{ChannelSet, PartSet};
 
 /// The motion report (TM[3,25], SID 1): one estimate and what it was computed from.
 #[derive(Clone, Copy, Debug)]
@@ -13,12 +14,12 @@ pub struct MotionReport {
     pub k: u32,
     /// The estimate (every field the estimates file has).
     pub estimate: Estimate<f32>,
-    /// Parts without a value in this set (bit per part).
-    pub missing_parts: u8,
-    /// Parts excluded automatically (bit per part).
-    pub excluded_parts: u8,
-    /// Channels not in the solve, commanded or automatic (bit per channel).
-    pub excluded_channels: u32,
+    /// Parts without a value in this set.
+    pub missing_parts: PartSet,
+    /// Parts excluded automatically.
+    pub excluded_parts: PartSet,
+    /// Channels not in the solve, commanded or automatic.
+    pub excluded_channels: ChannelSet,
 }
 
 /// Application data length of the motion report.
@@ -45,9 +46,9 @@ impl MotionReport {
             .f32s(&e.sd_domega)
             .f32s(&e.sd_omega)
             .f32s(&e.sd_field.0)
-            .u8(self.missing_parts)
-            .u8(self.excluded_parts)
-            .u32(self.excluded_channels);
+            .u8(self.missing_parts.0)
+            .u8(self.excluded_parts.0)
+            .u32(self.excluded_channels.0);
         p.finish()
     }
 
@@ -74,9 +75,9 @@ impl MotionReport {
         Some(MotionReport {
             k: 0,
             estimate: e,
-            missing_parts: g.u8()?,
-            excluded_parts: g.u8()?,
-            excluded_channels: g.u32()?,
+            missing_parts: PartSet(g.u8()?),
+            excluded_parts: PartSet(g.u8()?),
+            excluded_channels: ChannelSet(g.u32()?),
         })
     }
 }

@@ -23,9 +23,9 @@ fn layouts_have_their_documented_lengths() {
     let m = MotionReport {
         k: 1,
         estimate: Estimate::default(),
-        missing_parts: 0,
-        excluded_parts: 0,
-        excluded_channels: 0,
+        missing_parts: ballisto_link::PartSet(0),
+        excluded_parts: ballisto_link::PartSet(0),
+        excluded_channels: ballisto_link::ChannelSet(0),
     };
     assert_eq!(m.encode(&mut buf), Some(MOTION_LEN));
     let e = Event {

@@ -6,6 +6,14 @@ use std::cell::Cell;
 use std::rc::Rc;
 
 use ballisto::decode::{decode_stream, Stream};
+use ballisto_fw::app::{
+    app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
+};
+use ballisto_fw::demo::{self, ScriptedUplink, SETS};
+use ballisto_fw::sampler::synthetic::{motion, synthetic_task, Synthetic};
+use ballisto_fw::sampler::{HealthBoard, SampleSet};
+use ballisto_fw::telemetry::Telemetry;
+use ballisto_fw::time::{Nanos, TimeBase};
 use ballisto_link::decode::Report;
 use ballisto_link::{EventId, FailureCode, MotionReport};
 use embassy_futures::join::join;
@@ -13,14 +21,6 @@ use embassy_futures::select::select;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::zerocopy_channel::Channel as ZeroCopyChannel;
-use firmware::app::{
-    app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
-};
-use firmware::sampler::synthetic::{motion, synthetic_task, Synthetic};
-use firmware::sampler::{HealthBoard, SampleSet};
-use firmware::scenario::{self, ScriptedUplink, SETS};
-use firmware::telemetry::Telemetry;
-use firmware::time::{Nanos, TimeBase};
 use hal_sim::firmware_host::Downlink;
 
 /// Time that jumps to each instant waited for.
@@ -40,13 +40,13 @@ impl TimeBase for StepTime {
 
 /// The built-in scenario on the host, booting at 0 with the first instant one period later.
 fn host_run() -> Vec<u8> {
-    let config = scenario::config();
+    let config = demo::config();
     let mut app = App::new(&config, Mode::Operate).unwrap();
-    let mut source = Synthetic::new(&config, Some(scenario::OUTAGE));
+    let mut source = Synthetic::new(&config, Some(demo::OUTAGE));
     let mut time = StepTime(Rc::new(Cell::new(0)));
     let app_time = time.clone();
     let t0 = source.period();
-    let samples = Channel::<NoopRawMutex, SampleSet, { firmware::QUEUE }>::new();
+    let samples = Channel::<NoopRawMutex, SampleSet, { ballisto_fw::QUEUE }>::new();
     let mut slots: [Incoming; COMMAND_QUEUE] = Default::default();
     let mut commands = ZeroCopyChannel::<NoopRawMutex, Incoming>::new(&mut slots);
     let (tx, rx) = commands.split();

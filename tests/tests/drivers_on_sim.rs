@@ -1,9 +1,9 @@
 //! The firmware's drivers against hal-sim's register models: what they read is what the part
 //! measures, and every bus fault reaches them as a driver error.
 
+use ballisto_fw::drivers::{adxl355, lis3dh};
 use embedded_hal::i2c::{Error as _, ErrorKind as I2cKind, NoAcknowledgeSource};
 use embedded_hal::spi::{Error as _, ErrorKind as SpiKind};
-use firmware::drivers::{adxl355, lis3dh};
 use futures::executor::block_on;
 use hal_sim::bus::i2c::SimI2cBus;
 use hal_sim::bus::spi::{SimSpiBus, SimSpiDevice};

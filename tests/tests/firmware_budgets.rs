@@ -2,7 +2,7 @@
 //! the configured clocks, start-up excluded), and the highest sample rate they allow. Prints
 //! the figures; asserts that the sets fit their period at the scenario rates.
 
-use firmware::config::Alignment;
+use ballisto_fw::config::Alignment;
 use hal_sim::firmware_host::{firmware_config, run_firmware};
 use hal_sim::scenario::Scenario;
 

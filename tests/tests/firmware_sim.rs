@@ -2,7 +2,7 @@
 //! free-running parts, and the estimates against the truth and against estimator-core on the
 //! same samples.
 
-use firmware::config::Alignment;
+use ballisto_fw::config::Alignment;
 use hal_sim::firmware_host::{firmware_config, run_firmware};
 use hal_sim::scenario::{PartType, Scenario};
 
@@ -12,8 +12,8 @@ fn lis3dh_sample_error(sc: &Scenario, alignment: Alignment) -> (f64, usize) {
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     let config = firmware_config(sc, &loaded, alignment).unwrap();
     let (mut sum, mut n) = (0.0, 0usize);
-    let mut emit = |set: &firmware::sampler::SampleSet,
-                    _: &firmware::estimation::Motion,
+    let mut emit = |set: &ballisto_fw::sampler::SampleSet,
+                    _: &ballisto_fw::estimation::SetEstimate,
                     tr: &hal_sim::motion::Truth| {
         for (p, v) in sc.parts.iter().zip(set.parts.iter()) {
             if p.part != PartType::Lis3dh || set.k < 100 {
@@ -150,7 +150,7 @@ fn run_text(
     text: &str,
 ) -> (
     hal_sim::firmware_host::FirmwareReport,
-    Vec<firmware::estimation::Motion>,
+    Vec<ballisto_fw::estimation::SetEstimate>,
 ) {
     let sc = Scenario::parse(text, "test").unwrap();
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
@@ -190,12 +190,12 @@ fn a_stalling_bus_skips_instants_and_a_dead_part_is_counted_excluded_and_restart
     // Model G needs all 12 channels: a0 cannot be excluded, those sets are flagged.
     let flagged = out
         .iter()
-        .filter(|m| m.missing & 1 != 0)
+        .filter(|m| m.missing.contains(0))
         .all(|m| m.estimate.flags.has(estimator_core::Flags::INPUT_INVALID));
     assert!(flagged);
     // After the faults the estimate is back to a valid one.
     let last = out.last().unwrap();
-    assert_eq!(last.missing, 0);
+    assert!(last.missing.is_empty());
     assert!(!last
         .estimate
         .flags
@@ -210,17 +210,17 @@ fn a_part_missing_for_several_sets_is_excluded_when_the_rest_suffices() {
         + "\n[[fault]]\npart = \"u0\"\nkind = \"dead\"\nstart = 5.0\nend = 8.0\n";
     let (r, out) = run_text(&text);
     println!("{:?}", r.parts[0]);
-    let excluded: Vec<_> = out.iter().filter(|m| m.excluded & 1 != 0).collect();
+    let excluded: Vec<_> = out.iter().filter(|m| m.excluded.contains(0)).collect();
     assert!(!excluded.is_empty(), "part 0 was never excluded");
     let first = excluded[0].k;
     // The fault starts at set 500; the part is left out at its EXCLUDE_AFTER-th missing set.
-    let expected = 500 + u32::from(firmware::estimation::EXCLUDE_AFTER) - 1;
+    let expected = 500 + u32::from(ballisto_fw::estimation::EXCLUDE_AFTER) - 1;
     assert_eq!(first, expected, "excluded at set {first}");
     // While excluded, estimates are made from the other channels (not predictions).
     for m in excluded.iter().step_by(40) {
         println!(
             "k {} flags {:#x} missing {:#x}",
-            m.k, m.estimate.flags.0, m.missing
+            m.k, m.estimate.flags.0, m.missing.0
         );
     }
     let valid = excluded
@@ -237,7 +237,7 @@ fn a_part_missing_for_several_sets_is_excluded_when_the_rest_suffices() {
         .flags
         .has(estimator_core::Flags::CHANNELS_EXCLUDED)));
     // Included again after the part has been good for a while.
-    assert_eq!(out.last().unwrap().excluded, 0);
+    assert!(out.last().unwrap().excluded.is_empty());
 }
 
 #[test]
@@ -245,7 +245,7 @@ fn the_built_in_tetra_board_is_the_board_tetra_orbit_simulates() {
     let sc = Scenario::load("tetra-orbit").unwrap();
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     let sim = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
-    let board = firmware::config::builtin("tetra").unwrap();
+    let board = ballisto_fw::config::builtin("tetra").unwrap();
     board.validate().unwrap();
     assert_eq!(board.model, sim.model);
     assert_eq!(board.sampling.rate_hz, sim.sampling.rate_hz);

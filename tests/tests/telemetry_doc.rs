@@ -10,7 +10,8 @@ use ballisto_link::event::EVENT_LEN;
 use ballisto_link::housekeeping::HOUSEKEEPING_LEN;
 use ballisto_link::motion::MOTION_LEN;
 use ballisto_link::{
-    Housekeeping, LoopCounters, MotionReport, PartCounters, PartState, RequestId, Verification,
+    ChannelSet, Housekeeping, LoopCounters, MotionReport, PartCounters, PartSet, PartState,
+    RequestId, Verification,
 };
 use estimator_core::linalg::Sym3;
 use estimator_core::{Estimate, Flags};
@@ -166,9 +167,9 @@ fn motion_report_table_matches_the_encoder() {
     let report = MotionReport {
         k: 123_456,
         estimate,
-        missing_parts: 0x05,
-        excluded_parts: 0x02,
-        excluded_channels: 0x0F00,
+        missing_parts: PartSet(0x05),
+        excluded_parts: PartSet(0x02),
+        excluded_channels: ChannelSet(0x0F00),
     };
     let mut data = [0u8; MOTION_LEN];
     assert_eq!(report.encode(&mut data), Some(MOTION_LEN));
@@ -231,9 +232,9 @@ fn housekeeping_table_matches_the_encoder() {
             sync_errors: 6,
         },
         estimates: 999,
-        excluded_parts: 0x08,
-        commanded_out: 0x800,
-        excluded_channels: 0xE00,
+        excluded_parts: PartSet(0x08),
+        commanded_out: ChannelSet(0x800),
+        excluded_channels: ChannelSet(0xE00),
         tc_accepted: 7,
         tc_rejected: 8,
         frames_garbage: 9,

@@ -112,7 +112,7 @@ pub struct AppConfig {
 /// What is wrong with a configuration.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ConfigError {
+pub enum AppConfigError {
     /// The sample rate is not a positive finite number up to 10 kHz.
     Rate,
     /// No part is configured.
@@ -146,25 +146,25 @@ pub enum ConfigError {
     },
 }
 
-impl core::fmt::Display for ConfigError {
+impl core::fmt::Display for AppConfigError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
-            ConfigError::Rate => write!(f, "sample rate must be in (0, 10 000] Hz"),
-            ConfigError::NoParts => write!(f, "no part configured"),
-            ConfigError::ChannelOutOfRange { part, channel } => write!(
+            AppConfigError::Rate => write!(f, "sample rate must be in (0, 10 000] Hz"),
+            AppConfigError::NoParts => write!(f, "no part configured"),
+            AppConfigError::ChannelOutOfRange { part, channel } => write!(
                 f,
                 "part {part}: channel {channel} is beyond the arrangement"
             ),
-            ConfigError::ChannelTwice { channel } => {
+            AppConfigError::ChannelTwice { channel } => {
                 write!(f, "channel {channel} is fed by two part axes")
             }
-            ConfigError::ChannelUnfed { channel } => {
+            AppConfigError::ChannelUnfed { channel } => {
                 write!(f, "channel {channel} is fed by no part axis")
             }
-            ConfigError::OdrBelowRate { part } => {
+            AppConfigError::OdrBelowRate { part } => {
                 write!(f, "part {part}: output data rate below the sample rate")
             }
-            ConfigError::FifoTooSmall { part } => write!(
+            AppConfigError::FifoTooSmall { part } => write!(
                 f,
                 "part {part}: its FIFO would overflow between two sample sets (lower the ODR)"
             ),
@@ -177,10 +177,10 @@ const FIFO_SETS: f32 = 31.0;
 
 impl AppConfig {
     /// Checks that the parts feed every channel exactly once and can be sampled at the rate.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    pub fn validate(&self) -> Result<(), AppConfigError> {
         let s = &self.sampling;
         if !(s.rate_hz > 0.0 && s.rate_hz <= 10_000.0) {
-            return Err(ConfigError::Rate);
+            return Err(AppConfigError::Rate);
         }
         let n = self.arrangement.len();
         let mut fed = [false; MAX_CHANNELS];
@@ -191,30 +191,30 @@ impl AppConfig {
             for c in p.channels.iter().flatten() {
                 let ci = usize::from(*c);
                 if ci >= n {
-                    return Err(ConfigError::ChannelOutOfRange { part, channel: *c });
+                    return Err(AppConfigError::ChannelOutOfRange { part, channel: *c });
                 }
                 if fed[ci] {
-                    return Err(ConfigError::ChannelTwice { channel: *c });
+                    return Err(AppConfigError::ChannelTwice { channel: *c });
                 }
                 fed[ci] = true;
             }
             if p.kind.free_running() {
                 let odr = p.kind.odr_hz();
                 if odr < s.rate_hz {
-                    return Err(ConfigError::OdrBelowRate { part });
+                    return Err(AppConfigError::OdrBelowRate { part });
                 }
                 // Up to 1.5 periods between reads (a probe late in one period, early in the
                 // next), with margin.
                 if s.alignment == Alignment::Interpolate && odr / s.rate_hz * 1.5 > FIFO_SETS {
-                    return Err(ConfigError::FifoTooSmall { part });
+                    return Err(AppConfigError::FifoTooSmall { part });
                 }
             }
         }
         if !any {
-            return Err(ConfigError::NoParts);
+            return Err(AppConfigError::NoParts);
         }
         if let Some(c) = (0..n).find(|&c| !fed[c]) {
-            return Err(ConfigError::ChannelUnfed { channel: c as u8 });
+            return Err(AppConfigError::ChannelUnfed { channel: c as u8 });
         }
         Ok(())
     }

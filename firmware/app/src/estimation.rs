@@ -9,6 +9,7 @@
 //! ([`Estimation::set_commanded`]); the solve uses every channel neither excluded automatically
 //! nor by command.
 
+use ballisto_link::{ChannelSet, PartSet};
 use estimator_core::{Arrangement, ChannelMask, ConfigError, Estimate, Estimator, Model, Options};
 
 use crate::config::{AppConfig, MAX_CHANNELS, MAX_PARTS};
@@ -20,19 +21,19 @@ pub const EXCLUDE_AFTER: u16 = 5;
 /// Good sets in a row after which an excluded part is included again.
 pub const INCLUDE_AFTER: u16 = 100;
 
-/// One output of the estimation task.
+/// The estimate of one sample set (what the estimation task outputs per set).
 #[derive(Clone, Copy, Debug)]
-pub struct Motion {
+pub struct SetEstimate {
     /// Sample set index.
     pub k: u32,
     /// Sample instant.
     pub t: Nanos,
     /// The estimate.
     pub estimate: Estimate<f32>,
-    /// Parts without a value in this set (bit per part).
-    pub missing: u32,
-    /// Parts excluded from the estimate (bit per part).
-    pub excluded: u32,
+    /// Parts without a value in this set.
+    pub missing: PartSet,
+    /// Parts excluded from the estimate.
+    pub excluded: PartSet,
 }
 
 /// The estimator and the channel bookkeeping.
@@ -43,8 +44,8 @@ pub struct Estimation {
     p: [f32; MAX_CHANNELS],
     missing_run: [u16; MAX_PARTS],
     good_run: [u16; MAX_PARTS],
-    excluded: u32,
-    commanded: u32,
+    excluded: PartSet,
+    commanded: ChannelSet,
     options: Options,
     last_omega: Option<[f64; 3]>,
 }
@@ -68,8 +69,8 @@ impl Estimation {
             p: [f32::NAN; MAX_CHANNELS],
             missing_run: [0; MAX_PARTS],
             good_run: [0; MAX_PARTS],
-            excluded: 0,
-            commanded: 0,
+            excluded: PartSet::EMPTY,
+            commanded: ChannelSet::EMPTY,
             options,
             last_omega: None,
         })
@@ -80,25 +81,24 @@ impl Estimation {
         self.n
     }
 
-    /// Channels out of the solve, automatically or by command (bit per channel).
-    pub fn excluded_channels(&self) -> u32 {
-        (!self.estimator.mask().0 & ChannelMask::all(self.n).0) as u32
+    /// Channels out of the solve, automatically or by command.
+    pub fn excluded_channels(&self) -> ChannelSet {
+        ChannelSet((!self.estimator.mask().0 & ChannelMask::all(self.n).0) as u32)
     }
 
-    /// Channels out by command (bit per channel).
-    pub fn commanded(&self) -> u32 {
+    /// Channels out by command.
+    pub fn commanded(&self) -> ChannelSet {
         self.commanded
     }
 
-    /// Parts out automatically (bit per part).
-    pub fn excluded_parts(&self) -> u32 {
+    /// Parts out automatically.
+    pub fn excluded_parts(&self) -> PartSet {
         self.excluded
     }
 
-    /// Takes the channels of `commanded` (bit per channel) out of the solve and puts the
-    /// others back. On error (too few channels left, or a degenerate geometry) nothing
-    /// changes.
-    pub fn set_commanded(&mut self, commanded: u32) -> Result<(), ConfigError> {
+    /// Takes the channels of `commanded` out of the solve and puts the others back. On error
+    /// (too few channels left, or a degenerate geometry) nothing changes.
+    pub fn set_commanded(&mut self, commanded: ChannelSet) -> Result<(), ConfigError> {
         let mask = self.mask(self.excluded, commanded);
         self.estimator.set_mask(mask)?;
         self.commanded = commanded;
@@ -137,17 +137,16 @@ impl Estimation {
         let _ = self.estimator.set_hint(self.last_omega);
     }
 
-    /// The solve's channel mask with `parts` (bit per part) and `commanded` (bit per channel)
-    /// out.
-    fn mask(&self, parts: u32, commanded: u32) -> ChannelMask {
+    /// The solve's channel mask with `parts` and `commanded` out.
+    fn mask(&self, parts: PartSet, commanded: ChannelSet) -> ChannelMask {
         let mut mask = ChannelMask::all(self.n);
         for c in 0..self.n {
-            if commanded & (1 << c) != 0 {
+            if commanded.contains(c) {
                 mask = mask.without(c);
             }
         }
         for (i, chans) in self.channels.iter().enumerate() {
-            if parts & (1 << i) != 0 {
+            if parts.contains(i) {
                 for c in chans.iter().flatten() {
                     mask = mask.without(usize::from(*c));
                 }
@@ -162,8 +161,8 @@ impl Estimation {
     }
 
     /// One sample set.
-    pub fn process(&mut self, set: &SampleSet) -> Motion {
-        let mut missing = 0u32;
+    pub fn process(&mut self, set: &SampleSet) -> SetEstimate {
+        let mut missing = PartSet::EMPTY;
         self.p[..self.n].fill(f32::NAN);
         for (i, (value, chans)) in set.parts.iter().zip(self.channels.iter()).enumerate() {
             match value {
@@ -177,7 +176,7 @@ impl Estimation {
                     self.good_run[i] = self.good_run[i].saturating_add(1);
                 }
                 None if chans.iter().any(Option::is_some) => {
-                    missing |= 1 << i;
+                    missing = missing.with(i);
                     self.good_run[i] = 0;
                     self.missing_run[i] = self.missing_run[i].saturating_add(1);
                 }
@@ -189,7 +188,7 @@ impl Estimation {
         if estimate.is_finite() && !estimate.flags.has(estimator_core::Flags::INPUT_INVALID) {
             self.last_omega = Some(estimate.omega.map(f64::from));
         }
-        Motion {
+        SetEstimate {
             k: set.k,
             t: set.t,
             estimate,
@@ -203,9 +202,9 @@ impl Estimation {
         let mut wanted = self.excluded;
         for i in 0..MAX_PARTS {
             if self.missing_run[i] >= EXCLUDE_AFTER {
-                wanted |= 1 << i;
+                wanted = wanted.with(i);
             } else if self.good_run[i] >= INCLUDE_AFTER {
-                wanted &= !(1 << i);
+                wanted = wanted.without(i);
             }
         }
         if wanted == self.excluded {
@@ -244,14 +243,14 @@ mod tests {
         cfg.model = Model::FreeFloat;
         let mut e = Estimation::new(&cfg).unwrap();
         for k in 0..5 {
-            assert_eq!(e.process(&set(k, true)).excluded, 0);
+            assert_eq!(e.process(&set(k, true)).excluded, PartSet(0));
         }
         let gap = 5 + u32::from(EXCLUDE_AFTER);
         for k in 5..gap {
             let m = e.process(&set(k, false));
-            assert_eq!(m.missing, 1);
+            assert_eq!(m.missing, PartSet(1));
             let excluded = k + 1 == gap;
-            assert_eq!(m.excluded, u32::from(excluded), "set {k}");
+            assert_eq!(m.excluded, PartSet(u8::from(excluded)), "set {k}");
             // Missing before the exclusion: the flagged prediction; after: an estimate.
             assert_eq!(m.estimate.flags.has(Flags::INPUT_INVALID), !excluded);
             assert_eq!(m.estimate.flags.has(Flags::CHANNELS_EXCLUDED), excluded);
@@ -259,7 +258,7 @@ mod tests {
         let back = gap + u32::from(INCLUDE_AFTER);
         for k in gap..back {
             let m = e.process(&set(k, true));
-            assert_eq!(m.excluded, u32::from(k + 1 < back), "set {k}");
+            assert_eq!(m.excluded, PartSet(u8::from(k + 1 < back)), "set {k}");
         }
         assert_eq!(e.estimator().mask(), ChannelMask::all(12));
     }
@@ -269,7 +268,7 @@ mod tests {
         let mut e = Estimation::new(&tetra()).unwrap();
         for k in 0..20 {
             let m = e.process(&set(k, k < 5));
-            assert_eq!(m.excluded, 0);
+            assert_eq!(m.excluded, PartSet(0));
             assert_eq!(m.estimate.flags.has(Flags::INPUT_INVALID), k >= 5);
             assert!(m.estimate.is_finite());
         }

@@ -1,4 +1,4 @@
-//! # firmware
+//! # ballisto-fw
 //!
 //! The ballistometer application, independent of the board: generic over the embedded-hal
 //! (async) traits, embedded-io-async for the spacecraft link, and one small trait of its own,
@@ -16,7 +16,7 @@
 //!   is `ballisto_link::telecommand`.
 //! - [`config`] — what runs: parts, channels, rate, arrangement, model (built-in table or
 //!   command); [`time`] — the time base.
-//! - Feature `demo` (not in the flight image): `scenario` — the built-in scenario of boards
+//! - Feature `demo` (not in the flight image): `demo` — the built-in scenario of boards
 //!   without parts (sample sets from `sampler::synthetic`, a scripted uplink), run by the QEMU
 //!   board and checked on the host.
 //!
@@ -33,11 +33,11 @@ mod fmt;
 
 pub mod app;
 pub mod config;
+#[cfg(feature = "demo")]
+pub mod demo;
 pub mod drivers;
 pub mod estimation;
 pub mod sampler;
-#[cfg(feature = "demo")]
-pub mod scenario;
 pub mod telemetry;
 pub mod time;
 

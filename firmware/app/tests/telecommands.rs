@@ -5,16 +5,16 @@
 use std::convert::Infallible;
 
 use arbitrary_int::{u11, u14};
+use ballisto_fw::app::{App, Incoming, Mode};
+use ballisto_fw::config::{tetra, AppConfig, MAX_PARTS};
+use ballisto_fw::sampler::{Health, HealthBoard, SampleSet};
+use ballisto_fw::telemetry::Telemetry;
 use ballisto_link::decode::{decode, Decoded, Report};
 use ballisto_link::framing::{Deframed, Deframer};
 use ballisto_link::telecommand::{fuzz_one, CHANNEL_LEN};
-use ballisto_link::{service, subtype, EventId, FailureCode, APID};
+use ballisto_link::{service, subtype, ChannelSet, EventId, FailureCode, APID};
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use estimator_core::Model;
-use firmware::app::{App, Incoming, Mode};
-use firmware::config::{tetra, AppConfig, MAX_PARTS};
-use firmware::sampler::{Health, HealthBoard, SampleSet};
-use firmware::telemetry::Telemetry;
 use futures::executor::block_on;
 use spacepackets::ecss::tc::{AckFlags, PusTcCreator, PusTcSecondaryHeader};
 use spacepackets::ecss::{CreatorConfig, MessageTypeId};
@@ -100,7 +100,7 @@ fn set(cfg: &AppConfig, k: u32) -> SampleSet {
 fn health(cfg: &AppConfig) -> Health {
     let mut h = Health::default();
     for (i, _) in cfg.sampling.parts() {
-        h.parts[i] = Some(firmware::sampler::PartHealth {
+        h.parts[i] = Some(ballisto_fw::sampler::PartHealth {
             running: true,
             ..Default::default()
         });
@@ -236,10 +236,10 @@ fn every_command_is_verified_and_takes_effect() {
 
     let r = u.command(&tc(b, subtype::EXCLUDE, &[3], 1));
     ok(&r);
-    assert_eq!(u.app.estimation().excluded_channels(), 1 << 3);
+    assert_eq!(u.app.estimation().excluded_channels(), ChannelSet(1 << 3));
     let r = u.command(&tc(b, subtype::INCLUDE, &[3], 2));
     ok(&r);
-    assert_eq!(u.app.estimation().excluded_channels(), 0);
+    assert_eq!(u.app.estimation().excluded_channels(), ChannelSet(0));
 
     let r = u.command(&tc(b, subtype::SET_MODE, &[0], 3));
     ok(&r);
@@ -504,7 +504,7 @@ fn malformed_commands_are_refused_with_their_reason_and_change_nothing() {
         (st, failure.map(|f| (f.0, f.1 >> 16))),
         (subtype::NOT_COMPLETED, Some((FailureCode::Refused, 6)))
     );
-    assert_eq!(u.app.estimation().excluded_channels(), 0b111);
+    assert_eq!(u.app.estimation().excluded_channels(), ChannelSet(0b111));
     for (c, seq) in [(0u8, 44u16), (1, 45), (2, 46)] {
         u.command(&tc(service::BALLISTOMETER, subtype::INCLUDE, &[c], seq));
     }

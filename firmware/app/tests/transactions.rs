@@ -1,9 +1,9 @@
 //! The drivers' bus traffic, byte for byte, against mock buses: start-up (reset,
 //! identification, configuration) and data reads, and the errors they return.
 
+use ballisto_fw::drivers::{adxl355, lis3dh, G0};
 use embedded_hal_mock::eh1::i2c::{Mock as I2cMock, Transaction as I2cT};
 use embedded_hal_mock::eh1::spi::{Mock as SpiMock, Transaction as SpiT};
-use firmware::drivers::{adxl355, lis3dh, G0};
 use futures::executor::block_on;
 
 /// One SPI transaction: a write of `w`, then (if any) a read of `r`.

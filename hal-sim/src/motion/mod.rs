@@ -8,8 +8,8 @@ pub use propagator::Propagator;
 
 use estimator_core::linalg::{cross, mat_t_vec, mat_vec, Mat3, Sym3, Vec3};
 
-/// Standard gravity, m/s².
-pub const G0: f64 = 9.80665;
+/// Standard gravity, m/s² (estimator-core's).
+pub use estimator_core::G0;
 /// Earth's gravitational parameter, m³/s².
 pub const MU_EARTH: f64 = 3.986_004_418e14;
 /// Earth's mean radius, m.

@@ -4,8 +4,8 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::noise::gaussian;
 
-/// Standard gravity (m/s²), the unit of the parts' sensitivities.
-pub const G0: f64 = 9.806_65;
+/// Standard gravity, m/s² (estimator-core's).
+pub use estimator_core::G0;
 
 /// Errors of one part: `out = S (C f) + b + n`, sampled at its own clock.
 #[derive(Clone, Debug)]

@@ -46,10 +46,10 @@ impl App {
                     .map_err(|_| (FailureCode::NotFinite, 0))?;
             }
             Command::Exclude(c) | Command::Include(c) => {
-                let bit = 1u32 << c;
+                let now = self.estimation.commanded();
                 let commanded = match command {
-                    Command::Exclude(_) => self.estimation.commanded() | bit,
-                    _ => self.estimation.commanded() & !bit,
+                    Command::Exclude(_) => now.with(usize::from(c)),
+                    _ => now.without(usize::from(c)),
                 };
                 self.estimation.set_commanded(commanded).map_err(refused)?;
             }

@@ -2,14 +2,14 @@
 //! mapped into the link's reports (`ballisto_link` imports nothing from the application).
 
 use ballisto_link::{
-    service, subtype, Event, EventId, FailureCode, Housekeeping, LoopCounters, ModelCode,
-    MotionReport, PartCounters, PartState, RequestId, Verification,
+    service, subtype, ChannelSet, Event, EventId, FailureCode, Housekeeping, LoopCounters,
+    ModelCode, MotionReport, PartCounters, PartSet, PartState, RequestId, Verification,
 };
 use embedded_io_async::Write;
 
 use super::{App, VERSION};
 use crate::config::MAX_PARTS;
-use crate::estimation::Motion;
+use crate::estimation::SetEstimate;
 use crate::sampler::{LoopHealth, PartHealth};
 use crate::telemetry::Telemetry;
 use crate::time::Nanos;
@@ -27,7 +27,7 @@ impl App {
             housekeeping_every: self.housekeeping_every,
             sampling: loop_counters(&self.health.sampling),
             estimates: self.estimates,
-            excluded_parts: self.estimation.excluded_parts() as u8,
+            excluded_parts: self.estimation.excluded_parts(),
             commanded_out: self.estimation.commanded(),
             excluded_channels: self.estimation.excluded_channels(),
             tc_accepted: self.tc_accepted,
@@ -46,7 +46,7 @@ impl App {
         tm.transmit(framed).await;
     }
 
-    pub(super) async fn send_motion<W: Write>(&self, tm: &mut Telemetry<W>, motion: &Motion) {
+    pub(super) async fn send_motion<W: Write>(&self, tm: &mut Telemetry<W>, motion: &SetEstimate) {
         let excluded = self.estimation.excluded_channels();
         let framed = tm.stage(motion.t, service::HOUSEKEEPING, subtype::HK_REPORT, |buf| {
             motion_report(motion, excluded).encode(buf)
@@ -123,13 +123,13 @@ impl App {
         &self,
         t: Nanos,
         tm: &mut Telemetry<W>,
-        before: u32,
-        motion: &Motion,
+        before: PartSet,
+        motion: &SetEstimate,
     ) {
         if motion.excluded == before {
             return;
         }
-        let id = if motion.excluded & !before != 0 {
+        let id = if !motion.excluded.minus(before).is_empty() {
             EventId::PartsExcluded
         } else {
             EventId::PartsIncluded
@@ -138,15 +138,16 @@ impl App {
         if id == EventId::PartsExcluded {
             warn!(
                 "parts {:#x} excluded from the solve, channels out {:#x}",
-                motion.excluded, out
+                motion.excluded.0, out.0
             );
         } else {
             info!(
                 "parts included again: excluded {:#x}, channels out {:#x}",
-                motion.excluded, out
+                motion.excluded.0, out.0
             );
         }
-        self.event(t, tm, id, motion.excluded, out).await;
+        let (parts, channels) = (u32::from(motion.excluded.0), out.0);
+        self.event(t, tm, id, parts, channels).await;
     }
 
     /// Instants skipped or sets dropped since the last housekeeping report.
@@ -198,12 +199,12 @@ fn loop_counters(l: &LoopHealth) -> LoopCounters {
 }
 
 /// The motion report of one output of the estimation.
-pub fn motion_report(motion: &Motion, excluded_channels: u32) -> MotionReport {
+pub fn motion_report(motion: &SetEstimate, excluded_channels: ChannelSet) -> MotionReport {
     MotionReport {
         k: motion.k,
         estimate: motion.estimate,
-        missing_parts: motion.missing as u8,
-        excluded_parts: motion.excluded as u8,
+        missing_parts: motion.missing,
+        excluded_parts: motion.excluded,
         excluded_channels,
     }
 }

@@ -11,7 +11,7 @@ use embassy_sync::zerocopy_channel;
 use embedded_io_async::Write;
 
 use super::{App, Incoming};
-use crate::estimation::Motion;
+use crate::estimation::SetEstimate;
 use crate::sampler::{HealthBoard, LoopHealth, SampleSet};
 use crate::telemetry::Telemetry;
 use crate::time::TimeBase;
@@ -41,7 +41,7 @@ pub struct Observation {
     /// The set.
     pub set: SampleSet,
     /// Its estimate (operate mode).
-    pub motion: Option<Motion>,
+    pub motion: Option<SetEstimate>,
     /// The counters after it.
     pub status: Status,
 }

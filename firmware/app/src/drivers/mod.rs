@@ -11,5 +11,5 @@
 pub mod adxl355;
 pub mod lis3dh;
 
-/// Standard gravity (m/s²): the parts' sensitivities are per g.
-pub const G0: f32 = 9.806_65;
+/// Standard gravity, m/s², in the drivers' scalar (estimator-core's `G0`).
+pub const G0: f32 = estimator_core::G0 as f32;

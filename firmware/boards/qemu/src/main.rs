@@ -6,7 +6,7 @@
 //! - the telemetry link written to `telemetry.bin` in QEMU's working directory through
 //!   semihosting.
 //!
-//! It runs [`firmware::scenario::SETS`] sets, prints a summary and exits with status 0, or 1
+//! It runs [`ballisto_fw::demo::SETS`] sets, prints a summary and exits with status 0, or 1
 //! if telemetry was lost, the file could not be written or nothing was estimated.
 //! `cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf` (the runner,
 //! `.cargo/qemu-runner.sh`, writes into `out/qemu/`).
@@ -16,6 +16,14 @@
 mod board {
     use core::sync::atomic::{AtomicU32, Ordering};
 
+    use ballisto_fw::app::{
+        app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
+    };
+    use ballisto_fw::demo::{self, ScriptedUplink, SETS};
+    use ballisto_fw::sampler::synthetic::{synthetic_task, Synthetic};
+    use ballisto_fw::sampler::{HealthBoard, SampleSet};
+    use ballisto_fw::telemetry::Telemetry;
+    use ballisto_fw::time::{Nanos, TimeBase};
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::SYST;
     use cortex_m_rt::exception;
@@ -25,14 +33,6 @@ mod board {
     use embassy_sync::channel::Channel;
     use embassy_sync::zerocopy_channel::{self, Channel as ZeroCopyChannel};
     use embedded_io_async::{ErrorKind, ErrorType, Write};
-    use firmware::app::{
-        app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
-    };
-    use firmware::sampler::synthetic::{synthetic_task, Synthetic};
-    use firmware::sampler::{HealthBoard, SampleSet};
-    use firmware::scenario::{self, ScriptedUplink, SETS};
-    use firmware::telemetry::Telemetry;
-    use firmware::time::{Nanos, TimeBase};
     use static_cell::StaticCell;
 
     /// SysTick counts the 25 MHz core clock: 40 ns per count.
@@ -103,7 +103,7 @@ mod board {
         }
     }
 
-    static SAMPLES: Channel<Cs, SampleSet, { firmware::QUEUE }> = Channel::new();
+    static SAMPLES: Channel<Cs, SampleSet, { ballisto_fw::QUEUE }> = Channel::new();
     static SLOTS: StaticCell<[Incoming; COMMAND_QUEUE]> = StaticCell::new();
     static COMMANDS: StaticCell<ZeroCopyChannel<'static, Cs, Incoming>> = StaticCell::new();
     static HEALTH: HealthBoard<Cs> = HealthBoard::new();
@@ -191,13 +191,13 @@ mod board {
             hprintln!("board-qemu: cannot create telemetry.bin");
             finish(false)
         };
-        let config = scenario::config();
+        let config = demo::config();
         let Ok(app) = App::new(&config, Mode::Operate) else {
             hprintln!("board-qemu: the built-in configuration is invalid");
             finish(false)
         };
         let app = APP.init(app);
-        let source = SOURCE.init(Synthetic::new(&config, Some(scenario::OUTAGE)));
+        let source = SOURCE.init(Synthetic::new(&config, Some(demo::OUTAGE)));
         let tm = TELEMETRY.init(Telemetry::new(file));
         let t0 = SysTickTime.now() + source.period();
         spawner.spawn(sampling(source, t0).unwrap());

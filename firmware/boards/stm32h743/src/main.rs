@@ -14,6 +14,13 @@
 
 #[cfg(target_os = "none")]
 mod board {
+    use ballisto_fw::app::{
+        app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
+    };
+    use ballisto_fw::config::{builtin, PartKind, MAX_PARTS};
+    use ballisto_fw::sampler::{sampling_task, HealthBoard, PartBus, SampleSet, Sampler};
+    use ballisto_fw::telemetry::Telemetry;
+    use ballisto_fw::time::{Nanos, TimeBase};
     use defmt::{error, info};
     use defmt_rtt as _;
     use embassy_embedded_hal::shared_bus::asynch::{i2c::I2cDevice, spi::SpiDevice};
@@ -31,13 +38,6 @@ mod board {
     use embassy_sync::mutex::Mutex;
     use embassy_sync::zerocopy_channel::{self, Channel as ZeroCopyChannel};
     use embassy_time::{Instant, Timer};
-    use firmware::app::{
-        app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
-    };
-    use firmware::config::{builtin, PartKind, MAX_PARTS};
-    use firmware::sampler::{sampling_task, HealthBoard, PartBus, SampleSet, Sampler};
-    use firmware::telemetry::Telemetry;
-    use firmware::time::{Nanos, TimeBase};
     use panic_probe as _;
     use static_cell::StaticCell;
 
@@ -73,7 +73,7 @@ mod board {
         }
     }
 
-    static SAMPLES: Channel<Cs, SampleSet, { firmware::QUEUE }> = Channel::new();
+    static SAMPLES: Channel<Cs, SampleSet, { ballisto_fw::QUEUE }> = Channel::new();
     static HEALTH: HealthBoard<Cs> = HealthBoard::new();
     static SPI1: StaticCell<Mutex<Cs, SpiBus>> = StaticCell::new();
     static I2C1: StaticCell<Mutex<Cs, I2cBus>> = StaticCell::new();
