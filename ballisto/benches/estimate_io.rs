@@ -10,8 +10,7 @@ use std::time::Instant;
 use ballisto::estimate::{estimate_files, EstimateJob, Precision};
 use estimator_core::Options;
 use hal_sim::ideal::simulate_outputs;
-use hal_sim::motion::{Environment, Motion, Rotation, Torque};
-use test_fixtures::families;
+use test_fixtures::{families, motions};
 
 fn main() {
     let rows: usize = std::env::var("ESTIMATE_IO_ROWS")
@@ -25,18 +24,7 @@ fn main() {
     let loaded = file.load("arrangement.toml").expect("arrangement");
     // 2 000 distinct samples of a tumble, repeated with increasing t (the estimator sees a
     // jump every 20 s, as a record with gaps would show it).
-    let motion = Motion {
-        rotation: Rotation::Euler {
-            inertia: [1.0, 1.8, 2.5],
-            torque: Torque::None,
-        },
-        environment: Environment::Space,
-        omega0: [0.4, 1.6, -0.7],
-        attitude0: [1.0, 0.0, 0.0, 0.0],
-        origin_offset: [0.0; 3],
-        non_grav: [0.0; 3],
-        burns: Vec::new(),
-    };
+    let motion = motions::tumble();
     let truth = motion.run(0.01, 2000, 2);
     let outputs = simulate_outputs(&loaded, &truth, true, 9);
     let samples = dir.join("samples.csv");

@@ -4,8 +4,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use ballisto::estimate::{estimate_files, EstimateJob, Precision, FLAG_NAMES};
-use clap::{Parser, Subcommand};
-use hal_sim::arrangement_file::parse_model;
+use ballisto_fw::config::Alignment;
+use clap::{Parser, Subcommand, ValueEnum};
+use estimator_core::Model;
 
 const FLAGS_HELP: &str = "The flags column of estimates.csv is a bit set:
   1   sign unresolved: Ω may be −Ω (steady spin, no hint yet)
@@ -25,6 +26,33 @@ The scenario file format: hal-sim/scenarios/README.md.";
 
 const DECODE_HELP: &str = "Packet layouts: docs/telemetry.md. Exit status: 0 all packets intact and
 contiguous, 1 error (file), 2 damaged frames or sequence gaps (listed on stderr).";
+
+/// `--model` (interfaces.md).
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum ModelArg {
+    /// Model G: 9 linear unknowns, N >= 12.
+    General,
+    /// Model F: free float, N >= 9.
+    FreeFloat,
+}
+
+/// `--precision`.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum PrecisionArg {
+    /// As on the target.
+    F32,
+    /// The host's.
+    F64,
+}
+
+/// `--align` (with `sim --firmware`).
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum AlignArg {
+    /// Timestamped FIFO samples interpolated to the instants.
+    Interpolate,
+    /// The latest output as if sampled at the instant (the unaligned reference).
+    Latest,
+}
 
 #[derive(Parser)]
 #[command(
@@ -52,8 +80,8 @@ enum Command {
         #[arg(long, value_name = "FILE.csv")]
         out: PathBuf,
         /// Model: general (9-column, N >= 12) or free-float (N >= 9); default: the file's, else general.
-        #[arg(long, value_name = "general|free-float")]
-        model: Option<String>,
+        #[arg(long, value_enum)]
+        model: Option<ModelArg>,
         /// Approximate angular rate at the first sample, rad/s, "X,Y,Z": settles the sign and the starting branch.
         #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
         initial_omega: Option<String>,
@@ -61,8 +89,8 @@ enum Command {
         #[arg(long)]
         raw: bool,
         /// Scalar of the sample loop: f64 (default) or f32 (as on the target).
-        #[arg(long, value_name = "f32|f64", default_value = "f64")]
-        precision: String,
+        #[arg(long, value_enum, default_value = "f64")]
+        precision: PrecisionArg,
     },
     /// Simulate a scenario: parts read through their simulated buses; writes arrangement.toml,
     /// samples.csv and truth.csv (with --estimate also estimates.csv and estimates.png).
@@ -83,8 +111,8 @@ enum Command {
         firmware: bool,
         /// With --firmware: how samples of free-running parts are aligned to the sample
         /// instants: interpolate (timestamped FIFO samples) or latest (the unaligned reference).
-        #[arg(long, value_name = "interpolate|latest", default_value = "interpolate")]
-        align: String,
+        #[arg(long, value_enum, default_value = "interpolate")]
+        align: AlignArg,
     },
     /// Decode a telemetry stream (COBS-framed PUS packets, as `sim --firmware` writes in
     /// telemetry.bin or the unit sends on its link): motion reports to an estimates file,
@@ -152,18 +180,14 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             raw,
             precision,
         } => {
-            let model =
-                match model {
-                    None => None,
-                    Some(m) => Some(parse_model(&m).ok_or_else(|| {
-                        format!("--model \"{m}\": expected general or free-float")
-                    })?),
-                };
+            let model = model.map(|m| match m {
+                ModelArg::General => Model::General,
+                ModelArg::FreeFloat => Model::FreeFloat,
+            });
             let initial_omega = initial_omega.as_deref().map(parse_vec3).transpose()?;
-            let precision = match precision.as_str() {
-                "f64" => Precision::F64,
-                "f32" => Precision::F32,
-                p => return Err(format!("--precision \"{p}\": expected f32 or f64").into()),
+            let precision = match precision {
+                PrecisionArg::F64 => Precision::F64,
+                PrecisionArg::F32 => Precision::F32,
             };
             let job = EstimateJob {
                 arrangement: &arrangement,
@@ -200,14 +224,9 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             firmware,
             align,
         } => {
-            let alignment = match align.as_str() {
-                "interpolate" => ballisto_fw::config::Alignment::Interpolate,
-                "latest" => ballisto_fw::config::Alignment::Latest,
-                other => {
-                    return Err(
-                        format!("--align: \"{other}\" is not one of interpolate, latest").into(),
-                    )
-                }
+            let alignment = match align {
+                AlignArg::Interpolate => Alignment::Interpolate,
+                AlignArg::Latest => Alignment::Latest,
             };
             let sc = hal_sim::scenario::Scenario::load(&scenario)?;
             let started = std::time::Instant::now();
@@ -340,7 +359,15 @@ fn print_firmware(sc: &hal_sim::scenario::Scenario, fw: &hal_sim::firmware_host:
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => e.exit(),
+        Err(e) => {
+            // interfaces.md: an error is one sentence on stderr (clap's own spans lines).
+            eprintln!("ballisto: {}", one_line(&e.to_string()));
+            return ExitCode::from(2);
+        }
+    };
     match run(cli) {
         Ok(code) => code,
         Err(e) => {
@@ -348,4 +375,16 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A command-line error of clap's as one line: its lines joined, without the pointer to
+/// `--help` (e.g. "invalid value 'x' for '--model <MODEL>' [possible values: general,
+/// free-float]").
+fn one_line(text: &str) -> String {
+    text.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with("For more information"))
+        .map(|l| l.strip_prefix("error: ").unwrap_or(l))
+        .collect::<Vec<_>>()
+        .join(" ")
 }

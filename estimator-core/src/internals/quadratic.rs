@@ -15,11 +15,12 @@ use crate::real::Real;
 /// Most real solution pairs `±a` of three quadratic forms (two conics meet in ≤ 4 points).
 pub const MAX_ROOTS: usize = 4;
 
-/// Residual `Σ_k (P_k − aᵀ M_k a)²` (whitened: a χ² value).
-pub fn residual2<T: Real>(m: &[Sym3<T>], p: &[T], a: &Vec3<T>) -> T {
+/// Residual `Σ_k (P_k − aᵀ M_k a)²` (whitened: a χ² value). Throughout this module `forms` are
+/// the `M_k` and `rhs` the right-hand sides `P_k` (estimator.md; paper Appendix).
+pub fn residual2<T: Real>(forms: &[Sym3<T>], rhs: &[T], a: &Vec3<T>) -> T {
     let o = crate::linalg::outer6(a);
     let mut acc = T::ZERO;
-    for (mk, pk) in m.iter().zip(p.iter()) {
+    for (mk, pk) in forms.iter().zip(rhs.iter()) {
         acc += (*pk - mk.quad_outer(&o)).sq();
     }
     acc
@@ -32,10 +33,14 @@ pub fn residual2<T: Real>(m: &[Sym3<T>], p: &[T], a: &Vec3<T>) -> T {
 /// largest `|P|` leaves two homogeneous conics `uᵀ C_j u = 0`; a degenerate member of the
 /// pencil `C_1 + λ C_2` (real root of a cubic) splits into two lines; each line meets a conic
 /// in at most two points; `r² = P / (uᵀ M u)` must be positive.
-pub fn closed_form<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], out: &mut [Vec3<T>; MAX_ROOTS]) -> usize {
-    let j = if p[0].abs() >= p[1].abs() && p[0].abs() >= p[2].abs() {
+pub fn closed_form<T: Real>(
+    forms: &[Sym3<T>; 3],
+    rhs: &[T; 3],
+    out: &mut [Vec3<T>; MAX_ROOTS],
+) -> usize {
+    let j = if rhs[0].abs() >= rhs[1].abs() && rhs[0].abs() >= rhs[2].abs() {
         0
-    } else if p[1].abs() >= p[2].abs() {
+    } else if rhs[1].abs() >= rhs[2].abs() {
         1
     } else {
         2
@@ -45,13 +50,13 @@ pub fn closed_form<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], out: &mut [Vec3<T>; MA
         1 => (0, 2),
         _ => (0, 1),
     };
-    if !(p[j].abs() > T::ZERO) {
+    if !(rhs[j].abs() > T::ZERO) {
         // All P = 0: a = 0 fits (no rotation seen).
         out[0] = [T::ZERO; 3];
         return 1;
     }
-    let c1 = normalized(&m[k1].scaled(p[j]).add_scaled(-p[k1], &m[j]));
-    let c2 = normalized(&m[k2].scaled(p[j]).add_scaled(-p[k2], &m[j]));
+    let c1 = normalized(&forms[k1].scaled(rhs[j]).add_scaled(-rhs[k1], &forms[j]));
+    let c2 = normalized(&forms[k2].scaled(rhs[j]).add_scaled(-rhs[k2], &forms[j]));
 
     let mut dirs = [[T::ZERO; 3]; 2 * MAX_ROOTS];
     let mut nd = 0;
@@ -109,27 +114,27 @@ pub fn closed_form<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], out: &mut [Vec3<T>; MA
     // Directions where every form vanishes (uᵀ M_k u = 0 for all k) are solutions "at
     // infinity": in model G the coordinate axes are always such directions, because {a}² with a
     // along an axis is diagonal and absorbed by d. They are rejected through the pivot form.
-    let mj_norm = m[j].0.iter().fold(T::ZERO, |acc, v| acc.max(v.abs()));
-    let p2 = p[0].sq() + p[1].sq() + p[2].sq();
+    let mj_norm = forms[j].0.iter().fold(T::ZERO, |acc, v| acc.max(v.abs()));
+    let p2 = rhs[0].sq() + rhs[1].sq() + rhs[2].sq();
     let mut n = 0;
     for u in dirs.iter().take(nd) {
-        let den = m[j].quad(u);
+        let den = forms[j].quad(u);
         if !(den.abs() > T::of(1e-5) * mj_norm) {
             continue;
         }
-        let r2 = p[j] / den;
+        let r2 = rhs[j] / den;
         if !(r2 > T::ZERO) || !r2.is_finite() {
             continue;
         }
         let mut a = scale(r2.sqrt(), u);
         let converged = T::EPSILON * T::EPSILON * T::of(1e4) * p2;
-        newton_polish(m, p, &mut a, converged);
+        newton_polish(forms, rhs, &mut a, converged);
         // Newton stalls when the Jacobian is nearly singular (close to a branch point):
         // continue with damped Gauss–Newton.
-        if !(residual2(m, p, &a) <= converged) {
-            a = gauss_newton(m, p, &a, 6).0;
+        if !(residual2(forms, rhs, &a) <= converged) {
+            a = gauss_newton(forms, rhs, &a, 6).0;
         }
-        if !(residual2(m, p, &a) <= T::EPSILON.sqrt() * p2) {
+        if !(residual2(forms, rhs, &a) <= T::EPSILON.sqrt() * p2) {
             continue;
         }
         canonical_sign(&mut a);
@@ -414,8 +419,8 @@ fn intersect_line_conic<T: Real>(l: &Vec3<T>, c: &Sym3<T>, out: &mut [Vec3<T>; 2
 
 /// Up to four Newton steps on the square system `aᵀ M_k a = P_k` (k = 0..3), each kept only if
 /// it lowers the residual; stops once the residual is at most `converged`.
-fn newton_polish<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], a: &mut Vec3<T>, converged: T) {
-    let mut best = residual2(m, p, a);
+fn newton_polish<T: Real>(forms: &[Sym3<T>; 3], rhs: &[T; 3], a: &mut Vec3<T>, converged: T) {
+    let mut best = residual2(forms, rhs, a);
     for _ in 0..4 {
         if best <= converged {
             return;
@@ -423,13 +428,13 @@ fn newton_polish<T: Real>(m: &[Sym3<T>; 3], p: &[T; 3], a: &mut Vec3<T>, converg
         let mut jac = [[T::ZERO; 3]; 3];
         let mut r = [T::ZERO; 3];
         for k in 0..3 {
-            let ma = m[k].mul_vec(a);
+            let ma = forms[k].mul_vec(a);
             jac[k] = scale(T::of(2.0), &ma);
-            r[k] = p[k] - dot(a, &ma);
+            r[k] = rhs[k] - dot(a, &ma);
         }
         let Some(step) = solve3(&jac, &r) else { return };
         let trial = [a[0] + step[0], a[1] + step[1], a[2] + step[2]];
-        let res = residual2(m, p, &trial);
+        let res = residual2(forms, rhs, &trial);
         if res < best {
             best = res;
             *a = trial;
@@ -456,11 +461,11 @@ pub struct Refined<T> {
 }
 
 /// Residual, `JᵀJ` and `Jᵀr` of the whitened equations at `a` (one pass over the forms).
-fn normal_equations<T: Real>(m: &[Sym3<T>], p: &[T], a: &Vec3<T>) -> (T, Sym3<T>, Vec3<T>) {
+fn normal_equations<T: Real>(forms: &[Sym3<T>], rhs: &[T], a: &Vec3<T>) -> (T, Sym3<T>, Vec3<T>) {
     let mut res = T::ZERO;
     let mut jtj = Sym3::<T>::zero();
     let mut jtr = [T::ZERO; 3];
-    for (mk, pk) in m.iter().zip(p.iter()) {
+    for (mk, pk) in forms.iter().zip(rhs.iter()) {
         let ma = mk.mul_vec(a);
         let r = *pk - dot(a, &ma);
         let g = scale(T::of(2.0), &ma);
@@ -495,9 +500,14 @@ fn damped_step<T: Real>(jtj: &Sym3<T>, jtr: &Vec3<T>, mu: T) -> Option<(Vec3<T>,
 /// `4 d (|s|² + tr (JᵀJ)⁻¹) / |a|²` — falls below [`DECREMENT_TOL`]; that last step is taken
 /// and its residual is the first-order `res − d`. From a prediction at sample rate this is
 /// normally one pass.
-pub fn refine<T: Real>(m: &[Sym3<T>], p: &[T], start: &Vec3<T>, iterations: usize) -> Refined<T> {
+pub fn refine<T: Real>(
+    forms: &[Sym3<T>],
+    rhs: &[T],
+    start: &Vec3<T>,
+    iterations: usize,
+) -> Refined<T> {
     let mut a = *start;
-    let (mut res, mut jtj, mut jtr) = normal_equations(m, p, &a);
+    let (mut res, mut jtj, mut jtr) = normal_equations(forms, rhs, &a);
     let mut mu = T::of(1e-3);
     let tol = T::of(DECREMENT_TOL);
     for _ in 0..iterations {
@@ -518,7 +528,7 @@ pub fn refine<T: Real>(m: &[Sym3<T>], p: &[T], start: &Vec3<T>, iterations: usiz
             }
             break;
         }
-        let (tres, tjtj, tjtr) = normal_equations(m, p, &trial);
+        let (tres, tjtj, tjtr) = normal_equations(forms, rhs, &trial);
         if tres < res {
             a = trial;
             res = tres;
@@ -538,21 +548,21 @@ pub fn refine<T: Real>(m: &[Sym3<T>], p: &[T], start: &Vec3<T>, iterations: usiz
 /// Levenberg–Marquardt on `Σ_k (P_k − aᵀ M_k a)²` from `start` (Jacobian rows `2 M_k a`).
 /// Returns the solution and its residual.
 pub fn gauss_newton<T: Real>(
-    m: &[Sym3<T>],
-    p: &[T],
+    forms: &[Sym3<T>],
+    rhs: &[T],
     start: &Vec3<T>,
     iterations: usize,
 ) -> (Vec3<T>, T) {
     let mut a = *start;
-    let mut res = residual2(m, p, &a);
+    let mut res = residual2(forms, rhs, &a);
     let mut mu = T::of(1e-3);
     for _ in 0..iterations {
-        let (_, jtj, jtr) = normal_equations(m, p, &a);
+        let (_, jtj, jtr) = normal_equations(forms, rhs, &a);
         let Some((step, _)) = damped_step(&jtj, &jtr, mu) else {
             break;
         };
         let trial = [a[0] + step[0], a[1] + step[1], a[2] + step[2]];
-        let tres = residual2(m, p, &trial);
+        let tres = residual2(forms, rhs, &trial);
         if tres < res {
             a = trial;
             let improvement = res - tres;
