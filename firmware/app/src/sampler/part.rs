@@ -305,34 +305,103 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
         self.recent.write((index, value));
     }
 
-    /// Linear interpolation between the two recent samples around `t`, or extrapolation
-    /// from the last two by at most one and a half periods.
+    /// The part's value at `t` from its recent samples (see [`value_at`]).
     fn value_at(&self, t: f64) -> Option<[f32; 3]> {
-        if self.recent.len() < 2 || !self.clock.is_locked() {
-            return None;
-        }
-        let time = |s: &Recent| self.clock.time_of(s.0);
-        // The first two consecutive samples whose later one is at or after `t`, else the last
-        // two.
-        let mut pair: Option<(Recent, Recent)> = None;
-        let mut before: Option<Recent> = None;
-        for s in self.recent.oldest_ordered() {
-            if let Some(b) = before {
-                pair = Some((b, *s));
-                if time(s) >= t {
-                    break;
-                }
+        value_at(&self.recent, &self.clock, t)
+    }
+}
+
+/// Linear interpolation between the two recent samples around `t` (their conversion times
+/// from `clock`), or extrapolation from the last two by at most one and a half periods;
+/// `None` without two samples, without a locked clock, or too far from them.
+fn value_at(
+    recent: &HistoryBuf<Recent, RECENT>,
+    clock: &ConversionClock,
+    t: f64,
+) -> Option<[f32; 3]> {
+    if recent.len() < 2 || !clock.is_locked() {
+        return None;
+    }
+    let time = |s: &Recent| clock.time_of(s.0);
+    // The first two consecutive samples whose later one is at or after `t`, else the last
+    // two.
+    let mut pair: Option<(Recent, Recent)> = None;
+    let mut before: Option<Recent> = None;
+    for s in recent.oldest_ordered() {
+        if let Some(b) = before {
+            pair = Some((b, *s));
+            if time(s) >= t {
+                break;
             }
-            before = Some(*s);
         }
-        let (sa, sb) = pair?;
-        let (t0, t1) = (time(&sa), time(&sb));
-        let reach = 1.5 * self.clock.period();
-        if !(t1 > t0) || t > t1 + reach || t < t0 - reach {
-            return None;
+        before = Some(*s);
+    }
+    let (sa, sb) = pair?;
+    let (t0, t1) = (time(&sa), time(&sb));
+    let reach = 1.5 * clock.period();
+    if !(t1 > t0) || t > t1 + reach || t < t0 - reach {
+        return None;
+    }
+    let w = ((t - t0) / (t1 - t0)) as f32;
+    let (a, b) = (sa.1, sb.1);
+    Some(core::array::from_fn(|k| a[k] + w * (b[k] - a[k])))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A clock locked on conversion 0 at about 10 ms, period 2.5 ms.
+    fn clock() -> ConversionClock {
+        let mut c = ConversionClock::new(0.0025, 1e-3, 5e-6);
+        c.observe(0.010, 0.010_000_1, 0);
+        assert!(c.is_locked());
+        c
+    }
+
+    /// Samples `from..to`, value of sample `i` = (i, 2i, −i).
+    fn samples(from: u64, to: u64) -> HistoryBuf<Recent, RECENT> {
+        let mut h = HistoryBuf::new();
+        for i in from..to {
+            h.write((i, [i as f32, 2.0 * i as f32, -(i as f32)]));
         }
-        let w = ((t - t0) / (t1 - t0)) as f32;
-        let (a, b) = (sa.1, sb.1);
-        Some(core::array::from_fn(|k| a[k] + w * (b[k] - a[k])))
+        h
+    }
+
+    #[test]
+    fn interpolates_between_the_samples_around_t() {
+        let c = clock();
+        let h = samples(0, 4);
+        let (t1, t2) = (c.time_of(1), c.time_of(2));
+        let v = value_at(&h, &c, t1 + 0.25 * (t2 - t1)).unwrap();
+        for (got, want) in v.iter().zip([1.25f32, 2.5, -1.25]) {
+            assert!((got - want).abs() < 1e-5, "{v:?}");
+        }
+        // At a sample's own time: that sample.
+        assert_eq!(value_at(&h, &c, t2), Some([2.0, 4.0, -2.0]));
+    }
+
+    #[test]
+    fn extrapolates_at_most_one_and_a_half_periods() {
+        let c = clock();
+        let h = samples(0, 4);
+        let (t3, p) = (c.time_of(3), c.period());
+        let v = value_at(&h, &c, t3 + p).unwrap();
+        assert!((v[0] - 4.0).abs() < 1e-4, "{v:?}");
+        assert_eq!(value_at(&h, &c, t3 + 1.6 * p), None);
+        assert_eq!(value_at(&h, &c, c.time_of(0) - 1.6 * p), None);
+    }
+
+    #[test]
+    fn keeps_the_latest_samples_only_and_needs_two_and_a_locked_clock() {
+        let c = clock();
+        // Ten written, four kept (6..10): sample 2's time is out of reach now.
+        let h = samples(0, 10);
+        assert_eq!(h.len(), RECENT);
+        assert_eq!(value_at(&h, &c, c.time_of(2)), None);
+        assert_eq!(value_at(&h, &c, c.time_of(7)), Some([7.0, 14.0, -7.0]));
+        assert_eq!(value_at(&samples(0, 1), &c, c.time_of(0)), None);
+        let unlocked = ConversionClock::new(0.0025, 1e-3, 5e-6);
+        assert_eq!(value_at(&h, &unlocked, c.time_of(7)), None);
     }
 }
