@@ -47,22 +47,19 @@ pub(crate) fn push_f64(out: &mut Vec<u8>, v: f64) {
         .take_while(|&&d| d == b'0')
         .count();
     let d = &digits[lead..n - trail];
+    let k = point - lead as i32 + exp;
+    let len = d.len() as i32;
+    if len > 0 && may_be_tie(v, k, len) {
+        // The exact value may lie halfway between two shortest candidates: Ryū then rounds
+        // to even, `Display` away from zero. Leave those few to `Display`.
+        out.extend_from_slice(format!("{v}").as_bytes());
+        return;
+    }
     if negative {
         out.push(b'-');
     }
     if d.is_empty() {
         out.push(b'0');
-        return;
-    }
-    let k = point - lead as i32 + exp;
-    let len = d.len() as i32;
-    if may_be_tie(v, k, len) {
-        // The exact value may lie halfway between two shortest candidates: Ryū then rounds
-        // to even, `Display` away from zero. Leave those few to `Display`.
-        if negative {
-            out.pop();
-        }
-        out.extend_from_slice(format!("{v}").as_bytes());
         return;
     }
     if k <= 0 {

@@ -9,7 +9,7 @@ use std::path::Path;
 use ballisto_link::decode::{decode, Decoded, Report};
 use ballisto_link::framing::{max_encoded_len, Deframed, Deframer};
 use ballisto_link::ids::TC_MAX;
-use ballisto_link::{EventId, Housekeeping, PartState};
+use ballisto_link::{subtype, EventId, Housekeeping, Mode, ModelCode, PartState};
 
 /// Extra columns of the decoded estimates file, after the estimates-file columns.
 pub const LINK_COLUMNS: [&str; 4] = ["k", "missing_parts", "excluded_parts", "excluded_channels"];
@@ -140,9 +140,9 @@ pub fn log_line(p: &Decoded, time_offset: f64) -> Option<String> {
         }
         Report::Verification(v) => {
             let what = match v.subtype {
-                1 => "accepted",
-                2 => "NOT ACCEPTED",
-                7 => "completed",
+                subtype::ACCEPTED => "accepted",
+                subtype::NOT_ACCEPTED => "NOT ACCEPTED",
+                subtype::COMPLETED => "completed",
                 _ => "NOT COMPLETED",
             };
             let mut s = format!(
@@ -168,8 +168,8 @@ fn housekeeping_text(h: &Housekeeping) -> String {
     let mut s = format!(
         "HK v{}.{}.{} mode={} model={} channels={} rate={}Hz motion_every={} hk_every={} sets={} skipped={} dropped={} sync_errors={} estimates={} excluded_parts={:#04x} commanded_out={:#08x} channels_out={:#08x} tc_accepted={} tc_rejected={} frames_garbage={} tm_lost={}",
         h.version[0], h.version[1], h.version[2],
-        if h.mode == 1 { "operate" } else { "standby" },
-        if h.model == 1 { "F" } else { "G" },
+        if Mode::try_from(h.mode) == Ok(Mode::Operate) { "operate" } else { "standby" },
+        if ModelCode::try_from(h.model) == Ok(ModelCode::FreeFloat) { "F" } else { "G" },
         h.channels, h.rate_hz, h.motion_every, h.housekeeping_every, h.sampling.sets,
         h.sampling.skipped, h.sampling.dropped, h.sampling.sync_errors, h.estimates, h.excluded_parts.0, h.commanded_out.0,
         h.excluded_channels.0, h.tc_accepted, h.tc_rejected, h.frames_garbage, h.tm_lost

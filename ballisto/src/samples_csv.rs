@@ -184,11 +184,23 @@ pub fn write_samples(
     let mut w = BufWriter::new(File::create(path)?);
     writeln!(w, "t,{}", names.join(","))?;
     for (tr, row) in truth.iter().zip(outputs.iter()) {
-        write!(w, "{}", tr.t)?;
-        for v in row {
-            write!(w, ",{v}")?;
-        }
-        writeln!(w)?;
+        write_row(&mut w, tr.t, row.iter().copied().map(Some))?;
     }
     w.flush()
+}
+
+/// One row: `t`, then each channel's value, or an empty field where it has none.
+pub fn write_row(
+    w: &mut impl Write,
+    t: f64,
+    values: impl IntoIterator<Item = Option<f64>>,
+) -> std::io::Result<()> {
+    write!(w, "{t}")?;
+    for v in values {
+        match v {
+            Some(v) => write!(w, ",{v}")?,
+            None => write!(w, ",")?,
+        }
+    }
+    writeln!(w)
 }

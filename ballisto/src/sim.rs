@@ -14,6 +14,7 @@ use hal_sim::scenario::Scenario;
 
 use crate::compare::{compare, Comparison};
 use crate::estimate::{estimate_files, EstimateJob, Precision};
+use crate::samples_csv;
 use crate::truth_csv::{write_truth_header, write_truth_row};
 
 /// What to run.
@@ -124,18 +125,6 @@ fn create(path: &Path) -> Result<BufWriter<File>, String> {
         .map_err(|e| format!("{}: cannot create: {e}", path.display()))
 }
 
-/// One samples.csv row: `t`, then each channel's value or an empty field.
-fn write_samples_row(w: &mut impl Write, t: f64, row: &[Option<f64>]) -> std::io::Result<()> {
-    write!(w, "{t}")?;
-    for v in row {
-        match v {
-            Some(v) => write!(w, ",{v}")?,
-            None => write!(w, ",")?,
-        }
-    }
-    writeln!(w)
-}
-
 /// The bench reader's record.
 fn record_bench(
     job: &SimJob,
@@ -169,7 +158,7 @@ fn record_bench(
                 }
             }
         }
-        write_samples_row(samples, t, &row)?;
+        samples_csv::write_row(samples, t, row.iter().copied())?;
         write_truth_row(truth, &rec.truth(t))?;
         if k % 1024 == 0 {
             bar.set_position(k as u64);
@@ -231,7 +220,7 @@ fn record_firmware(
             }
         }
         crate::estimate::count_flags(&mut flag_counts, m.estimate.flags);
-        let r = write_samples_row(samples, t, &row)
+        let r = samples_csv::write_row(samples, t, row.iter().copied())
             .and_then(|_| write_truth_row(truth, tr))
             .and_then(|_| crate::estimates_csv::write_row(&mut estimates, t, &m.estimate));
         if let Err(e) = r {
