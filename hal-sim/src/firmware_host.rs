@@ -231,11 +231,6 @@ impl<'a> Downlink<'a> {
             error: None,
         }
     }
-
-    /// Octets written so far.
-    pub fn bytes(&self) -> u64 {
-        self.bytes
-    }
 }
 
 impl embedded_io_async::ErrorType for Downlink<'_> {

@@ -15,6 +15,19 @@ use crate::telemetry::Telemetry;
 use crate::time::Nanos;
 
 impl App {
+    /// The counters an observer sees (see [`super::Status`]).
+    pub(super) fn status<W: Write>(&self, tm: &Telemetry<W>) -> super::Status {
+        super::Status {
+            sampling: self.health.sampling,
+            estimates: self.estimates,
+            tc_accepted: self.tc_accepted,
+            tc_rejected: self.tc_rejected,
+            frames_garbage: self.frames_garbage,
+            tm_sent: tm.sent(),
+            tm_lost: tm.lost(),
+        }
+    }
+
     /// The housekeeping report as of now.
     pub fn housekeeping(&self, tm_lost: u32) -> Housekeeping {
         Housekeeping {
@@ -206,20 +219,5 @@ pub fn motion_report(motion: &SetEstimate, excluded_channels: ChannelSet) -> Mot
         missing_parts: motion.missing,
         excluded_parts: motion.excluded,
         excluded_channels,
-    }
-}
-
-impl App {
-    /// The counters an observer sees (see [`super::Status`]).
-    pub(super) fn status<W: Write>(&self, tm: &Telemetry<W>) -> super::Status {
-        super::Status {
-            sampling: self.health.sampling,
-            estimates: self.estimates,
-            tc_accepted: self.tc_accepted,
-            tc_rejected: self.tc_rejected,
-            frames_garbage: self.frames_garbage,
-            tm_sent: tm.sent(),
-            tm_lost: tm.lost(),
-        }
     }
 }
