@@ -2,12 +2,12 @@
 //! declared `noise`, without a register model (the fixture of the estimator's tests; the
 //! register-level record is [`crate::recorder`]).
 
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
 
 use crate::arrangement_file::LoadedArrangement;
 use crate::motion::Truth;
-use crate::noise::gaussian;
 
 /// Simulated channel outputs: truth through paper eq. (4) plus white noise of each channel's
 /// `noise` (seeded).
@@ -28,7 +28,7 @@ pub fn simulate_outputs(
                 .map(|c| {
                     let v = tr.channel(&c.position, &c.axis);
                     if noisy {
-                        v + c.noise * gaussian(&mut rng)
+                        v + c.noise * rng.sample::<f64, _>(StandardNormal)
                     } else {
                         v
                     }

@@ -17,7 +17,6 @@ pub mod faults;
 pub mod firmware_host;
 pub mod ideal;
 pub mod motion;
-pub mod noise;
 pub mod recorder;
 pub mod rig;
 pub mod scenario;

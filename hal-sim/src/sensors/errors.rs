@@ -1,8 +1,8 @@
 //! The error model every simulated part applies to the true specific force, and its own clock.
 
+use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-
-use crate::noise::gaussian;
+use rand_distr::StandardNormal;
 
 /// Standard gravity, m/s² (estimator-core's).
 pub use estimator_core::G0;
@@ -53,7 +53,11 @@ impl SensorErrors {
                     c += self.cross[i][j] * fj;
                 }
             }
-            let n = if sd > 0.0 { sd * gaussian(rng) } else { 0.0 };
+            let n = if sd > 0.0 {
+                sd * rng.sample::<f64, _>(StandardNormal)
+            } else {
+                0.0
+            };
             *o = self.scale[i] * c + self.bias[i] + n;
         }
         out
@@ -62,7 +66,7 @@ impl SensorErrors {
     /// The jitter of one sample instant (s).
     pub fn jitter_sample(&self, rng: &mut ChaCha8Rng) -> f64 {
         if self.jitter > 0.0 {
-            self.jitter * gaussian(rng)
+            self.jitter * rng.sample::<f64, _>(StandardNormal)
         } else {
             0.0
         }
