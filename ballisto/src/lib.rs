@@ -8,6 +8,7 @@
 //! firmware host) is `hal-sim`'s.
 #![deny(missing_docs)]
 
+pub mod calibrate;
 mod columns;
 pub mod compare;
 mod decimal;

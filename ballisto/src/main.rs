@@ -22,6 +22,7 @@ const SIM_HELP: &str = "Named scenarios:
   nine-channel        9-channel ballistometer from 6 x ADXL355, free-float tumble
   ground-spin-mixed   2 x ADXL355 (SPI) + 2 x LIS3DH (I2C, own clocks), ground turntable spin-up
   tetra-orbit-faults  tetra-orbit with a stuck part, a bias jump, a dead part and corrupted bytes
+  ground-calibration  6 parts with datasheet errors (4 x ADXL355, 2 x LIS3DH), ground calibration schedule, reference gyro
 The scenario file format: hal-sim/scenarios/README.md.";
 
 const DECODE_HELP: &str = "Packet layouts: docs/telemetry.md. Exit status: 0 all packets intact and
@@ -140,6 +141,35 @@ enum Command {
         )]
         time_offset: f64,
     },
+    /// Identify every channel's position, axis, scale and bias from a record of static poses
+    /// and motion (paper §6); writes a calibrated arrangement file with standard deviations.
+    /// What the record does not determine keeps its nominal value and is named.
+    Calibrate {
+        /// Nominal arrangement file (TOML): the geometry as drawn.
+        #[arg(long, value_name = "NOMINAL.toml")]
+        arrangement: PathBuf,
+        /// The calibration record (samples CSV): any mix of static poses and motion.
+        #[arg(long, value_name = "RECORD.csv")]
+        samples: PathBuf,
+        /// Calibrated arrangement file to write.
+        #[arg(long, value_name = "CALIBRATED.toml")]
+        out: PathBuf,
+        /// Reference rate file (CSV: t, omega_x, omega_y, omega_z; rad/s, body frame); without
+        /// it Ω comes from the estimator (self-calibration).
+        #[arg(long, value_name = "REFERENCE.csv")]
+        reference: Option<PathBuf>,
+        /// What may change: a comma-separated subset of bias, scale, axis, position.
+        #[arg(long, value_name = "LIST", default_value = "bias,scale,axis,position")]
+        fit: String,
+        /// Model of the estimator in self-calibration, and the one written into the file;
+        /// default: the file's, else general.
+        #[arg(long, value_enum)]
+        model: Option<ModelArg>,
+        /// A report for people (Markdown): per channel the identified values, their standard
+        /// deviations and the residual before and after.
+        #[arg(long, value_name = "REPORT.md")]
+        report: Option<PathBuf>,
+    },
     /// RMS errors of an estimates file against a truth file (matched by column name and t).
     Compare {
         /// Truth file (CSV, as written by the simulator).
@@ -167,6 +197,29 @@ fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
         }
     }
     Ok(v)
+}
+
+fn parse_fit(s: &str) -> Result<ballisto::calibrate::fit::FitSet, String> {
+    let mut fit = ballisto::calibrate::fit::FitSet {
+        bias: false,
+        scale: false,
+        axis: false,
+        position: false,
+    };
+    for item in s.split(',').map(str::trim) {
+        match item {
+            "bias" => fit.bias = true,
+            "scale" => fit.scale = true,
+            "axis" => fit.axis = true,
+            "position" => fit.position = true,
+            other => {
+                return Err(format!(
+                    "--fit \"{s}\": \"{other}\" is not one of bias, scale, axis, position"
+                ))
+            }
+        }
+    }
+    Ok(fit)
 }
 
 fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
@@ -213,6 +266,50 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 let c = s.flag_counts[bit.trailing_zeros() as usize];
                 if c > 0 {
                     eprintln!("  {c:>8} rows flagged {name} ({bit})");
+                }
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Calibrate {
+            arrangement,
+            samples,
+            out,
+            reference,
+            fit,
+            model,
+            report,
+        } => {
+            let fit = parse_fit(&fit)?;
+            let model = model.map(|m| match m {
+                ModelArg::General => Model::General,
+                ModelArg::FreeFloat => Model::FreeFloat,
+            });
+            let s = ballisto::calibrate::calibrate_files(&ballisto::calibrate::CalibrateJob {
+                arrangement: &arrangement,
+                samples: &samples,
+                out: &out,
+                reference: reference.as_deref(),
+                fit,
+                model,
+                report: report.as_deref(),
+            })?;
+            eprintln!(
+                "ballisto calibrate: {} static poses, {} samples in motion, {} alternations, model {} -> {}",
+                s.poses,
+                s.motion,
+                s.identification.iterations,
+                s.model.name(),
+                out.display()
+            );
+            for c in &s.identification.conventions {
+                eprintln!("  held by convention: {c}");
+            }
+            for (name, c) in s.names.iter().zip(s.identification.channels.iter()) {
+                if !c.held.is_empty() {
+                    eprintln!(
+                        "  {name}: not identified (kept nominal): {}",
+                        c.held.join("; ")
+                    );
                 }
             }
             Ok(ExitCode::SUCCESS)

@@ -15,7 +15,7 @@ use hal_sim::scenario::Scenario;
 use crate::compare::{compare, Comparison};
 use crate::estimate::{estimate_files, EstimateJob, Precision};
 use crate::samples_csv;
-use crate::truth_csv::{write_truth_header, write_truth_row};
+use crate::truth_csv::TruthFiles;
 
 /// What to run.
 pub struct SimJob<'a> {
@@ -77,9 +77,12 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
         .load("arrangement.toml")
         .map_err(|e| format!("the scenario's arrangement: {e}"))?;
     let mut samples = create(&path("samples.csv"))?;
-    let mut truth = create(&path("truth.csv"))?;
+    let reference = match hal_sim::reference::ReferenceSensor::of(sc) {
+        Some(sensor) => Some((create(&path("reference.csv"))?, sensor)),
+        None => None,
+    };
+    let mut truth = TruthFiles::new(create(&path("truth.csv"))?, reference)?;
     writeln!(samples, "t,{}", loaded.names.join(","))?;
-    write_truth_header(&mut truth)?;
     let mut report = match job.firmware {
         Some(alignment) => record_firmware(job, &loaded, alignment, &mut samples, &mut truth)?,
         None => record_bench(job, &loaded, &mut samples, &mut truth)?,
@@ -91,6 +94,15 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
         path("samples.csv"),
         path("truth.csv"),
     ];
+    if sc.reference.is_some() {
+        report.files.push(path("reference.csv"));
+    }
+    if sc.has_part_errors() {
+        let file = path("truth_geometry.toml");
+        std::fs::write(&file, sc.truth_geometry().to_toml())
+            .map_err(|e| format!("{}: {e}", file.display()))?;
+        report.files.push(file);
+    }
     let est = path("estimates.csv");
     if job.firmware.is_none() && job.estimate {
         let summary = estimate_files(&EstimateJob {
@@ -130,7 +142,7 @@ fn record_bench(
     job: &SimJob,
     loaded: &LoadedArrangement,
     samples: &mut impl Write,
-    truth: &mut impl Write,
+    truth: &mut TruthFiles<impl Write>,
 ) -> Result<SimReport, Box<dyn Error>> {
     let sc = job.scenario;
     let mut rec = Recorder::new(sc)?;
@@ -159,7 +171,7 @@ fn record_bench(
             }
         }
         samples_csv::write_row(samples, t, row.iter().copied())?;
-        write_truth_row(truth, &rec.truth(t))?;
+        truth.row(k, &rec.truth(t))?;
         if k % 1024 == 0 {
             bar.set_position(k as u64);
         }
@@ -192,7 +204,7 @@ fn record_firmware(
     loaded: &LoadedArrangement,
     alignment: ballisto_fw::config::Alignment,
     samples: &mut impl Write,
-    truth: &mut impl Write,
+    truth: &mut TruthFiles<impl Write>,
 ) -> Result<SimReport, Box<dyn Error>> {
     use hal_sim::firmware_host::{firmware_config, run_firmware_with, SimTime};
     let sc = job.scenario;
@@ -221,7 +233,7 @@ fn record_firmware(
         }
         crate::estimate::count_flags(&mut flag_counts, m.estimate.flags);
         let r = samples_csv::write_row(samples, t, row.iter().copied())
-            .and_then(|_| write_truth_row(truth, tr))
+            .and_then(|_| truth.row(set.k as usize, tr))
             .and_then(|_| crate::estimates_csv::write_row(&mut estimates, t, &m.estimate));
         if let Err(e) = r {
             failure.get_or_insert(e);

@@ -19,6 +19,48 @@ pub fn write_truth(path: &Path, truth: &[Truth]) -> std::io::Result<()> {
     w.flush()
 }
 
+/// The simulator's truth output: `truth.csv`, and `reference.csv` when the scenario has a
+/// reference rate sensor.
+pub struct TruthFiles<W: Write> {
+    truth: W,
+    reference: Option<(W, hal_sim::reference::ReferenceSensor)>,
+}
+
+impl<W: Write> TruthFiles<W> {
+    /// Writes the headers; `reference` is the reference sensor's writer and model, if any.
+    pub fn new(
+        mut truth: W,
+        reference: Option<(W, hal_sim::reference::ReferenceSensor)>,
+    ) -> std::io::Result<Self> {
+        write_truth_header(&mut truth)?;
+        let mut reference = reference;
+        if let Some((w, _)) = &mut reference {
+            writeln!(w, "t,omega_x,omega_y,omega_z")?;
+        }
+        Ok(TruthFiles { truth, reference })
+    }
+
+    /// The truth of sample set `k` at time `t`.
+    pub fn row(&mut self, k: usize, tr: &Truth) -> std::io::Result<()> {
+        write_truth_row(&mut self.truth, tr)?;
+        if let Some((w, sensor)) = &mut self.reference {
+            if let Some(omega) = sensor.sample(k, tr) {
+                writeln!(w, "{},{},{},{}", tr.t, omega[0], omega[1], omega[2])?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Flushes both files.
+    pub fn flush(&mut self) -> std::io::Result<()> {
+        self.truth.flush()?;
+        if let Some((w, _)) = &mut self.reference {
+            w.flush()?;
+        }
+        Ok(())
+    }
+}
+
 /// Columns of the truth file after the estimate columns: the attitude (body → inertial
 /// quaternion).
 pub const TRUTH_EXTRA_COLUMNS: [&str; 4] = ["q_w", "q_x", "q_y", "q_z"];

@@ -12,6 +12,11 @@ pub struct Channel {
     pub axis: [f64; 3],
     /// White noise, m/s² RMS per sample (> 0).
     pub noise: f64,
+    /// Bias (m/s²): the channel reports `scale · (s·f) + bias` (identified by calibration;
+    /// 0 when uncalibrated).
+    pub bias: f64,
+    /// Scale factor (> 0; 1 when uncalibrated).
+    pub scale: f64,
 }
 
 /// The estimation model (paper section 7).
@@ -69,6 +74,8 @@ impl<const CAP: usize> Arrangement<CAP> {
                 position: [0.0; 3],
                 axis: [0.0; 3],
                 noise: 0.0,
+                bias: 0.0,
+                scale: 1.0,
             }; CAP],
             len: 0,
         }
@@ -105,9 +112,42 @@ impl<const CAP: usize> Arrangement<CAP> {
             position,
             axis: [axis[0] / norm, axis[1] / norm, axis[2] / norm],
             noise,
+            bias: 0.0,
+            scale: 1.0,
         };
         self.len += 1;
         Ok(channel)
+    }
+
+    /// Gives channel `channel` its calibration: it reports `scale · (s·f) + bias`. The
+    /// estimator removes it from every reading (`(p − bias) / scale`, both precomputed).
+    ///
+    /// Errors: no such channel; bias not finite, or scale not a finite number in
+    /// (0.5, 2) (a part off by more than a factor of two is not a calibration matter). On
+    /// error nothing changes.
+    pub fn set_calibration(
+        &mut self,
+        channel: usize,
+        bias: f64,
+        scale: f64,
+    ) -> Result<(), ConfigError> {
+        if channel >= self.len {
+            return Err(ConfigError::NoSuchChannel { channel });
+        }
+        if !(bias.is_finite() && scale.is_finite() && scale > 0.5 && scale < 2.0) {
+            return Err(ConfigError::CalibrationInvalid { channel });
+        }
+        let c = &mut self.channels[channel];
+        c.bias = bias;
+        c.scale = scale;
+        Ok(())
+    }
+
+    /// True if some channel carries a bias or a scale other than 1.
+    pub fn is_calibrated(&self) -> bool {
+        self.channels()
+            .iter()
+            .any(|c| c.bias != 0.0 || c.scale != 1.0)
     }
 
     /// Number of channels.

@@ -100,6 +100,11 @@ pub enum ConfigError {
         /// Estimation frame (0 = body frame).
         frame: u8,
     },
+    /// A channel's calibration is not usable: bias not finite, or scale not in (0.5, 2).
+    CalibrationInvalid {
+        /// Channel index.
+        channel: usize,
+    },
     /// A vector given to the estimator (rate hint, Γ) has a NaN or infinite component.
     NotFinite {
         /// What it was.
@@ -134,6 +139,10 @@ impl fmt::Display for ConfigError {
                 model.name()
             ),
             ConfigError::NoSuchChannel { channel } => write!(f, "there is no channel {channel}"),
+            ConfigError::CalibrationInvalid { channel } => write!(
+                f,
+                "channel {channel}: bias must be finite and scale a finite number in (0.5, 2)"
+            ),
             ConfigError::NotObservable { unknown } => {
                 let axis = match unknown {
                     Unknown::Sigma0(a) | Unknown::DOmega(a) | Unknown::D(a) => AXES[a as usize % 3],

@@ -46,7 +46,7 @@ pub fn rotation_defect(m: &[[f64; 3]; 3], tol: f64) -> Option<RotationDefect> {
 }
 
 /// One single-axis channel as written in the file.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ChannelSpec {
     /// Unique name; matches a column of samples.csv.
@@ -58,6 +58,24 @@ pub struct ChannelSpec {
     /// White noise, m/s² RMS per sample.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise: Option<f64>,
+    /// Bias (m/s²): the channel reports `scale · (s·f) + bias` (written by calibration).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bias: Option<f64>,
+    /// Scale factor (written by calibration).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f64>,
+    /// Standard deviation of an identified position (m per component).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_sd: Option<[f64; 3]>,
+    /// Standard deviation of an identified axis direction (rad).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis_sd: Option<f64>,
+    /// Standard deviation of an identified bias (m/s²).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bias_sd: Option<f64>,
+    /// Standard deviation of an identified scale.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale_sd: Option<f64>,
 }
 
 /// A tri-axial part: expands to channels `<name>.x`, `<name>.y`, `<name>.z`.
@@ -222,6 +240,7 @@ impl ArrangementFile {
                     position: s.position,
                     axis: body_axis(&m, j),
                     noise: noise[j],
+                    ..Default::default()
                 });
             }
         }
@@ -287,6 +306,16 @@ impl ArrangementFile {
                 };
                 err(format!("channel \"{}\": {what}", c.name))
             })?;
+            if c.bias.is_some() || c.scale.is_some() {
+                let (bias, scale) = (c.bias.unwrap_or(0.0), c.scale.unwrap_or(1.0));
+                arr.set_calibration(arr.len() - 1, bias, scale)
+                    .map_err(|_| {
+                        err(format!(
+                            "channel \"{}\": bias = {bias} must be finite and scale = {scale} a finite number in (0.5, 2)",
+                            c.name
+                        ))
+                    })?;
+            }
             names.push(c.name.clone());
         }
         Ok(LoadedArrangement {

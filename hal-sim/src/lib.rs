@@ -18,6 +18,7 @@ pub mod firmware_host;
 pub mod ideal;
 pub mod motion;
 pub mod recorder;
+pub mod reference;
 pub mod rig;
 pub mod scenario;
 pub mod sensors;

@@ -127,12 +127,13 @@ fn find_bus<'a, B>(buses: &'a [(String, B)], bus: &str, part: &str) -> Result<&'
         .ok_or_else(|| format!("part \"{part}\": no bus \"{bus}\" of its kind"))
 }
 
-/// The specific force a part measures along its own axes at its mount: paper eq. (4) for each
-/// axis `s_k` = column k of its orientation.
+/// The specific force a part measures along its own axes where it really sits: paper eq. (4)
+/// at the nominal position plus its `position_error`, for each axis `s_k` = column k of its
+/// orientation turned by its `orientation_error`.
 fn mount(truth: &Rc<RefCell<Propagator>>, p: &PartSpec) -> ForceSource {
     let truth = truth.clone();
-    let position = p.position;
-    let axes = [0, 1, 2].map(|k| p.axis(k));
+    let position = p.true_position();
+    let axes = [0, 1, 2].map(|k| p.true_axis(k));
     Box::new(move |t| {
         let tr = truth.borrow_mut().truth_at(t);
         axes.map(|s| tr.channel(&position, &s))

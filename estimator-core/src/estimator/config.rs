@@ -77,6 +77,11 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
                 .is_ok();
         }
         self.arr = arr.clone();
+        self.calibrated = arr.is_calibrated();
+        for (i, c) in arr.channels().iter().enumerate() {
+            self.input_gain[i] = T::of(1.0 / c.scale);
+            self.input_offset[i] = T::of(c.bias / c.scale);
+        }
         self.model = model;
         self.mask = mask;
         self.frames = frames;

@@ -86,6 +86,12 @@ struct Config<T: Real, const CAP: usize> {
     gamma_frame: [Sym3<T>; NUM_FRAMES],
     gamma_offset: [T; CAP],
     gamma_offset_nonzero: bool,
+    /// Per channel `1 / scale` and `bias / scale`: a reading is corrected to
+    /// `p · gain − offset` (precomputed from the arrangement's calibration).
+    input_gain: [T; CAP],
+    input_offset: [T; CAP],
+    /// Whether any channel has a calibration to remove.
+    calibrated: bool,
     options: Options,
 }
 
@@ -96,7 +102,7 @@ struct Work<T: Real, const CAP: usize> {
     trial: [Branch<T>; MAX_CANDIDATES],
     cands: [Candidate<T>; MAX_CANDIDATES],
     scratch: Scratch<T, CAP>,
-    /// The readings with excluded channels zeroed.
+    /// The readings with the calibration removed and excluded channels zeroed.
     masked: [T; CAP],
 }
 
@@ -161,6 +167,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 gamma_frame: [Sym3::zero(); NUM_FRAMES],
                 gamma_offset: [T::ZERO; CAP],
                 gamma_offset_nonzero: false,
+                input_gain: [T::ONE; CAP],
+                input_offset: [T::ZERO; CAP],
+                calibrated: false,
                 options: Options::default(),
             },
             frame: 0,
@@ -287,6 +296,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             return self.hold(t, dt_t, record);
         }
         let excluded = cfg.mask.count(n) < n;
+        let calibrated = cfg.calibrated;
         let Work {
             branches,
             trial,
@@ -295,10 +305,17 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             masked,
         } = &mut self.work;
         // Excluded channels' readings may be anything (a dead part gives NaN): zero them, as
-        // `W` has zero weight there and 0 × NaN would poison the solve.
-        let p: &[T] = if excluded {
+        // `W` has zero weight there and 0 × NaN would poison the solve. A calibrated
+        // channel's reading becomes `(p − bias) / scale`.
+        let p: &[T] = if excluded || calibrated {
             for (i, (m, v)) in masked.iter_mut().zip(p.iter()).enumerate().take(n) {
-                *m = if cfg.mask.contains(i) { *v } else { T::ZERO };
+                *m = if !cfg.mask.contains(i) {
+                    T::ZERO
+                } else if calibrated {
+                    *v * cfg.input_gain[i] - cfg.input_offset[i]
+                } else {
+                    *v
+                };
             }
             &masked[..n]
         } else {

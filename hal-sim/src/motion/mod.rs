@@ -81,6 +81,82 @@ pub enum Rotation {
         /// Spin-up time, s.
         spin_up: f64,
     },
+    /// A calibration schedule: rest, rotations between poses and spins about body axes, one
+    /// segment after another from rest ([`Segment`]).
+    Schedule(Vec<Segment>),
+}
+
+/// One segment of a calibration schedule, from `start` to `end` (s). Every segment starts
+/// and ends at rest with zero angular acceleration, so the rate is continuous and the
+/// segments can follow one another in any order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Segment {
+    /// Start, s.
+    pub start: f64,
+    /// End, s.
+    pub end: f64,
+    /// What the body does.
+    pub kind: SegmentKind,
+}
+
+/// What the body does in a [`Segment`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum SegmentKind {
+    /// At rest (a static pose).
+    Rest,
+    /// Turns by `angle` (rad) about the body axis `axis` (unit), the rate following
+    /// `(angle/T)(1 − cos 2πu)` over the segment (u = 0 … 1).
+    Rotate {
+        /// Axis, body frame, unit.
+        axis: Vec3<f64>,
+        /// Angle, rad.
+        angle: f64,
+    },
+    /// Spins about the body axis `axis` (unit) at `rate` (rad/s), reached from rest over
+    /// `ramp` seconds and back to rest over the last `ramp` seconds (raised-cosine ramps).
+    Spin {
+        /// Axis, body frame, unit.
+        axis: Vec3<f64>,
+        /// Rate, rad/s.
+        rate: f64,
+        /// Ramp time, s.
+        ramp: f64,
+    },
+}
+
+impl Segment {
+    /// The angular acceleration (body) at `t` inside the segment (zero outside).
+    pub fn angular_acceleration(&self, t: f64) -> Vec3<f64> {
+        if !(self.start..self.end).contains(&t) {
+            return [0.0; 3];
+        }
+        let tau = std::f64::consts::TAU;
+        let (axis, acc) = match &self.kind {
+            SegmentKind::Rest => return [0.0; 3],
+            SegmentKind::Rotate { axis, angle } => {
+                let d = self.end - self.start;
+                let u = (t - self.start) / d;
+                (axis, angle / d * tau / d * (tau * u).sin())
+            }
+            SegmentKind::Spin { axis, rate, ramp } => {
+                let up = t - self.start;
+                let down = self.end - t;
+                let acc = if *ramp <= 0.0 {
+                    0.0
+                } else if up < *ramp {
+                    rate * std::f64::consts::PI / (2.0 * ramp)
+                        * (std::f64::consts::PI * up / ramp).sin()
+                } else if down < *ramp {
+                    -rate * std::f64::consts::PI / (2.0 * ramp)
+                        * (std::f64::consts::PI * down / ramp).sin()
+                } else {
+                    0.0
+                };
+                (axis, acc)
+            }
+        };
+        [axis[0] * acc, axis[1] * acc, axis[2] * acc]
+    }
 }
 
 /// Where the body is.
@@ -201,6 +277,10 @@ impl Motion {
                     (tau[2] - gyro[2]) / inertia[2],
                 ]
             }
+            Rotation::Schedule(segments) => segments
+                .iter()
+                .find(|s| s.start <= t && t < s.end)
+                .map_or([0.0; 3], |s| s.angular_acceleration(t)),
             Rotation::Turntable {
                 axis,
                 rate,
@@ -219,6 +299,7 @@ impl Motion {
     pub(crate) fn initial_omega(&self) -> Vec3<f64> {
         match &self.rotation {
             Rotation::Euler { .. } => self.omega0,
+            Rotation::Schedule(_) => [0.0; 3],
             Rotation::Turntable {
                 axis,
                 rate,

@@ -15,7 +15,7 @@ use crate::arrangement_file::{
     body_axis, rotation_defect, ArrangementFile, ChannelSpec, Noise, SensorSpec, IDENTITY,
 };
 use crate::faults::{Fault, FaultKind};
-use crate::motion::{Burn, Environment, Motion, Rotation, Torque};
+use crate::motion::{Burn, Environment, Motion, Rotation, Segment, SegmentKind, Torque};
 use crate::sensors::errors::G0;
 use crate::sensors::SensorErrors;
 
@@ -69,6 +69,58 @@ pub struct Scenario {
     /// Scheduled faults.
     #[serde(default, rename = "fault")]
     pub faults: Vec<FaultSpec>,
+    /// An optional reference rate sensor (a gyro or a turntable encoder), written as
+    /// `reference.csv`.
+    #[serde(default)]
+    pub reference: Option<ReferenceSpec>,
+}
+
+/// A reference rate sensor: the true Ω (body frame) plus a constant bias and white noise.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReferenceSpec {
+    /// White-noise density (rad/s/√Hz); the per-sample noise is over half the output rate.
+    #[serde(default)]
+    pub noise_density: f64,
+    /// Constant bias (rad/s, body frame).
+    #[serde(default)]
+    pub bias: [f64; 3],
+    /// Output rate (Hz): the scenario's rate divided by a whole number (default: the rate).
+    #[serde(default)]
+    pub rate: Option<f64>,
+}
+
+/// One segment of a calibration schedule (`body.schedule`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum SegmentSpec {
+    /// At rest for `duration` s (a static pose).
+    Rest {
+        /// s.
+        duration: f64,
+    },
+    /// A turn by `angle` rad about the body axis `axis` in `duration` s, from rest to rest.
+    Rotate {
+        /// Body axis.
+        axis: [f64; 3],
+        /// rad.
+        angle: f64,
+        /// s.
+        duration: f64,
+    },
+    /// A spin at `rate` rad/s about the body axis `axis` for `duration` s, with `ramp` s of
+    /// spin-up and of spin-down inside it.
+    Spin {
+        /// Body axis.
+        axis: [f64; 3],
+        /// rad/s.
+        rate: f64,
+        /// s (default 1).
+        #[serde(default)]
+        ramp: Option<f64>,
+        /// s.
+        duration: f64,
+    },
 }
 
 /// The body: Euler's equations (`inertia`, `omega0`, optional `torque`) or a `turntable`.
@@ -93,6 +145,9 @@ pub struct BodySpec {
     /// A turntable instead of free rotation.
     #[serde(default)]
     pub turntable: Option<TurntableSpec>,
+    /// A calibration schedule instead of free rotation or a turntable: segments from rest.
+    #[serde(default)]
+    pub schedule: Option<Vec<SegmentSpec>>,
 }
 
 /// A torque profile.
@@ -285,13 +340,49 @@ pub struct PartSpec {
     /// Jitter of each sample instant (s RMS).
     #[serde(default)]
     pub jitter: Option<f64>,
+    /// Mounting position error (m, body): the part sits at `position + position_error`.
+    #[serde(default)]
+    pub position_error: Option<[f64; 3]>,
+    /// Mounting orientation error: a small rotation vector (rad, body frame) applied to the
+    /// nominal orientation.
+    #[serde(default)]
+    pub orientation_error: Option<[f64; 3]>,
 }
 
 impl PartSpec {
-    /// Part axis `k` (0 = x) in the body frame: column `k` of the orientation.
+    /// Nominal part axis `k` (0 = x) in the body frame: column `k` of the orientation.
     pub fn axis(&self, k: usize) -> [f64; 3] {
         body_axis(&self.orientation.unwrap_or(IDENTITY), k)
     }
+
+    /// Where the part really sits: nominal position plus `position_error`.
+    pub fn true_position(&self) -> [f64; 3] {
+        let e = self.position_error.unwrap_or([0.0; 3]);
+        [
+            self.position[0] + e[0],
+            self.position[1] + e[1],
+            self.position[2] + e[2],
+        ]
+    }
+
+    /// The part's real axis `k` in the body frame: the nominal one turned by
+    /// `orientation_error` (Rodrigues' formula).
+    pub fn true_axis(&self, k: usize) -> [f64; 3] {
+        rotate_by_vector(&self.orientation_error.unwrap_or([0.0; 3]), &self.axis(k))
+    }
+}
+
+/// `v` turned by the rotation vector `r` (axis `r/|r|`, angle `|r|`).
+pub fn rotate_by_vector(r: &[f64; 3], v: &[f64; 3]) -> [f64; 3] {
+    let th = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+    if th == 0.0 {
+        return *v;
+    }
+    let k = [r[0] / th, r[1] / th, r[2] / th];
+    let kxv = estimator_core::linalg::cross(&k, v);
+    let kv = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
+    let (s, c) = th.sin_cos();
+    core::array::from_fn(|i| v[i] * c + kxv[i] * s + k[i] * kv * (1.0 - c))
 }
 
 /// A fault of one part.
@@ -322,6 +413,97 @@ pub struct FaultSpec {
 }
 
 const AXES: [&str; 3] = ["x", "y", "z"];
+
+fn unit(v: &[f64; 3]) -> Option<[f64; 3]> {
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    (finite(v) && n > 1e-9).then(|| [v[0] / n, v[1] / n, v[2] / n])
+}
+
+fn validate_schedule(segments: &[SegmentSpec]) -> Result<(), String> {
+    if segments.is_empty() {
+        return Err("body.schedule: empty".into());
+    }
+    for (i, seg) in segments.iter().enumerate() {
+        let err = |m: &str| format!("body.schedule segment {}: {m}", i + 1);
+        let (duration, axis, ok) = match seg {
+            SegmentSpec::Rest { duration } => (*duration, None, true),
+            SegmentSpec::Rotate {
+                axis,
+                angle,
+                duration,
+            } => (*duration, Some(axis), angle.is_finite()),
+            SegmentSpec::Spin {
+                axis,
+                rate,
+                ramp,
+                duration,
+            } => {
+                let ramp = ramp.unwrap_or(1.0);
+                (
+                    *duration,
+                    Some(axis),
+                    rate.is_finite() && ramp.is_finite() && ramp >= 0.0 && 2.0 * ramp <= *duration,
+                )
+            }
+        };
+        if !(duration.is_finite() && duration > 0.0) {
+            return Err(err("duration must be finite and > 0"));
+        }
+        if axis.is_some_and(|a| unit(a).is_none()) {
+            return Err(err("axis: zero or not finite"));
+        }
+        if !ok {
+            return Err(err(
+                "angle or rate not finite, or a spin's two ramps longer than its duration",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The motion segments of a (validated) schedule, one after another from t = 0.
+fn schedule_segments(specs: &[SegmentSpec]) -> Vec<Segment> {
+    let mut t = 0.0;
+    specs
+        .iter()
+        .map(|spec| {
+            let (duration, kind) = match spec {
+                SegmentSpec::Rest { duration } => (*duration, SegmentKind::Rest),
+                SegmentSpec::Rotate {
+                    axis,
+                    angle,
+                    duration,
+                } => (
+                    *duration,
+                    SegmentKind::Rotate {
+                        axis: unit(axis).unwrap_or([0.0, 0.0, 1.0]),
+                        angle: *angle,
+                    },
+                ),
+                SegmentSpec::Spin {
+                    axis,
+                    rate,
+                    ramp,
+                    duration,
+                } => (
+                    *duration,
+                    SegmentKind::Spin {
+                        axis: unit(axis).unwrap_or([0.0, 0.0, 1.0]),
+                        rate: *rate,
+                        ramp: ramp.unwrap_or(1.0),
+                    },
+                ),
+            };
+            let seg = Segment {
+                start: t,
+                end: t + duration,
+                kind,
+            };
+            t += duration;
+            seg
+        })
+        .collect()
+}
 
 fn finite(v: &[f64]) -> bool {
     v.iter().all(|x| x.is_finite())
@@ -393,6 +575,7 @@ impl Scenario {
         }
         self.validate_body()?;
         self.validate_environment()?;
+        self.validate_reference()?;
         let mut buses = HashSet::new();
         for b in &self.buses {
             if b.kind != "spi" && b.kind != "i2c" {
@@ -455,6 +638,18 @@ impl Scenario {
         {
             return Err("body.attitude0: zero quaternion".into());
         }
+        if let Some(segments) = &b.schedule {
+            if b.turntable.is_some()
+                || b.inertia.is_some()
+                || b.torque.is_some()
+                || b.omega0.is_some()
+            {
+                return Err(
+                    "body: a schedule excludes inertia, omega0, torque and turntable".into(),
+                );
+            }
+            return validate_schedule(segments);
+        }
         match (&b.turntable, &b.inertia) {
             (Some(_), Some(_)) => {
                 Err("body: give either inertia (free rotation) or turntable, not both".into())
@@ -504,6 +699,25 @@ impl Scenario {
                 }
             }
         }
+    }
+
+    fn validate_reference(&self) -> Result<(), String> {
+        let Some(r) = &self.reference else {
+            return Ok(());
+        };
+        if !(r.noise_density.is_finite() && r.noise_density >= 0.0 && finite(&r.bias)) {
+            return Err("reference: noise_density must be finite and >= 0, bias finite".into());
+        }
+        if let Some(rate) = r.rate {
+            let n = self.rate / rate;
+            if !(rate.is_finite() && rate > 0.0 && (n - n.round()).abs() < 1e-9 && n >= 1.0) {
+                return Err(format!(
+                    "reference.rate = {rate}: must be the scenario rate {} divided by a whole number",
+                    self.rate
+                ));
+            }
+        }
+        Ok(())
     }
 
     fn validate_environment(&self) -> Result<(), String> {
@@ -567,6 +781,16 @@ impl Scenario {
         };
         if !finite(&p.position) {
             return Err(err("position: not finite".into()));
+        }
+        if p.position_error.is_some_and(|e| !finite(&e)) {
+            return Err(err("position_error: not finite".into()));
+        }
+        if p.orientation_error
+            .is_some_and(|e| !finite(&e) || e.iter().map(|v| v * v).sum::<f64>() > 0.01)
+        {
+            return Err(err(
+                "orientation_error: must be finite and small (|r| <= 0.1 rad)".into(),
+            ));
         }
         let m = p.orientation.unwrap_or(IDENTITY);
         if !m.iter().all(|r| finite(r)) || rotation_defect(&m, 1e-6).is_some() {
@@ -756,6 +980,9 @@ impl Scenario {
     pub fn motion(&self) -> Motion {
         let b = &self.body;
         let rotation = match (&b.turntable, b.inertia) {
+            _ if b.schedule.is_some() => {
+                Rotation::Schedule(schedule_segments(b.schedule.as_deref().unwrap_or(&[])))
+            }
             (Some(t), _) => {
                 let n = t.axis.iter().map(|v| v * v).sum::<f64>().sqrt();
                 Rotation::Turntable {
@@ -830,6 +1057,71 @@ impl Scenario {
         }
     }
 
+    /// Whether some part has a mounting or sensor error (then the simulator writes
+    /// [`Scenario::truth_geometry`] next to the nominal arrangement).
+    pub fn has_part_errors(&self) -> bool {
+        self.parts.iter().any(|p| {
+            p.position_error.is_some()
+                || p.orientation_error.is_some()
+                || p.scale.is_some()
+                || p.bias.is_some()
+                || p.cross.is_some()
+        })
+    }
+
+    /// The true geometry of every channel, in the channel layout of
+    /// [`Scenario::arrangement`] (sensors expanded x, y, z): where the part really sits, and
+    /// the channel's effective axis, scale and bias. A part axis `i` reports
+    /// `scale_i (a_i + Σ_j cross_ij a_j)·f + bias_i` with `a` its real axes, so the channel's
+    /// axis is `v = a_i + Σ_j cross_ij a_j` normalised and its scale `scale_i |v|`.
+    pub fn truth_geometry(&self) -> ArrangementFile {
+        let mut file = ArrangementFile {
+            model: self.arrangement().model,
+            ..Default::default()
+        };
+        let nominal = self.arrangement();
+        let mut expanded = nominal.channels.clone();
+        for s in &nominal.sensors {
+            for a in AXES {
+                expanded.push(ChannelSpec {
+                    name: format!("{}.{a}", s.name),
+                    ..Default::default()
+                });
+            }
+        }
+        for c in expanded {
+            let Some((part, axis)) = c.name.rsplit_once('.') else {
+                continue;
+            };
+            let Some((index, p)) = self.parts.iter().enumerate().find(|(_, p)| p.name == part)
+            else {
+                continue;
+            };
+            let Some(i) = AXES.iter().position(|a| *a == axis) else {
+                continue;
+            };
+            let errors = self.errors(index, p);
+            let mut v = p.true_axis(i);
+            for (j, row) in errors.cross[i].iter().enumerate() {
+                let a = p.true_axis(j);
+                for (vk, ak) in v.iter_mut().zip(a.iter()) {
+                    *vk += row * ak;
+                }
+            }
+            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            file.channels.push(ChannelSpec {
+                name: c.name.clone(),
+                position: p.true_position(),
+                axis: [v[0] / n, v[1] / n, v[2] / n],
+                noise: Some(self.channel_noise(p)),
+                bias: Some(errors.bias[i]),
+                scale: Some(errors.scale[i] * n),
+                ..Default::default()
+            });
+        }
+        file
+    }
+
     /// The arrangement file of the scenario: a `[[sensor]]` table per part that uses all its
     /// axes, `[[channel]]` tables for the axes of the others; noise per channel from
     /// [`Scenario::channel_noise`].
@@ -859,6 +1151,7 @@ impl Scenario {
                         position: p.position,
                         axis: p.axis(j),
                         noise: Some(noise),
+                        ..Default::default()
                     });
                 }
             }

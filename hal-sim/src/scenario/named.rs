@@ -1,11 +1,12 @@
 //! The named scenarios shipped with `ballisto` (the files in `hal-sim/scenarios/`).
 
 /// Names, in the order `--help` lists them.
-pub const NAMES: [&str; 4] = [
+pub const NAMES: [&str; 5] = [
     "tetra-orbit",
     "nine-channel",
     "ground-spin-mixed",
     "tetra-orbit-faults",
+    "ground-calibration",
 ];
 
 /// The TOML text of a named scenario.
@@ -15,6 +16,7 @@ pub fn text(name: &str) -> Option<&'static str> {
         "nine-channel" => include_str!("../../scenarios/nine-channel.toml"),
         "ground-spin-mixed" => include_str!("../../scenarios/ground-spin-mixed.toml"),
         "tetra-orbit-faults" => include_str!("../../scenarios/tetra-orbit-faults.toml"),
+        "ground-calibration" => include_str!("../../scenarios/ground-calibration.toml"),
         _ => return None,
     })
 }

@@ -1,0 +1,719 @@
+//! Identification of every channel's geometry (paper §6): position `R` (3), axis tilt (2),
+//! scale and bias, from a record of static poses and motion.
+//!
+//! A channel reads `h = scale · (s·f(R)) + bias` with `f(R) = σ0 + ({Ω′} + {Ω}² + Γ) R`
+//! (paper eq. 4). The fit alternates two linear-ish steps until nothing moves:
+//! - **the field**, with the geometry held: in a static pose `σ0 = g` (|g| = [`G0`], one
+//!   direction per pose, Ω = Ω′ = 0); in motion Ω comes from the reference rate sensor or from
+//!   the estimator run on the current geometry, and (σ0, Ω′) from the 6-unknown linear least
+//!   squares of the paper's Ω-known case;
+//! - **the geometry**, with the field held: one Gauss–Newton step on each channel's own 7×7
+//!   normal equations (each channel's residual is linear in its 7 parameters to first order).
+//!
+//! Observability is decided per channel from those normal equations: with `D` the
+//! tolerances of [`Tolerance`], the eigen-directions of `D N D` whose data standard deviation
+//! exceeds half the tolerance are not moved (held at nominal) and are named in the result.
+//! Freedoms that no accelerometer record can fix are held by convention and named: the
+//! common translation of all positions (σ0 absorbs it: the origin stays where the nominal
+//! positions put it), and without a reference the common rotation of all axes (the body frame
+//! stays the one the nominal axes define).
+
+use nalgebra::{DMatrix, DVector, Matrix3, SVector, SymmetricEigen, Vector3};
+
+use estimator_core::G0;
+
+/// Per-channel parameters, in the order of the normal equations.
+pub const PARAMETERS: [&str; 7] = [
+    "scale",
+    "axis tilt 1",
+    "axis tilt 2",
+    "bias",
+    "position x",
+    "position y",
+    "position z",
+];
+
+/// What a calibration may change (`--fit`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FitSet {
+    /// Bias.
+    pub bias: bool,
+    /// Scale.
+    pub scale: bool,
+    /// Axis direction.
+    pub axis: bool,
+    /// Position.
+    pub position: bool,
+}
+
+impl FitSet {
+    /// Everything.
+    pub const ALL: FitSet = FitSet {
+        bias: true,
+        scale: true,
+        axis: true,
+        position: true,
+    };
+
+    fn mask(&self) -> [bool; 7] {
+        [
+            self.scale,
+            self.axis,
+            self.axis,
+            self.bias,
+            self.position,
+            self.position,
+            self.position,
+        ]
+    }
+}
+
+/// The tolerances that decide what counts as identified: a parameter direction is moved only
+/// if the record determines it to half of these (the mounting and datasheet tolerances one
+/// calibrates against).
+#[derive(Clone, Copy, Debug)]
+pub struct Tolerance {
+    /// Scale (dimensionless).
+    pub scale: f64,
+    /// Axis direction (rad).
+    pub axis: f64,
+    /// Bias (m/s²).
+    pub bias: f64,
+    /// Position (m).
+    pub position: f64,
+}
+
+impl Default for Tolerance {
+    fn default() -> Self {
+        Tolerance {
+            scale: 0.02,
+            axis: 0.01,
+            bias: 0.5,
+            position: 1e-3,
+        }
+    }
+}
+
+impl Tolerance {
+    fn of(&self, j: usize) -> f64 {
+        match j {
+            0 => self.scale,
+            1 | 2 => self.axis,
+            3 => self.bias,
+            _ => self.position,
+        }
+    }
+}
+
+/// One channel's geometry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Geometry {
+    /// Seismic point (m, body).
+    pub position: Vector3<f64>,
+    /// Unit sensitive axis (body).
+    pub axis: Vector3<f64>,
+    /// Scale factor.
+    pub scale: f64,
+    /// Bias (m/s²).
+    pub bias: f64,
+    /// White noise per sample (m/s²).
+    pub noise: f64,
+}
+
+impl Geometry {
+    /// What the channel reads in the field `f` at its position.
+    pub fn reading(&self, f: &Vector3<f64>) -> f64 {
+        self.scale * self.axis.dot(f) + self.bias
+    }
+}
+
+/// A static pose found in the record: its samples and the mean reading of every channel.
+#[derive(Clone, Debug)]
+pub struct Pose {
+    /// First and one-past-last sample.
+    pub samples: std::ops::Range<usize>,
+    /// Mean reading per channel.
+    pub mean: Vec<f64>,
+}
+
+/// The field at one motion sample: σ0, Ω′ and Ω.
+#[derive(Clone, Copy, Debug, Default)]
+struct Field {
+    sigma0: Vector3<f64>,
+    domega: Vector3<f64>,
+    omega: Vector3<f64>,
+}
+
+impl Field {
+    /// `{Ω′} + {Ω}² + Γ` (so that `f(R) = σ0 + M R`).
+    fn m(&self, gamma: &Matrix3<f64>) -> Matrix3<f64> {
+        let w = self.omega;
+        let ww = w * w.transpose() - Matrix3::identity() * w.norm_squared();
+        self.domega.cross_matrix() + ww + gamma
+    }
+}
+
+/// Ω per sample (`None` where it is not known).
+pub type Rates = Vec<Option<Vector3<f64>>>;
+
+/// One channel's row at one instant of the data: channel, weight, Jacobian (7), residual,
+/// and its row of the field's columns.
+struct DataRow {
+    channel: usize,
+    weight: f64,
+    jacobian: SVector<f64, 7>,
+    residual: f64,
+    field: Vec<f64>,
+}
+
+/// Where the motion's angular rate comes from.
+pub enum RateSource<'a> {
+    /// A reference rate sensor, already at the sample instants (rad/s, body).
+    Reference(&'a [Vector3<f64>]),
+    /// The estimator on the current geometry (self-calibration); the closure runs it over
+    /// the record and returns Ω per sample (`None` where the estimator flags the sample as
+    /// not decided: fallback, ill-conditioned, branch ambiguous, input invalid).
+    Estimator(&'a dyn Fn(&[Geometry]) -> Result<Rates, String>),
+}
+
+/// The record the fit reads.
+pub struct Record<'a> {
+    /// Readings, one row per sample, channels in arrangement order.
+    pub rows: &'a [Vec<f64>],
+    /// Static poses (see [`super::poses`]).
+    pub poses: &'a [Pose],
+    /// Samples in motion (not in a pose) used for the field and the positions.
+    pub motion: &'a [usize],
+    /// Known gravity gradient Γ (0 on the ground).
+    pub gamma: Matrix3<f64>,
+}
+
+/// One channel's identified geometry and its standard deviations.
+#[derive(Clone, Debug)]
+pub struct Identified {
+    /// The geometry.
+    pub geometry: Geometry,
+    /// Standard deviation of each of [`PARAMETERS`] (NaN where not identified).
+    pub sd: [f64; 7],
+    /// Parameter directions the record does not determine (held at nominal), by the names
+    /// of their main parameters.
+    pub held: Vec<String>,
+    /// RMS of the channel's residual (m/s²) with the nominal and with the identified geometry.
+    pub residual_rms: (f64, f64),
+}
+
+/// The outcome of [`identify`].
+#[derive(Clone, Debug)]
+pub struct Identification {
+    /// Per channel.
+    pub channels: Vec<Identified>,
+    /// Freedoms held by convention (named for the report).
+    pub conventions: Vec<String>,
+    /// Alternations run.
+    pub iterations: usize,
+}
+
+/// Runs the identification (see the module doc). `nominal` is the arrangement as drawn.
+pub fn identify(
+    nominal: &[Geometry],
+    record: &Record,
+    rate: &RateSource,
+    fit: FitSet,
+    tol: &Tolerance,
+) -> Result<Identification, String> {
+    let n = nominal.len();
+    let mut geo = nominal.to_vec();
+    if record.poses.is_empty() && record.motion.is_empty() {
+        return Err("the record has neither static poses nor motion to calibrate from".into());
+    }
+    let residual_before = residual_rms(&geo, record, rate)?;
+    let mut step = JointStep::default();
+    let mut iterations = 0;
+    // Without a reference, Ω comes from the estimator on the geometry being identified: start
+    // from the static poses alone (the parameters they determine), so that the first field
+    // is not the uncalibrated one.
+    let self_calibration = matches!(rate, RateSource::Estimator(_));
+    let statics_first = self_calibration && !record.poses.is_empty();
+    // Ω at every motion sample: the reference's, or (self-calibration) the estimator's on the
+    // geometry after the static poses, then refined with the field at every alternation.
+    let mut omega: Option<Vec<Option<Vector3<f64>>>> = None;
+    let poses_only = Record {
+        rows: record.rows,
+        poses: record.poses,
+        motion: &[],
+        gamma: record.gamma,
+    };
+    for it in 0..MAX_ITERATIONS {
+        iterations = it + 1;
+        let stage = if statics_first && it < MAX_ITERATIONS / 3 {
+            &poses_only
+        } else {
+            record
+        };
+        let record = stage;
+        if !record.motion.is_empty() && omega.is_none() {
+            omega = Some(initial_rates(&geo, record, rate)?);
+        }
+        let fields = match &omega {
+            Some(w) => motion_fields(&geo, record, w, self_calibration),
+            None => Vec::new(),
+        };
+        if self_calibration && !record.motion.is_empty() {
+            omega = Some(fields.iter().map(|f| f.map(|f| f.omega)).collect());
+        }
+        let gravity = pose_gravity(&geo, record.poses);
+        let (normal, rhs) =
+            joint_normal_equations(&geo, record, &fields, &gravity, self_calibration);
+        step = truncated_step(&normal, &rhs, n, &fit.mask(), tol);
+        let mut largest = 0.0f64;
+        for (i, g) in geo.iter_mut().enumerate() {
+            let d = SVector::<f64, 7>::from_fn(|j, _| step.delta[7 * i + j]);
+            for j in 0..7 {
+                largest = largest.max((d[j] / tol.of(j)).abs());
+            }
+            apply(g, &d);
+        }
+        if std::env::var_os("BALLISTO_CAL_DEBUG").is_some() {
+            eprintln!(
+                "iteration {it}: largest scaled step {largest:.3e}, motion fields {}",
+                fields.iter().filter(|f| f.is_some()).count()
+            );
+        }
+        if largest < 1e-10 {
+            if statics_first && it < MAX_ITERATIONS / 3 {
+                continue;
+            }
+            break;
+        }
+    }
+    let residual_after = residual_rms(&geo, record, rate)?;
+    let channels = (0..n)
+        .map(|i| Identified {
+            geometry: geo[i],
+            sd: core::array::from_fn(|j| step.sd[7 * i + j]),
+            held: step.held[i].clone(),
+            residual_rms: (residual_before[i], residual_after[i]),
+        })
+        .collect();
+    Ok(Identification {
+        channels,
+        conventions: step.common,
+        iterations,
+    })
+}
+
+/// Most alternations of field and geometry (Gauss–Newton converges in a handful; the
+/// estimator as the rate source needs a few more).
+pub const MAX_ITERATIONS: usize = 30;
+
+/// A parameter belongs to a held direction when its share of that (unit, scaled) direction
+/// exceeds this; a held direction shared by more than [`COMMON_CHANNELS`] channels is a
+/// freedom of the whole arrangement (a convention), not of one channel.
+const HELD_SHARE: f64 = 0.5;
+const COMMON_CHANNELS: usize = 3;
+
+/// The gravity direction of each pose (|g| = G0), by least squares over the channels.
+fn pose_gravity(geo: &[Geometry], poses: &[Pose]) -> Vec<Vector3<f64>> {
+    poses
+        .iter()
+        .map(|pose| {
+            let mut a = Matrix3::zeros();
+            let mut b = Vector3::zeros();
+            for (g, m) in geo.iter().zip(pose.mean.iter()) {
+                if !m.is_finite() {
+                    continue;
+                }
+                let k = g.axis * g.scale;
+                let w = 1.0 / (g.noise * g.noise);
+                a += k * k.transpose() * w;
+                b += k * ((m - g.bias) * w);
+            }
+            let v = a.lu().solve(&b).unwrap_or_else(Vector3::zeros);
+            if v.norm() > 0.0 {
+                v * (G0 / v.norm())
+            } else {
+                v
+            }
+        })
+        .collect()
+}
+
+/// Ω at every motion sample from the source, before any refinement.
+fn initial_rates(
+    geo: &[Geometry],
+    record: &Record,
+    rate: &RateSource,
+) -> Result<Vec<Option<Vector3<f64>>>, String> {
+    Ok(match rate {
+        RateSource::Reference(w) => record.motion.iter().map(|&k| Some(w[k])).collect(),
+        RateSource::Estimator(run) => {
+            let all = run(geo)?;
+            record.motion.iter().map(|&k| all[k]).collect()
+        }
+    })
+}
+
+/// The derivative of a channel's centripetal reading `k·(Ω×(Ω×R))` with respect to Ω.
+fn centripetal_gradient(k: &Vector3<f64>, r: &Vector3<f64>, w: &Vector3<f64>) -> Vector3<f64> {
+    k * w.dot(r) + r * k.dot(w) - w * (2.0 * k.dot(r))
+}
+
+/// The field at every motion sample by least squares over the channels: σ0 and Ω′ with Ω
+/// held at `omega` (a reference), or with `estimate_omega` σ0, Ω′ and Ω together (three
+/// Gauss–Newton steps from `omega`: the sign of Ω does not matter, only `{Ω}²` enters).
+fn motion_fields(
+    geo: &[Geometry],
+    record: &Record,
+    omega: &[Option<Vector3<f64>>],
+    estimate_omega: bool,
+) -> Vec<Option<Field>> {
+    record
+        .motion
+        .iter()
+        .zip(omega.iter())
+        .map(|(&k, omega)| {
+            let row = &record.rows[k];
+            let mut field = Field {
+                omega: (*omega)?,
+                ..Default::default()
+            };
+            // σ0 and Ω′ with Ω held: linear.
+            let mut a = DMatrix::<f64>::zeros(6, 6);
+            let mut b = DVector::<f64>::zeros(6);
+            for (g, p) in geo.iter().zip(row.iter()).filter(|(_, p)| p.is_finite()) {
+                let kv = g.axis * g.scale;
+                let rk = g.position.cross(&kv);
+                let h = DVector::from_column_slice(&[kv.x, kv.y, kv.z, rk.x, rk.y, rk.z]);
+                let y = p - g.bias - kv.dot(&(field.m(&record.gamma) * g.position));
+                let w = 1.0 / (g.noise * g.noise);
+                a += &h * h.transpose() * w;
+                b += &h * (y * w);
+            }
+            let x = a.lu().solve(&b)?;
+            field.sigma0 = Vector3::new(x[0], x[1], x[2]);
+            field.domega = Vector3::new(x[3], x[4], x[5]);
+            if !estimate_omega {
+                return Some(field);
+            }
+            // Then all nine by Gauss–Newton increments; directions the sample does not
+            // determine (near rest the centripetal columns vanish) keep their value.
+            for _ in 0..2 {
+                let m = field.m(&record.gamma);
+                let mut a = DMatrix::<f64>::zeros(9, 9);
+                let mut b = DVector::<f64>::zeros(9);
+                for (g, p) in geo.iter().zip(row.iter()).filter(|(_, p)| p.is_finite()) {
+                    let kv = g.axis * g.scale;
+                    let rk = g.position.cross(&kv);
+                    let c = centripetal_gradient(&kv, &g.position, &field.omega);
+                    let h = DVector::from_column_slice(&[
+                        kv.x, kv.y, kv.z, rk.x, rk.y, rk.z, c.x, c.y, c.z,
+                    ]);
+                    let e = p - g.reading(&(field.sigma0 + m * g.position));
+                    let w = 1.0 / (g.noise * g.noise);
+                    a += &h * h.transpose() * w;
+                    b += &h * (e * w);
+                }
+                let tiny = a.diagonal().max() * 1e-8;
+                let d = a.pseudo_inverse(tiny).ok()? * b;
+                field.sigma0 += Vector3::new(d[0], d[1], d[2]);
+                field.domega += Vector3::new(d[3], d[4], d[5]);
+                field.omega += Vector3::new(d[6], d[7], d[8]);
+            }
+            Some(field)
+        })
+        .collect()
+}
+
+/// A basis `u1, u2` perpendicular to the unit axis `a`.
+fn tilt_basis(a: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let helper = if a.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let u1 = a.cross(&helper).normalize();
+    let u2 = a.cross(&u1);
+    (u1, u2)
+}
+
+/// The channel's Jacobian row (in [`PARAMETERS`] order) at the specific force `f` seen at its
+/// position, with `m` the field matrix (`f = σ0 + m R`).
+fn jacobian(g: &Geometry, f: &Vector3<f64>, m: &Matrix3<f64>) -> SVector<f64, 7> {
+    let (u1, u2) = tilt_basis(&g.axis);
+    let dr = m.transpose() * (g.axis * g.scale);
+    SVector::<f64, 7>::from_column_slice(&[
+        g.axis.dot(f),
+        g.scale * u1.dot(f),
+        g.scale * u2.dot(f),
+        1.0,
+        dr.x,
+        dr.y,
+        dr.z,
+    ])
+}
+
+/// The joint normal equations of all channels' parameters (7 per channel, [`PARAMETERS`]
+/// order) with the field projected out (variable projection): per pose its gravity
+/// direction (2 unknowns: the magnitude is [`G0`]), per motion sample σ0 and Ω′ (6). Each
+/// row of data adds `JᵀWJ − (JᵀWH)(HᵀWH)⁻¹(HᵀWJ)` with `H` the field's columns, so the
+/// geometry step accounts for what the field can absorb, and the inverse of the result is
+/// the geometry's covariance with the field unknown.
+fn joint_normal_equations(
+    geo: &[Geometry],
+    record: &Record,
+    fields: &[Option<Field>],
+    gravity: &[Vector3<f64>],
+    with_omega: bool,
+) -> (DMatrix<f64>, DVector<f64>) {
+    let n = geo.len();
+    let mut normal = DMatrix::<f64>::zeros(7 * n, 7 * n);
+    let mut rhs = DVector::<f64>::zeros(7 * n);
+    let mut add = |rows: &[DataRow], q: usize| {
+        let mut s = DMatrix::<f64>::zeros(q, q);
+        let mut c = DMatrix::<f64>::zeros(7 * n, q);
+        let mut hc = DVector::<f64>::zeros(q);
+        for row in rows {
+            let (i, w, j, e, h) = (
+                &row.channel,
+                &row.weight,
+                &row.jacobian,
+                &row.residual,
+                &row.field,
+            );
+            let hv = DVector::from_column_slice(h);
+            s += &hv * hv.transpose() * *w;
+            hc += &hv * (*w * e);
+            for a in 0..7 {
+                let ja = j[a] * w;
+                rhs[7 * i + a] += ja * e;
+                for b in 0..7 {
+                    normal[(7 * i + a, 7 * i + b)] += ja * j[b];
+                }
+                for (col, hq) in h.iter().enumerate() {
+                    c[(7 * i + a, col)] += ja * hq;
+                }
+            }
+        }
+        // normal −= C S⁺ Cᵀ, rhs −= C S⁺ (HᵀWe). The pseudo-inverse: near rest the
+        // centripetal columns vanish and S is singular (the field then has fewer freedoms).
+        let tiny = s.diagonal().max() * 1e-8;
+        let Ok(s_pinv) = s.pseudo_inverse(tiny) else {
+            return;
+        };
+        let s_inv_ct = &s_pinv * c.transpose();
+        normal.gemm(-1.0, &c, &s_inv_ct, 1.0);
+        rhs.gemv(-1.0, &c, &(&s_pinv * hc), 1.0);
+    };
+    let mut rows = Vec::with_capacity(n);
+    for (pose, gk) in record.poses.iter().zip(gravity.iter()) {
+        rows.clear();
+        let (u1, u2) = tilt_basis(&gk.normalize());
+        for (i, g) in geo.iter().enumerate() {
+            let p = pose.mean[i];
+            if !p.is_finite() {
+                continue;
+            }
+            let w = pose.samples.len() as f64 / (g.noise * g.noise);
+            let k = g.axis * g.scale;
+            let j = jacobian(g, gk, &Matrix3::zeros());
+            rows.push(DataRow {
+                channel: i,
+                weight: w,
+                jacobian: j,
+                residual: p - g.reading(gk),
+                field: vec![G0 * k.dot(&u1), G0 * k.dot(&u2)],
+            });
+        }
+        add(&rows, 2);
+    }
+    for (&t, field) in record.motion.iter().zip(fields.iter()) {
+        let Some(field) = field else {
+            continue;
+        };
+        rows.clear();
+        let m = field.m(&record.gamma);
+        for (i, g) in geo.iter().enumerate() {
+            let p = record.rows[t][i];
+            if !p.is_finite() {
+                continue;
+            }
+            let w = 1.0 / (g.noise * g.noise);
+            let k = g.axis * g.scale;
+            let rk = g.position.cross(&k);
+            let f = field.sigma0 + m * g.position;
+            let j = jacobian(g, &f, &m);
+            let mut h = vec![k.x, k.y, k.z, rk.x, rk.y, rk.z];
+            if with_omega {
+                h.extend_from_slice(centripetal_gradient(&k, &g.position, &field.omega).as_slice());
+            }
+            rows.push(DataRow {
+                channel: i,
+                weight: w,
+                jacobian: j,
+                residual: p - g.reading(&f),
+                field: h,
+            });
+        }
+        add(&rows, if with_omega { 9 } else { 6 });
+    }
+    (normal, rhs)
+}
+
+/// One joint Gauss–Newton step and what it says about observability.
+#[derive(Default)]
+struct JointStep {
+    delta: Vec<f64>,
+    sd: Vec<f64>,
+    /// Per channel: held directions that are its own.
+    held: Vec<Vec<String>>,
+    /// Held directions shared by many channels (freedoms of the whole arrangement).
+    common: Vec<String>,
+}
+
+/// The step restricted to the fitted parameters and to the directions the data determine to
+/// half the tolerance (eigen-decomposition of the tolerance-scaled normal matrix); the
+/// standard deviations of the identified parameters (NaN for a parameter that is mostly in a
+/// held direction).
+fn truncated_step(
+    normal: &DMatrix<f64>,
+    rhs: &DVector<f64>,
+    n: usize,
+    fitted: &[bool; 7],
+    tol: &Tolerance,
+) -> JointStep {
+    let idx: Vec<usize> = (0..7 * n).filter(|&p| fitted[p % 7]).collect();
+    let q = idx.len();
+    let mut out = JointStep {
+        delta: vec![0.0; 7 * n],
+        sd: vec![f64::NAN; 7 * n],
+        held: vec![Vec::new(); n],
+        common: Vec::new(),
+    };
+    if q == 0 {
+        return out;
+    }
+    let d = DVector::from_iterator(q, idx.iter().map(|&p| tol.of(p % 7)));
+    let ns = DMatrix::from_fn(q, q, |a, b| normal[(idx[a], idx[b])] * d[a] * d[b]);
+    let bs = DVector::from_fn(q, |a, _| rhs[idx[a]] * d[a]);
+    let eig = SymmetricEigen::new(ns);
+    if std::env::var_os("BALLISTO_CAL_DEBUG").is_some() {
+        let mut l: Vec<f64> = eig.eigenvalues.iter().copied().collect();
+        l.sort_by(f64::total_cmp);
+        eprintln!(
+            "smallest eigenvalues {:?}",
+            l[..l.len().min(10)]
+                .iter()
+                .map(|v| format!("{v:.2e}"))
+                .collect::<Vec<_>>()
+        );
+    }
+    let mut x = DVector::zeros(q);
+    let mut var = DVector::<f64>::zeros(q);
+    let mut mostly_held = vec![false; q];
+    for (e, &lambda) in eig.eigenvalues.iter().enumerate() {
+        let v = eig.eigenvectors.column(e);
+        // Identified: the data's standard deviation along v is at most half the tolerance.
+        if lambda >= 4.0 {
+            x += v * (v.dot(&bs) / lambda);
+            for a in 0..q {
+                var[a] += v[a] * v[a] / lambda;
+            }
+            continue;
+        }
+        let channels: Vec<usize> = {
+            let mut c: Vec<usize> = (0..q)
+                .filter(|&a| v[a] * v[a] > 0.01)
+                .map(|a| idx[a] / 7)
+                .collect();
+            c.dedup();
+            c
+        };
+        let mut kinds: Vec<&str> = (0..q)
+            .filter(|&a| v[a] * v[a] > 0.01)
+            .map(|a| PARAMETERS[idx[a] % 7])
+            .collect();
+        kinds.sort();
+        kinds.dedup();
+        if channels.len() > COMMON_CHANNELS {
+            out.common.push(format!(
+                "a combination of {} over {} channels",
+                kinds.join(", "),
+                channels.len()
+            ));
+        } else {
+            for a in (0..q).filter(|&a| v[a].abs() > HELD_SHARE) {
+                mostly_held[a] = true;
+                out.held[idx[a] / 7].push(PARAMETERS[idx[a] % 7].to_string());
+            }
+        }
+    }
+    for a in 0..q {
+        out.delta[idx[a]] = x[a] * d[a];
+        if !mostly_held[a] {
+            out.sd[idx[a]] = var[a].max(0.0).sqrt() * d[a];
+        }
+    }
+    for h in out.held.iter_mut() {
+        h.sort();
+        h.dedup();
+    }
+    out.common.sort();
+    out.common.dedup();
+    out
+}
+
+/// Applies a step in [`PARAMETERS`] order.
+fn apply(g: &mut Geometry, d: &SVector<f64, 7>) {
+    let (u1, u2) = tilt_basis(&g.axis);
+    g.scale += d[0];
+    g.axis = (g.axis + u1 * d[1] + u2 * d[2]).normalize();
+    g.bias += d[3];
+    g.position += Vector3::new(d[4], d[5], d[6]);
+}
+
+/// RMS residual of every channel with the geometry `geo` (the field re-estimated for it):
+/// motion samples one by one, each pose by its mean weighted by its samples.
+pub fn residual_rms(
+    geo: &[Geometry],
+    record: &Record,
+    rate: &RateSource,
+) -> Result<Vec<f64>, String> {
+    let omega = initial_rates(geo, record, rate)?;
+    let fields = motion_fields(
+        geo,
+        record,
+        &omega,
+        matches!(rate, RateSource::Estimator(_)),
+    );
+    let gravity = pose_gravity(geo, record.poses);
+    Ok((0..geo.len())
+        .map(|i| {
+            let g = &geo[i];
+            let mut sum = 0.0;
+            let mut count = 0usize;
+            for (pose, gk) in record.poses.iter().zip(gravity.iter()) {
+                let p = pose.mean[i];
+                if p.is_finite() {
+                    sum += (p - g.reading(gk)).powi(2) * pose.samples.len() as f64;
+                    count += pose.samples.len();
+                }
+            }
+            for (&k, field) in record.motion.iter().zip(fields.iter()) {
+                let Some(field) = field else {
+                    continue;
+                };
+                let p = record.rows[k][i];
+                if p.is_finite() {
+                    let f = field.sigma0 + field.m(&record.gamma) * g.position;
+                    sum += (p - g.reading(&f)).powi(2);
+                    count += 1;
+                }
+            }
+            if count > 0 {
+                (sum / count as f64).sqrt()
+            } else {
+                f64::NAN
+            }
+        })
+        .collect())
+}

@@ -1,0 +1,366 @@
+//! `ballisto calibrate`: each channel's position, axis, scale and bias identified from a
+//! record (static poses and motion; paper §6), written as an arrangement file
+//! (interfaces.md) with standard deviations; what the record does not determine keeps its
+//! nominal value and is named.
+//!
+//! - [`poses`] finds the static poses;
+//! - [`fit`] identifies the geometry (alternating field and per-channel Gauss–Newton);
+//! - [`reference`] reads a reference rate file and brings it to the sample instants;
+//! - this module reads the files, runs the fit and writes the calibrated arrangement.
+
+pub mod fit;
+pub mod poses;
+pub mod reference;
+
+use std::error::Error;
+use std::path::Path;
+
+use estimator_core::{Arrangement, Flags, Model, Options};
+use hal_sim::arrangement_file::{
+    choose_model, ArrangementFile, ChannelSpec, LoadedArrangement, HOST_CAP,
+};
+use nalgebra::{Matrix3, Vector3};
+
+use crate::estimate::HostEstimator;
+use crate::samples_csv::SamplesReader;
+use fit::{FitSet, Geometry, Identification, RateSource, Record, Tolerance, PARAMETERS};
+
+/// Window (s) over which a pose must stay within the noise.
+pub const POSE_WINDOW_S: f64 = 0.5;
+/// Shortest static pose used (s).
+pub const POSE_MIN_S: f64 = 1.0;
+/// A reference rate above this (rad/s) means the body turns.
+pub const REFERENCE_REST_RATE: f64 = 0.05;
+
+/// What `ballisto calibrate` does.
+pub struct CalibrateJob<'a> {
+    /// Nominal arrangement file.
+    pub arrangement: &'a Path,
+    /// Samples file (the calibration record).
+    pub samples: &'a Path,
+    /// Calibrated arrangement file to write.
+    pub out: &'a Path,
+    /// Reference rate file, if any.
+    pub reference: Option<&'a Path>,
+    /// What may change.
+    pub fit: FitSet,
+    /// The model for the estimator in self-calibration (overrides the file's).
+    pub model: Option<Model>,
+    /// A report for people (Markdown), if wanted.
+    pub report: Option<&'a Path>,
+}
+
+/// What a calibration found, for the summary on stderr.
+pub struct CalibrationSummary {
+    /// Static poses used.
+    pub poses: usize,
+    /// Motion samples used.
+    pub motion: usize,
+    /// The identification.
+    pub identification: Identification,
+    /// Channel names.
+    pub names: Vec<String>,
+    /// The model written into the file.
+    pub model: Model,
+}
+
+/// Runs `ballisto calibrate`.
+pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn Error>> {
+    let file = ArrangementFile::read(job.arrangement)?;
+    let loaded = file.load(&job.arrangement.display().to_string())?;
+    let names = loaded.names.clone();
+    let (times, rows) = read_record(job.samples, &names)?;
+    if rows.len() < 200 {
+        return Err(format!(
+            "{}: {} sample sets are too few to calibrate from (at least 200: static poses of {POSE_MIN_S} s, or motion)",
+            job.samples.display(),
+            rows.len()
+        )
+        .into());
+    }
+    let rate_hz = (rows.len() - 1) as f64 / (times[times.len() - 1] - times[0]);
+    let nominal: Vec<Geometry> = loaded
+        .arrangement
+        .channels()
+        .iter()
+        .map(|c| Geometry {
+            position: Vector3::from(c.position),
+            axis: Vector3::from(c.axis),
+            scale: c.scale,
+            bias: c.bias,
+            noise: c.noise,
+        })
+        .collect();
+    let reference = match job.reference {
+        Some(path) => Some(reference::read_at(path, &times)?),
+        None => None,
+    };
+    let rate_ok: Option<Vec<bool>> = reference.as_ref().map(|r| {
+        r.omega
+            .iter()
+            .zip(r.covered.iter())
+            .map(|(w, c)| *c && w.norm() < REFERENCE_REST_RATE)
+            .collect()
+    });
+    let noise = noise_levels(&loaded, &rows, rate_hz);
+    let nominal: Vec<Geometry> = nominal
+        .into_iter()
+        .zip(noise.iter())
+        .map(|(g, &noise)| Geometry { noise, ..g })
+        .collect();
+    let window = ((POSE_WINDOW_S * rate_hz).round() as usize).max(5);
+    let min_len = ((POSE_MIN_S * rate_hz).round() as usize).max(window);
+    let poses = poses::find_poses(&rows, &noise, rate_ok.as_deref(), window, min_len);
+    let in_pose = {
+        let mut v = vec![false; rows.len()];
+        for p in &poses {
+            v[p.samples.clone()].iter_mut().for_each(|x| *x = true);
+        }
+        v
+    };
+    let motion: Vec<usize> = (0..rows.len())
+        .filter(|&k| !in_pose[k])
+        .filter(|&k| reference.as_ref().is_none_or(|r| r.covered[k]))
+        .collect();
+    let model = choose_model(job.model, &loaded);
+    let record = Record {
+        rows: &rows,
+        poses: &poses,
+        motion: &motion,
+        gamma: Matrix3::zeros(),
+    };
+    let run_estimator = |geo: &[Geometry]| estimator_rates(geo, &names, model, &times, &rows);
+    let source = match &reference {
+        Some(r) => RateSource::Reference(&r.omega),
+        None => RateSource::Estimator(&run_estimator),
+    };
+    let identification = fit::identify(&nominal, &record, &source, job.fit, &Tolerance::default())
+        .map_err(|e| format!("{}: {e}", job.samples.display()))?;
+    if identification
+        .channels
+        .iter()
+        .all(|c| c.sd.iter().all(|s| s.is_nan()))
+    {
+        return Err(format!(
+            "{}: the record determines no parameter of any channel ({} static poses, {} samples in motion): nothing written",
+            job.samples.display(),
+            poses.len(),
+            motion.len()
+        )
+        .into());
+    }
+    let text = calibrated_file(&file, &loaded, &identification, model, job)?;
+    std::fs::write(job.out, text)
+        .map_err(|e| format!("{}: cannot write: {e}", job.out.display()))?;
+    let summary = CalibrationSummary {
+        poses: poses.len(),
+        motion: motion.len(),
+        identification,
+        names,
+        model,
+    };
+    if let Some(path) = job.report {
+        std::fs::write(path, report_markdown(&summary, job))
+            .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    }
+    Ok(summary)
+}
+
+/// Sample times and rows.
+type Samples = (Vec<f64>, Vec<Vec<f64>>);
+
+/// The whole record in memory (a calibration record is minutes long, not hours).
+fn read_record(path: &Path, names: &[String]) -> Result<Samples, Box<dyn Error>> {
+    let mut reader = SamplesReader::open(path, names)?;
+    let mut times = Vec::new();
+    let mut rows = Vec::new();
+    let mut row = vec![0.0; names.len()];
+    while let Some(t) = reader.next_row(&mut row)? {
+        times.push(t);
+        rows.push(row.clone());
+    }
+    Ok((times, rows))
+}
+
+/// Each channel's noise: the file's if it gives one, else the quietest 10 % of half-second
+/// windows of the record.
+fn noise_levels(loaded: &LoadedArrangement, rows: &[Vec<f64>], rate_hz: f64) -> Vec<f64> {
+    let n = loaded.names.len();
+    if loaded.noise_given {
+        return loaded
+            .arrangement
+            .channels()
+            .iter()
+            .map(|c| c.noise)
+            .collect();
+    }
+    let w = ((POSE_WINDOW_S * rate_hz) as usize).max(5);
+    (0..n)
+        .map(|c| {
+            let mut sds: Vec<f64> = rows
+                .chunks(w)
+                .filter(|ch| ch.len() == w)
+                .map(|ch| {
+                    let m = ch.iter().map(|r| r[c]).sum::<f64>() / w as f64;
+                    (ch.iter().map(|r| (r[c] - m).powi(2)).sum::<f64>() / (w - 1) as f64).sqrt()
+                })
+                .filter(|s| s.is_finite() && *s > 0.0)
+                .collect();
+            sds.sort_by(f64::total_cmp);
+            sds.get(sds.len() / 10).copied().unwrap_or(1.0)
+        })
+        .collect()
+}
+
+/// Ω per sample from the host estimator (f64, smoothed) on the geometry `geo`.
+fn estimator_rates(
+    geo: &[Geometry],
+    names: &[String],
+    model: Model,
+    times: &[f64],
+    rows: &[Vec<f64>],
+) -> Result<fit::Rates, String> {
+    let mut arrangement = Arrangement::<HOST_CAP>::new();
+    for g in geo {
+        let i = arrangement
+            .push(g.position.into(), g.axis.into(), g.noise)
+            .map_err(|e| format!("the geometry being identified: {e}"))?;
+        arrangement
+            .set_calibration(i, g.bias, g.scale)
+            .map_err(|e| format!("the geometry being identified: {e}"))?;
+    }
+    let loaded = LoadedArrangement {
+        names: names.to_vec(),
+        arrangement,
+        model: Some(model),
+        noise_given: true,
+    };
+    let mut est = HostEstimator::<f64>::new(&loaded, model, Options::default())
+        .map_err(|e| format!("the estimator on the geometry being identified: {e}"))?;
+    let mut out = Vec::with_capacity(rows.len());
+    let undecided =
+        Flags::FALLBACK | Flags::ILL_CONDITIONED | Flags::BRANCH_AMBIGUOUS | Flags::INPUT_INVALID;
+    let mut emit = |_: f64, e: &estimator_core::Estimate<f64>| {
+        out.push((e.flags.0 & undecided == 0).then(|| Vector3::from(e.omega)));
+    };
+    for (t, row) in times.iter().zip(rows.iter()) {
+        est.push(*t, row, &mut emit);
+    }
+    est.finish(&mut emit);
+    Ok(out)
+}
+
+/// The calibrated arrangement file's text: every channel as a `[[channel]]` table with its
+/// identified geometry and standard deviations, after a header comment saying what was
+/// identified from what.
+fn calibrated_file(
+    file: &ArrangementFile,
+    loaded: &LoadedArrangement,
+    id: &Identification,
+    model: Model,
+    job: &CalibrateJob,
+) -> Result<String, Box<dyn Error>> {
+    let specs = file.expanded_channels(&job.arrangement.display().to_string())?;
+    let channels: Vec<ChannelSpec> = specs
+        .iter()
+        .zip(id.channels.iter())
+        .zip(loaded.arrangement.channels().iter())
+        .map(|((spec, c), nominal)| {
+            let g = &c.geometry;
+            let sd = |j: usize| c.sd[j].is_finite().then_some(c.sd[j]);
+            let axis_sd = match (sd(1), sd(2)) {
+                (Some(a), Some(b)) => Some(a.max(b)),
+                _ => None,
+            };
+            let position_sd = match (sd(4), sd(5), sd(6)) {
+                (Some(x), Some(y), Some(z)) => Some([x, y, z]),
+                _ => None,
+            };
+            ChannelSpec {
+                name: spec.name.clone(),
+                position: g.position.into(),
+                axis: g.axis.into(),
+                noise: Some(nominal.noise),
+                bias: Some(g.bias),
+                scale: Some(g.scale),
+                position_sd,
+                axis_sd,
+                bias_sd: sd(3),
+                scale_sd: sd(0),
+            }
+        })
+        .collect();
+    let out = ArrangementFile {
+        model: Some(model.name().into()),
+        channels,
+        sensors: Vec::new(),
+    };
+    let mut header = format!(
+        "# Calibrated by ballisto calibrate from {} ({}), nominal geometry {}.\n",
+        job.samples.display(),
+        match job.reference {
+            Some(r) => format!("reference rate {}", r.display()),
+            None => "self-calibration: Ω from the estimator".into(),
+        },
+        job.arrangement.display()
+    );
+    for c in &id.conventions {
+        header.push_str(&format!("# Held by convention: {c}.\n"));
+    }
+    for (name, c) in loaded.names.iter().zip(id.channels.iter()) {
+        if !c.held.is_empty() {
+            header.push_str(&format!(
+                "# {name}: not identified by this record (kept nominal): {}.\n",
+                c.held.join("; ")
+            ));
+        }
+    }
+    header.push_str("# A missing *_sd key means that parameter was not identified.\n");
+    Ok(header + &out.to_toml())
+}
+
+/// The report for people: per channel the change from nominal, the standard deviations and
+/// the residual before and after.
+fn report_markdown(s: &CalibrationSummary, job: &CalibrateJob) -> String {
+    let mut r = format!(
+        "# Calibration of {}\n\nRecord {}: {} static poses, {} samples in motion; Ω from {}; {} alternations.\n\n",
+        job.arrangement.display(),
+        job.samples.display(),
+        s.poses,
+        s.motion,
+        match job.reference {
+            Some(p) => format!("the reference {}", p.display()),
+            None => "the estimator (self-calibration)".into(),
+        },
+        s.identification.iterations
+    );
+    for c in &s.identification.conventions {
+        r.push_str(&format!("- Held by convention: {c}.\n"));
+    }
+    r.push_str("\n| channel | scale | bias (m/s²) | position (mm) | residual RMS before → after (m/s²) | not identified |\n|---|---|---|---|---|---|\n");
+    for (name, c) in s.names.iter().zip(s.identification.channels.iter()) {
+        let g = &c.geometry;
+        let pm = |j: usize| {
+            if c.sd[j].is_finite() {
+                format!(" ± {:.2e}", c.sd[j])
+            } else {
+                " (held)".into()
+            }
+        };
+        r.push_str(&format!(
+            "| {name} | {:.5}{} | {:.4}{} | {:.2}, {:.2}, {:.2} | {:.3e} → {:.3e} | {} |\n",
+            g.scale,
+            pm(0),
+            g.bias,
+            pm(3),
+            g.position.x * 1e3,
+            g.position.y * 1e3,
+            g.position.z * 1e3,
+            c.residual_rms.0,
+            c.residual_rms.1,
+            c.held.join("; ")
+        ));
+    }
+    r.push_str(&format!("\nParameters: {}.\n", PARAMETERS.join(", ")));
+    r
+}
