@@ -237,6 +237,8 @@ pub fn identify(
     // Ω at every motion sample: the reference's, or (self-calibration) the estimator's on the
     // geometry after the static poses, then refined with the field at every alternation.
     let mut omega: Option<Vec<Option<Vector3<f64>>>> = None;
+    let mut frozen: Option<JointStep> = None;
+    let stage_start = if statics_first { MAX_ITERATIONS / 3 } else { 0 };
     let poses_only = Record {
         rows: record.rows,
         poses: record.poses,
@@ -264,7 +266,21 @@ pub fn identify(
         let gravity = pose_gravity(&geo, record.poses);
         let (normal, rhs) =
             joint_normal_equations(&geo, record, &fields, &gravity, self_calibration);
-        step = truncated_step(&normal, &rhs, n, &fit.mask(), tol);
+        // The identified subspace is decided on the third iteration of a stage (the first
+        // ones may start far from the solution) and then kept, so that directions near the
+        // threshold do not flip in and out and the iteration converges.
+        let at = if std::ptr::eq(stage, &poses_only) {
+            it
+        } else {
+            it - stage_start
+        };
+        if at == 0 {
+            frozen = None;
+        }
+        step = truncated_step(&normal, &rhs, n, &fit.mask(), tol, frozen.as_ref());
+        if at == 2 {
+            frozen = Some(step.clone());
+        }
         let mut largest = 0.0f64;
         for (i, g) in geo.iter_mut().enumerate() {
             let d = SVector::<f64, 7>::from_fn(|j, _| step.delta[7 * i + j]);
@@ -310,6 +326,9 @@ pub const MAX_ITERATIONS: usize = 30;
 /// exceeds this; a held direction shared by more than [`COMMON_CHANNELS`] channels is a
 /// freedom of the whole arrangement (a convention), not of one channel.
 const HELD_SHARE: f64 = 0.5;
+/// An eigenvalue below this fraction of the largest is a freedom the data do not see at all
+/// (round-off level of the projected normal matrix).
+const GAUGE_EIGENVALUE: f64 = 1e-9;
 const COMMON_CHANNELS: usize = 3;
 
 /// The gravity direction of each pose (|g| = G0), by least squares over the channels.
@@ -560,7 +579,7 @@ fn joint_normal_equations(
 }
 
 /// One joint Gauss–Newton step and what it says about observability.
-#[derive(Default)]
+#[derive(Clone, Default)]
 struct JointStep {
     delta: Vec<f64>,
     sd: Vec<f64>,
@@ -568,6 +587,10 @@ struct JointStep {
     held: Vec<Vec<String>>,
     /// Held directions shared by many channels (freedoms of the whole arrangement).
     common: Vec<String>,
+    /// The identified directions (columns; tolerance-scaled fitted parameters).
+    basis: DMatrix<f64>,
+    /// The held directions that are not conventions (their tolerance enters the deviations).
+    held_basis: DMatrix<f64>,
 }
 
 /// The step restricted to the fitted parameters and to the directions the data determine to
@@ -580,6 +603,7 @@ fn truncated_step(
     n: usize,
     fitted: &[bool; 7],
     tol: &Tolerance,
+    frozen: Option<&JointStep>,
 ) -> JointStep {
     let idx: Vec<usize> = (0..7 * n).filter(|&p| fitted[p % 7]).collect();
     let q = idx.len();
@@ -588,6 +612,8 @@ fn truncated_step(
         sd: vec![f64::NAN; 7 * n],
         held: vec![Vec::new(); n],
         common: Vec::new(),
+        basis: DMatrix::zeros(0, 0),
+        held_basis: DMatrix::zeros(0, 0),
     };
     if q == 0 {
         return out;
@@ -595,12 +621,34 @@ fn truncated_step(
     let d = DVector::from_iterator(q, idx.iter().map(|&p| tol.of(p % 7)));
     let ns = DMatrix::from_fn(q, q, |a, b| normal[(idx[a], idx[b])] * d[a] * d[b]);
     let bs = DVector::from_fn(q, |a, _| rhs[idx[a]] * d[a]);
+    if let Some(f) = frozen {
+        // The identified subspace decided before: Gauss–Newton within it.
+        let v = &f.basis;
+        let nr = v.transpose() * &ns * v;
+        let br = v.transpose() * &bs;
+        if let Some(chol) = nr.clone().cholesky() {
+            let x = v * chol.solve(&br);
+            let cov = v * chol.inverse() * v.transpose() + &f.held_basis * f.held_basis.transpose();
+            out.held = f.held.clone();
+            out.common = f.common.clone();
+            out.basis = f.basis.clone();
+            out.held_basis = f.held_basis.clone();
+            for a in 0..q {
+                out.delta[idx[a]] = x[a] * d[a];
+                if !f.sd[idx[a]].is_nan() {
+                    out.sd[idx[a]] = cov[(a, a)].max(0.0).sqrt() * d[a];
+                }
+            }
+            return out;
+        }
+    }
     let eig = SymmetricEigen::new(ns);
     if std::env::var_os("BALLISTO_CAL_DEBUG").is_some() {
         let mut l: Vec<f64> = eig.eigenvalues.iter().copied().collect();
         l.sort_by(f64::total_cmp);
         eprintln!(
-            "smallest eigenvalues {:?}",
+            "largest eigenvalue {:.3e}, smallest {:?}",
+            l[l.len() - 1],
             l[..l.len().min(10)]
                 .iter()
                 .map(|v| format!("{v:.2e}"))
@@ -610,10 +658,14 @@ fn truncated_step(
     let mut x = DVector::zeros(q);
     let mut var = DVector::<f64>::zeros(q);
     let mut mostly_held = vec![false; q];
+    let mut kept = Vec::new();
+    let mut held_dirs = Vec::new();
+    let lambda_max = eig.eigenvalues.max().max(0.0);
     for (e, &lambda) in eig.eigenvalues.iter().enumerate() {
         let v = eig.eigenvectors.column(e);
         // Identified: the data's standard deviation along v is at most half the tolerance.
         if lambda >= 4.0 {
+            kept.push(e);
             x += v * (v.dot(&bs) / lambda);
             for a in 0..q {
                 var[a] += v[a] * v[a] / lambda;
@@ -634,9 +686,25 @@ fn truncated_step(
             .collect();
         kinds.sort();
         kinds.dedup();
-        if channels.len() > COMMON_CHANNELS {
+        // A freedom no such record can fix (the data say nothing at all along it) is a
+        // convention; a direction the record determines, but not to half the tolerance, is
+        // held at nominal and its tolerance counted in the deviations.
+        let gauge = lambda < GAUGE_EIGENVALUE * lambda_max;
+        if !gauge {
+            held_dirs.push(e);
+            for a in 0..q {
+                var[a] += v[a] * v[a];
+            }
+        }
+        if gauge && channels.len() > COMMON_CHANNELS {
             out.common.push(format!(
-                "a combination of {} over {} channels",
+                "a combination of {} common to {} channels (not observable from such a record; held at nominal)",
+                kinds.join(", "),
+                channels.len()
+            ));
+        } else if channels.len() > COMMON_CHANNELS {
+            out.common.push(format!(
+                "a combination of {} over {} channels, determined to less than half its tolerance (held at nominal)",
                 kinds.join(", "),
                 channels.len()
             ));
@@ -659,6 +727,8 @@ fn truncated_step(
     }
     out.common.sort();
     out.common.dedup();
+    out.basis = eig.eigenvectors.select_columns(kept.iter());
+    out.held_basis = eig.eigenvectors.select_columns(held_dirs.iter());
     out
 }
 
@@ -716,4 +786,88 @@ pub fn residual_rms(
             }
         })
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The joint normal matrix with the field projected out is positive semi-definite (a
+    /// Schur complement), to round-off.
+    #[test]
+    fn the_projected_normal_matrix_is_positive_semidefinite() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut u = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let geo: Vec<Geometry> = (0..12)
+            .map(|i| {
+                let c = [
+                    [1.0, 1.0, 1.0],
+                    [1.0, -1.0, -1.0],
+                    [-1.0, 1.0, -1.0],
+                    [-1.0, -1.0, 1.0],
+                ][i / 3];
+                let mut axis = Vector3::new(u() * 0.01, u() * 0.01, u() * 0.01);
+                axis[i % 3] = 1.0;
+                Geometry {
+                    position: Vector3::from(c) * 0.1,
+                    axis: axis.normalize(),
+                    scale: 1.0,
+                    bias: 0.0,
+                    noise: 1e-3,
+                }
+            })
+            .collect();
+        let n_samples = 2000;
+        let rows: Vec<Vec<f64>> = (0..n_samples)
+            .map(|_| (0..12).map(|_| u() * 10.0).collect())
+            .collect();
+        let motion: Vec<usize> = (0..n_samples).collect();
+        let poses: Vec<Pose> = (0..10)
+            .map(|k| Pose {
+                samples: k * 300..(k + 1) * 300,
+                mean: (0..12).map(|_| u() * 10.0).collect(),
+            })
+            .collect();
+        let gravity: Vec<Vector3<f64>> = (0..10)
+            .map(|_| Vector3::new(u(), u(), u()).normalize() * G0)
+            .collect();
+        let record = Record {
+            rows: &rows,
+            poses: &poses,
+            motion: &motion,
+            gamma: Matrix3::zeros(),
+        };
+        let fields: Vec<Option<Field>> = (0..n_samples)
+            .map(|_| {
+                Some(Field {
+                    sigma0: Vector3::new(u(), u(), u()) * 20.0,
+                    domega: Vector3::new(u(), u(), u()) * 4.0,
+                    omega: Vector3::new(u(), u(), u()) * 6.0,
+                })
+            })
+            .collect();
+        for with_omega in [false, true] {
+            let (normal, _) = joint_normal_equations(&geo, &record, &fields, &gravity, with_omega);
+            let tol = Tolerance::default();
+            let d = DVector::from_fn(84, |p, _| tol.of(p % 7));
+            let ns = DMatrix::from_fn(84, 84, |a, b| normal[(a, b)] * d[a] * d[b]);
+            let e = SymmetricEigen::new(ns).eigenvalues;
+            println!(
+                "with_omega {with_omega}: eigenvalues {:.3e} .. {:.3e}",
+                e.min(),
+                e.max()
+            );
+            assert!(
+                e.min() > -1e-9 * e.max(),
+                "min {:e} max {:e}",
+                e.min(),
+                e.max()
+            );
+        }
+    }
 }

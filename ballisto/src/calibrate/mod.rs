@@ -213,7 +213,7 @@ fn noise_levels(loaded: &LoadedArrangement, rows: &[Vec<f64>], rate_hz: f64) -> 
 }
 
 /// Ω per sample from the host estimator (f64, smoothed) on the geometry `geo`.
-fn estimator_rates(
+pub fn estimator_rates(
     geo: &[Geometry],
     names: &[String],
     model: Model,

@@ -2,8 +2,8 @@
 //!
 //! A sample is static when, over the window of `window` samples centred on it, every
 //! channel's standard deviation is at most [`STATIC_NOISE_FACTOR`] × its noise (and, with a
-//! reference, |Ω| is small). Runs of static samples of at least `min_len` samples make a pose;
-//! its first and last half-windows are dropped (the body may still be settling).
+//! reference, |Ω| is small). Runs of static samples make a pose once a window is dropped at
+//! both ends (a turn starts and ends slowly) if `min_len` samples remain.
 
 use super::fit::Pose;
 
@@ -72,8 +72,9 @@ pub fn find_poses(
         while k < n && is_static[k] {
             k += 1;
         }
-        // Drop the half-windows at both ends.
-        let (a, b) = (start + half / 2, k.saturating_sub(half / 2));
+        // Drop a whole window at both ends: a turn starts and ends slowly, and its first
+        // milliradians stay within the noise of one window.
+        let (a, b) = (start + window, k.saturating_sub(window));
         if b > a && b - a >= min_len {
             let mean = (0..channels)
                 .map(|c| rows[a..b].iter().map(|r| r[c]).sum::<f64>() / (b - a) as f64)
