@@ -277,7 +277,10 @@ pub fn identify(
         if at == 0 {
             frozen = None;
         }
-        step = truncated_step(&normal, &rhs, n, &fit.mask(), tol, frozen.as_ref());
+        step = match &frozen {
+            Some(f) => truncated_step(&normal, &rhs, n, &[], tol, Some(f)),
+            None => decided_step(&normal, &rhs, n, &fit.mask(), tol),
+        };
         if at == 2 {
             frozen = Some(step.clone());
         }
@@ -322,14 +325,12 @@ pub fn identify(
 /// estimator as the rate source needs a few more).
 pub const MAX_ITERATIONS: usize = 30;
 
-/// A parameter belongs to a held direction when its share of that (unit, scaled) direction
-/// exceeds this; a held direction shared by more than [`COMMON_CHANNELS`] channels is a
-/// freedom of the whole arrangement (a convention), not of one channel.
+/// A parameter is not identified when more than this share of it lies in directions the
+/// record does not determine.
 const HELD_SHARE: f64 = 0.5;
 /// An eigenvalue below this fraction of the largest is a freedom the data do not see at all
 /// (round-off level of the projected normal matrix).
 const GAUGE_EIGENVALUE: f64 = 1e-9;
-const COMMON_CHANNELS: usize = 3;
 
 /// The gravity direction of each pose (|g| = G0), by least squares over the channels.
 fn pose_gravity(geo: &[Geometry], poses: &[Pose]) -> Vec<Vector3<f64>> {
@@ -591,6 +592,77 @@ struct JointStep {
     basis: DMatrix<f64>,
     /// The held directions that are not conventions (their tolerance enters the deviations).
     held_basis: DMatrix<f64>,
+    /// The parameters moved (7 per channel).
+    fitted: Vec<bool>,
+}
+
+/// The step with the parameters the record does not determine to half their tolerance held
+/// at their present values (nominal, when decided at the start) and named: the least
+/// determined parameters are set aside until every remaining one is (a parameter can become
+/// determined once a correlated one is held).
+fn decided_step(
+    normal: &DMatrix<f64>,
+    rhs: &DVector<f64>,
+    n: usize,
+    kinds: &[bool; 7],
+    tol: &Tolerance,
+) -> JointStep {
+    let mut fitted: Vec<bool> = (0..7 * n).map(|p| kinds[p % 7]).collect();
+    let mut set_aside: Vec<usize> = Vec::new();
+    loop {
+        let mut step = truncated_step(normal, rhs, n, &fitted, tol, None);
+        // Scaled deviation of every fitted parameter (NaN: mostly in a held direction).
+        let scaled: Vec<(usize, f64)> = (0..7 * n)
+            .filter(|&p| fitted[p])
+            .map(|p| {
+                let z = step.sd[p] / tol.of(p % 7);
+                (p, if z.is_nan() { f64::INFINITY } else { z })
+            })
+            .filter(|(_, z)| *z > 0.5)
+            .collect();
+        // A bias is told from the scale only by readings of different size: where a
+        // channel's scale or axis is held, its bias (estimated as if they were exact) is
+        // held too, rather than reported with a deviation that ignores theirs.
+        let dependent: Vec<usize> = (0..n)
+            .map(|i| 7 * i + 3)
+            .filter(|&b| fitted[b] && (0..3).any(|j| kinds[j] && !fitted[b - 3 + j]))
+            .collect();
+        if scaled.is_empty() && !dependent.is_empty() {
+            for p in dependent {
+                fitted[p] = false;
+                set_aside.push(p);
+            }
+            continue;
+        }
+        if scaled.is_empty() {
+            for &p in &set_aside {
+                step.held[p / 7].push(PARAMETERS[p % 7].to_string());
+            }
+            for h in step.held.iter_mut() {
+                h.sort();
+                h.dedup();
+            }
+            return step;
+        }
+        // All the hopeless ones at once, else the least determined one.
+        let hopeless: Vec<usize> = scaled
+            .iter()
+            .filter(|(_, z)| *z > 2.0)
+            .map(|(p, _)| *p)
+            .collect();
+        let drop = if hopeless.is_empty() {
+            vec![scaled
+                .iter()
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map_or(0, |(p, _)| *p)]
+        } else {
+            hopeless
+        };
+        for p in drop {
+            fitted[p] = false;
+            set_aside.push(p);
+        }
+    }
 }
 
 /// The step restricted to the fitted parameters and to the directions the data determine to
@@ -601,11 +673,12 @@ fn truncated_step(
     normal: &DMatrix<f64>,
     rhs: &DVector<f64>,
     n: usize,
-    fitted: &[bool; 7],
+    fitted: &[bool],
     tol: &Tolerance,
     frozen: Option<&JointStep>,
 ) -> JointStep {
-    let idx: Vec<usize> = (0..7 * n).filter(|&p| fitted[p % 7]).collect();
+    let fitted = frozen.map_or(fitted, |f| &f.fitted[..]);
+    let idx: Vec<usize> = (0..7 * n).filter(|&p| fitted[p]).collect();
     let q = idx.len();
     let mut out = JointStep {
         delta: vec![0.0; 7 * n],
@@ -614,6 +687,7 @@ fn truncated_step(
         common: Vec::new(),
         basis: DMatrix::zeros(0, 0),
         held_basis: DMatrix::zeros(0, 0),
+        fitted: fitted.to_vec(),
     };
     if q == 0 {
         return out;
@@ -660,6 +734,8 @@ fn truncated_step(
     let mut mostly_held = vec![false; q];
     let mut kept = Vec::new();
     let mut held_dirs = Vec::new();
+    let mut gauges = Vec::new();
+    let mut gauge_share = vec![0.0; q];
     let lambda_max = eig.eigenvalues.max().max(0.0);
     for (e, &lambda) in eig.eigenvalues.iter().enumerate() {
         let v = eig.eigenvectors.column(e);
@@ -672,48 +748,51 @@ fn truncated_step(
             }
             continue;
         }
-        let channels: Vec<usize> = {
-            let mut c: Vec<usize> = (0..q)
-                .filter(|&a| v[a] * v[a] > 0.01)
-                .map(|a| idx[a] / 7)
-                .collect();
-            c.dedup();
-            c
-        };
-        let mut kinds: Vec<&str> = (0..q)
-            .filter(|&a| v[a] * v[a] > 0.01)
-            .map(|a| PARAMETERS[idx[a] % 7])
-            .collect();
-        kinds.sort();
-        kinds.dedup();
-        // A freedom no such record can fix (the data say nothing at all along it) is a
-        // convention; a direction the record determines, but not to half the tolerance, is
-        // held at nominal and its tolerance counted in the deviations.
-        let gauge = lambda < GAUGE_EIGENVALUE * lambda_max;
-        if !gauge {
+        // A freedom no such record can fix (the data say nothing at all along it: a
+        // gauge) is a convention; a direction the record determines, but not to half the
+        // tolerance, is held at nominal and its tolerance counted in the deviations.
+        if lambda < GAUGE_EIGENVALUE * lambda_max {
+            gauges.push(e);
+            for a in 0..q {
+                gauge_share[a] += v[a] * v[a];
+            }
+        } else {
             held_dirs.push(e);
             for a in 0..q {
                 var[a] += v[a] * v[a];
             }
         }
-        if gauge && channels.len() > COMMON_CHANNELS {
-            out.common.push(format!(
-                "a combination of {} common to {} channels (not observable from such a record; held at nominal)",
-                kinds.join(", "),
-                channels.len()
-            ));
-        } else if channels.len() > COMMON_CHANNELS {
-            out.common.push(format!(
-                "a combination of {} over {} channels, determined to less than half its tolerance (held at nominal)",
-                kinds.join(", "),
-                channels.len()
-            ));
-        } else {
-            for a in (0..q).filter(|&a| v[a].abs() > HELD_SHARE) {
-                mostly_held[a] = true;
-                out.held[idx[a] / 7].push(PARAMETERS[idx[a] % 7].to_string());
-            }
+    }
+    // A parameter mostly inside the gauges is not identified at all; one that shares a
+    // little of a gauge (each position's part of the common translation) is identified
+    // relative to the convention.
+    for a in 0..q {
+        if gauge_share[a] > HELD_SHARE {
+            mostly_held[a] = true;
         }
+    }
+    if !gauges.is_empty() {
+        let mut kinds: Vec<&str> = gauges
+            .iter()
+            .flat_map(|&e| {
+                let v = eig.eigenvectors.column(e);
+                (0..q)
+                    .filter(move |&a| v[a] * v[a] > 0.01)
+                    .map(|a| PARAMETERS[idx[a] % 7])
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        kinds.sort();
+        kinds.dedup();
+        out.common.push(if kinds.iter().all(|k| k.starts_with("position")) && gauges.len() <= 3 {
+            "the common translation of all positions: not observable from accelerometers (σ0 absorbs it); the origin is held where the nominal positions put it".to_string()
+        } else {
+            format!(
+                "{} combinations of {} that this record cannot tell apart (held at nominal: among them the common translation, and without a reference the common rotation and size)",
+                gauges.len(),
+                kinds.join(", ")
+            )
+        });
     }
     for a in 0..q {
         out.delta[idx[a]] = x[a] * d[a];
@@ -721,12 +800,6 @@ fn truncated_step(
             out.sd[idx[a]] = var[a].max(0.0).sqrt() * d[a];
         }
     }
-    for h in out.held.iter_mut() {
-        h.sort();
-        h.dedup();
-    }
-    out.common.sort();
-    out.common.dedup();
     out.basis = eig.eigenvectors.select_columns(kept.iter());
     out.held_basis = eig.eigenvectors.select_columns(held_dirs.iter());
     out

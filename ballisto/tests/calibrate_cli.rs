@@ -1,0 +1,194 @@
+//! `ballisto calibrate` on the command line: the calibrated file, and bad input refused with
+//! a sentence naming what is wrong (no calibration file written).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn ballisto() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_ballisto"))
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ballisto-calcli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The calibration record of `ground-calibration` (firmware on the simulated buses).
+fn record(dir: &Path) {
+    let out = ballisto()
+        .args([
+            "sim",
+            "--firmware",
+            "--scenario",
+            "ground-calibration",
+            "--out",
+        ])
+        .arg(dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn calibrate(dir: &Path, samples: &Path, extra: &[&str]) -> Output {
+    ballisto()
+        .arg("calibrate")
+        .arg("--arrangement")
+        .arg(dir.join("arrangement.toml"))
+        .arg("--samples")
+        .arg(samples)
+        .arg("--out")
+        .arg(dir.join("calibrated.toml"))
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+fn refused(out: &Output, dir: &Path, words: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "accepted: {err}");
+    assert!(
+        err.contains(words),
+        "stderr does not say \"{words}\": {err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "one sentence: {err}");
+    assert!(
+        !dir.join("calibrated.toml").exists(),
+        "a calibration file was written"
+    );
+}
+
+/// The first `n` lines of the samples file (header included).
+fn head(dir: &Path, n: usize, name: &str) -> PathBuf {
+    let text = std::fs::read_to_string(dir.join("samples.csv")).unwrap();
+    let part: Vec<&str> = text.lines().take(n).collect();
+    let p = dir.join(name);
+    std::fs::write(&p, part.join("\n") + "\n").unwrap();
+    p
+}
+
+#[test]
+fn writes_a_calibrated_arrangement_that_estimate_reads() {
+    let dir = tmpdir("ok");
+    record(&dir);
+    let report = dir.join("report.md");
+    let out = calibrate(
+        &dir,
+        &dir.join("samples.csv"),
+        &[
+            "--reference",
+            dir.join("reference.csv").to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("static poses"), "{err}");
+    let text = std::fs::read_to_string(dir.join("calibrated.toml")).unwrap();
+    assert!(
+        text.starts_with("# Calibrated by ballisto calibrate"),
+        "{text}"
+    );
+    for key in [
+        "bias = ",
+        "scale = ",
+        "position_sd = ",
+        "axis_sd = ",
+        "bias_sd = ",
+        "scale_sd = ",
+    ] {
+        assert!(text.contains(key), "no {key} in the calibrated file");
+    }
+    assert!(std::fs::read_to_string(&report)
+        .unwrap()
+        .contains("| u0.x |"));
+    let est = ballisto()
+        .arg("estimate")
+        .arg("--arrangement")
+        .arg(dir.join("calibrated.toml"))
+        .arg("--samples")
+        .arg(dir.join("samples.csv"))
+        .arg("--out")
+        .arg(dir.join("estimates.csv"))
+        .output()
+        .unwrap();
+    assert!(
+        est.status.success(),
+        "{}",
+        String::from_utf8_lossy(&est.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_input_is_refused_by_name() {
+    let dir = tmpdir("bad");
+    record(&dir);
+    // Too short.
+    let short = head(&dir, 100, "short.csv");
+    refused(&calibrate(&dir, &short, &[]), &dir, "too few to calibrate");
+    // One static pose and nothing else: nothing to identify.
+    let rest = head(&dir, 301, "rest.csv");
+    refused(
+        &calibrate(&dir, &rest, &[]),
+        &dir,
+        "determines no parameter",
+    );
+    // A reference that does not overlap the record.
+    let reference = dir.join("late-reference.csv");
+    let shifted: String = std::fs::read_to_string(dir.join("reference.csv"))
+        .unwrap()
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                return format!("{l}\n");
+            }
+            let (t, rest) = l.split_once(',').unwrap();
+            format!("{},{rest}\n", t.parse::<f64>().unwrap() + 1000.0)
+        })
+        .collect();
+    std::fs::write(&reference, shifted).unwrap();
+    refused(
+        &calibrate(
+            &dir,
+            &dir.join("samples.csv"),
+            &["--reference", reference.to_str().unwrap()],
+        ),
+        &dir,
+        "does not overlap the record",
+    );
+    // A non-finite reference value.
+    let nan = dir.join("nan-reference.csv");
+    std::fs::write(&nan, "t,omega_x,omega_y,omega_z\n0,0,0,0\n0.01,NaN,0,0\n").unwrap();
+    refused(
+        &calibrate(
+            &dir,
+            &dir.join("samples.csv"),
+            &["--reference", nan.to_str().unwrap()],
+        ),
+        &dir,
+        "line 3: \"NaN\" is not a finite number",
+    );
+    // A non-finite reading.
+    let text = std::fs::read_to_string(dir.join("samples.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let fields: Vec<&str> = lines[500].split(',').collect();
+    lines[500] = format!("{},inf,{}", fields[0], fields[2..].join(","));
+    let bad = dir.join("inf.csv");
+    std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
+    refused(&calibrate(&dir, &bad, &[]), &dir, "line 501");
+    // An unknown --fit item.
+    refused(
+        &calibrate(&dir, &dir.join("samples.csv"), &["--fit", "bias,gain"]),
+        &dir,
+        "\"gain\" is not one of bias, scale, axis, position",
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
