@@ -93,8 +93,8 @@ fn common_translation(calibrated: &Path, truth: &Path) -> [f64; 3] {
     let mut s = [0.0; 3];
     for (a, b) in c.iter().zip(t.iter()) {
         assert_eq!(a.name, b.name);
-        for k in 0..3 {
-            s[k] += (a.position[k] - b.position[k]) / c.len() as f64;
+        for (sk, (pa, pb)) in s.iter_mut().zip(a.position.iter().zip(b.position.iter())) {
+            *sk += (pa - pb) / c.len() as f64;
         }
     }
     s
