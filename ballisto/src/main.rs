@@ -301,6 +301,9 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 s.model.name(),
                 out.display()
             );
+            for w in &s.warnings {
+                eprintln!("  WARNING: {w}");
+            }
             for c in &s.identification.conventions {
                 eprintln!("  held by convention: {c}");
             }

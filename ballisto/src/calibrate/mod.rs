@@ -62,6 +62,69 @@ pub struct CalibrationSummary {
     pub names: Vec<String>,
     /// The model written into the file.
     pub model: Model,
+    /// What makes the calibration doubtful (residuals above the noise, parameters far
+    /// outside their tolerance), one sentence each.
+    pub warnings: Vec<String>,
+}
+
+/// A channel's residual may exceed its declared noise by this factor before the record is
+/// said not to fit the model.
+pub const RESIDUAL_FACTOR: f64 = 2.0;
+/// An identified parameter more than this many tolerances from nominal is doubted.
+pub const IMPLAUSIBLE_TOLERANCES: f64 = 5.0;
+
+/// Checks the identification against what a sound record gives, and says what it doubts:
+/// a channel whose residual exceeds [`RESIDUAL_FACTOR`] × its noise has its deviations
+/// scaled by the ratio (they assume white noise of the declared size); a parameter more than
+/// [`IMPLAUSIBLE_TOLERANCES`] tolerances from nominal points to something the model lacks
+/// (a time lag between parts or against the reference, filtering, a wrong nominal).
+fn plausibility(
+    id: &mut Identification,
+    nominal: &[Geometry],
+    names: &[String],
+    tol: &Tolerance,
+) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let mut misfit = Vec::new();
+    let mut far = Vec::new();
+    for ((c, n0), name) in id.channels.iter_mut().zip(nominal.iter()).zip(names.iter()) {
+        let ratio = c.residual_rms.1 / n0.noise;
+        if ratio > RESIDUAL_FACTOR {
+            for sd in c.sd.iter_mut() {
+                *sd *= ratio;
+            }
+            misfit.push(format!("{name} {ratio:.1}×"));
+        }
+        let g = &c.geometry;
+        let moved = [
+            ((g.scale - n0.scale).abs() / tol.scale, "scale"),
+            (g.axis.angle(&n0.axis) / tol.axis, "axis"),
+            ((g.bias - n0.bias).abs() / tol.bias, "bias"),
+            ((g.position - n0.position).norm() / tol.position, "position"),
+        ];
+        for (m, what) in moved {
+            if m > IMPLAUSIBLE_TOLERANCES {
+                far.push(format!("{name} {what} {m:.0}×"));
+            }
+        }
+    }
+    if !misfit.is_empty() {
+        warnings.push(format!(
+            "the residuals exceed the declared noise ({}): the record does not fit the model to its noise, and the deviations have been scaled up by those ratios",
+            misfit.join(", ")
+        ));
+    }
+    if !far.is_empty() {
+        warnings.push(format!(
+            "parameters moved far beyond their tolerances ({}; tolerances: scale {}, axis {} rad, bias {} m/s², position {} m): suspect a time lag or filtering the model lacks, or a wrong nominal geometry, before using this file",
+            far.join(", "),
+            tol.scale,
+            tol.axis,
+            tol.bias,
+            tol.position
+        ));
+    }
+    warnings
 }
 
 /// Runs `ballisto calibrate`.
@@ -134,8 +197,10 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         Some(r) => RateSource::Reference(&r.omega),
         None => RateSource::Estimator(&run_estimator),
     };
-    let identification = fit::identify(&nominal, &record, &source, job.fit, &Tolerance::default())
+    let tolerance = Tolerance::default();
+    let mut identification = fit::identify(&nominal, &record, &source, job.fit, &tolerance)
         .map_err(|e| format!("{}: {e}", job.samples.display()))?;
+    let warnings = plausibility(&mut identification, &nominal, &names, &tolerance);
     if identification
         .channels
         .iter()
@@ -149,7 +214,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         )
         .into());
     }
-    let text = calibrated_file(&file, &loaded, &identification, model, job)?;
+    let text = calibrated_file(&file, &loaded, &identification, model, job, &warnings)?;
     std::fs::write(job.out, text)
         .map_err(|e| format!("{}: cannot write: {e}", job.out.display()))?;
     let summary = CalibrationSummary {
@@ -158,6 +223,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         identification,
         names,
         model,
+        warnings,
     };
     if let Some(path) = job.report {
         std::fs::write(path, report_markdown(&summary, job))
@@ -259,6 +325,7 @@ fn calibrated_file(
     id: &Identification,
     model: Model,
     job: &CalibrateJob,
+    warnings: &[String],
 ) -> Result<String, Box<dyn Error>> {
     let specs = file.expanded_channels(&job.arrangement.display().to_string())?;
     let channels: Vec<ChannelSpec> = specs
@@ -304,6 +371,9 @@ fn calibrated_file(
         },
         job.arrangement.display()
     );
+    for w in warnings {
+        header.push_str(&format!("# WARNING: {w}.\n"));
+    }
     for c in &id.conventions {
         header.push_str(&format!("# Held by convention: {c}.\n"));
     }
@@ -334,6 +404,9 @@ fn report_markdown(s: &CalibrationSummary, job: &CalibrateJob) -> String {
         },
         s.identification.iterations
     );
+    for w in &s.warnings {
+        r.push_str(&format!("- **Warning**: {w}.\n"));
+    }
     for c in &s.identification.conventions {
         r.push_str(&format!("- Held by convention: {c}.\n"));
     }

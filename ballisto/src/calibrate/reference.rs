@@ -14,8 +14,10 @@ pub struct ReferenceAt {
     pub covered: Vec<bool>,
 }
 
-/// Reads `path` and interpolates it to `times`. Errors name the file and line; a reference
-/// that covers less than half of the samples is refused (it does not overlap the record).
+/// Reads `path` and interpolates it to `times` (not across a gap of more than 1.5 median
+/// intervals: rows left out mean "no reference here"). Errors name the file and line; a
+/// reference that covers less than half of the samples is refused (it does not overlap the
+/// record).
 pub fn read_at(path: &Path, times: &[f64]) -> Result<ReferenceAt, Box<dyn Error>> {
     let name = path.display().to_string();
     let mut rdr = csv::ReaderBuilder::new()
@@ -55,6 +57,11 @@ pub fn read_at(path: &Path, times: &[f64]) -> Result<ReferenceAt, Box<dyn Error>
     if t_ref.len() < 2 {
         return Err(format!("{name}: fewer than two rows").into());
     }
+    // A reference with rows left out (e.g. where a gyro saturated) does not cover the gap:
+    // an interval longer than 1.5 times the median one is not interpolated across.
+    let mut steps: Vec<f64> = t_ref.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let longest = 1.5 * steps[steps.len() / 2];
     let mut omega = Vec::with_capacity(times.len());
     let mut covered = Vec::with_capacity(times.len());
     let mut j = 0;
@@ -63,7 +70,7 @@ pub fn read_at(path: &Path, times: &[f64]) -> Result<ReferenceAt, Box<dyn Error>
             j += 1;
         }
         let (t0, t1) = (t_ref[j], t_ref[j + 1]);
-        let inside = t >= t0 - 1e-9 && t <= t1 + 1e-9;
+        let inside = t >= t0 - 1e-9 && t <= t1 + 1e-9 && t1 - t0 <= longest;
         covered.push(inside);
         omega.push(if inside {
             let u = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
