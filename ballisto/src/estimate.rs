@@ -8,7 +8,7 @@ use std::path::Path;
 
 use estimator_core::smoother::Smoother;
 use estimator_core::{Estimate, Estimator, Flags, Model, Options, Real};
-use hal_sim::arrangement_file::{choose_model, load_arrangement, LoadedArrangement, HOST_CAP};
+use hal_sim::arrangement_file::{load_arrangement, LoadedArrangement, HOST_CAP};
 
 use crate::estimates_csv::ThreadedWriter;
 use crate::samples_csv::SamplesReader;
@@ -56,7 +56,10 @@ pub struct Summary {
 /// before an error stay in the output (flushed); the error names file and line.
 pub fn estimate_files(job: &EstimateJob) -> Result<Summary, Box<dyn Error>> {
     let loaded = load_arrangement(job.arrangement)?;
-    let model = choose_model(job.model, &loaded);
+    let (model, note) = crate::model_choice::recommend(job.model, &loaded);
+    if let Some(note) = note {
+        eprintln!("ballisto estimate: {}: {note}", job.arrangement.display());
+    }
     match job.precision {
         Precision::F64 => run_typed::<f64>(job, &loaded, model),
         Precision::F32 => run_typed::<f32>(job, &loaded, model),

@@ -15,6 +15,7 @@ mod decimal;
 pub mod decode;
 pub mod estimate;
 pub mod estimates_csv;
+pub mod model_choice;
 pub mod plot;
 pub mod samples_csv;
 pub mod sim;

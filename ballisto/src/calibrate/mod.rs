@@ -16,9 +16,7 @@ use std::error::Error;
 use std::path::Path;
 
 use estimator_core::{Arrangement, Flags, Model, Options};
-use hal_sim::arrangement_file::{
-    choose_model, ArrangementFile, ChannelSpec, LoadedArrangement, HOST_CAP,
-};
+use hal_sim::arrangement_file::{ArrangementFile, ChannelSpec, LoadedArrangement, HOST_CAP};
 use nalgebra::{Matrix3, Vector3};
 
 use crate::estimate::HostEstimator;
@@ -185,7 +183,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         .filter(|&k| !in_pose[k])
         .filter(|&k| reference.as_ref().is_none_or(|r| r.covered[k]))
         .collect();
-    let model = choose_model(job.model, &loaded);
+    let (model, model_note) = crate::model_choice::recommend(job.model, &loaded);
     let record = Record {
         rows: &rows,
         poses: &poses,
@@ -200,7 +198,10 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     let tolerance = Tolerance::default();
     let mut identification = fit::identify(&nominal, &record, &source, job.fit, &tolerance)
         .map_err(|e| format!("{}: {e}", job.samples.display()))?;
-    let warnings = plausibility(&mut identification, &nominal, &names, &tolerance);
+    let mut warnings = plausibility(&mut identification, &nominal, &names, &tolerance);
+    if let Some(note) = model_note {
+        warnings.push(note);
+    }
     if identification
         .channels
         .iter()
