@@ -10,6 +10,7 @@
 
 pub mod calibrate;
 mod columns;
+pub mod com;
 pub mod compare;
 mod decimal;
 pub mod decode;

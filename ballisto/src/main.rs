@@ -170,6 +170,26 @@ enum Command {
         #[arg(long, value_name = "REPORT.md")]
         report: Option<PathBuf>,
     },
+    /// The centre of mass relative to the instrument origin (paper eq. 12) over sliding
+    /// windows: t, rho_x.., f_x.., sd_rho_x.. (interfaces.md); empty fields where a window's
+    /// rotation cannot separate ρ from f.
+    Com {
+        /// Arrangement file (TOML).
+        #[arg(long, value_name = "FILE.toml")]
+        arrangement: PathBuf,
+        /// Samples file (CSV).
+        #[arg(long, value_name = "FILE.csv")]
+        samples: PathBuf,
+        /// Output file (CSV).
+        #[arg(long, value_name = "COM.csv")]
+        out: PathBuf,
+        /// Window length, s (one window every half window).
+        #[arg(long, value_name = "SECONDS", default_value = "10")]
+        window: f64,
+        /// Model; default as for estimate.
+        #[arg(long, value_enum)]
+        model: Option<ModelArg>,
+    },
     /// RMS errors of an estimates file against a truth file (matched by column name and t).
     Compare {
         /// Truth file (CSV, as written by the simulator).
@@ -315,6 +335,27 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                     );
                 }
             }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Com {
+            arrangement,
+            samples,
+            out,
+            window,
+            model,
+        } => {
+            let model = model.map(|m| match m {
+                ModelArg::General => Model::General,
+                ModelArg::FreeFloat => Model::FreeFloat,
+            });
+            let s = ballisto::com::com_files(&arrangement, &samples, &out, window, model)?;
+            eprintln!(
+                "ballisto com: {} windows of {window} s ({} could not separate rho from f), model {} -> {}",
+                s.windows,
+                s.undetermined,
+                s.model.map(|m| m.name()).unwrap_or("?"),
+                out.display()
+            );
             Ok(ExitCode::SUCCESS)
         }
         Command::Sim {
