@@ -171,7 +171,8 @@ fn solve_window<'a>(rows: impl Iterator<Item = &'a Row>) -> Option<(Vector6<f64>
             count += 1;
         }
     }
-    if count < 12 || !(size > MIN_EXCITATION * MIN_EXCITATION * noise) {
+    let excited = size > MIN_EXCITATION * MIN_EXCITATION * noise;
+    if count < 12 || !excited {
         return None;
     }
     let eig = n.symmetric_eigenvalues();
