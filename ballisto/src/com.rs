@@ -176,7 +176,8 @@ fn solve_window<'a>(rows: impl Iterator<Item = &'a Row>) -> Option<(Vector6<f64>
         return None;
     }
     let eig = n.symmetric_eigenvalues();
-    if !(eig.min() > MIN_RECIPROCAL_CONDITION * eig.max()) {
+    let separable = eig.min() > MIN_RECIPROCAL_CONDITION * eig.max();
+    if !separable {
         return None;
     }
     let cov = n.try_inverse()?;
