@@ -133,13 +133,10 @@ fn bad_input_is_refused_by_name() {
     // Too short.
     let short = head(&dir, 100, "short.csv");
     refused(&calibrate(&dir, &short, &[]), &dir, "too few to calibrate");
-    // One static pose and nothing else: nothing to identify.
+    // One static pose and nothing else: refused (the identification either determines
+    // nothing or does not settle), saying what the record holds.
     let rest = head(&dir, 301, "rest.csv");
-    refused(
-        &calibrate(&dir, &rest, &[]),
-        &dir,
-        "determines no parameter",
-    );
+    refused(&calibrate(&dir, &rest, &[]), &dir, "1 static poses");
     // A reference that does not overlap the record.
     let reference = dir.join("late-reference.csv");
     let shifted: String = std::fs::read_to_string(dir.join("reference.csv"))
@@ -189,6 +186,40 @@ fn bad_input_is_refused_by_name() {
         &calibrate(&dir, &dir.join("samples.csv"), &["--fit", "bias,gain"]),
         &dir,
         "\"gain\" is not one of bias, scale, axis, position",
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_orbit_tumble_without_reference_is_refused_not_guessed() {
+    // tetra-orbit's parts with errors, tumbling in orbit, no static pose, no reference: the
+    // identification does not settle (README, "In orbit"), and nothing is written.
+    let dir = tmpdir("orbit");
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../hal-sim/scenarios/tetra-orbit.toml"),
+    )
+    .unwrap()
+    .replace(
+        "noise_density = 2.2e-4\n",
+        "noise_density = 2.2e-4\nbias = [0.1, -0.2, 0.15]\nscale = [1.01, 0.99, 1.005]\nposition_error = [3e-4, -2e-4, 1e-4]\norientation_error = [0.004, -0.003, 0.002]\n",
+    );
+    std::fs::write(dir.join("orbit.toml"), text).unwrap();
+    let out = ballisto()
+        .args(["sim", "--firmware", "--scenario"])
+        .arg(dir.join("orbit.toml"))
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    refused(
+        &calibrate(&dir, &dir.join("samples.csv"), &[]),
+        &dir,
+        "a reference rate would help",
     );
     let _ = std::fs::remove_dir_all(&dir);
 }

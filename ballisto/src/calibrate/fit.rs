@@ -211,7 +211,14 @@ pub struct Identification {
     pub conventions: Vec<String>,
     /// Alternations run.
     pub iterations: usize,
+    /// The largest move of a parameter in the last alternation, in tolerances: above
+    /// [`CONVERGED_STEP`] the iteration did not converge.
+    pub last_step: f64,
 }
+
+/// The last step of a converged identification moves no parameter by more than this many
+/// tolerances.
+pub const CONVERGED_STEP: f64 = 0.01;
 
 /// Runs the identification (see the module doc). `nominal` is the arrangement as drawn.
 pub fn identify(
@@ -229,6 +236,7 @@ pub fn identify(
     let residual_before = residual_rms(&geo, record, rate)?;
     let mut step = JointStep::default();
     let mut iterations = 0;
+    let mut last_step = f64::INFINITY;
     // Without a reference, Ω comes from the estimator on the geometry being identified: start
     // from the static poses alone (the parameters they determine), so that the first field
     // is not the uncalibrated one.
@@ -284,12 +292,20 @@ pub fn identify(
         if at == 2 {
             frozen = Some(step.clone());
         }
-        let mut largest = 0.0f64;
+        let largest = (0..7 * n)
+            .map(|p| (step.delta[p] / tol.of(p % 7)).abs())
+            .fold(0.0f64, f64::max);
+        // Trust region: no parameter moves more than MAX_STEP tolerances in one step (far
+        // from the solution the linearisation, and a field from an uncalibrated estimator,
+        // would otherwise throw the iteration out).
+        last_step = largest;
+        let shrink = if largest > MAX_STEP {
+            MAX_STEP / largest
+        } else {
+            1.0
+        };
         for (i, g) in geo.iter_mut().enumerate() {
-            let d = SVector::<f64, 7>::from_fn(|j, _| step.delta[7 * i + j]);
-            for j in 0..7 {
-                largest = largest.max((d[j] / tol.of(j)).abs());
-            }
+            let d = SVector::<f64, 7>::from_fn(|j, _| step.delta[7 * i + j] * shrink);
             apply(g, &d);
         }
         if std::env::var_os("BALLISTO_CAL_DEBUG").is_some() {
@@ -318,8 +334,12 @@ pub fn identify(
         channels,
         conventions: step.common,
         iterations,
+        last_step,
     })
 }
+
+/// The largest move of a parameter in one step, in tolerances.
+pub const MAX_STEP: f64 = 2.0;
 
 /// Most alternations of field and geometry (Gauss–Newton converges in a handful; the
 /// estimator as the rate source needs a few more).

@@ -198,10 +198,6 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     let tolerance = Tolerance::default();
     let mut identification = fit::identify(&nominal, &record, &source, job.fit, &tolerance)
         .map_err(|e| format!("{}: {e}", job.samples.display()))?;
-    let mut warnings = plausibility(&mut identification, &nominal, &names, &tolerance);
-    if let Some(note) = model_note {
-        warnings.push(note);
-    }
     if identification
         .channels
         .iter()
@@ -214,6 +210,22 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             motion.len()
         )
         .into());
+    }
+    if !(identification.last_step <= fit::CONVERGED_STEP) {
+        return Err(format!(
+            "{}: the identification did not converge ({} alternations, the last still moved a parameter by {:.3} of its tolerance; {} static poses, {} samples in motion{}): nothing written",
+            job.samples.display(),
+            identification.iterations,
+            identification.last_step,
+            poses.len(),
+            motion.len(),
+            if job.reference.is_none() { "; a reference rate would help" } else { "" }
+        )
+        .into());
+    }
+    let mut warnings = plausibility(&mut identification, &nominal, &names, &tolerance);
+    if let Some(note) = model_note {
+        warnings.push(note);
     }
     let text = calibrated_file(&file, &loaded, &identification, model, job, &warnings)?;
     std::fs::write(job.out, text)
