@@ -211,7 +211,8 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         )
         .into());
     }
-    if !(identification.last_step <= fit::CONVERGED_STEP) {
+    let converged = identification.last_step <= fit::CONVERGED_STEP;
+    if !converged {
         return Err(format!(
             "{}: the identification did not converge ({} alternations, the last still moved a parameter by {:.3} of its tolerance; {} static poses, {} samples in motion{}): nothing written",
             job.samples.display(),
