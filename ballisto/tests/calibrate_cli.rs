@@ -1,18 +1,15 @@
 //! `ballisto calibrate` on the command line: the calibrated file, and bad input refused with
 //! a sentence naming what is wrong (no calibration file written).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn ballisto() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_ballisto"))
-}
+use common::ballisto;
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ballisto-calcli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::tmpdir("calcli", name)
 }
 
 /// The calibration record of `ground-calibration` (firmware on the simulated buses).
@@ -195,10 +192,7 @@ fn an_orbit_tumble_without_reference_is_refused_not_guessed() {
     // tetra-orbit's parts with errors, tumbling in orbit, no static pose, no reference: the
     // identification does not settle (README, "In orbit"), and nothing is written.
     let dir = tmpdir("orbit");
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../hal-sim/scenarios/tetra-orbit.toml"),
-    )
-    .unwrap()
+    let text = common::scenario_text("tetra-orbit")
     .replace(
         "noise_density = 2.2e-4\n",
         "noise_density = 2.2e-4\nbias = [0.1, -0.2, 0.15]\nscale = [1.01, 0.99, 1.005]\nposition_error = [3e-4, -2e-4, 1e-4]\norientation_error = [0.004, -0.003, 0.002]\n",

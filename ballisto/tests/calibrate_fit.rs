@@ -166,18 +166,22 @@ fn run(seed: u64, noise: f64, reference: bool) -> Run {
     Run { id, truth_geo }
 }
 
+/// The mean offset of the identified positions from the true ones: the common translation
+/// the method holds by convention.
+fn common_translation(r: &Run) -> Vector3<f64> {
+    r.id.channels
+        .iter()
+        .zip(r.truth_geo.iter())
+        .fold(Vector3::zeros(), |a, (c, t)| {
+            a + (c.geometry.position - t.position)
+        })
+        / r.truth_geo.len() as f64
+}
+
 /// Errors of every parameter (scale, axis angle, bias, position) with the common
 /// translation of the positions removed (the freedom the method holds by convention).
 fn errors(r: &Run) -> Vec<[f64; 4]> {
-    let n = r.truth_geo.len() as f64;
-    let shift =
-        r.id.channels
-            .iter()
-            .zip(r.truth_geo.iter())
-            .fold(Vector3::zeros(), |a, (c, t)| {
-                a + (c.geometry.position - t.position)
-            })
-            / n;
+    let shift = common_translation(r);
     r.id.channels
         .iter()
         .zip(r.truth_geo.iter())
@@ -268,15 +272,7 @@ fn with_noise_the_errors_match_the_reported_deviations() {
             }
         }
         // Positions per component, with the common translation removed.
-        let n = r.truth_geo.len() as f64;
-        let shift =
-            r.id.channels
-                .iter()
-                .zip(r.truth_geo.iter())
-                .fold(Vector3::zeros(), |a, (c, t)| {
-                    a + (c.geometry.position - t.position)
-                })
-                / n;
+        let shift = common_translation(&r);
         for (c, t) in r.id.channels.iter().zip(r.truth_geo.iter()) {
             let d = c.geometry.position - shift - t.position;
             for k in 0..3 {

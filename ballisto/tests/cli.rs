@@ -1,5 +1,9 @@
 //! `ballisto estimate`: the interfaces.md contract, bad input, streaming.
 
+mod common;
+
+use common::ballisto;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -9,10 +13,6 @@ use hal_sim::arrangement_file::ArrangementFile;
 use hal_sim::ideal::simulate_outputs;
 use rand::SeedableRng;
 use test_fixtures::{families, motions};
-
-fn ballisto() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_ballisto"))
-}
 
 /// `ballisto estimate --arrangement A --samples S --out O` (more arguments to be added).
 fn estimate(arrangement: &Path, samples: &Path, out: &Path) -> Command {
@@ -28,10 +28,7 @@ fn estimate(arrangement: &Path, samples: &Path, out: &Path) -> Command {
 }
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ballisto-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::tmpdir("cli", name)
 }
 
 /// A tetrahedral arrangement tumbling: arrangement.toml, samples.csv, truth.csv in `dir`.

@@ -1,18 +1,14 @@
 //! `ballisto com`: ρ of `tetra-orbit` (origin_offset in the scenario) recovered within its
 //! reported deviations; a window without rotation cannot separate ρ from f and says so.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
-fn ballisto() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_ballisto"))
-}
+use common::ballisto;
+
+use std::path::{Path, PathBuf};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ballisto-com-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::tmpdir("com", name)
 }
 
 fn sim(scenario: &str, dir: &Path) {
@@ -85,10 +81,7 @@ fn rho_of_tetra_orbit_is_recovered_within_its_deviations() {
 fn a_record_at_rest_leaves_rho_empty() {
     let dir = tmpdir("rest");
     // tetra-orbit's parts on the ground, at rest for 20 s: A + {Ω′} is only noise.
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../hal-sim/scenarios/tetra-orbit.toml"),
-    )
-    .unwrap();
+    let text = common::scenario_text("tetra-orbit");
     let parts = &text[text.find("[[bus]]").unwrap()..];
     let scenario = format!(
         "rate = 100.0\nduration = 20.0\n[body]\nschedule = [{{ kind = \"rest\", duration = 20.0 }}]\n[environment]\nkind = \"ground\"\n{parts}"

@@ -1,6 +1,8 @@
 //! `ballisto sim`: the named scenarios, the files it writes (interfaces.md formats), the
 //! estimate and plot, and scenario files with errors.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -8,10 +10,7 @@ use hal_sim::arrangement_file::load_arrangement;
 use hal_sim::scenario::{named, Scenario};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ballisto-sim-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::tmpdir("sim", name)
 }
 
 fn sim(scenario: &str, out: &Path, estimate: bool) -> std::process::Output {

@@ -2,21 +2,25 @@
 //! scale and bias, from a record of static poses and motion.
 //!
 //! A channel reads `h = scale · (s·f(R)) + bias` with `f(R) = σ0 + ({Ω′} + {Ω}² + Γ) R`
-//! (paper eq. 4). The fit alternates two linear-ish steps until nothing moves:
-//! - **the field**, with the geometry held: in a static pose `σ0 = g` (|g| = [`G0`], one
-//!   direction per pose, Ω = Ω′ = 0); in motion Ω comes from the reference rate sensor or from
-//!   the estimator run on the current geometry, and (σ0, Ω′) from the 6-unknown linear least
-//!   squares of the paper's Ω-known case;
-//! - **the geometry**, with the field held: one Gauss–Newton step on each channel's own 7×7
-//!   normal equations (each channel's residual is linear in its 7 parameters to first order).
+//! (paper eq. 4). Each alternation:
+//! - **the field** at the present geometry: in a static pose `σ0 = g` (|g| = [`G0`], its
+//!   direction by least squares, Ω = Ω′ = 0); in motion Ω from the reference rate sensor, or
+//!   (self-calibration) from the estimator at first and then with σ0 and Ω′ by Gauss–Newton
+//!   per sample; σ0 and Ω′ by the linear least squares of the paper's Ω-known case;
+//! - **the geometry**: one Gauss–Newton step on the joint normal equations of all channels'
+//!   7 parameters with the field's unknowns projected out sample by sample (variable
+//!   projection: `JᵀWJ − JᵀWH (HᵀWH)⁺ HᵀWJ`), so that the step and its covariance account
+//!   for what the field can absorb; within a trust region of [`MAX_STEP`] tolerances.
 //!
-//! Observability is decided per channel from those normal equations: with `D` the
-//! tolerances of [`Tolerance`], the eigen-directions of `D N D` whose data standard deviation
-//! exceeds half the tolerance are not moved (held at nominal) and are named in the result.
-//! Freedoms that no accelerometer record can fix are held by convention and named: the
-//! common translation of all positions (σ0 absorbs it: the origin stays where the nominal
-//! positions put it), and without a reference the common rotation of all axes (the body frame
-//! stays the one the nominal axes define).
+//! Observability is decided from the eigen-decomposition of the tolerance-scaled joint
+//! normal matrix ([`Tolerance`]): parameters the record does not determine to half their
+//! tolerance are set aside (held at nominal) one by one and named; directions the data do not
+//! see at all (gauges: the common translation of all positions, and without a reference the
+//! common rotation and size) are held by convention and named. The identified subspace is
+//! decided on the third alternation of a stage and then kept, so the iteration converges.
+//!
+//! `BALLISTO_CAL_DEBUG=1` prints every alternation's largest step and the smallest
+//! eigenvalues of the scaled normal matrix (for diagnosing a record that does not converge).
 
 use nalgebra::{DMatrix, DVector, Matrix3, SVector, SymmetricEigen, Vector3};
 

@@ -1,0 +1,27 @@
+//! Helpers shared by the command-line tests.
+
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+use std::process::Command;
+
+/// The `ballisto` binary under test.
+pub fn ballisto() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_ballisto"))
+}
+
+/// A fresh temporary directory `ballisto-<suite>-<pid>-<name>`.
+pub fn tmpdir(suite: &str, name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ballisto-{suite}-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The text of the named scenario file `hal-sim/scenarios/<name>.toml`.
+pub fn scenario_text(name: &str) -> String {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../hal-sim/scenarios")
+        .join(format!("{name}.toml"));
+    std::fs::read_to_string(path).unwrap()
+}
