@@ -5,12 +5,12 @@
 //!
 //! - [`poses`] finds the static poses;
 //! - [`fit`] identifies the geometry (alternating field and per-channel Gauss–Newton);
-//! - [`reference`] reads a reference rate file and brings it to the sample instants;
+//! - [`reference_rate`] reads a reference rate file and brings it to the sample instants;
 //! - this module reads the files, runs the fit and writes the calibrated arrangement.
 
 pub mod fit;
 pub mod poses;
-pub mod reference;
+pub mod reference_rate;
 
 use std::error::Error;
 use std::path::Path;
@@ -153,7 +153,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         })
         .collect();
     let reference = match job.reference {
-        Some(path) => Some(reference::read_at(path, &times)?),
+        Some(path) => Some(reference_rate::read_at(path, &times)?),
         None => None,
     };
     let rate_ok: Option<Vec<bool>> = reference.as_ref().map(|r| {
