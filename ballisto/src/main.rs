@@ -37,6 +37,15 @@ enum ModelArg {
     FreeFloat,
 }
 
+impl From<ModelArg> for Model {
+    fn from(m: ModelArg) -> Self {
+        match m {
+            ModelArg::General => Model::General,
+            ModelArg::FreeFloat => Model::FreeFloat,
+        }
+    }
+}
+
 /// `--precision`.
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum PrecisionArg {
@@ -253,10 +262,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             raw,
             precision,
         } => {
-            let model = model.map(|m| match m {
-                ModelArg::General => Model::General,
-                ModelArg::FreeFloat => Model::FreeFloat,
-            });
+            let model = model.map(Model::from);
             let initial_omega = initial_omega.as_deref().map(parse_vec3).transpose()?;
             let precision = match precision {
                 PrecisionArg::F64 => Precision::F64,
@@ -300,10 +306,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             report,
         } => {
             let fit = parse_fit(&fit)?;
-            let model = model.map(|m| match m {
-                ModelArg::General => Model::General,
-                ModelArg::FreeFloat => Model::FreeFloat,
-            });
+            let model = model.map(Model::from);
             let s = ballisto::calibrate::calibrate_files(&ballisto::calibrate::CalibrateJob {
                 arrangement: &arrangement,
                 samples: &samples,
@@ -344,10 +347,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             window,
             model,
         } => {
-            let model = model.map(|m| match m {
-                ModelArg::General => Model::General,
-                ModelArg::FreeFloat => Model::FreeFloat,
-            });
+            let model = model.map(Model::from);
             let s = ballisto::com::com_files(&arrangement, &samples, &out, window, model)?;
             eprintln!(
                 "ballisto com: {} windows of {window} s ({} could not separate rho from f), model {} -> {}",

@@ -517,23 +517,17 @@ fn joint_normal_equations(
         let mut c = DMatrix::<f64>::zeros(7 * n, q);
         let mut hc = DVector::<f64>::zeros(q);
         for row in rows {
-            let (i, w, j, e, h) = (
-                &row.channel,
-                &row.weight,
-                &row.jacobian,
-                &row.residual,
-                &row.field,
-            );
-            let hv = DVector::from_column_slice(h);
-            s += &hv * hv.transpose() * *w;
-            hc += &hv * (*w * e);
+            let (i, w, e) = (row.channel, row.weight, row.residual);
+            let hv = DVector::from_column_slice(&row.field);
+            s += &hv * hv.transpose() * w;
+            hc += &hv * (w * e);
             for a in 0..7 {
-                let ja = j[a] * w;
+                let ja = row.jacobian[a] * w;
                 rhs[7 * i + a] += ja * e;
                 for b in 0..7 {
-                    normal[(7 * i + a, 7 * i + b)] += ja * j[b];
+                    normal[(7 * i + a, 7 * i + b)] += ja * row.jacobian[b];
                 }
-                for (col, hq) in h.iter().enumerate() {
+                for (col, hq) in row.field.iter().enumerate() {
                     c[(7 * i + a, col)] += ja * hq;
                 }
             }

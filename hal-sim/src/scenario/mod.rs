@@ -1075,20 +1075,14 @@ impl Scenario {
     /// `scale_i (a_i + Σ_j cross_ij a_j)·f + bias_i` with `a` its real axes, so the channel's
     /// axis is `v = a_i + Σ_j cross_ij a_j` normalised and its scale `scale_i |v|`.
     pub fn truth_geometry(&self) -> ArrangementFile {
+        let nominal = self.arrangement();
+        // The scenario's validation checked every orientation more tightly than the
+        // expansion does, so the expansion cannot fail here.
+        let expanded = nominal.expanded_channels("scenario").unwrap_or_default();
         let mut file = ArrangementFile {
-            model: self.arrangement().model,
+            model: nominal.model,
             ..Default::default()
         };
-        let nominal = self.arrangement();
-        let mut expanded = nominal.channels.clone();
-        for s in &nominal.sensors {
-            for a in AXES {
-                expanded.push(ChannelSpec {
-                    name: format!("{}.{a}", s.name),
-                    ..Default::default()
-                });
-            }
-        }
         for c in expanded {
             let Some((part, axis)) = c.name.rsplit_once('.') else {
                 continue;
