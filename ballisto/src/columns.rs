@@ -71,6 +71,11 @@ impl Columns {
     }
 }
 
+/// True if the CSV file `path` can be opened and its header has every column of `names`.
+pub(crate) fn has_columns(path: &Path, names: &[&str]) -> bool {
+    Columns::open(path, names).is_ok()
+}
+
 /// Estimates and truth read in step: each estimates row with the truth row of the same `t`
 /// (both files in time order; the truth may have rows the estimates do not).
 pub(crate) struct Matched {

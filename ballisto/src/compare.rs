@@ -19,7 +19,34 @@ pub struct Comparison {
     pub omega: f64,
     /// RMS of the Frobenius error of A (s⁻²).
     pub field: f64,
+    /// Where the estimates carry deviations and flags: rows with no flag set whose σ0 and
+    /// whose Ω error exceeds [`SILENT_SD`] reported standard deviations in some component
+    /// (silently wrong rows).
+    pub silent: Option<Silent>,
 }
+
+/// Counts of silently wrong rows (see [`Comparison::silent`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Silent {
+    /// Rows with an unflagged σ0 error above [`SILENT_SD`] reported sd.
+    pub sigma0: usize,
+    /// Rows with an unflagged Ω error above [`SILENT_SD`] reported sd.
+    pub omega: usize,
+}
+
+/// An error beyond this many reported standard deviations, unflagged, is silently wrong.
+pub const SILENT_SD: f64 = 5.0;
+
+/// The estimates' columns for [`Silent`]: deviations of σ0 and Ω, then the flags.
+const DEVIATIONS: [&str; 7] = [
+    "sd_sigma0_x",
+    "sd_sigma0_y",
+    "sd_sigma0_z",
+    "sd_omega_x",
+    "sd_omega_y",
+    "sd_omega_z",
+    "flags",
+];
 
 /// The compared columns, `t` first: σ0, Ω′, Ω, A.
 const COLUMNS: [&str; 16] = [
@@ -30,11 +57,22 @@ const COLUMNS: [&str; 16] = [
 /// Compares `estimates` with `truth`, row by row (both in time order, matched by `t`;
 /// memory does not grow with the files).
 pub fn compare(truth: &Path, estimates: &Path) -> Result<Comparison, Box<dyn Error>> {
-    let mut rows_in = Matched::open(truth, estimates, &COLUMNS, &[])?;
-    let (mut e, mut t) = ([0.0; 16], [0.0; 16]);
+    let with_sd = crate::columns::has_columns(estimates, &DEVIATIONS);
+    let extra: &[&str] = if with_sd { &DEVIATIONS } else { &[] };
+    let mut rows_in = Matched::open(truth, estimates, &COLUMNS, extra)?;
+    let (mut e, mut t) = ([0.0; 23], [0.0; 16]);
+    let width = COLUMNS.len() + extra.len();
     let mut sums = [0.0f64; 4];
     let mut rows = 0;
-    while rows_in.next_into(&mut e, &mut t)? {
+    let mut silent = Silent::default();
+    while rows_in.next_into(&mut e[..width], &mut t)? {
+        if with_sd && e[22] == 0.0 {
+            let beyond = |est: usize, sd: usize| {
+                (0..3).any(|k| (e[est + k] - t[est + k]).abs() > SILENT_SD * e[sd + k])
+            };
+            silent.sigma0 += usize::from(beyond(1, 16));
+            silent.omega += usize::from(beyond(7, 19));
+        }
         for c in 1..16 {
             let d = e[c] - t[c];
             // Off-diagonals of A count twice in the Frobenius norm.
@@ -56,5 +94,6 @@ pub fn compare(truth: &Path, estimates: &Path) -> Result<Comparison, Box<dyn Err
         domega: (sums[1] / n).sqrt(),
         omega: (sums[2] / n).sqrt(),
         field: (sums[3] / n).sqrt(),
+        silent: with_sd.then_some(silent),
     })
 }

@@ -89,6 +89,7 @@ impl<T: Real> HostEstimator<T> {
         if model == Model::FreeFloat {
             smoother.set_free_float_gamma(Some(options.gamma.cast()));
         }
+        smoother.set_frame_uncertainty(est.frame_uncertainty());
         Ok(HostEstimator { est, smoother })
     }
 

@@ -457,6 +457,14 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             println!("RMS error  domega {:.3e} rad/s^2", c.domega);
             println!("RMS error  omega  {:.3e} rad/s", c.omega);
             println!("RMS error  A      {:.3e} 1/s^2", c.field);
+            if let Some(s) = c.silent {
+                println!(
+                    "unflagged rows with an error above {} reported sd: sigma0 {}, omega {}",
+                    ballisto::compare::SILENT_SD,
+                    s.sigma0,
+                    s.omega
+                );
+            }
             Ok(ExitCode::SUCCESS)
         }
     }

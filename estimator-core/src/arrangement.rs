@@ -1,6 +1,7 @@
 //! The arrangement: where each single-axis channel sits, which way it points, how noisy it is.
 
 use crate::error::ConfigError;
+use crate::frame_uncertainty::FrameUncertainty;
 use crate::real::Real;
 
 /// One single-axis accelerometer (a tri-axial part is three channels).
@@ -58,6 +59,7 @@ impl Model {
 pub struct Arrangement<const CAP: usize> {
     channels: [Channel; CAP],
     len: usize,
+    frame: FrameUncertainty<f64>,
 }
 
 impl<const CAP: usize> Default for Arrangement<CAP> {
@@ -78,6 +80,11 @@ impl<const CAP: usize> Arrangement<CAP> {
                 scale: 1.0,
             }; CAP],
             len: 0,
+            frame: FrameUncertainty {
+                rotation: 0.0,
+                translation: 0.0,
+                size: 0.0,
+            },
         }
     }
 
@@ -141,6 +148,27 @@ impl<const CAP: usize> Arrangement<CAP> {
         c.bias = bias;
         c.scale = scale;
         Ok(())
+    }
+
+    /// How well the frame of a calibrated arrangement is tied to the body (its common
+    /// rotation, translation and size; see [`FrameUncertainty`]): added to every reported
+    /// standard deviation.
+    ///
+    /// Errors: a deviation negative or not finite. On error nothing changes.
+    pub fn set_frame_uncertainty(
+        &mut self,
+        frame: FrameUncertainty<f64>,
+    ) -> Result<(), ConfigError> {
+        if !frame.is_valid() {
+            return Err(ConfigError::FrameUncertaintyInvalid);
+        }
+        self.frame = frame;
+        Ok(())
+    }
+
+    /// The frame's uncertainty (zero unless set).
+    pub fn frame_uncertainty(&self) -> FrameUncertainty<f64> {
+        self.frame
     }
 
     /// True if some channel carries a bias or a scale other than 1.

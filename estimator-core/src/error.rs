@@ -105,6 +105,8 @@ pub enum ConfigError {
         /// Channel index.
         channel: usize,
     },
+    /// The frame uncertainty of a calibration has a negative or non-finite deviation.
+    FrameUncertaintyInvalid,
     /// A vector given to the estimator (rate hint, Γ) has a NaN or infinite component.
     NotFinite {
         /// What it was.
@@ -142,6 +144,10 @@ impl fmt::Display for ConfigError {
             ConfigError::CalibrationInvalid { channel } => write!(
                 f,
                 "channel {channel}: bias must be finite and scale a finite number in (0.5, 2)"
+            ),
+            ConfigError::FrameUncertaintyInvalid => write!(
+                f,
+                "the frame uncertainty's deviations must be finite numbers ≥ 0"
             ),
             ConfigError::NotObservable { unknown } => {
                 let axis = match unknown {

@@ -14,6 +14,8 @@
 //! - [`estimator`]: configuration (precomputation) and the per-sample solve.
 //! - [`estimate`]: the outputs and their status flags.
 //! - [`smoother`]: fixed-lag smoothing of branch and sign decisions (host tools).
+//! - [`frame_uncertainty`]: the common errors of a calibrated frame, added to the reported
+//!   deviations.
 //! - [`error`], [`linalg`] (the small fixed-size vectors and matrices of the interface),
 //!   [`real`] (the scalar).
 //!
@@ -34,6 +36,7 @@ pub mod arrangement;
 pub mod error;
 pub mod estimate;
 pub mod estimator;
+pub mod frame_uncertainty;
 pub mod linalg;
 pub mod real;
 pub mod smoother;
@@ -50,5 +53,6 @@ pub const G0: f64 = 9.806_65;
 pub use error::{ConfigError, Unknown};
 pub use estimate::{Estimate, Flags};
 pub use estimator::{Estimator, Options};
+pub use frame_uncertainty::FrameUncertainty;
 pub use linalg::{Sym3, Vec3};
 pub use real::Real;

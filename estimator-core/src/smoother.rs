@@ -7,6 +7,7 @@
 //! unsettled). Memory is `O(LAG)`, not proportional to the record.
 
 use crate::estimate::{Estimate, Flags};
+use crate::frame_uncertainty::FrameUncertainty;
 use crate::real::Real;
 use crate::tracker::{State, MAX_CANDIDATES, MAX_STATES, SIGN_MARGIN};
 
@@ -71,6 +72,7 @@ pub struct Smoother<T, const LAG: usize> {
     head: usize,
     len: usize,
     gamma_free_float: Option<crate::linalg::Sym3<T>>,
+    frame_uncertainty: FrameUncertainty<T>,
 }
 
 impl<T: Real, const LAG: usize> Default for Smoother<T, LAG> {
@@ -88,6 +90,7 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
             head: 0,
             len: 0,
             gamma_free_float: None,
+            frame_uncertainty: FrameUncertainty::default(),
         }
     }
 
@@ -95,6 +98,12 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
     /// rebuilds it consistently (`None` in model G).
     pub fn set_free_float_gamma(&mut self, gamma: Option<crate::linalg::Sym3<T>>) {
         self.gamma_free_float = gamma;
+    }
+
+    /// The arrangement's frame uncertainty, added to the deviations of every output as the
+    /// estimator adds it to its own ([`crate::Estimator::frame_uncertainty`]).
+    pub fn set_frame_uncertainty(&mut self, frame: FrameUncertainty<T>) {
+        self.frame_uncertainty = frame;
     }
 
     /// When the window is full, decides and returns the oldest sample and frees its slot.
@@ -173,7 +182,16 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
         }
     }
 
+    /// The decision for the oldest record, its deviations widened by the frame uncertainty.
     fn decide_oldest(&self) -> (f64, Estimate<T>) {
+        let (t, mut est) = self.decide_oldest_solved();
+        if !self.frame_uncertainty.is_zero() {
+            self.frame_uncertainty.widen(&mut est);
+        }
+        (t, est)
+    }
+
+    fn decide_oldest_solved(&self) -> (f64, Estimate<T>) {
         let oldest = self.at(0);
         if !oldest.valid || oldest.n_states == 0 {
             return (oldest.t, oldest.forward);

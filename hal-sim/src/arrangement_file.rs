@@ -117,6 +117,18 @@ pub struct ArrangementFile {
     /// Default model: "general" or "free-float".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model: Option<String>,
+    /// Standard deviation (rad per axis) of the common rotation of the whole arrangement
+    /// relative to the body: what a calibration could not tie down (written by `calibrate`;
+    /// added to the estimates' reported deviations).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_rotation_sd: Option<f64>,
+    /// Standard deviation (m per axis) of the common translation of all positions (the
+    /// origin).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_translation_sd: Option<f64>,
+    /// Standard deviation of the common relative size of all positions.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_size_sd: Option<f64>,
     /// Single-axis channels.
     #[serde(default, rename = "channel", skip_serializing_if = "Vec::is_empty")]
     pub channels: Vec<ChannelSpec>,
@@ -318,6 +330,17 @@ impl ArrangementFile {
             }
             names.push(c.name.clone());
         }
+        let frame = estimator_core::FrameUncertainty {
+            rotation: self.frame_rotation_sd.unwrap_or(0.0),
+            translation: self.frame_translation_sd.unwrap_or(0.0),
+            size: self.frame_size_sd.unwrap_or(0.0),
+        };
+        arr.set_frame_uncertainty(frame).map_err(|_| {
+            err(format!(
+                "frame_rotation_sd = {}, frame_translation_sd = {}, frame_size_sd = {}: each must be a finite number ≥ 0",
+                frame.rotation, frame.translation, frame.size
+            ))
+        })?;
         Ok(LoadedArrangement {
             names,
             arrangement: arr,

@@ -87,6 +87,7 @@ pub fn config_error_code(e: &estimator_core::ConfigError) -> u32 {
         E::Degenerate { involved, .. } => (9, usize::from(involved)),
         E::NotFinite { .. } => (10, 0),
         E::CalibrationInvalid { channel } => (11, channel),
+        E::FrameUncertaintyInvalid => (12, 0),
     };
     (kind << 16) | (detail as u32 & 0xFFFF)
 }

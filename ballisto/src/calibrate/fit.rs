@@ -99,7 +99,9 @@ impl Default for Tolerance {
 }
 
 impl Tolerance {
-    fn of(&self, j: usize) -> f64 {
+    /// The tolerance of parameter `j` of [`PARAMETERS`] (any channel: `j % 7`).
+    pub fn of(&self, j: usize) -> f64 {
+        let j = j % 7;
         match j {
             0 => self.scale,
             1 | 2 => self.axis,
@@ -218,6 +220,9 @@ pub struct Identification {
     /// The largest move of a parameter in the last alternation, in tolerances: above
     /// [`CONVERGED_STEP`] the iteration did not converge.
     pub last_step: f64,
+    /// How well the identified arrangement's frame is tied to the body
+    /// ([`super::frame::uncertainty`]).
+    pub frame: estimator_core::FrameUncertainty<f64>,
 }
 
 /// The last step of a converged identification moves no parameter by more than this many
@@ -334,11 +339,13 @@ pub fn identify(
             residual_rms: (residual_before[i], residual_after[i]),
         })
         .collect();
+    let frame = super::frame::uncertainty(&geo, &step.error_covariance(n), tol);
     Ok(Identification {
         channels,
         conventions: step.common,
         iterations,
         last_step,
+        frame,
     })
 }
 
@@ -469,7 +476,7 @@ fn motion_fields(
 }
 
 /// A basis `u1, u2` perpendicular to the unit axis `a`.
-fn tilt_basis(a: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+pub(super) fn tilt_basis(a: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     let helper = if a.x.abs() < 0.9 {
         Vector3::x()
     } else {
@@ -612,6 +619,33 @@ struct JointStep {
     held_basis: DMatrix<f64>,
     /// The parameters moved (7 per channel).
     fitted: Vec<bool>,
+    /// Covariance of the fitted parameters (tolerance-scaled, in their order): the identified
+    /// directions' from the data, the held directions' one tolerance.
+    cov: DMatrix<f64>,
+    /// The gauge directions (columns, tolerance-scaled fitted parameters): held by
+    /// convention, so only as good as the nominal geometry (one tolerance).
+    gauge_basis: DMatrix<f64>,
+}
+
+impl JointStep {
+    /// Covariance (tolerance-scaled, all 7 parameters of every channel) of the geometry's
+    /// error against the truth: the data's where identified; one tolerance along held
+    /// directions, gauges and parameters not fitted (they keep the nominal values, which are
+    /// as good as the mounting).
+    fn error_covariance(&self, n: usize) -> DMatrix<f64> {
+        let idx: Vec<usize> = (0..7 * n).filter(|&p| self.fitted[p]).collect();
+        let mut c = DMatrix::identity(7 * n, 7 * n);
+        if self.cov.nrows() != idx.len() {
+            return c;
+        }
+        let g = &self.cov + &self.gauge_basis * self.gauge_basis.transpose();
+        for (a, &pa) in idx.iter().enumerate() {
+            for (b, &pb) in idx.iter().enumerate() {
+                c[(pa, pb)] = g[(a, b)];
+            }
+        }
+        c
+    }
 }
 
 /// The step with the parameters the record does not determine to half their tolerance held
@@ -706,6 +740,8 @@ fn truncated_step(
         basis: DMatrix::zeros(0, 0),
         held_basis: DMatrix::zeros(0, 0),
         fitted: fitted.to_vec(),
+        cov: DMatrix::zeros(0, 0),
+        gauge_basis: DMatrix::zeros(0, 0),
     };
     if q == 0 {
         return out;
@@ -725,12 +761,14 @@ fn truncated_step(
             out.common = f.common.clone();
             out.basis = f.basis.clone();
             out.held_basis = f.held_basis.clone();
+            out.gauge_basis = f.gauge_basis.clone();
             for a in 0..q {
                 out.delta[idx[a]] = x[a] * d[a];
                 if !f.sd[idx[a]].is_nan() {
                     out.sd[idx[a]] = cov[(a, a)].max(0.0).sqrt() * d[a];
                 }
             }
+            out.cov = cov;
             return out;
         }
     }
@@ -820,6 +858,13 @@ fn truncated_step(
     }
     out.basis = eig.eigenvectors.select_columns(kept.iter());
     out.held_basis = eig.eigenvectors.select_columns(held_dirs.iter());
+    out.gauge_basis = eig.eigenvectors.select_columns(gauges.iter());
+    let inverse = DMatrix::from_diagonal(&DVector::from_iterator(
+        kept.len(),
+        kept.iter().map(|&e| 1.0 / eig.eigenvalues[e]),
+    ));
+    out.cov =
+        &out.basis * inverse * out.basis.transpose() + &out.held_basis * out.held_basis.transpose();
     out
 }
 

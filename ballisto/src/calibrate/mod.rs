@@ -9,6 +9,7 @@
 //! - this module reads the files, runs the fit and writes the calibrated arrangement.
 
 pub mod fit;
+pub mod frame;
 pub mod poses;
 pub mod reference_rate;
 
@@ -373,6 +374,9 @@ fn calibrated_file(
         .collect();
     let out = ArrangementFile {
         model: Some(model.name().into()),
+        frame_rotation_sd: Some(id.frame.rotation),
+        frame_translation_sd: Some(id.frame.translation),
+        frame_size_sd: Some(id.frame.size),
         channels,
         sensors: Vec::new(),
     };

@@ -78,6 +78,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         }
         self.arr = arr.clone();
         self.calibrated = arr.is_calibrated();
+        self.frame_uncertainty = arr.frame_uncertainty().cast();
         for (i, c) in arr.channels().iter().enumerate() {
             self.input_gain[i] = T::of(1.0 / c.scale);
             self.input_offset[i] = T::of(c.bias / c.scale);

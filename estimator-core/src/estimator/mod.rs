@@ -28,6 +28,7 @@ use crate::arrangement::{Arrangement, ChannelMask, Model};
 use crate::design::Projection;
 use crate::error::ConfigError;
 use crate::estimate::{Estimate, Flags};
+use crate::frame_uncertainty::FrameUncertainty;
 use crate::linalg::{norm2, Sym3, Vec3};
 use crate::real::Real;
 use crate::smoother::StepRecord;
@@ -71,6 +72,9 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     has_last: bool,
     domega_var: T,
     work: Work<T, CAP>,
+    /// The output with the frame's uncertainty added (when the arrangement has one): the
+    /// slots of `out` stay as the solve left them, for the next sample and the smoother.
+    reported: Estimate<T>,
 }
 
 /// The configuration and everything precomputed from it (paper eq. 10–11): read-only in the
@@ -92,6 +96,8 @@ struct Config<T: Real, const CAP: usize> {
     input_offset: [T; CAP],
     /// Whether any channel has a calibration to remove.
     calibrated: bool,
+    /// The calibrated frame's common errors, added to the reported deviations.
+    frame_uncertainty: FrameUncertainty<T>,
     options: Options,
 }
 
@@ -170,6 +176,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 input_gain: [T::ONE; CAP],
                 input_offset: [T::ZERO; CAP],
                 calibrated: false,
+                frame_uncertainty: FrameUncertainty::default(),
                 options: Options::default(),
             },
             frame: 0,
@@ -180,6 +187,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             has_last: false,
             domega_var: T::ZERO,
             work: Work::new(),
+            reported: Estimate::default(),
         };
         e.configure(arr, model, ChannelMask::all(arr.len()), options)?;
         Ok(e)
@@ -248,6 +256,12 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         &self.cfg.arr
     }
 
+    /// The frame uncertainty in force, in the sample-loop scalar (zero unless the
+    /// arrangement sets one).
+    pub fn frame_uncertainty(&self) -> FrameUncertainty<T> {
+        self.cfg.frame_uncertainty
+    }
+
     /// The channel mask in use.
     pub fn mask(&self) -> ChannelMask {
         self.cfg.mask
@@ -277,13 +291,28 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
 
     /// As [`Estimator::update`], and also fills `record` with every candidate branch and every
     /// hypothesis of the tracker, for a fixed-lag smoother ([`crate::smoother::Smoother`]).
-    #[inline(never)]
+    ///
+    /// The returned deviations include the arrangement's frame uncertainty
+    /// ([`Arrangement::set_frame_uncertainty`]); `record` holds the solve's own.
     pub fn update_with(
         &mut self,
         t: f64,
         p: &[T],
         record: Option<&mut StepRecord<T>>,
     ) -> &Estimate<T> {
+        let slot = self.solve_sample(t, p, record);
+        let fu = self.cfg.frame_uncertainty;
+        if fu.is_zero() {
+            return &self.out[slot];
+        }
+        self.reported = self.out[slot];
+        fu.widen(&mut self.reported);
+        &self.reported
+    }
+
+    /// The solve of one sample; returns the slot of `out` holding its estimate.
+    #[inline(never)]
+    fn solve_sample(&mut self, t: f64, p: &[T], record: Option<&mut StepRecord<T>>) -> usize {
         let cfg = &self.cfg;
         let n = cfg.arr.len();
         let input_ok = readings_usable(p, n, cfg.mask) && t.is_finite();
@@ -454,7 +483,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.last_t = Some(t);
         self.last = 1 - self.last;
         self.has_last = true;
-        &self.out[self.last]
+        self.last
     }
 
     /// Replaces the algebraic Ω of `est` by a hypothesis' filtered Ω (∫Ω′ fused with the
@@ -465,7 +494,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
 
     /// Output when a sample cannot be used: the last estimate propagated by Ω′ over `dt`,
     /// flagged; recorded as invalid for the smoother.
-    fn hold(&mut self, t: f64, dt: T, record: Option<&mut StepRecord<T>>) -> &Estimate<T> {
+    fn hold(&mut self, t: f64, dt: T, record: Option<&mut StepRecord<T>>) -> usize {
         let last = self.out[self.last];
         let est = &mut self.out[1 - self.last];
         *est = if self.has_last {
@@ -485,6 +514,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         if let Some(rec) = record {
             rec.invalidate(t, *est);
         }
-        &self.out[1 - self.last]
+        1 - self.last
     }
 }

@@ -1,0 +1,127 @@
+//! How well a calibrated arrangement's frame is tied to the body: the common translation,
+//! rotation and size of the identified geometry's error ([`estimator_core::FrameUncertainty`]).
+//!
+//! The identification's error `e` (calibrated − true, all channels' parameters,
+//! tolerance-scaled) has the covariance [`super::fit`] computes: the data's along identified
+//! directions, one tolerance along what is held (gauges included: the common translation,
+//! and without a reference the common rotation and size, are held at the nominal values,
+//! which are only as good as the mounting). The frame's error is the least-squares fit of the
+//! seven frame motions to `e`: `φ = (GᵀG)⁻¹Gᵀ e` with `G` the scaled generators, so
+//! `cov(φ) = L cov(e) Lᵀ`. Each of the three is reported by its largest axis.
+
+use nalgebra::{DMatrix, Vector3};
+
+use estimator_core::FrameUncertainty;
+
+use super::fit::{tilt_basis, Geometry, Tolerance};
+
+/// Columns of the generators: translation x, y, z; rotation x, y, z; size.
+const MOTIONS: usize = 7;
+
+/// The frame uncertainty of the geometry `geo` whose error has the tolerance-scaled
+/// covariance `cov` (7 parameters per channel, [`super::fit::PARAMETERS`] order).
+pub fn uncertainty(geo: &[Geometry], cov: &DMatrix<f64>, tol: &Tolerance) -> FrameUncertainty<f64> {
+    let g = generators(geo, tol);
+    let gtg = g.transpose() * &g;
+    let Some(inv) = gtg.try_inverse() else {
+        // Fewer channels than frame motions to tell apart: claim nothing rather than a
+        // number the geometry cannot support.
+        return FrameUncertainty {
+            rotation: f64::INFINITY,
+            translation: f64::INFINITY,
+            size: f64::INFINITY,
+        };
+    };
+    let l = inv * g.transpose();
+    let c = &l * cov * l.transpose();
+    let largest = |r: std::ops::Range<usize>| r.map(|k| c[(k, k)]).fold(0.0f64, f64::max).sqrt();
+    FrameUncertainty {
+        translation: largest(0..3),
+        rotation: largest(3..6),
+        size: largest(6..7),
+    }
+}
+
+/// The seven frame motions as parameter changes of every channel (rows: 7 per channel,
+/// tolerance-scaled): a translation moves every position; a rotation `δ` moves a position
+/// by `δ × R` and tilts an axis by `δ × s`; a size change moves each position by `R`.
+fn generators(geo: &[Geometry], tol: &Tolerance) -> DMatrix<f64> {
+    let mut g = DMatrix::zeros(7 * geo.len(), MOTIONS);
+    for (i, ch) in geo.iter().enumerate() {
+        let (u1, u2) = tilt_basis(&ch.axis);
+        let row = 7 * i;
+        for k in 0..3 {
+            let e = Vector3::ith(k, 1.0);
+            // Translation.
+            g[(row + 4 + k, k)] = 1.0;
+            // Rotation about e.
+            let tilt = e.cross(&ch.axis);
+            let moved = e.cross(&ch.position);
+            g[(row + 1, 3 + k)] = u1.dot(&tilt);
+            g[(row + 2, 3 + k)] = u2.dot(&tilt);
+            for j in 0..3 {
+                g[(row + 4 + j, 3 + k)] = moved[j];
+            }
+            // Size.
+            g[(row + 4 + k, 6)] = ch.position[k];
+        }
+        for j in 0..7 {
+            for m in 0..MOTIONS {
+                g[(row + j, m)] /= tol.of(j);
+            }
+        }
+    }
+    g
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tetra() -> Vec<Geometry> {
+        let c = 0.05;
+        let mut geo = Vec::new();
+        for r in [[c, c, c], [c, -c, -c], [-c, c, -c], [-c, -c, c]] {
+            for k in 0..3 {
+                geo.push(Geometry {
+                    position: Vector3::from(r),
+                    axis: Vector3::ith(k, 1.0),
+                    scale: 1.0,
+                    bias: 0.0,
+                    noise: 1e-3,
+                });
+            }
+        }
+        geo
+    }
+
+    /// With every parameter known only to its tolerance (nothing identified), the common
+    /// translation of N positions is known to `tol / √N`; the rotation about x to
+    /// `1 / √(info)` with the information of the axes that tilt with it (two of three: `2N/3
+    /// / tol_axis²`) and of the positions it moves (`Σ (R_y² + R_z²) / tol_position²`). With
+    /// the data determining everything exactly, nothing is left.
+    #[test]
+    fn priors_average_over_the_channels_and_exact_data_leave_nothing() {
+        let geo = tetra();
+        let tol = Tolerance::default();
+        let n = geo.len();
+        let prior = uncertainty(&geo, &DMatrix::identity(7 * n, 7 * n), &tol);
+        let t = tol.position / (n as f64).sqrt();
+        assert!(
+            (prior.translation / t - 1.0).abs() < 1e-9,
+            "{prior:?} vs {t}"
+        );
+        let arms: f64 = geo
+            .iter()
+            .map(|g| g.position.y.powi(2) + g.position.z.powi(2))
+            .sum();
+        let info = 2.0 * n as f64 / 3.0 / tol.axis.powi(2) + arms / tol.position.powi(2);
+        let r = 1.0 / info.sqrt();
+        assert!((prior.rotation / r - 1.0).abs() < 1e-9, "{prior:?} vs {r}");
+        assert!(prior.size > 0.0);
+        let exact = uncertainty(&geo, &DMatrix::zeros(7 * n, 7 * n), &tol);
+        assert_eq!(exact.rotation, 0.0);
+        assert_eq!(exact.translation, 0.0);
+        assert_eq!(exact.size, 0.0);
+    }
+}
