@@ -65,7 +65,7 @@ pub fn decode_stream(bytes: &[u8]) -> Stream {
 }
 
 /// Writes the motion reports as an estimates file (interfaces.md columns, then
-/// [`LINK_COLUMNS`]); `t` is the packet time (s since boot) plus `time_offset`, rounded to
+/// [`LINK_COLUMNS`]; the gravity gradient where the stream says the model is G); `t` is the packet time (s since boot) plus `time_offset`, rounded to
 /// 0.1 µs (the CUC fine time has 2⁻²⁴ s ≈ 60 ns steps, so a time on a 0.1 µs grid on board
 /// comes back exactly).
 pub fn write_estimates<W: Write>(
@@ -76,13 +76,28 @@ pub fn write_estimates<W: Write>(
     crate::estimates_csv::write_header(&mut RowWithout(w, &LINK_COLUMNS))?;
     let mut rows = 0;
     let mut line = Vec::with_capacity(512);
+    // The model in force, from the housekeeping (one is sent at boot, before any estimate)
+    // and the reconfigured events: model G's rows carry the gravity gradient.
+    let mut model = None;
     for p in &stream.packets {
-        let Report::Motion(m) = &p.report else {
-            continue;
+        let m = match &p.report {
+            Report::Motion(m) => m,
+            Report::Housekeeping(h) => {
+                model = ModelCode::try_from(h.model).ok();
+                continue;
+            }
+            Report::Event(e) if e.id == EventId::Reconfigured => {
+                model = u8::try_from(e.b)
+                    .ok()
+                    .and_then(|b| ModelCode::try_from(b).ok());
+                continue;
+            }
+            _ => continue,
         };
         line.clear();
         let t = ((p.t + time_offset) * 1e7).round() / 1e7;
-        crate::estimates_csv::write_row(&mut line, t, &m.estimate)?;
+        let gamma = model == Some(ModelCode::General);
+        crate::estimates_csv::write_row(&mut line, t, &m.estimate, gamma)?;
         line.pop();
         w.write_all(&line)?;
         writeln!(

@@ -118,7 +118,10 @@ fn run_typed<T: Real + Send + 'static>(
     let mut reader = SamplesReader::open(job.samples, &loaded.names)?;
     let out =
         File::create(job.out).map_err(|e| format!("{}: cannot create: {e}", job.out.display()))?;
-    let mut w = ThreadedWriter::<T>::new(BufWriter::with_capacity(1 << 16, out));
+    let mut w = ThreadedWriter::<T>::new(
+        BufWriter::with_capacity(1 << 16, out),
+        model == Model::General,
+    );
     let mut row = vec![0.0f64; loaded.names.len()];
     let mut p = vec![T::ZERO; loaded.names.len()];
     let mut summary = Summary {

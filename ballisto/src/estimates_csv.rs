@@ -36,20 +36,49 @@ pub const EXTRA_COLUMNS: [&str; 20] = [
     "sd_A_yz",
 ];
 
+/// The gravity gradient of model G (interfaces.md: `Γ = A − {Ω}²`, empty under model F) and
+/// its standard deviations, after [`EXTRA_COLUMNS`].
+pub const GAMMA_COLUMNS: [&str; 12] = [
+    "gamma_xx",
+    "gamma_yy",
+    "gamma_zz",
+    "gamma_xy",
+    "gamma_xz",
+    "gamma_yz",
+    "sd_gamma_xx",
+    "sd_gamma_yy",
+    "sd_gamma_zz",
+    "sd_gamma_xy",
+    "sd_gamma_xz",
+    "sd_gamma_yz",
+];
+
 /// Writes the header line.
 pub fn write_header<W: Write>(w: &mut W) -> std::io::Result<()> {
-    writeln!(w, "{},{}", COLUMNS.join(","), EXTRA_COLUMNS.join(","))
+    writeln!(
+        w,
+        "{},{},{}",
+        COLUMNS.join(","),
+        EXTRA_COLUMNS.join(","),
+        GAMMA_COLUMNS.join(",")
+    )
 }
 
-/// Writes one row (the text `Display` gives each number; see [`crate::decimal`]).
-pub fn write_row<W: Write, T: Real>(w: &mut W, t: f64, e: &Estimate<T>) -> std::io::Result<()> {
+/// Writes one row (the text `Display` gives each number; see [`crate::decimal`]); `gamma`:
+/// the estimate is model G's, whose gravity gradient fills [`GAMMA_COLUMNS`] (else empty).
+pub fn write_row<W: Write, T: Real>(
+    w: &mut W,
+    t: f64,
+    e: &Estimate<T>,
+    gamma: bool,
+) -> std::io::Result<()> {
     let mut line = Vec::with_capacity(768);
-    format_row(&mut line, t, e);
+    format_row(&mut line, t, e, gamma);
     w.write_all(&line)
 }
 
 /// Appends one row, its line end included, to `line`.
-fn format_row<T: Real>(line: &mut Vec<u8>, t: f64, e: &Estimate<T>) {
+fn format_row<T: Real>(line: &mut Vec<u8>, t: f64, e: &Estimate<T>, gamma: bool) {
     let real = |line: &mut Vec<u8>, v: f64| {
         line.push(b',');
         push_f64(line, v);
@@ -81,6 +110,14 @@ fn format_row<T: Real>(line: &mut Vec<u8>, t: f64, e: &Estimate<T>) {
     for v in e.sd_field.0.iter() {
         real(line, v.to_f64());
     }
+    if gamma {
+        let (g, sd) = e.gravity_gradient();
+        for v in g.0.iter().chain(sd.0.iter()) {
+            real(line, v.to_f64());
+        }
+    } else {
+        line.extend_from_slice(&[b','; GAMMA_COLUMNS.len()]);
+    }
     line.push(b'\n');
 }
 
@@ -103,8 +140,8 @@ pub struct ThreadedWriter<T> {
 }
 
 impl<T: Real + Send + 'static> ThreadedWriter<T> {
-    /// Writes the header, then every row pushed, to `w`.
-    pub fn new<W: Write + Send + 'static>(mut w: W) -> Self {
+    /// Writes the header, then every row pushed, to `w`; `gamma` as in [`write_row`].
+    pub fn new<W: Write + Send + 'static>(mut w: W, gamma: bool) -> Self {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Batch<T>>(2);
         let thread = std::thread::spawn(move || {
             write_header(&mut w)?;
@@ -112,7 +149,7 @@ impl<T: Real + Send + 'static> ThreadedWriter<T> {
             for batch in rx {
                 text.clear();
                 for (t, e) in &batch {
-                    format_row(&mut text, *t, e);
+                    format_row(&mut text, *t, e, gamma);
                 }
                 w.write_all(&text)?;
             }

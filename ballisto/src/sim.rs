@@ -209,6 +209,7 @@ fn record_firmware(
     use hal_sim::firmware_host::{firmware_config, run_firmware_with, SimTime};
     let sc = job.scenario;
     let config = firmware_config(sc, loaded, alignment)?;
+    let model_g = config.model == estimator_core::Model::General;
     let path = job.out.join("estimates.csv");
     let mut estimates = create(&path)?;
     crate::estimates_csv::write_header(&mut estimates)?;
@@ -234,7 +235,7 @@ fn record_firmware(
         crate::estimate::count_flags(&mut flag_counts, m.estimate.flags);
         let r = samples_csv::write_row(samples, t, row.iter().copied())
             .and_then(|_| truth.row(set.k as usize, tr))
-            .and_then(|_| crate::estimates_csv::write_row(&mut estimates, t, &m.estimate));
+            .and_then(|_| crate::estimates_csv::write_row(&mut estimates, t, &m.estimate, model_g));
         if let Err(e) = r {
             failure.get_or_insert(e);
         }

@@ -1,10 +1,11 @@
 //! The truth file of a simulated record (interfaces.md): the estimate columns up to `A_yz`,
-//! then the attitude.
+//! then the attitude and the gravity gradient.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
+use estimator_core::Sym3;
 use hal_sim::motion::Truth;
 
 use crate::estimates_csv;
@@ -65,13 +66,15 @@ impl<W: Write> TruthFiles<W> {
 /// quaternion).
 pub const TRUTH_EXTRA_COLUMNS: [&str; 4] = ["q_w", "q_x", "q_y", "q_z"];
 
-/// The header of a truth file: the estimate columns up to `A_yz`, then the attitude.
+/// The header of a truth file: the estimate columns up to `A_yz`, the attitude, then the
+/// gravity gradient `Γ = A − {Ω}²` under the estimates' names (`gamma_*`).
 pub fn write_truth_header(w: &mut impl Write) -> std::io::Result<()> {
     writeln!(
         w,
-        "{},{}",
+        "{},{},{}",
         estimates_csv::COLUMNS[..16].join(","),
-        TRUTH_EXTRA_COLUMNS.join(",")
+        TRUTH_EXTRA_COLUMNS.join(","),
+        estimates_csv::GAMMA_COLUMNS[..6].join(",")
     )
 }
 
@@ -85,6 +88,12 @@ pub fn write_truth_row(w: &mut impl Write, tr: &Truth) -> std::io::Result<()> {
         .chain(tr.omega.iter())
         .chain(tr.field.0.iter())
         .chain(tr.attitude.iter())
+        .chain(
+            tr.field
+                .add_scaled(-1.0, &Sym3::skew_squared(&tr.omega))
+                .0
+                .iter(),
+        )
     {
         write!(w, ",{v}")?;
     }

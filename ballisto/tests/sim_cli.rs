@@ -103,10 +103,11 @@ fn sim_writes_the_three_files_and_the_estimate_follows_the_truth() {
         .lines()
         .count();
     assert_eq!(rows, 2002);
-    // truth.csv: the estimate columns, then the attitude.
+    // truth.csv: the estimate columns, then the attitude and the gravity gradient.
     let th = header(&d.join("truth.csv"));
     assert_eq!(&th[..16], &ballisto::estimates_csv::COLUMNS[..16]);
-    assert_eq!(&th[16..], &["q_w", "q_x", "q_y", "q_z"]);
+    assert_eq!(&th[16..20], &["q_w", "q_x", "q_y", "q_z"]);
+    assert_eq!(&th[20..], &ballisto::estimates_csv::GAMMA_COLUMNS[..6]);
     // The PNG signature.
     let png = std::fs::read(d.join("estimates.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");

@@ -89,6 +89,28 @@ pub fn chi2_999(dof: usize) -> f64 {
 }
 
 impl<T: Real> Estimate<T> {
+    /// Model G's gravity gradient `Γ = A − {Ω}²` (paper eq. 12; body frame, s⁻²) and its
+    /// first-order standard deviations, taking the errors of `A` and of `{Ω}²` as independent
+    /// (Ω comes partly from `A`, so the true deviation is no larger). Under model F, `A` is
+    /// built as `Γ + {Ω}²` from the Γ given to the estimator, and this returns that Γ.
+    pub fn gravity_gradient(&self) -> (Sym3<T>, Sym3<T>) {
+        let gamma = self
+            .field
+            .add_scaled(-T::ONE, &Sym3::skew_squared(&self.omega));
+        let [x, y, z] = self.sd_omega;
+        let cov = Sym3([x * x, y * y, z * z, T::ZERO, T::ZERO, T::ZERO]);
+        let rate = crate::linalg::skew_squared_sd(&self.omega, &cov);
+        let mut sd = Sym3([T::ZERO; 6]);
+        for ((s, a), w) in
+            sd.0.iter_mut()
+                .zip(self.sd_field.0.iter())
+                .zip(rate.0.iter())
+        {
+            *s = (*a * *a + *w * *w).sqrt();
+        }
+        (gamma, sd)
+    }
+
     /// True if no component is NaN or infinite (the estimator guarantees this).
     pub fn is_finite(&self) -> bool {
         // x·0 is ±0 for finite x and NaN otherwise: one test for all components.

@@ -78,33 +78,23 @@ impl<T: Real> FrameUncertainty<T> {
         for (v, row) in var.iter_mut().zip(k.iter()) {
             *v = tr2 * (row[0] * row[0] + row[1] * row[1] + row[2] * row[2]);
         }
-        widen_vector(&mut e.sd_sigma0, &e.sigma0, rot2, &var);
-        let by_size = |x: &Vec3<T>, f: T| -> Vec3<T> {
-            let c = s2 * f * f;
-            [c * x[0] * x[0], c * x[1] * x[1], c * x[2] * x[2]]
-        };
-        widen_vector(
-            &mut e.sd_domega,
-            &e.domega,
-            rot2,
-            &by_size(&e.domega, T::ONE),
-        );
-        widen_vector(
-            &mut e.sd_omega,
-            &e.omega,
-            rot2,
-            &by_size(&e.omega, T::of(0.5)),
-        );
+        widen_vector(&mut e.sd_sigma0, &e.sigma0, rot2, T::ZERO, &var);
+        let none = [T::ZERO; 3];
+        widen_vector(&mut e.sd_domega, &e.domega, rot2, s2, &none);
+        widen_vector(&mut e.sd_omega, &e.omega, rot2, T::of(0.25) * s2, &none);
         widen_field(&mut e.sd_field, &e.field, rot2, s2);
     }
 }
 
-/// `sd_i² += rot² (|x|² − x_i²) + extra_i` (a rotation δ moves `x` by `δ × x`).
-fn widen_vector<T: Real>(sd: &mut Vec3<T>, x: &Vec3<T>, rot2: T, extra: &Vec3<T>) {
-    let n2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+/// `sd_i² += rot² (|x|² − x_i²) + size x_i² + extra_i` (a rotation δ moves `x` by `δ × x`,
+/// a size error scales it), as `rot² |x|² + (size − rot²) x_i²`.
+fn widen_vector<T: Real>(sd: &mut Vec3<T>, x: &Vec3<T>, rot2: T, size: T, extra: &Vec3<T>) {
+    let common = rot2 * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+    let own = size - rot2;
     for i in 0..3 {
-        let v = sd[i] * sd[i] + rot2 * (n2 - x[i] * x[i]).max(T::ZERO) + extra[i];
-        sd[i] = v.sqrt();
+        let v = sd[i] * sd[i] + common + own * x[i] * x[i] + extra[i];
+        // ≥ 0 in exact arithmetic; rounding must not make it a NaN.
+        sd[i] = v.max(T::ZERO).sqrt();
     }
 }
 

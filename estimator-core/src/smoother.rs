@@ -182,20 +182,23 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
         }
     }
 
-    /// The decision for the oldest record, its deviations widened by the frame uncertainty.
+    /// The decision for the oldest record. A record of an unusable sample gives the
+    /// estimator's held output (its deviations already widened by the frame uncertainty); a
+    /// decided one is built from the candidates and widened here.
     fn decide_oldest(&self) -> (f64, Estimate<T>) {
-        let (t, mut est) = self.decide_oldest_solved();
+        let oldest = self.at(0);
+        if !oldest.valid || oldest.n_states == 0 {
+            return (oldest.t, oldest.forward);
+        }
+        let (t, mut est) = self.decide_valid();
         if !self.frame_uncertainty.is_zero() {
             self.frame_uncertainty.widen(&mut est);
         }
         (t, est)
     }
 
-    fn decide_oldest_solved(&self) -> (f64, Estimate<T>) {
+    fn decide_valid(&self) -> (f64, Estimate<T>) {
         let oldest = self.at(0);
-        if !oldest.valid || oldest.n_states == 0 {
-            return (oldest.t, oldest.forward);
-        }
         // The newest record whose chain reaches the oldest without a break, and where each of
         // its states' chains leads at the oldest record (one backward pass for all of them).
         let mut anc = [None; MAX_STATES];

@@ -83,7 +83,8 @@ fn reference_estimates<T: estimator_core::Real>(
     while let Some(t) = rd.next_row(&mut p).unwrap() {
         pt.iter_mut().zip(&p).for_each(|(a, b)| *a = T::of(*b));
         let e = est.update(t, &pt);
-        ballisto::estimates_csv::write_row(&mut w, t, e).unwrap();
+        ballisto::estimates_csv::write_row(&mut w, t, e, model == estimator_core::Model::General)
+            .unwrap();
     }
     w.flush().unwrap();
     out

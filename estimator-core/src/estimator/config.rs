@@ -77,12 +77,8 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
                 .is_ok();
         }
         self.arr = arr.clone();
-        self.calibrated = arr.is_calibrated();
         self.frame_uncertainty = arr.frame_uncertainty().cast();
-        for (i, c) in arr.channels().iter().enumerate() {
-            self.input_gain[i] = T::of(1.0 / c.scale);
-            self.input_offset[i] = T::of(c.bias / c.scale);
-        }
+        self.widen = !self.frame_uncertainty.is_zero();
         self.model = model;
         self.mask = mask;
         self.frames = frames;
@@ -91,21 +87,21 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         Ok(())
     }
 
-    /// Γ in the body frame, in every frame `V`, and (model F) its offset `W (s·Γ R)`.
+    /// Γ in the body frame, in every frame `V`, and (model F) its offset `W (scale · s·Γ R)`
+    /// (a channel reads `scale · s·(σ0 + … + Γ R) + bias`; `W` carries the `1 / scale`).
     pub(super) fn set_gamma(&mut self, gamma: &Sym3<f64>) {
         self.gamma = gamma.cast();
         for f in 0..NUM_FRAMES {
             let v = quat_to_mat(FRAME_QUATERNIONS[f]);
             self.gamma_frame[f] = gamma.rotate(&v).cast();
         }
-        // Model F: p_i − s_i·Γ R_i enters the linear solve; precompute W (s·Γ R).
         self.gamma_offset = [T::ZERO; CAP];
         if self.model == Model::FreeFloat {
             let pr = &self.proj[0];
             let mut c = [0.0f64; CAP];
             for (i, ch) in self.arr.channels().iter().enumerate() {
                 if self.mask.contains(i) {
-                    c[i] = dot(&ch.axis, &gamma.mul_vec(&ch.position));
+                    c[i] = ch.scale * dot(&ch.axis, &gamma.mul_vec(&ch.position));
                 }
             }
             for r in 0..pr.k + pr.m {

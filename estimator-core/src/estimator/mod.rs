@@ -72,9 +72,6 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     has_last: bool,
     domega_var: T,
     work: Work<T, CAP>,
-    /// The output with the frame's uncertainty added (when the arrangement has one): the
-    /// slots of `out` stay as the solve left them, for the next sample and the smoother.
-    reported: Estimate<T>,
 }
 
 /// The configuration and everything precomputed from it (paper eq. 10–11): read-only in the
@@ -88,16 +85,14 @@ struct Config<T: Real, const CAP: usize> {
     frames: usize,
     gamma: Sym3<T>,
     gamma_frame: [Sym3<T>; NUM_FRAMES],
+    /// Model F: the known Γ's part of `y = W p`, `W (scale · s·Γ R)` (frame 0; the
+    /// `1 / scale` is in `W`), taken off `y`.
     gamma_offset: [T; CAP],
     gamma_offset_nonzero: bool,
-    /// Per channel `1 / scale` and `bias / scale`: a reading is corrected to
-    /// `p · gain − offset` (precomputed from the arrangement's calibration).
-    input_gain: [T; CAP],
-    input_offset: [T; CAP],
-    /// Whether any channel has a calibration to remove.
-    calibrated: bool,
     /// The calibrated frame's common errors, added to the reported deviations.
     frame_uncertainty: FrameUncertainty<T>,
+    /// Whether the frame uncertainty is other than zero.
+    widen: bool,
     options: Options,
 }
 
@@ -108,7 +103,7 @@ struct Work<T: Real, const CAP: usize> {
     trial: [Branch<T>; MAX_CANDIDATES],
     cands: [Candidate<T>; MAX_CANDIDATES],
     scratch: Scratch<T, CAP>,
-    /// The readings with the calibration removed and excluded channels zeroed.
+    /// The readings with excluded channels zeroed.
     masked: [T; CAP],
 }
 
@@ -173,10 +168,8 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 gamma_frame: [Sym3::zero(); NUM_FRAMES],
                 gamma_offset: [T::ZERO; CAP],
                 gamma_offset_nonzero: false,
-                input_gain: [T::ONE; CAP],
-                input_offset: [T::ZERO; CAP],
-                calibrated: false,
                 frame_uncertainty: FrameUncertainty::default(),
+                widen: false,
                 options: Options::default(),
             },
             frame: 0,
@@ -187,7 +180,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             has_last: false,
             domega_var: T::ZERO,
             work: Work::new(),
-            reported: Estimate::default(),
         };
         e.configure(arr, model, ChannelMask::all(arr.len()), options)?;
         Ok(e)
@@ -293,26 +285,32 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// hypothesis of the tracker, for a fixed-lag smoother ([`crate::smoother::Smoother`]).
     ///
     /// The returned deviations include the arrangement's frame uncertainty
-    /// ([`Arrangement::set_frame_uncertainty`]); `record` holds the solve's own.
+    /// ([`Arrangement::set_frame_uncertainty`]); `record` holds the solve's own (the
+    /// smoother adds it to what it outputs).
     pub fn update_with(
         &mut self,
         t: f64,
         p: &[T],
         record: Option<&mut StepRecord<T>>,
     ) -> &Estimate<T> {
-        let slot = self.solve_sample(t, p, record);
-        let fu = self.cfg.frame_uncertainty;
-        if fu.is_zero() {
-            return &self.out[slot];
+        let (slot, solved) = self.solve_sample(t, p, record);
+        // In place (the record and the rate filter have what they need): a new estimate is
+        // widened once; a held one is the last output, widened already.
+        if self.cfg.widen && solved {
+            self.cfg.frame_uncertainty.widen(&mut self.out[slot]);
         }
-        self.reported = self.out[slot];
-        fu.widen(&mut self.reported);
-        &self.reported
+        &self.out[slot]
     }
 
-    /// The solve of one sample; returns the slot of `out` holding its estimate.
+    /// The solve of one sample; returns the slot of `out` holding its estimate and whether
+    /// it is a new one (false: the last one held, for an unusable sample).
     #[inline(never)]
-    fn solve_sample(&mut self, t: f64, p: &[T], record: Option<&mut StepRecord<T>>) -> usize {
+    fn solve_sample(
+        &mut self,
+        t: f64,
+        p: &[T],
+        record: Option<&mut StepRecord<T>>,
+    ) -> (usize, bool) {
         let cfg = &self.cfg;
         let n = cfg.arr.len();
         let input_ok = readings_usable(p, n, cfg.mask) && t.is_finite();
@@ -322,10 +320,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         };
         let dt_t = T::of(dt);
         if !input_ok {
-            return self.hold(t, dt_t, record);
+            return (self.hold(t, dt_t, record), false);
         }
         let excluded = cfg.mask.count(n) < n;
-        let calibrated = cfg.calibrated;
         let Work {
             branches,
             trial,
@@ -334,17 +331,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             masked,
         } = &mut self.work;
         // Excluded channels' readings may be anything (a dead part gives NaN): zero them, as
-        // `W` has zero weight there and 0 × NaN would poison the solve. A calibrated
-        // channel's reading becomes `(p − bias) / scale`.
-        let p: &[T] = if excluded || calibrated {
+        // `W` has zero weight there and 0 × NaN would poison the solve.
+        let p: &[T] = if excluded {
             for (i, (m, v)) in masked.iter_mut().zip(p.iter()).enumerate().take(n) {
-                *m = if !cfg.mask.contains(i) {
-                    T::ZERO
-                } else if calibrated {
-                    *v * cfg.input_gain[i] - cfg.input_offset[i]
-                } else {
-                    *v
-                };
+                *m = if cfg.mask.contains(i) { *v } else { T::ZERO };
             }
             &masked[..n]
         } else {
@@ -442,7 +432,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             self.tracker
                 .step(&cands[..nb], dt_t, self.domega_var, hint_var, histories)
         else {
-            return self.hold(t, dt_t, record);
+            return (self.hold(t, dt_t, record), false);
         };
         let common = CommonFlags {
             fallback,
@@ -483,7 +473,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.last_t = Some(t);
         self.last = 1 - self.last;
         self.has_last = true;
-        self.last
+        (self.last, true)
     }
 
     /// Replaces the algebraic Ω of `est` by a hypothesis' filtered Ω (∫Ω′ fused with the

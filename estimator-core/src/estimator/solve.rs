@@ -34,10 +34,16 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         let pr = &self.proj[f];
         let (k, m) = (pr.k, pr.m);
         let n = self.arr.len();
-        // y = W p (paper eq. 11 reduced by the SVD), minus the known-Γ term of model F.
+        // y = W p (paper eq. 11 reduced by the SVD), minus the channels' biases and the
+        // known-Γ term of model F.
         let y = &mut scratch.y;
         let rows = k + m;
         project(&pr.wt, p, n, rows, y);
+        if pr.has_bias_offset {
+            for (yr, o) in y.iter_mut().zip(pr.bias_offset.iter()).take(rows) {
+                *yr -= *o;
+            }
+        }
         if self.gamma_offset_nonzero {
             for (yr, g) in y.iter_mut().zip(self.gamma_offset.iter()).take(rows) {
                 *yr -= *g;

@@ -26,9 +26,15 @@ pub struct Projection<T, const CAP: usize> {
     /// Quadratic equations (`N_included − k`).
     pub m: usize,
     /// `W` (rows `0..k`: `G⁺`, rows `k..k+m`: `U⊥ᵀ`, whitening folded in) stored by channel:
-    /// `wt[i][r] = W[r][i]`, so that `W p` streams each channel's column once. Excluded
+    /// `wt[i][r] = W[r][i]` (with channel `i`'s `1 / scale` folded in), so that `W p` streams
+    /// each channel's column once. Excluded
     /// channels and rows beyond `k + m` are zero.
     pub wt: [[T; CAP]; CAP],
+    /// `W bias`: the channels' calibrated biases as they enter `y = W p`, taken off `y` per
+    /// sample (with the `1 / scale` in `W`, the calibration costs one subtraction per row).
+    pub bias_offset: [T; CAP],
+    /// Whether `bias_offset` is other than zero.
+    pub has_bias_offset: bool,
     /// `M_k`, `k < m`.
     pub mq: [Sym3<T>; CAP],
     /// `T_j`, `j < k`.
@@ -72,6 +78,8 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             k: 0,
             m: 0,
             wt: [[T::ZERO; CAP]; CAP],
+            bias_offset: [T::ZERO; CAP],
+            has_bias_offset: false,
             mq: [Sym3::zero(); CAP],
             tq: [Sym3::zero(); MAX_COLS],
             cov0: [Sym3::zero(); 3],
@@ -195,15 +203,26 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
         self.condition = condition;
         self.chi2_gate = T::of(crate::estimate::chi2_999(m - 3).min(f64::MAX));
         self.wt = [[T::ZERO; CAP]; CAP];
+        // A calibrated channel reads `scale · (s·f) + bias`: its column takes `1 / scale` and
+        // its bias goes into `W bias`.
+        let mut offset = [0.0f64; CAP];
         for (row, &i) in idx.iter().enumerate().take(n) {
-            let inv_noise = 1.0 / arr.channels()[i].noise;
-            for c in 0..k {
-                self.wt[i][c] = T::of(pinv[c][row] * inv_noise);
-            }
-            for e in 0..m {
-                self.wt[i][k + e] = T::of(null[e][row] * inv_noise);
+            let ch = &arr.channels()[i];
+            let w = 1.0 / (ch.noise * ch.scale);
+            for r in 0..k + m {
+                let x = if r < k {
+                    pinv[r][row]
+                } else {
+                    null[r - k][row]
+                } * w;
+                self.wt[i][r] = T::of(x);
+                offset[r] += x * ch.bias;
             }
         }
+        for (o, v) in self.bias_offset.iter_mut().zip(offset.iter()) {
+            *o = T::of(*v);
+        }
+        self.has_bias_offset = offset.iter().any(|v| *v != 0.0);
         let mut mq = [Sym3::<f64>::zero(); CAP];
         for (e, mqe) in mq.iter_mut().enumerate().take(m) {
             for row in 0..n {
