@@ -27,7 +27,8 @@ const AXIS: [RGBColor; 3] = [
 ];
 const BAND: RGBColor = RGBColor(215, 215, 215);
 const FLAGGED: RGBColor = RGBColor(255, 150, 0);
-const FONT: &str = "sans-serif";
+/// The family the compiled-in font is registered under ([`font`]).
+pub(crate) const FONT: &str = "sans-serif";
 
 /// Columns read from both files (`t` first), then the estimates' own.
 const SHARED: [&str; 10] = [
@@ -123,7 +124,7 @@ pub fn plot_files(truth: &Path, estimates: &Path, png: &Path) -> Result<(), Box<
 }
 
 /// Registers the compiled-in font once.
-fn font() -> Result<(), String> {
+pub(crate) fn font() -> Result<(), String> {
     static REGISTER: Once = Once::new();
     let mut result = Ok(());
     REGISTER.call_once(|| {

@@ -99,12 +99,18 @@ fn writes_a_calibrated_arrangement_that_estimate_reads() {
         "axis_sd = ",
         "bias_sd = ",
         "scale_sd = ",
+        "frame_rotation_sd = ",
+        "frame_translation_sd = ",
+        "frame_size_sd = ",
     ] {
         assert!(text.contains(key), "no {key} in the calibrated file");
     }
-    assert!(std::fs::read_to_string(&report)
-        .unwrap()
-        .contains("| u0.x |"));
+    let md = std::fs::read_to_string(&report).unwrap();
+    assert!(md.contains("| u0.x |"));
+    // The residuals' PNG beside it, referenced.
+    assert!(md.contains("](report.png)"));
+    let png = std::fs::read(dir.join("report.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
     let est = ballisto()
         .arg("estimate")
         .arg("--arrangement")

@@ -223,6 +223,8 @@ pub struct Identification {
     /// How well the identified arrangement's frame is tied to the body
     /// ([`super::frame::uncertainty`]).
     pub frame: estimator_core::FrameUncertainty<f64>,
+    /// The residuals with the nominal and with the identified geometry.
+    pub residuals: (Residuals, Residuals),
 }
 
 /// The last step of a converged identification moves no parameter by more than this many
@@ -242,7 +244,7 @@ pub fn identify(
     if record.poses.is_empty() && record.motion.is_empty() {
         return Err("the record has neither static poses nor motion to calibrate from".into());
     }
-    let residual_before = residual_rms(&geo, record, rate)?;
+    let residual_before = residuals(&geo, record, rate)?;
     let mut step = JointStep::default();
     let mut iterations = 0;
     let mut last_step = f64::INFINITY;
@@ -330,13 +332,16 @@ pub fn identify(
             break;
         }
     }
-    let residual_after = residual_rms(&geo, record, rate)?;
+    let residual_after = residuals(&geo, record, rate)?;
     let channels = (0..n)
         .map(|i| Identified {
             geometry: geo[i],
             sd: core::array::from_fn(|j| step.sd[7 * i + j]),
             held: step.held[i].clone(),
-            residual_rms: (residual_before[i], residual_after[i]),
+            residual_rms: (
+                residual_before.per_channel[i],
+                residual_after.per_channel[i],
+            ),
         })
         .collect();
     let frame = super::frame::uncertainty(&geo, &step.error_covariance(n), tol);
@@ -346,6 +351,7 @@ pub fn identify(
         iterations,
         last_step,
         frame,
+        residuals: (residual_before, residual_after),
     })
 }
 
@@ -877,13 +883,23 @@ fn apply(g: &mut Geometry, d: &SVector<f64, 7>) {
     g.position += Vector3::new(d[4], d[5], d[6]);
 }
 
-/// RMS residual of every channel with the geometry `geo` (the field re-estimated for it):
-/// motion samples one by one, each pose by its mean weighted by its samples.
-pub fn residual_rms(
+/// What a geometry leaves unexplained in a record (the field re-estimated for it).
+#[derive(Clone, Debug, Default)]
+pub struct Residuals {
+    /// Per channel, the RMS residual (m/s²): motion samples one by one, each pose by its
+    /// mean weighted by its samples.
+    pub per_channel: Vec<f64>,
+    /// Per sample used (its index in the record), the RMS over the channels of the residual
+    /// (m/s²); in a pose, of the pose's mean residual (what the noise does not average away).
+    pub per_sample: Vec<(usize, f64)>,
+}
+
+/// The residuals of every channel with the geometry `geo` ([`Residuals`]).
+pub fn residuals(
     geo: &[Geometry],
     record: &Record,
     rate: &RateSource,
-) -> Result<Vec<f64>, String> {
+) -> Result<Residuals, String> {
     let omega = initial_rates(geo, record, rate)?;
     let fields = motion_fields(
         geo,
@@ -892,36 +908,66 @@ pub fn residual_rms(
         matches!(rate, RateSource::Estimator(_)),
     );
     let gravity = pose_gravity(geo, record.poses);
-    Ok((0..geo.len())
-        .map(|i| {
-            let g = &geo[i];
-            let mut sum = 0.0;
-            let mut count = 0usize;
-            for (pose, gk) in record.poses.iter().zip(gravity.iter()) {
-                let p = pose.mean[i];
-                if p.is_finite() {
-                    sum += (p - g.reading(gk)).powi(2) * pose.samples.len() as f64;
-                    count += pose.samples.len();
-                }
+    let n = geo.len();
+    let mut sum = vec![0.0; n];
+    let mut count = vec![0usize; n];
+    let mut per_sample = Vec::new();
+    // The RMS over the finite channels of one row of residuals.
+    let row_rms = |r: &mut dyn Iterator<Item = f64>| {
+        let (s, c) = r
+            .filter(|v| v.is_finite())
+            .fold((0.0, 0usize), |(s, c), v| (s + v * v, c + 1));
+        (c > 0).then(|| (s / c as f64).sqrt())
+    };
+    for (pose, gk) in record.poses.iter().zip(gravity.iter()) {
+        let res: Vec<f64> = (0..n).map(|i| pose.mean[i] - geo[i].reading(gk)).collect();
+        for (i, r) in res.iter().enumerate() {
+            if r.is_finite() {
+                sum[i] += r * r * pose.samples.len() as f64;
+                count[i] += pose.samples.len();
             }
-            for (&k, field) in record.motion.iter().zip(fields.iter()) {
-                let Some(field) = field else {
-                    continue;
-                };
-                let p = record.rows[k][i];
-                if p.is_finite() {
-                    let f = field.sigma0 + field.m(&record.gamma) * g.position;
-                    sum += (p - g.reading(&f)).powi(2);
-                    count += 1;
-                }
+        }
+        if let Some(v) = row_rms(&mut res.iter().copied()) {
+            per_sample.extend(pose.samples.clone().map(|k| (k, v)));
+        }
+    }
+    for (&k, field) in record.motion.iter().zip(fields.iter()) {
+        let Some(field) = field else {
+            continue;
+        };
+        let m = field.m(&record.gamma);
+        let res: Vec<f64> = (0..n)
+            .map(|i| {
+                let g = &geo[i];
+                record.rows[k][i] - g.reading(&(field.sigma0 + m * g.position))
+            })
+            .collect();
+        for (i, r) in res.iter().enumerate() {
+            if r.is_finite() {
+                sum[i] += r * r;
+                count[i] += 1;
             }
-            if count > 0 {
-                (sum / count as f64).sqrt()
+        }
+        if let Some(v) = row_rms(&mut res.iter().copied()) {
+            per_sample.push((k, v));
+        }
+    }
+    per_sample.sort_by_key(|(k, _)| *k);
+    let per_channel = sum
+        .iter()
+        .zip(count.iter())
+        .map(|(s, &c)| {
+            if c > 0 {
+                (s / c as f64).sqrt()
             } else {
                 f64::NAN
             }
         })
-        .collect())
+        .collect();
+    Ok(Residuals {
+        per_channel,
+        per_sample,
+    })
 }
 
 #[cfg(test)]

@@ -12,6 +12,7 @@ pub mod fit;
 pub mod frame;
 pub mod poses;
 pub mod reference_rate;
+pub mod report;
 
 use std::error::Error;
 use std::path::Path;
@@ -22,7 +23,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::estimate::HostEstimator;
 use crate::samples_csv::SamplesReader;
-use fit::{FitSet, Geometry, Identification, RateSource, Record, Tolerance, PARAMETERS};
+use fit::{FitSet, Geometry, Identification, RateSource, Record, Tolerance};
 
 /// Window (s) over which a pose must stay within the noise.
 pub const POSE_WINDOW_S: f64 = 0.5;
@@ -241,7 +242,11 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         warnings,
     };
     if let Some(path) = job.report {
-        std::fs::write(path, report_markdown(&summary, job))
+        // The PNG beside the Markdown, same name (`REPORT.png`).
+        let png = path.with_extension("png");
+        report::residual_png(&summary, &times, &png)?;
+        let png_name = png.file_name().map(|n| n.to_string_lossy().into_owned());
+        std::fs::write(path, report::markdown(&summary, job, png_name.as_deref()))
             .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
     }
     Ok(summary)
@@ -405,53 +410,4 @@ fn calibrated_file(
     }
     header.push_str("# A missing *_sd key means that parameter was not identified.\n");
     Ok(header + &out.to_toml())
-}
-
-/// The report for people: per channel the change from nominal, the standard deviations and
-/// the residual before and after.
-fn report_markdown(s: &CalibrationSummary, job: &CalibrateJob) -> String {
-    let mut r = format!(
-        "# Calibration of {}\n\nRecord {}: {} static poses, {} samples in motion; Ω from {}; {} alternations.\n\n",
-        job.arrangement.display(),
-        job.samples.display(),
-        s.poses,
-        s.motion,
-        match job.reference {
-            Some(p) => format!("the reference {}", p.display()),
-            None => "the estimator (self-calibration)".into(),
-        },
-        s.identification.iterations
-    );
-    for w in &s.warnings {
-        r.push_str(&format!("- **Warning**: {w}.\n"));
-    }
-    for c in &s.identification.conventions {
-        r.push_str(&format!("- Held by convention: {c}.\n"));
-    }
-    r.push_str("\n| channel | scale | bias (m/s²) | position (mm) | residual RMS before → after (m/s²) | not identified |\n|---|---|---|---|---|---|\n");
-    for (name, c) in s.names.iter().zip(s.identification.channels.iter()) {
-        let g = &c.geometry;
-        let pm = |j: usize| {
-            if c.sd[j].is_finite() {
-                format!(" ± {:.2e}", c.sd[j])
-            } else {
-                " (held)".into()
-            }
-        };
-        r.push_str(&format!(
-            "| {name} | {:.5}{} | {:.4}{} | {:.2}, {:.2}, {:.2} | {:.3e} → {:.3e} | {} |\n",
-            g.scale,
-            pm(0),
-            g.bias,
-            pm(3),
-            g.position.x * 1e3,
-            g.position.y * 1e3,
-            g.position.z * 1e3,
-            c.residual_rms.0,
-            c.residual_rms.1,
-            c.held.join("; ")
-        ));
-    }
-    r.push_str(&format!("\nParameters: {}.\n", PARAMETERS.join(", ")));
-    r
 }

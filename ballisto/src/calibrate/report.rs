@@ -1,0 +1,201 @@
+//! The calibration report for people: Markdown (what was identified, from what, with which
+//! deviations, what was held) and a PNG of the residuals before and after.
+
+use std::error::Error;
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use super::fit::PARAMETERS;
+use super::{CalibrateJob, CalibrationSummary};
+
+const WIDTH: u32 = 1200;
+const HEIGHT: u32 = 900;
+const BEFORE: RGBColor = RGBColor(220, 60, 30);
+const AFTER: RGBColor = RGBColor(20, 60, 200);
+
+/// The report for people: per channel the change from nominal, the standard deviations and
+/// the residual before and after.
+pub fn markdown(s: &CalibrationSummary, job: &CalibrateJob, png: Option<&str>) -> String {
+    let mut r = format!(
+        "# Calibration of {}\n\nRecord {}: {} static poses, {} samples in motion; Ω from {}; {} alternations.\n\n",
+        job.arrangement.display(),
+        job.samples.display(),
+        s.poses,
+        s.motion,
+        match job.reference {
+            Some(p) => format!("the reference {}", p.display()),
+            None => "the estimator (self-calibration)".into(),
+        },
+        s.identification.iterations
+    );
+    for w in &s.warnings {
+        r.push_str(&format!("- **Warning**: {w}.\n"));
+    }
+    for c in &s.identification.conventions {
+        r.push_str(&format!("- Held by convention: {c}.\n"));
+    }
+    let f = &s.identification.frame;
+    r.push_str(&format!(
+        "- The frame's uncertainty (what no channel's own parameters carry; added to every estimate's deviations): rotation {:.3e} rad, translation {:.3e} m, size {:.3e}.\n",
+        f.rotation, f.translation, f.size
+    ));
+    if let Some(png) = png {
+        r.push_str(&format!(
+            "\n![Residuals with the nominal and with the identified geometry]({png})\n"
+        ));
+    }
+    r.push_str("\n| channel | scale | bias (m/s²) | position (mm) | residual RMS before → after (m/s²) | not identified |\n|---|---|---|---|---|---|\n");
+    for (name, c) in s.names.iter().zip(s.identification.channels.iter()) {
+        let g = &c.geometry;
+        let pm = |j: usize| {
+            if c.sd[j].is_finite() {
+                format!(" ± {:.2e}", c.sd[j])
+            } else {
+                " (held)".into()
+            }
+        };
+        r.push_str(&format!(
+            "| {name} | {:.5}{} | {:.4}{} | {:.2}, {:.2}, {:.2} | {:.3e} → {:.3e} | {} |\n",
+            g.scale,
+            pm(0),
+            g.bias,
+            pm(3),
+            g.position.x * 1e3,
+            g.position.y * 1e3,
+            g.position.z * 1e3,
+            c.residual_rms.0,
+            c.residual_rms.1,
+            c.held.join("; ")
+        ));
+    }
+    r.push_str(&format!("\nParameters: {}.\n", PARAMETERS.join(", ")));
+    r
+}
+
+/// The PNG: per sample, the RMS over the channels of the residual with the nominal and with
+/// the identified geometry (in a pose, of the pose's mean); per channel, its RMS residual
+/// before and after against its noise (black tick). Logarithmic scales.
+pub fn residual_png(
+    s: &CalibrationSummary,
+    times: &[f64],
+    png: &Path,
+) -> Result<(), Box<dyn Error>> {
+    crate::plot::font()?;
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", png.display());
+    let (before, after) = &s.identification.residuals;
+    let series = |r: &super::fit::Residuals| -> Vec<(f64, f64)> {
+        r.per_sample
+            .iter()
+            .filter(|(k, v)| *k < times.len() && *v > 0.0 && v.is_finite())
+            .map(|(k, v)| (times[*k], *v))
+            .collect()
+    };
+    let (b, a) = (series(before), series(after));
+    let channels = &s.identification.channels;
+    let noise: Vec<f64> = channels.iter().map(|c| c.geometry.noise).collect();
+    let values = b
+        .iter()
+        .chain(a.iter())
+        .map(|p| p.1)
+        .chain(
+            channels
+                .iter()
+                .flat_map(|c| [c.residual_rms.0, c.residual_rms.1]),
+        )
+        .chain(noise.iter().copied())
+        .filter(|v| v.is_finite() && *v > 0.0);
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+        (l.min(v), h.max(v))
+    });
+    let (lo, hi) = if lo.is_finite() && hi > lo {
+        (lo / 1.5, hi * 1.5)
+    } else {
+        (1e-4, 1.0)
+    };
+    let t_span = match (times.first(), times.last()) {
+        (Some(t0), Some(t1)) if t1 > t0 => (*t0, *t1),
+        _ => (0.0, 1.0),
+    };
+    let root = BitMapBackend::new(png, (WIDTH, HEIGHT)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root
+        .titled(
+            "residuals: red with the nominal geometry, blue with the identified one",
+            (crate::plot::FONT, 20),
+        )
+        .map_err(|e| err(&e))?;
+    let (top, bottom) = root.split_vertically(HEIGHT / 2);
+    let mut chart = ChartBuilder::on(&top)
+        .caption(
+            "RMS over the channels per sample (m/s²; in a static pose: of the pose's mean)",
+            (crate::plot::FONT, 16),
+        )
+        .margin(8)
+        .margin_right(24)
+        .x_label_area_size(36)
+        .y_label_area_size(70)
+        .build_cartesian_2d(t_span.0..t_span.1, (lo..hi).log_scale())
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc("t (s)")
+        .label_style((crate::plot::FONT, 14))
+        .axis_desc_style((crate::plot::FONT, 14))
+        .draw()
+        .map_err(|e| err(&e))?;
+    for (points, colour) in [(&b, BEFORE), (&a, AFTER)] {
+        chart
+            .draw_series(points.iter().map(|p| Pixel::new(*p, colour)))
+            .map_err(|e| err(&e))?;
+    }
+    let n = channels.len().max(1);
+    let names = s.names.clone();
+    let mut chart = ChartBuilder::on(&bottom)
+        .caption(
+            "RMS residual per channel (m/s²): before, after; black: its noise",
+            (crate::plot::FONT, 16),
+        )
+        .margin(8)
+        .margin_right(24)
+        .x_label_area_size(50)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..n as f64, (lo..hi).log_scale())
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_labels(n.min(40))
+        .x_label_formatter(&|x| {
+            let i = x.floor() as usize;
+            names.get(i).cloned().unwrap_or_default()
+        })
+        .label_style((crate::plot::FONT, 12))
+        .draw()
+        .map_err(|e| err(&e))?;
+    for (i, c) in channels.iter().enumerate() {
+        let x = i as f64;
+        for (v, colour, offset) in [
+            (c.residual_rms.0, BEFORE, 0.1),
+            (c.residual_rms.1, AFTER, 0.5),
+        ] {
+            if v.is_finite() && v > 0.0 {
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(x + offset, lo), (x + offset + 0.35, v)],
+                        colour.filled(),
+                    )))
+                    .map_err(|e| err(&e))?;
+            }
+        }
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(x + 0.05, noise[i]), (x + 0.95, noise[i])],
+                BLACK.stroke_width(2),
+            )))
+            .map_err(|e| err(&e))?;
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
