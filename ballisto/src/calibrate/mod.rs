@@ -213,6 +213,28 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         )
         .into());
     }
+    // A record that leaves most parameters undetermined is not a calibration: what it does
+    // determine are combinations (one pose: bias with scale and axis) that the fit can only
+    // split arbitrarily.
+    let held = held_counts(&identification, job.fit);
+    let (identified, fitted) = held
+        .iter()
+        .fold((0, 0), |(i, f), (_, h, n)| (i + n - h, f + n));
+    if 2 * identified < fitted {
+        let what: Vec<String> = held
+            .iter()
+            .filter(|(_, h, _)| *h > 0)
+            .map(|(kind, h, n)| format!("{kind} {h} of {n}"))
+            .collect();
+        return Err(format!(
+            "{}: the record is not exciting enough: it determines only {identified} of the {fitted} parameters ({} static poses, {} samples in motion; not determined: {}), and a calibration needs static poses in at least 6 well-spread attitudes, or rotation about several axes with a reference rate: nothing written",
+            job.samples.display(),
+            poses.len(),
+            motion.len(),
+            what.join(", ")
+        )
+        .into());
+    }
     let converged = identification.last_step <= fit::CONVERGED_STEP;
     if !converged {
         return Err(format!(
@@ -250,6 +272,31 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
     }
     Ok(summary)
+}
+
+/// Per kind of parameter (scale, axis, bias, position) asked for by `fit`: how many of the
+/// channels' parameters are not identified, of how many.
+fn held_counts(id: &Identification, fit: FitSet) -> Vec<(&'static str, usize, usize)> {
+    let kinds: [(&str, &[usize], bool); 4] = [
+        ("scale", &[0], fit.scale),
+        ("axis", &[1, 2], fit.axis),
+        ("bias", &[3], fit.bias),
+        ("position", &[4, 5, 6], fit.position),
+    ];
+    kinds
+        .iter()
+        .filter(|(_, _, asked)| *asked)
+        .map(|(kind, params, _)| {
+            let n = id.channels.len() * params.len();
+            let held = id
+                .channels
+                .iter()
+                .flat_map(|c| params.iter().map(move |&j| c.sd[j]))
+                .filter(|s| !s.is_finite())
+                .count();
+            (*kind, held, n)
+        })
+        .collect()
 }
 
 /// Sample times and rows.
