@@ -45,17 +45,23 @@ fn scenario(dir: &Path, samples: usize) -> Vec<hal_sim::motion::Truth> {
     truth
 }
 
+/// The file's header and its rows as numbers (an empty field, such as model F's gravity
+/// gradient, is NaN).
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .map(str::to_string)
-        .collect();
-    let rows = lines
-        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+    let (header, rows) = common::read_table(path);
+    let rows = rows
+        .iter()
+        .map(|r| {
+            r.iter()
+                .map(|v| {
+                    if v.is_empty() {
+                        f64::NAN
+                    } else {
+                        v.parse().unwrap()
+                    }
+                })
+                .collect()
+        })
         .collect();
     (header, rows)
 }

@@ -11,19 +11,13 @@ use std::path::Path;
 
 /// The file's columns by name, each row's fields as text.
 fn read(path: &Path) -> (HashMap<String, usize>, Vec<Vec<String>>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header = lines
-        .next()
-        .unwrap()
-        .split(',')
+    let (header, rows) = common::read_table(path);
+    let index = header
+        .into_iter()
         .enumerate()
-        .map(|(i, h)| (h.to_string(), i))
+        .map(|(i, h)| (h, i))
         .collect();
-    let rows = lines
-        .map(|l| l.split(',').map(String::from).collect())
-        .collect();
-    (header, rows)
+    (index, rows)
 }
 
 fn estimate(dir: &Path, model: &str, out: &str) {

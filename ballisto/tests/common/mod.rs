@@ -2,7 +2,7 @@
 
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The `ballisto` binary under test.
@@ -24,4 +24,20 @@ pub fn scenario_text(name: &str) -> String {
         .join("../hal-sim/scenarios")
         .join(format!("{name}.toml"));
     std::fs::read_to_string(path).unwrap()
+}
+
+/// A CSV file as text: its header's names and every row's fields.
+pub fn read_table(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let rows = lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    (header, rows)
 }
