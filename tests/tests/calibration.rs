@@ -278,8 +278,8 @@ fn calibrated_parts_estimate_as_well_as_ideal_ones() {
             );
             // σ0 at the point the calibrated file calls the origin (0.2 mm from the drawn
             // one: the parts' mean mounting error, which no accelerometer record sees). On the
-            // ground it carries g times the frame's rotation: this record's came out at 0.4 of
-            // its reported sd; at one sd σ0 would be ≈ 1.5× (README).
+            // ground it carries g times the frame's rotation: this record's came out at 0.2 of
+            // its reported sd; at one sd σ0 would be ≈ 1.15× (README).
             assert!(
                 sigma0_moved <= 1.2 * base.sigma0,
                 "σ0 at the calibrated origin {sigma0_moved} vs ideal {}",
@@ -289,7 +289,7 @@ fn calibrated_parts_estimate_as_well_as_ideal_ones() {
             // Without a reference the frame (a common rotation) and the size are conventions:
             // σ0 and Ω′ carry them; Ω's magnitude and most of its error do not. In its own
             // frame the self-calibrated file estimates σ0 and Ω as well as ideal parts (Ω′
-            // not: 2.1×, the lever arms' non-rigid errors; README).
+            // not: 1.4×, the axes' rotation relative to the lever arms'; README).
             assert!(
                 own[0] <= 1.2 * base.sigma0,
                 "σ0 in its frame {} vs ideal {}",
