@@ -384,4 +384,33 @@ noise = 0.01
         assert_eq!(l.arrangement.channels()[0].axis, [0.0, 1.0, 0.0]);
         assert_eq!(l.arrangement.channels()[1].axis, [-1.0, 0.0, 0.0]);
     }
+
+    /// The frame's uncertainty is read into the arrangement; a negative one is refused by
+    /// name.
+    #[test]
+    fn frame_uncertainty_keys_are_read_and_checked() {
+        let part = r#"
+[[sensor]]
+name = "u0"
+position = [0.1, 0.0, 0.0]
+noise = 0.01
+"#;
+        let good = format!("frame_rotation_sd = 1e-3\nframe_size_sd = 2e-3\n{part}");
+        let l = ArrangementFile::parse(&good, "x.toml")
+            .unwrap()
+            .load("x.toml")
+            .unwrap();
+        let f = l.arrangement.frame_uncertainty();
+        assert_eq!((f.rotation, f.translation, f.size), (1e-3, 0.0, 2e-3));
+        let bad = format!("frame_translation_sd = -1e-4\n{part}");
+        let e = ArrangementFile::parse(&bad, "x.toml")
+            .unwrap()
+            .load("x.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("x.toml") && e.contains("frame_translation_sd = -0.0001"),
+            "{e}"
+        );
+    }
 }
