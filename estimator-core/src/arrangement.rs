@@ -84,6 +84,7 @@ impl<const CAP: usize> Arrangement<CAP> {
                 rotation: 0.0,
                 translation: 0.0,
                 size: 0.0,
+                relative_rotation: 0.0,
             },
         }
     }

@@ -17,8 +17,15 @@
 //! - Ω: `δ × Ω − ½ s Ω` (`{Ω}²` scales by `1 / (1 + s)`);
 //! - A: `{δ} A − A {δ} − s A`.
 //!
-//! With `δ`, `t` independent and isotropic (standard deviations per axis) and `s` independent,
-//! the variances add to the estimate's own.
+//! Without a reference rate there is a fourth freedom: the axes turned by `½ d` and the lever
+//! arms by `−½ d` (so that `δ` is their mean rotation). With σ0, Ω′ and Ω all estimated per
+//! sample it is absorbed to first order except through the centripetal term's shape, so a
+//! self-calibration leaves it at the milliradian level. It changes σ0 by `½ d × σ0` and Ω′ by
+//! `−½ (|Ω|² d + (Ω·d) Ω)`, and neither Ω nor A (checked against the estimator: the axes or
+//! the lever arms of a true geometry turned alone by 1 mrad move σ0, Ω and Ω′ by these).
+//!
+//! With `δ`, `d`, `t` independent and isotropic (standard deviations per axis) and `s`
+//! independent, the variances add to the estimate's own.
 
 use crate::estimate::Estimate;
 use crate::linalg::{Sym3, Vec3};
@@ -34,14 +41,21 @@ pub struct FrameUncertainty<T> {
     pub translation: T,
     /// Common relative size of the positions (dimensionless).
     pub size: T,
+    /// Rotation of the axes relative to the lever arms, rad per axis (module doc).
+    pub relative_rotation: T,
 }
 
 impl FrameUncertainty<f64> {
     /// True when every deviation is a finite number ≥ 0.
     pub fn is_valid(&self) -> bool {
-        [self.rotation, self.translation, self.size]
-            .iter()
-            .all(|v| v.is_finite() && *v >= 0.0)
+        [
+            self.rotation,
+            self.translation,
+            self.size,
+            self.relative_rotation,
+        ]
+        .iter()
+        .all(|v| v.is_finite() && *v >= 0.0)
     }
 
     /// The same in the sample-loop scalar.
@@ -50,6 +64,7 @@ impl FrameUncertainty<f64> {
             rotation: T::of(self.rotation),
             translation: T::of(self.translation),
             size: T::of(self.size),
+            relative_rotation: T::of(self.relative_rotation),
         }
     }
 }
@@ -57,7 +72,10 @@ impl FrameUncertainty<f64> {
 impl<T: Real> FrameUncertainty<T> {
     /// True when there is nothing to add.
     pub fn is_zero(&self) -> bool {
-        self.rotation == T::ZERO && self.translation == T::ZERO && self.size == T::ZERO
+        self.rotation == T::ZERO
+            && self.translation == T::ZERO
+            && self.size == T::ZERO
+            && self.relative_rotation == T::ZERO
     }
 
     /// Adds the frame's common errors (module doc) to the standard deviations of `e`.
@@ -78,10 +96,29 @@ impl<T: Real> FrameUncertainty<T> {
         for (v, row) in var.iter_mut().zip(k.iter()) {
             *v = tr2 * (row[0] * row[0] + row[1] * row[1] + row[2] * row[2]);
         }
-        widen_vector(&mut e.sd_sigma0, &e.sigma0, rot2, T::ZERO, &var);
+        let rel2 = self.relative_rotation * self.relative_rotation;
+        let quarter = T::of(0.25);
+        widen_vector(
+            &mut e.sd_sigma0,
+            &e.sigma0,
+            rot2 + quarter * rel2,
+            T::ZERO,
+            &var,
+        );
+        // The relative rotation moves Ω′ by `−½ (|Ω|² I + ΩΩᵀ) d`: per component the squares
+        // of that row, `¼ (|Ω|⁴ + 3 |Ω|² Ω_i²)`.
+        let w = &e.omega;
+        let w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+        let c = quarter * rel2 * w2;
+        let three = T::of(3.0);
+        let relative = [
+            c * (w2 + three * w[0] * w[0]),
+            c * (w2 + three * w[1] * w[1]),
+            c * (w2 + three * w[2] * w[2]),
+        ];
+        widen_vector(&mut e.sd_domega, &e.domega, rot2, s2, &relative);
         let none = [T::ZERO; 3];
-        widen_vector(&mut e.sd_domega, &e.domega, rot2, s2, &none);
-        widen_vector(&mut e.sd_omega, &e.omega, rot2, T::of(0.25) * s2, &none);
+        widen_vector(&mut e.sd_omega, &e.omega, rot2, quarter * s2, &none);
         widen_field(&mut e.sd_field, &e.field, rot2, s2);
     }
 }
@@ -156,6 +193,7 @@ mod tests {
             rotation: 2e-3,
             translation: 3e-4,
             size: 1e-3,
+            relative_rotation: 3e-3,
         };
         let mut e = Estimate::<f64> {
             sigma0: [0.3, -9.7, 1.2],
@@ -193,6 +231,14 @@ mod tests {
                 fu.translation * normal(),
             ];
             let s = fu.size * normal();
+            let rel = [
+                fu.relative_rotation * normal(),
+                fu.relative_rotation * normal(),
+                fu.relative_rotation * normal(),
+            ];
+            let w = &base.omega;
+            let w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+            let wd = w[0] * rel[0] + w[1] * rel[1] + w[2] * rel[2];
             let k = base.field.mul_vec(&t);
             let dw_t = [
                 base.domega[1] * t[2] - base.domega[2] * t[1],
@@ -202,9 +248,12 @@ mod tests {
             let s0 = rotate(&base.sigma0, &d);
             let dw = rotate(&base.domega, &d);
             let w = rotate(&base.omega, &d);
+            let half = [0.5 * rel[0], 0.5 * rel[1], 0.5 * rel[2]];
+            let s0_rel = rotate(&base.sigma0, &half);
             for i in 0..3 {
-                let e0 = s0[i] - base.sigma0[i] + k[i] + dw_t[i];
-                let e1 = dw[i] - base.domega[i] - s * base.domega[i];
+                let e0 = s0[i] - base.sigma0[i] + k[i] + dw_t[i] + s0_rel[i] - base.sigma0[i];
+                let e1 =
+                    dw[i] - base.domega[i] - s * base.domega[i] - 0.5 * (w2 * rel[i] + wd * w[i]);
                 let e2 = w[i] - base.omega[i] - 0.5 * s * base.omega[i];
                 acc[0][i] += e0 * e0;
                 acc[1][i] += e1 * e1;
@@ -281,12 +330,14 @@ mod tests {
             rotation: -1e-3,
             translation: 0.0,
             size: 0.0,
+            relative_rotation: 0.0,
         };
         assert!(!bad.is_valid());
         let nan = FrameUncertainty {
             rotation: 0.0,
             translation: f64::NAN,
             size: 0.0,
+            relative_rotation: 0.0,
         };
         assert!(!nan.is_valid());
     }

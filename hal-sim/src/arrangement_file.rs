@@ -129,6 +129,10 @@ pub struct ArrangementFile {
     /// Standard deviation of the common relative size of all positions.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frame_size_sd: Option<f64>,
+    /// Standard deviation (rad per axis) of the rotation of the axes relative to the lever
+    /// arms (what a self-calibration sees only through the angular acceleration).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_relative_rotation_sd: Option<f64>,
     /// Single-axis channels.
     #[serde(default, rename = "channel", skip_serializing_if = "Vec::is_empty")]
     pub channels: Vec<ChannelSpec>,
@@ -334,11 +338,12 @@ impl ArrangementFile {
             rotation: self.frame_rotation_sd.unwrap_or(0.0),
             translation: self.frame_translation_sd.unwrap_or(0.0),
             size: self.frame_size_sd.unwrap_or(0.0),
+            relative_rotation: self.frame_relative_rotation_sd.unwrap_or(0.0),
         };
         arr.set_frame_uncertainty(frame).map_err(|_| {
             err(format!(
-                "frame_rotation_sd = {}, frame_translation_sd = {}, frame_size_sd = {}: each must be a finite number ≥ 0",
-                frame.rotation, frame.translation, frame.size
+                "frame_rotation_sd = {}, frame_translation_sd = {}, frame_size_sd = {}, frame_relative_rotation_sd = {}: each must be a finite number ≥ 0",
+                frame.rotation, frame.translation, frame.size, frame.relative_rotation
             ))
         })?;
         Ok(LoadedArrangement {
@@ -401,7 +406,10 @@ noise = 0.01
             .load("x.toml")
             .unwrap();
         let f = l.arrangement.frame_uncertainty();
-        assert_eq!((f.rotation, f.translation, f.size), (1e-3, 0.0, 2e-3));
+        assert_eq!(
+            (f.rotation, f.translation, f.size, f.relative_rotation),
+            (1e-3, 0.0, 2e-3, 0.0)
+        );
         let bad = format!("frame_translation_sd = -1e-4\n{part}");
         let e = ArrangementFile::parse(&bad, "x.toml")
             .unwrap()

@@ -6,8 +6,10 @@
 //! directions, one tolerance along what is held (gauges included: the common translation,
 //! and without a reference the common rotation and size, are held at the nominal values,
 //! which are only as good as the mounting). The frame's error is the least-squares fit of the
-//! seven frame motions to `e`: `φ = (GᵀG)⁻¹Gᵀ e` with `G` the scaled generators, so
-//! `cov(φ) = L cov(e) Lᵀ`. Each of the three is reported by its largest axis.
+//! frame motions to `e` — translation, rotation, size, and the rotation of the axes relative to
+//! the lever arms (what a self-calibration sees only weakly; estimator-core's module doc) —
+//! `φ = (GᵀG)⁻¹Gᵀ e` with `G` the scaled generators, so `cov(φ) = L cov(e) Lᵀ`. Each is
+//! reported by its largest axis.
 
 use nalgebra::{DMatrix, Vector3};
 
@@ -15,8 +17,9 @@ use estimator_core::FrameUncertainty;
 
 use super::fit::{tilt_basis, Geometry, Tolerance};
 
-/// Columns of the generators: translation x, y, z; rotation x, y, z; size.
-const MOTIONS: usize = 7;
+/// Columns of the generators: translation x, y, z; rotation x, y, z; size; rotation of the
+/// axes relative to the lever arms x, y, z.
+const MOTIONS: usize = 10;
 
 /// The frame uncertainty of the geometry `geo` whose error has the tolerance-scaled
 /// covariance `cov` (7 parameters per channel, [`super::fit::PARAMETERS`] order).
@@ -30,6 +33,7 @@ pub fn uncertainty(geo: &[Geometry], cov: &DMatrix<f64>, tol: &Tolerance) -> Fra
             rotation: f64::INFINITY,
             translation: f64::INFINITY,
             size: f64::INFINITY,
+            relative_rotation: f64::INFINITY,
         };
     };
     let l = inv * g.transpose();
@@ -39,10 +43,11 @@ pub fn uncertainty(geo: &[Geometry], cov: &DMatrix<f64>, tol: &Tolerance) -> Fra
         translation: largest(0..3),
         rotation: largest(3..6),
         size: largest(6..7),
+        relative_rotation: largest(7..10),
     }
 }
 
-/// The seven frame motions as parameter changes of every channel (rows: 7 per channel,
+/// The frame motions as parameter changes of every channel (rows: 7 per channel,
 /// tolerance-scaled): a translation moves every position; a rotation `δ` moves a position
 /// by `δ × R` and tilts an axis by `δ × s`; a size change moves each position by `R`.
 fn generators(geo: &[Geometry], tol: &Tolerance) -> DMatrix<f64> {
@@ -64,6 +69,13 @@ fn generators(geo: &[Geometry], tol: &Tolerance) -> DMatrix<f64> {
             }
             // Size.
             g[(row + 4 + k, 6)] = ch.position[k];
+            // The axes turned by ½ about e against the lever arms by −½ (their relative
+            // rotation; the mean is the rotation above).
+            g[(row + 1, 7 + k)] = 0.5 * u1.dot(&tilt);
+            g[(row + 2, 7 + k)] = 0.5 * u2.dot(&tilt);
+            for j in 0..3 {
+                g[(row + 4 + j, 7 + k)] = -0.5 * moved[j];
+            }
         }
         for j in 0..7 {
             for m in 0..MOTIONS {
@@ -96,10 +108,12 @@ mod tests {
     }
 
     /// With every parameter known only to its tolerance (nothing identified), the common
-    /// translation of N positions is known to `tol / √N`; the rotation about x to
-    /// `1 / √(info)` with the information of the axes that tilt with it (two of three: `2N/3
-    /// / tol_axis²`) and of the positions it moves (`Σ (R_y² + R_z²) / tol_position²`). With
-    /// the data determining everything exactly, nothing is left.
+    /// translation of N positions is known to `tol / √N`. About x, the axes' rotation is
+    /// known to `1 / √I_a` from the axes that tilt with it (two of three: `I_a = 2N/3 /
+    /// tol_axis²`) and the lever arms' to `1 / √I_p` from the positions it moves (`I_p =
+    /// Σ (R_y² + R_z²) / tol_position²`); the frame's rotation is their mean, the relative
+    /// rotation their difference. With the data determining everything exactly, nothing is
+    /// left.
     #[test]
     fn priors_average_over_the_channels_and_exact_data_leave_nothing() {
         let geo = tetra();
@@ -115,13 +129,22 @@ mod tests {
             .iter()
             .map(|g| g.position.y.powi(2) + g.position.z.powi(2))
             .sum();
-        let info = 2.0 * n as f64 / 3.0 / tol.axis.powi(2) + arms / tol.position.powi(2);
-        let r = 1.0 / info.sqrt();
-        assert!((prior.rotation / r - 1.0).abs() < 1e-9, "{prior:?} vs {r}");
+        let var = tol.axis.powi(2) / (2.0 * n as f64 / 3.0) + tol.position.powi(2) / arms;
+        let mean = 0.5 * var.sqrt();
+        assert!(
+            (prior.rotation / mean - 1.0).abs() < 1e-9,
+            "{prior:?} vs {mean}"
+        );
+        let relative = var.sqrt();
+        assert!(
+            (prior.relative_rotation / relative - 1.0).abs() < 1e-9,
+            "{prior:?} vs {relative}"
+        );
         assert!(prior.size > 0.0);
         let exact = uncertainty(&geo, &DMatrix::zeros(7 * n, 7 * n), &tol);
         assert_eq!(exact.rotation, 0.0);
         assert_eq!(exact.translation, 0.0);
         assert_eq!(exact.size, 0.0);
+        assert_eq!(exact.relative_rotation, 0.0);
     }
 }

@@ -429,6 +429,7 @@ fn calibrated_file(
         frame_rotation_sd: Some(id.frame.rotation),
         frame_translation_sd: Some(id.frame.translation),
         frame_size_sd: Some(id.frame.size),
+        frame_relative_rotation_sd: Some(id.frame.relative_rotation),
         channels,
         sensors: Vec::new(),
     };

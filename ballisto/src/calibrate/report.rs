@@ -37,8 +37,8 @@ pub fn markdown(s: &CalibrationSummary, job: &CalibrateJob, png: Option<&str>) -
     }
     let f = &s.identification.frame;
     r.push_str(&format!(
-        "- The frame's uncertainty (what no channel's own parameters carry; added to every estimate's deviations): rotation {:.3e} rad, translation {:.3e} m, size {:.3e}.\n",
-        f.rotation, f.translation, f.size
+        "- The frame's uncertainty (what no channel's own parameters carry; added to every estimate's deviations): rotation {:.3e} rad, translation {:.3e} m, size {:.3e}, axes against lever arms {:.3e} rad.\n",
+        f.rotation, f.translation, f.size, f.relative_rotation
     ));
     if let Some(png) = png {
         r.push_str(&format!(

@@ -90,6 +90,7 @@ fn run_model<P: Platform>(
             rotation: 1e-4,
             translation: 2e-4,
             size: 1e-4,
+            relative_rotation: 1e-3,
         });
     }
     let (est, setup) = measure(p, per_tick, || {
