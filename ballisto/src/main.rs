@@ -86,7 +86,9 @@ enum Command {
         /// Samples file (CSV: t and one column per channel).
         #[arg(long, value_name = "FILE.csv")]
         samples: PathBuf,
-        /// Estimates file to write (CSV).
+        /// Estimates file to write (CSV: the interfaces.md columns, then chi2, dof, branches,
+        /// frame, the standard deviations — with the arrangement's frame uncertainty when it
+        /// has one — epsilon, and the gravity gradient gamma_* with sd_gamma_*, model G only).
         #[arg(long, value_name = "FILE.csv")]
         out: PathBuf,
         /// Model: general (9-column, N >= 12) or free-float (N >= 9); default: the file's, else general.
@@ -151,8 +153,10 @@ enum Command {
         time_offset: f64,
     },
     /// Identify every channel's position, axis, scale and bias from a record of static poses
-    /// and motion (paper §6); writes a calibrated arrangement file with standard deviations.
-    /// What the record does not determine keeps its nominal value and is named.
+    /// and motion (paper §6); writes a calibrated arrangement file with standard deviations
+    /// and the frame's uncertainty (frame_*_sd). What the record does not determine keeps its
+    /// nominal value and is named; a record that determines fewer than half the parameters
+    /// is refused.
     Calibrate {
         /// Nominal arrangement file (TOML): the geometry as drawn.
         #[arg(long, value_name = "NOMINAL.toml")]
@@ -175,7 +179,8 @@ enum Command {
         #[arg(long, value_enum)]
         model: Option<ModelArg>,
         /// A report for people (Markdown): per channel the identified values, their standard
-        /// deviations and the residual before and after.
+        /// deviations and the residual before and after; with REPORT.png beside it (the
+        /// residuals per sample and per channel, before and after).
         #[arg(long, value_name = "REPORT.md")]
         report: Option<PathBuf>,
     },
