@@ -14,21 +14,16 @@ fn tmpdir(name: &str) -> PathBuf {
 
 /// The calibration record of `ground-calibration` (firmware on the simulated buses).
 fn record(dir: &Path) {
-    let out = ballisto()
-        .args([
-            "sim",
-            "--firmware",
-            "--scenario",
-            "ground-calibration",
-            "--out",
-        ])
-        .arg(dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    common::run_ok(
+        ballisto()
+            .args([
+                "sim",
+                "--firmware",
+                "--scenario",
+                "ground-calibration",
+                "--out",
+            ])
+            .arg(dir),
     );
 }
 
@@ -116,20 +111,15 @@ fn writes_a_calibrated_arrangement_that_estimate_reads() {
     assert!(md.contains("](report.png)"));
     let png = std::fs::read(dir.join("report.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
-    let est = ballisto()
-        .arg("estimate")
-        .arg("--arrangement")
-        .arg(dir.join("calibrated.toml"))
-        .arg("--samples")
-        .arg(dir.join("samples.csv"))
-        .arg("--out")
-        .arg(dir.join("estimates.csv"))
-        .output()
-        .unwrap();
-    assert!(
-        est.status.success(),
-        "{}",
-        String::from_utf8_lossy(&est.stderr)
+    common::run_ok(
+        ballisto()
+            .arg("estimate")
+            .arg("--arrangement")
+            .arg(dir.join("calibrated.toml"))
+            .arg("--samples")
+            .arg(dir.join("samples.csv"))
+            .arg("--out")
+            .arg(dir.join("estimates.csv")),
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -220,17 +210,12 @@ fn an_orbit_tumble_without_reference_is_refused_not_guessed() {
         "noise_density = 2.2e-4\nbias = [0.1, -0.2, 0.15]\nscale = [1.01, 0.99, 1.005]\nposition_error = [3e-4, -2e-4, 1e-4]\norientation_error = [0.004, -0.003, 0.002]\n",
     );
     std::fs::write(dir.join("orbit.toml"), text).unwrap();
-    let out = ballisto()
-        .args(["sim", "--firmware", "--scenario"])
-        .arg(dir.join("orbit.toml"))
-        .arg("--out")
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    common::run_ok(
+        ballisto()
+            .args(["sim", "--firmware", "--scenario"])
+            .arg(dir.join("orbit.toml"))
+            .arg("--out")
+            .arg(&dir),
     );
     refused(
         &calibrate(&dir, &dir.join("samples.csv"), &[]),

@@ -71,19 +71,14 @@ fn estimate_writes_the_contract_columns_one_row_per_sample() {
     let d = tmpdir("contract");
     let truth = scenario(&d, 600);
     let out = d.join("estimates.csv");
-    let st = ballisto()
-        .args(["estimate", "--arrangement"])
-        .arg(d.join("arrangement.toml"))
-        .arg("--samples")
-        .arg(d.join("samples.csv"))
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
+    common::run_ok(
+        ballisto()
+            .args(["estimate", "--arrangement"])
+            .arg(d.join("arrangement.toml"))
+            .arg("--samples")
+            .arg(d.join("samples.csv"))
+            .arg("--out")
+            .arg(&out),
     );
     let (header, rows) = read_csv(&out);
     let want = "t,sigma0_x,sigma0_y,sigma0_z,domega_x,domega_y,domega_z,omega_x,omega_y,omega_z,A_xx,A_yy,A_zz,A_xy,A_xz,A_yz,flags";

@@ -12,33 +12,23 @@ fn tmpdir(name: &str) -> PathBuf {
 }
 
 fn sim(scenario: &str, dir: &Path) {
-    let out = ballisto()
-        .args(["sim", "--scenario", scenario, "--out"])
-        .arg(dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    common::run_ok(
+        ballisto()
+            .args(["sim", "--scenario", scenario, "--out"])
+            .arg(dir),
     );
 }
 
 fn com(dir: &Path, samples: &str) -> Vec<Vec<Option<f64>>> {
-    let out = ballisto()
-        .arg("com")
-        .arg("--arrangement")
-        .arg(dir.join("arrangement.toml"))
-        .arg("--samples")
-        .arg(dir.join(samples))
-        .arg("--out")
-        .arg(dir.join("com.csv"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    common::run_ok(
+        ballisto()
+            .arg("com")
+            .arg("--arrangement")
+            .arg(dir.join("arrangement.toml"))
+            .arg("--samples")
+            .arg(dir.join(samples))
+            .arg("--out")
+            .arg(dir.join("com.csv")),
     );
     let text = std::fs::read_to_string(dir.join("com.csv")).unwrap();
     let mut lines = text.lines();

@@ -21,21 +21,16 @@ fn read(path: &Path) -> (HashMap<String, usize>, Vec<Vec<String>>) {
 }
 
 fn estimate(dir: &Path, model: &str, out: &str) {
-    let status = ballisto()
-        .arg("estimate")
-        .arg("--arrangement")
-        .arg(dir.join("arrangement.toml"))
-        .arg("--samples")
-        .arg(dir.join("samples.csv"))
-        .arg("--out")
-        .arg(dir.join(out))
-        .args(["--model", model])
-        .output()
-        .unwrap();
-    assert!(
-        status.status.success(),
-        "{}",
-        String::from_utf8_lossy(&status.stderr)
+    common::run_ok(
+        ballisto()
+            .arg("estimate")
+            .arg("--arrangement")
+            .arg(dir.join("arrangement.toml"))
+            .arg("--samples")
+            .arg(dir.join("samples.csv"))
+            .arg("--out")
+            .arg(dir.join(out))
+            .args(["--model", model]),
     );
 }
 
@@ -44,12 +39,11 @@ const NAMES: [&str; 6] = ["xx", "yy", "zz", "xy", "xz", "yz"];
 #[test]
 fn gravity_gradient_columns_are_within_their_deviations_and_empty_under_model_f() {
     let dir = common::tmpdir("gamma", "tetra");
-    let out = ballisto()
-        .args(["sim", "--scenario", "tetra-orbit", "--out"])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(out.status.success());
+    common::run_ok(
+        ballisto()
+            .args(["sim", "--scenario", "tetra-orbit", "--out"])
+            .arg(&dir),
+    );
     estimate(&dir, "general", "g.csv");
     estimate(&dir, "free-float", "f.csv");
     let (th, truth) = read(&dir.join("truth.csv"));

@@ -35,16 +35,6 @@ fn assert_wrote_every_file(d: &Path) {
     }
 }
 
-/// Asserts that the command succeeded (showing its stderr if not); its stdout.
-fn succeeded(out: &std::process::Output) -> String {
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
 fn header(path: &Path) -> Vec<String> {
     let text = std::fs::read_to_string(path).unwrap();
     text.lines()
@@ -91,7 +81,7 @@ fn every_named_scenario_parses_and_its_arrangement_loads() {
 fn sim_writes_the_three_files_and_the_estimate_follows_the_truth() {
     let d = tmpdir("tetra");
     let out = sim("tetra-orbit", &d, true);
-    let stdout = succeeded(&out);
+    let stdout = common::succeeded(&out);
     assert_wrote_every_file(&d);
     // samples.csv: t then one column per channel of the arrangement, 2001 rows.
     let loaded = load_arrangement(&d.join("arrangement.toml")).unwrap();
@@ -127,7 +117,7 @@ fn sim_reports_failed_reads_as_empty_fields() {
     let file = d.join("s.toml");
     std::fs::write(&file, src).unwrap();
     let out = sim(file.to_str().unwrap(), &d.join("out"), false);
-    let stdout = succeeded(&out);
+    let stdout = common::succeeded(&out);
     assert!(
         stdout.contains("part l1: 100 of 2001 reads failed"),
         "{stdout}"
@@ -242,7 +232,7 @@ fn sim_firmware(scenario: &str, out: &Path, align: &str) -> std::process::Output
 fn sim_firmware_writes_the_firmwares_record_with_its_counters() {
     let d = tmpdir("firmware");
     let out = sim_firmware("tetra-orbit", &d, "interpolate");
-    let stdout = succeeded(&out);
+    let stdout = common::succeeded(&out);
     assert_wrote_every_file(&d);
     assert_eq!(
         &header(&d.join("estimates.csv"))[..16],
@@ -284,12 +274,12 @@ fn decode(input: &Path, out: &Path) -> std::process::Output {
 fn decoding_the_firmwares_telemetry_gives_its_estimates() {
     let d = tmpdir("decode");
     let out = sim_firmware("tetra-orbit", &d, "interpolate");
-    let stdout = succeeded(&out);
+    let stdout = common::succeeded(&out);
     assert!(stdout.contains("telemetry: "), "{stdout}");
     assert!(stdout.contains("telemetry.bin\n"), "{stdout}");
     let decoded = d.join("decoded.csv");
     let out = decode(&d.join("telemetry.bin"), &decoded);
-    succeeded(&out);
+    common::succeeded(&out);
     let want = std::fs::read_to_string(d.join("estimates.csv")).unwrap();
     let got = std::fs::read_to_string(&decoded).unwrap();
     let (want, got): (Vec<&str>, Vec<&str>) = (want.lines().collect(), got.lines().collect());
@@ -316,7 +306,7 @@ fn decoding_the_firmwares_telemetry_gives_its_estimates() {
 fn decode_reports_damage_and_keeps_the_rest() {
     let d = tmpdir("decode-damaged");
     let out = sim_firmware("tetra-orbit", &d, "interpolate");
-    succeeded(&out);
+    common::succeeded(&out);
     let mut bytes = std::fs::read(d.join("telemetry.bin")).unwrap();
     // Every frame is delimiter, COBS, delimiter: packet i (sequence count i) starts at the
     // (2i)-th zero and ends at the next.

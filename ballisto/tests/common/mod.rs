@@ -3,11 +3,28 @@
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Output};
 
 /// The `ballisto` binary under test.
 pub fn ballisto() -> Command {
     Command::new(env!("CARGO_BIN_EXE_ballisto"))
+}
+
+/// Asserts that the command succeeded (showing its stderr if not); its stdout.
+pub fn succeeded(out: &Output) -> String {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Runs `cmd` and asserts that it succeeded ([`succeeded`]).
+pub fn run_ok(cmd: &mut Command) -> Output {
+    let out = cmd.output().unwrap();
+    succeeded(&out);
+    out
 }
 
 /// A fresh temporary directory `ballisto-<suite>-<pid>-<name>`.
