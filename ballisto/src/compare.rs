@@ -19,9 +19,9 @@ pub struct Comparison {
     pub omega: f64,
     /// RMS of the Frobenius error of A (s⁻²).
     pub field: f64,
-    /// Where the estimates carry deviations and flags: rows with no flag set whose σ0 and
-    /// whose Ω error exceeds [`SILENT_SD`] reported standard deviations in some component
-    /// (silently wrong rows).
+    /// Where the estimates carry deviations and flags: rows with no flag set whose σ0 (and,
+    /// counted apart, whose Ω) error exceeds [`SILENT_SD`] reported standard deviations in
+    /// some component (silently wrong rows).
     pub silent: Option<Silent>,
 }
 
@@ -60,18 +60,24 @@ pub fn compare(truth: &Path, estimates: &Path) -> Result<Comparison, Box<dyn Err
     let with_sd = crate::columns::has_columns(estimates, &DEVIATIONS);
     let extra: &[&str] = if with_sd { &DEVIATIONS } else { &[] };
     let mut rows_in = Matched::open(truth, estimates, &COLUMNS, extra)?;
-    let (mut e, mut t) = ([0.0; 23], [0.0; 16]);
+    // The estimates row: COLUMNS, then (with deviations) DEVIATIONS.
+    let (mut e, mut t) = (
+        [0.0; COLUMNS.len() + DEVIATIONS.len()],
+        [0.0; COLUMNS.len()],
+    );
     let width = COLUMNS.len() + extra.len();
+    let (sd_sigma0, sd_omega, flags) = (COLUMNS.len(), COLUMNS.len() + 3, COLUMNS.len() + 6);
     let mut sums = [0.0f64; 4];
     let mut rows = 0;
     let mut silent = Silent::default();
     while rows_in.next_into(&mut e[..width], &mut t)? {
-        if with_sd && e[22] == 0.0 {
+        if with_sd && e[flags] == 0.0 {
             let beyond = |est: usize, sd: usize| {
                 (0..3).any(|k| (e[est + k] - t[est + k]).abs() > SILENT_SD * e[sd + k])
             };
-            silent.sigma0 += usize::from(beyond(1, 16));
-            silent.omega += usize::from(beyond(7, 19));
+            // σ0 and Ω start at columns 1 and 7 of COLUMNS.
+            silent.sigma0 += usize::from(beyond(1, sd_sigma0));
+            silent.omega += usize::from(beyond(7, sd_omega));
         }
         for c in 1..16 {
             let d = e[c] - t[c];

@@ -65,9 +65,9 @@ pub fn decode_stream(bytes: &[u8]) -> Stream {
 }
 
 /// Writes the motion reports as an estimates file (interfaces.md columns, then
-/// [`LINK_COLUMNS`]; the gravity gradient where the stream says the model is G); `t` is the packet time (s since boot) plus `time_offset`, rounded to
-/// 0.1 µs (the CUC fine time has 2⁻²⁴ s ≈ 60 ns steps, so a time on a 0.1 µs grid on board
-/// comes back exactly).
+/// [`LINK_COLUMNS`]; the gravity gradient where the stream says the model is G); `t` is the
+/// packet time (s since boot) plus `time_offset`, rounded to 0.1 µs (the CUC fine time has
+/// 2⁻²⁴ s ≈ 60 ns steps, so a time on a 0.1 µs grid on board comes back exactly).
 pub fn write_estimates<W: Write>(
     w: &mut W,
     stream: &Stream,

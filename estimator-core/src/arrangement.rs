@@ -172,13 +172,6 @@ impl<const CAP: usize> Arrangement<CAP> {
         self.frame
     }
 
-    /// True if some channel carries a bias or a scale other than 1.
-    pub fn is_calibrated(&self) -> bool {
-        self.channels()
-            .iter()
-            .any(|c| c.bias != 0.0 || c.scale != 1.0)
-    }
-
     /// Number of channels.
     pub fn len(&self) -> usize {
         self.len

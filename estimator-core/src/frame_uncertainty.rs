@@ -21,8 +21,9 @@
 //! arms by `−½ d` (so that `δ` is their mean rotation). With σ0, Ω′ and Ω all estimated per
 //! sample it is absorbed to first order except through the centripetal term's shape, so a
 //! self-calibration leaves it at the milliradian level. It changes σ0 by `½ d × σ0` and Ω′ by
-//! `−½ (|Ω|² d + (Ω·d) Ω)`, and neither Ω nor A (checked against the estimator: the axes or
-//! the lever arms of a true geometry turned alone by 1 mrad move σ0, Ω and Ω′ by these).
+//! `−½ (|Ω|² d + (Ω·d) Ω)`; Ω and A only through what the least squares leaks (a tenth of a
+//! joint rotation's effect on Ω in the test), which is left out (checked against the
+//! estimator on turned geometries: `tests/calibration.rs`).
 //!
 //! With `δ`, `d`, `t` independent and isotropic (standard deviations per axis) and `s`
 //! independent, the variances add to the estimate's own.

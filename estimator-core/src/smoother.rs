@@ -183,14 +183,19 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
     }
 
     /// The decision for the oldest record. A record of an unusable sample gives the
-    /// estimator's held output (its deviations already widened by the frame uncertainty); a
-    /// decided one is built from the candidates and widened here.
+    /// estimator's held output (its deviations already widened by the frame uncertainty);
+    /// a usable one's estimate (from the candidates, or its forward one if it holds no
+    /// hypothesis) is the solve's and is widened here.
     fn decide_oldest(&self) -> (f64, Estimate<T>) {
         let oldest = self.at(0);
-        if !oldest.valid || oldest.n_states == 0 {
+        if !oldest.valid {
             return (oldest.t, oldest.forward);
         }
-        let (t, mut est) = self.decide_valid();
+        let (t, mut est) = if oldest.n_states == 0 {
+            (oldest.t, oldest.forward)
+        } else {
+            self.decide_valid()
+        };
         if !self.frame_uncertainty.is_zero() {
             self.frame_uncertainty.widen(&mut est);
         }

@@ -99,9 +99,8 @@ impl Default for Tolerance {
 }
 
 impl Tolerance {
-    /// The tolerance of parameter `j` of [`PARAMETERS`] (any channel: `j % 7`).
+    /// The tolerance of parameter `j` (`0..7`) of [`PARAMETERS`].
     pub fn of(&self, j: usize) -> f64 {
-        let j = j % 7;
         match j {
             0 => self.scale,
             1 | 2 => self.axis,
@@ -912,13 +911,6 @@ pub fn residuals(
     let mut sum = vec![0.0; n];
     let mut count = vec![0usize; n];
     let mut per_sample = Vec::new();
-    // The RMS over the finite channels of one row of residuals.
-    let row_rms = |r: &mut dyn Iterator<Item = f64>| {
-        let (s, c) = r
-            .filter(|v| v.is_finite())
-            .fold((0.0, 0usize), |(s, c), v| (s + v * v, c + 1));
-        (c > 0).then(|| (s / c as f64).sqrt())
-    };
     for (pose, gk) in record.poses.iter().zip(gravity.iter()) {
         let res: Vec<f64> = (0..n).map(|i| pose.mean[i] - geo[i].reading(gk)).collect();
         for (i, r) in res.iter().enumerate() {
@@ -927,7 +919,7 @@ pub fn residuals(
                 count[i] += pose.samples.len();
             }
         }
-        if let Some(v) = row_rms(&mut res.iter().copied()) {
+        if let Some(v) = finite_rms(&res) {
             per_sample.extend(pose.samples.clone().map(|k| (k, v)));
         }
     }
@@ -948,7 +940,7 @@ pub fn residuals(
                 count[i] += 1;
             }
         }
-        if let Some(v) = row_rms(&mut res.iter().copied()) {
+        if let Some(v) = finite_rms(&res) {
             per_sample.push((k, v));
         }
     }
@@ -968,6 +960,15 @@ pub fn residuals(
         per_channel,
         per_sample,
     })
+}
+
+/// The RMS of the finite values of `r` (`None` if there are none).
+fn finite_rms(r: &[f64]) -> Option<f64> {
+    let (s, c) = r
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((0.0, 0usize), |(s, c), v| (s + v * v, c + 1));
+    (c > 0).then(|| (s / c as f64).sqrt())
 }
 
 #[cfg(test)]

@@ -49,7 +49,8 @@ pub fn uncertainty(geo: &[Geometry], cov: &DMatrix<f64>, tol: &Tolerance) -> Fra
 
 /// The frame motions as parameter changes of every channel (rows: 7 per channel,
 /// tolerance-scaled): a translation moves every position; a rotation `δ` moves a position
-/// by `δ × R` and tilts an axis by `δ × s`; a size change moves each position by `R`.
+/// by `δ × R` and tilts an axis by `δ × s`; a size change moves each position by `R`; a
+/// relative rotation `d` tilts the axes by `½ d × s` and moves the positions by `−½ d × R`.
 fn generators(geo: &[Geometry], tol: &Tolerance) -> DMatrix<f64> {
     let mut g = DMatrix::zeros(7 * geo.len(), MOTIONS);
     for (i, ch) in geo.iter().enumerate() {

@@ -151,7 +151,7 @@ pub fn residual_png(
             .map_err(|e| err(&e))?;
     }
     let n = channels.len().max(1);
-    let names = s.names.clone();
+    let names = &s.names;
     let mut chart = ChartBuilder::on(&bottom)
         .caption(
             "RMS residual per channel (m/s²): before, after; black: its noise",

@@ -109,14 +109,14 @@ fn run_model<P: Platform>(
     let (mut total, mut worst, mut count) = (0u64, 0u64, 0u64);
     let mut over = 0u64;
     let mut max_err = 0.0f64;
+    let (gain, offset) = if calibrated {
+        (CAL_SCALE, CAL_BIAS)
+    } else {
+        (1.0, 0.0)
+    };
     for k in 0..SAMPLES {
         let t = k as f64 * scenario::DT;
         scenario::outputs(&arr, t, 0.002, &mut p64);
-        let (gain, offset) = if calibrated {
-            (CAL_SCALE, CAL_BIAS)
-        } else {
-            (1.0, 0.0)
-        };
         for (a, b) in p32.iter_mut().zip(p64.iter()) {
             *a = (*b * gain + offset) as f32;
         }
