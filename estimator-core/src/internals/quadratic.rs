@@ -445,8 +445,12 @@ fn newton_polish<T: Real>(forms: &[Sym3<T>; 3], rhs: &[T; 3], a: &mut Vec3<T>, c
 }
 
 /// Newton decrement (predicted fall of the whitened χ²) below which [`refine`] stops: the
-/// estimate then moves by less than 1 % of its standard deviation.
-pub const DECREMENT_TOL: f64 = 1e-4;
+/// estimate is then within √0.001 ≈ 3 % of its standard deviation of the converged one, which
+/// adds at most 0.1 % to its variance. Measured reason for not 1e-4 (1 %): at the declared
+/// Gaussian noise of the QEMU count, 82 % of model-F samples (N = 12) took a second pass for a
+/// median movement of 0.012 sd, about 400 instructions each on the Cortex-M4F; with 1e-3 it is
+/// 41 %.
+pub const DECREMENT_TOL: f64 = 1e-3;
 
 /// The result of [`refine`].
 #[derive(Clone, Copy, Debug)]
@@ -689,11 +693,13 @@ mod tests {
         let r = refine(&m, &p, &start, 6);
         // At the optimum the decrement tolerance bounds the χ² excess.
         assert!(residual2(&m, &p, &r.a) - res_opt <= DECREMENT_TOL, "{r:?}");
-        // The reported χ² is first order after the last step (one pass saved): within 1e-3
-        // of the true residual here, negligible against its uses (the 99.9 % gate, ≥ 10.8,
-        // and the tracker's costs).
+        // The reported χ² is first order after the last step (one pass saved). Its error is
+        // second order in that step, which the decrement tolerance bounds: within 1e-2 of the
+        // true residual from this start (6.0e-3 measured with DECREMENT_TOL = 1e-3, 2.1e-4 with
+        // 1e-4), negligible against its uses (the 99.9 % gate, ≥ 10.8, and the tracker's
+        // costs).
         let fit_err = (r.fit - residual2(&m, &p, &r.a)).abs();
-        assert!(fit_err <= 1e-3, "fit error {fit_err}, fit {}", r.fit);
+        assert!(fit_err <= 1e-2, "fit error {fit_err}, fit {}", r.fit);
         // cov(a) = (JᵀJ)⁻¹: the error against the optimum is a small fraction of a σ.
         let d = crate::linalg::sub(&r.a, &opt);
         assert!(r.jtj.quad(&d) < 0.01, "{}", r.jtj.quad(&d));

@@ -51,18 +51,30 @@ pub fn field(t: f64) -> ([f64; 3], [f64; 3], [f64; 3], Sym3<f64>) {
     (sigma0, dw, w, Sym3::skew_squared(&w))
 }
 
-/// Channel outputs (paper eq. 4) at time `t`, with a deterministic pseudo-noise of `noise`.
+/// Channel outputs (paper eq. 4) at time `t`, with deterministic Gaussian pseudo-noise of
+/// standard deviation `noise` (the arrangement's declared channel noise: a friendlier noise
+/// would undercount the Gauss–Newton passes the estimator takes on real data).
 pub fn outputs<const CAP: usize>(arr: &Arrangement<CAP>, t: f64, noise: f64, out: &mut [f64]) {
     let (s0, dw, _w, a) = field(t);
     for (i, (ch, o)) in arr.channels().iter().zip(out.iter_mut()).enumerate() {
         let ideal = dot(&ch.axis, &s0)
             + dot(&cross(&ch.position, &ch.axis), &dw)
             + dot(&ch.axis, &a.mul_vec(&ch.position));
-        // Cheap deterministic noise in [-1, 1).
-        let h = libm::sin((i as f64 + 1.0) * 12.9898 + t * 78.233) * 43758.5453;
-        let r = 2.0 * (h - libm::floor(h)) - 1.0;
-        *o = ideal + noise * r;
+        *o = ideal + noise * gaussian(i, t);
     }
+}
+
+/// A standard normal draw for channel `i` at time `t`: Box–Muller on two hashed uniforms, so
+/// the QEMU count and the host benchmark see the same noise without a generator's state.
+fn gaussian(i: usize, t: f64) -> f64 {
+    let uniform = |salt: f64| {
+        let h = libm::sin((i as f64 + 1.0) * 12.9898 + t * 78.233 + salt) * 43758.5453;
+        h - libm::floor(h)
+    };
+    // In (0, 1]: the logarithm stays finite.
+    let u1 = 1.0 - uniform(0.0);
+    let u2 = uniform(4.1414);
+    libm::sqrt(-2.0 * libm::log(u1)) * libm::cos(2.0 * core::f64::consts::PI * u2)
 }
 
 /// Sample interval of the scenario, s.
