@@ -131,8 +131,10 @@ fn run(seed: u64, noise: f64, reference: bool) -> Run {
         .map(|k| poses.iter().any(|p| p.samples.contains(&k)))
         .collect();
     let motion: Vec<usize> = (0..rows.len()).filter(|&k| !in_pose[k]).collect();
+    let times: Vec<f64> = truth.iter().map(|t| t.t).collect();
     let record = Record {
         rows: &rows,
+        times: &times,
         poses: &poses,
         motion: &motion,
         gamma: Matrix3::zeros(),
@@ -145,7 +147,6 @@ fn run(seed: u64, noise: f64, reference: bool) -> Run {
         })
         .collect();
     let omega: Vec<Vector3<f64>> = truth.iter().map(|t| Vector3::from(t.omega)).collect();
-    let times: Vec<f64> = truth.iter().map(|t| t.t).collect();
     let names: Vec<String> = (0..nom.len()).map(|i| format!("c{i}")).collect();
     let estimator = |geo: &[Geometry]| {
         estimator_rates(geo, &names, estimator_core::Model::General, &times, &rows)

@@ -22,6 +22,7 @@
 //! `BALLISTO_CAL_DEBUG=1` prints every alternation's largest step and the smallest
 //! eigenvalues of the scaled normal matrix (for diagnosing a record that does not converge).
 
+use super::kinematics::RelativeRotation;
 use nalgebra::{DMatrix, DVector, Matrix3, SVector, SymmetricEigen, Vector3};
 
 use estimator_core::G0;
@@ -143,10 +144,16 @@ pub struct Pose {
 
 /// The field at one motion sample: σ0, Ω′ and Ω.
 #[derive(Clone, Copy, Debug, Default)]
-struct Field {
-    sigma0: Vector3<f64>,
-    domega: Vector3<f64>,
-    omega: Vector3<f64>,
+pub struct Field {
+    /// Specific force at the origin (m/s²).
+    pub sigma0: Vector3<f64>,
+    /// Angular acceleration (rad/s²).
+    pub domega: Vector3<f64>,
+    /// Angular rate (rad/s).
+    pub omega: Vector3<f64>,
+    /// Variance of Ω (sum of its components, rad²/s², with σ0 and Ω′ unknown; 0 when Ω was
+    /// held, not estimated).
+    pub omega_var: f64,
 }
 
 impl Field {
@@ -185,6 +192,8 @@ pub enum RateSource<'a> {
 pub struct Record<'a> {
     /// Readings, one row per sample, channels in arrangement order.
     pub rows: &'a [Vec<f64>],
+    /// The time of every row (s).
+    pub times: &'a [f64],
     /// Static poses (see [`super::poses`]).
     pub poses: &'a [Pose],
     /// Samples in motion (not in a pose) used for the field and the positions.
@@ -224,6 +233,11 @@ pub struct Identification {
     pub frame: estimator_core::FrameUncertainty<f64>,
     /// The residuals with the nominal and with the identified geometry.
     pub residuals: (Residuals, Residuals),
+    /// Self-calibration: the axes' rotation relative to the lever arms that the kinematic
+    /// tie removed (total over its passes) and the deviation left
+    /// ([`super::kinematics`]); `None` with a reference, or where the record's motion did not
+    /// determine it.
+    pub kinematic: Option<RelativeRotation>,
 }
 
 /// The last step of a converged identification moves no parameter by more than this many
@@ -259,6 +273,7 @@ pub fn identify(
     let stage_start = if statics_first { MAX_ITERATIONS / 3 } else { 0 };
     let poses_only = Record {
         rows: record.rows,
+        times: record.times,
         poses: record.poses,
         motion: &[],
         gamma: record.gamma,
@@ -331,6 +346,10 @@ pub fn identify(
             break;
         }
     }
+    let kinematic = match &omega {
+        Some(w) if self_calibration => tie_kinematics(&mut geo, record, w),
+        _ => None,
+    };
     let residual_after = residuals(&geo, record, rate)?;
     let channels = (0..n)
         .map(|i| Identified {
@@ -343,7 +362,10 @@ pub fn identify(
             ),
         })
         .collect();
-    let frame = super::frame::uncertainty(&geo, &step.error_covariance(n), tol);
+    let mut frame = super::frame::uncertainty(&geo, &step.error_covariance(n), tol);
+    if let Some(k) = &kinematic {
+        frame.relative_rotation = k.sd.max();
+    }
     Ok(Identification {
         channels,
         conventions: step.common,
@@ -351,7 +373,46 @@ pub fn identify(
         last_step,
         frame,
         residuals: (residual_before, residual_after),
+        kinematic,
     })
+}
+
+/// Passes of the kinematic tie at most (the first removes nearly all of the relative
+/// rotation; the next ones re-estimate the fields with the corrected geometry).
+const KINEMATIC_PASSES: usize = 3;
+
+/// Self-calibration's kinematic tie ([`super::kinematics`]): estimates the axes' rotation
+/// relative to the lever arms from Ω′ against the change of Ω, removes it from `geo`, and
+/// repeats with the fields re-estimated until the estimate is below a tenth of its deviation.
+/// Returns the total removed, with the last pass's deviation.
+fn tie_kinematics(
+    geo: &mut [Geometry],
+    record: &Record,
+    omega: &[Option<Vector3<f64>>],
+) -> Option<RelativeRotation> {
+    let mut seeds = omega.to_vec();
+    let mut total: Option<RelativeRotation> = None;
+    for _ in 0..KINEMATIC_PASSES {
+        let fields = motion_fields(geo, record, &seeds, true);
+        let Some(r) = super::kinematics::relative_rotation(record.times, record.motion, &fields)
+        else {
+            break;
+        };
+        super::kinematics::remove(geo, &r.d);
+        seeds = fields.iter().map(|f| f.map(|f| f.omega)).collect();
+        let small = (0..3).all(|i| r.d[i].abs() <= 0.1 * r.sd[i]);
+        total = Some(RelativeRotation {
+            d: total.map_or(Vector3::zeros(), |t| t.d) + r.d,
+            ..r
+        });
+        if std::env::var_os("BALLISTO_CAL_DEBUG").is_some() {
+            eprintln!("kinematic tie: {r:?}");
+        }
+        if small {
+            break;
+        }
+    }
+    total
 }
 
 /// The largest move of a parameter in one step, in tolerances.
@@ -470,7 +531,16 @@ fn motion_fields(
                     b += &h * (e * w);
                 }
                 let tiny = a.diagonal().max() * 1e-8;
-                let d = a.pseudo_inverse(tiny).ok()? * b;
+                let inv = a.pseudo_inverse(tiny).ok()?;
+                let d = &inv * b;
+                // A direction the sample does not determine (pseudo-inverse zero there)
+                // leaves that part of Ω unknown, not exact.
+                let determined = (6..9).all(|i| inv[(i, i)] > 0.0);
+                field.omega_var = if determined {
+                    inv[(6, 6)] + inv[(7, 7)] + inv[(8, 8)]
+                } else {
+                    f64::INFINITY
+                };
                 field.sigma0 += Vector3::new(d[0], d[1], d[2]);
                 field.domega += Vector3::new(d[3], d[4], d[5]);
                 field.omega += Vector3::new(d[6], d[7], d[8]);
@@ -1021,6 +1091,7 @@ mod tests {
             .collect();
         let record = Record {
             rows: &rows,
+            times: &[],
             poses: &poses,
             motion: &motion,
             gamma: Matrix3::zeros(),
@@ -1031,6 +1102,7 @@ mod tests {
                     sigma0: Vector3::new(u(), u(), u()) * 20.0,
                     domega: Vector3::new(u(), u(), u()) * 4.0,
                     omega: Vector3::new(u(), u(), u()) * 6.0,
+                    omega_var: 0.0,
                 })
             })
             .collect();

@@ -5,11 +5,14 @@
 //!
 //! - [`poses`] finds the static poses;
 //! - [`fit`] identifies the geometry (alternating field and per-channel Gauss–Newton);
+//! - [`kinematics`] ties self-calibration's Ω′ to the change of its Ω (the axes' rotation
+//!   against the lever arms, which the per-sample field otherwise absorbs);
 //! - [`reference_rate`] reads a reference rate file and brings it to the sample instants;
 //! - this module reads the files, runs the fit and writes the calibrated arrangement.
 
 pub mod fit;
 pub mod frame;
+pub mod kinematics;
 pub mod poses;
 pub mod reference_rate;
 pub mod report;
@@ -188,6 +191,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     let (model, model_note) = crate::model_choice::recommend(job.model, &loaded);
     let record = Record {
         rows: &rows,
+        times: &times,
         poses: &poses,
         motion: &motion,
         gamma: Matrix3::zeros(),
@@ -447,6 +451,9 @@ fn calibrated_file(
     }
     for c in &id.conventions {
         header.push_str(&format!("# Held by convention: {c}.\n"));
+    }
+    if let Some(k) = &id.kinematic {
+        header.push_str(&format!("# Self-calibration: {}.\n", k.describe()));
     }
     for (name, c) in loaded.names.iter().zip(id.channels.iter()) {
         if !c.held.is_empty() {

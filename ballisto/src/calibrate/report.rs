@@ -35,6 +35,9 @@ pub fn markdown(s: &CalibrationSummary, job: &CalibrateJob, png: Option<&str>) -
     for c in &s.identification.conventions {
         r.push_str(&format!("- Held by convention: {c}.\n"));
     }
+    if let Some(k) = &s.identification.kinematic {
+        r.push_str(&format!("- Self-calibration: {}.\n", k.describe()));
+    }
     let f = &s.identification.frame;
     r.push_str(&format!(
         "- The frame's uncertainty (what no channel's own parameters carry; added to every estimate's deviations): rotation {:.3e} rad, translation {:.3e} m, size {:.3e}, axes against lever arms {:.3e} rad.\n",
