@@ -270,6 +270,7 @@ pub fn identify(
     // geometry after the static poses, then refined with the field at every alternation.
     let mut omega: Option<Vec<Option<Vector3<f64>>>> = None;
     let mut frozen: Option<JointStep> = None;
+    let mut flat = 0;
     let stage_start = if statics_first { MAX_ITERATIONS / 3 } else { 0 };
     let poses_only = Record {
         rows: record.rows,
@@ -309,6 +310,7 @@ pub fn identify(
         };
         if at == 0 {
             frozen = None;
+            flat = 0;
         }
         step = match &frozen {
             Some(f) => truncated_step(&normal, &rhs, n, &[], tol, Some(f)),
@@ -316,6 +318,20 @@ pub fn identify(
         };
         if at == 2 {
             frozen = Some(step.clone());
+            // A record that determines fewer than half of the parameters asked for is
+            // refused by the caller ("not exciting enough"): stop here rather than slide
+            // along what it does not determine (one pose with a little motion moved a scale
+            // out of range in 30 alternations).
+            let mask = fit.mask();
+            let asked = (0..7 * n).filter(|&p| mask[p % 7]).count();
+            let determined = (0..7 * n)
+                .filter(|&p| mask[p % 7] && step.sd[p].is_finite())
+                .count();
+            let last_stage = !std::ptr::eq(stage, &poses_only);
+            if last_stage && 2 * determined < asked {
+                last_step = f64::INFINITY;
+                break;
+            }
         }
         let largest = (0..7 * n)
             .map(|p| (step.delta[p] / tol.of(p % 7)).abs())
@@ -329,17 +345,48 @@ pub fn identify(
         } else {
             1.0
         };
-        for (i, g) in geo.iter_mut().enumerate() {
-            let d = SVector::<f64, 7>::from_fn(|j, _| step.delta[7 * i + j] * shrink);
-            apply(g, &d);
+        let seeds = omega.clone().unwrap_or_default();
+        let moved = |scale: f64| {
+            let mut trial = geo.clone();
+            for (i, g) in trial.iter_mut().enumerate() {
+                let d = SVector::<f64, 7>::from_fn(|j, _| step.delta[7 * i + j] * scale);
+                apply(g, &d);
+            }
+            trial
+        };
+        let before = cost(&geo, record, &seeds, self_calibration);
+        let mut scale = shrink;
+        let mut trial = moved(scale);
+        let mut halvings = 0;
+        let mut after = cost(&trial, record, &seeds, self_calibration);
+        while halvings < MAX_HALVINGS && after > before {
+            scale *= 0.5;
+            trial = moved(scale);
+            after = cost(&trial, record, &seeds, self_calibration);
+            halvings += 1;
+        }
+        // A step that raises the cost even shortened is not taken. Converged on the cost when
+        // no step lowers it by more than a part in 10⁷ any more (the Gauss–Newton step can
+        // stay finite along directions the cost is flat in: a real board's misfit).
+        let descends = after <= before;
+        if descends {
+            geo = trial;
+        }
+        flat = if !descends || before - after <= 1e-7 * before {
+            flat + 1
+        } else {
+            0
+        };
+        if flat >= FLAT_ITERATIONS {
+            last_step = 0.0;
         }
         if std::env::var_os("BALLISTO_CAL_DEBUG").is_some() {
             eprintln!(
-                "iteration {it}: largest scaled step {largest:.3e}, motion fields {}",
+                "iteration {it}: largest scaled step {largest:.3e} (taken × {scale:.3}), cost {before:.6e} -> {after:.6e}, motion fields {}",
                 fields.iter().filter(|f| f.is_some()).count()
             );
         }
-        if largest < 1e-10 {
+        if largest < 1e-10 || flat >= FLAT_ITERATIONS {
             if statics_first && it < MAX_ITERATIONS / 3 {
                 continue;
             }
@@ -363,7 +410,7 @@ pub fn identify(
         })
         .collect();
     let mut frame = super::frame::uncertainty(&geo, &step.error_covariance(n), tol);
-    if let Some(k) = &kinematic {
+    if let Some(k) = kinematic.as_ref().filter(|k| k.holds()) {
         frame.relative_rotation = k.sd.max();
     }
     Ok(Identification {
@@ -375,6 +422,48 @@ pub fn identify(
         residuals: (residual_before, residual_after),
         kinematic,
     })
+}
+
+/// Iterations in a row that leave the cost unchanged before the fit counts as converged.
+const FLAT_ITERATIONS: usize = 3;
+
+/// Halvings of a step that raises the cost, at most.
+const MAX_HALVINGS: usize = 4;
+
+/// The weighted sum of squared residuals of `geo` on the record, with the field re-estimated
+/// from `seeds` (Ω per motion sample) as the iteration does.
+fn cost(
+    geo: &[Geometry],
+    record: &Record,
+    seeds: &[Option<Vector3<f64>>],
+    with_omega: bool,
+) -> f64 {
+    let gravity = pose_gravity(geo, record.poses);
+    let mut sum = 0.0;
+    for (pose, gk) in record.poses.iter().zip(gravity.iter()) {
+        for (g, m) in geo.iter().zip(pose.mean.iter()) {
+            let r = m - g.reading(gk);
+            if r.is_finite() {
+                sum += r * r * pose.samples.len() as f64 / (g.noise * g.noise);
+            }
+        }
+    }
+    if !record.motion.is_empty() && !seeds.is_empty() {
+        let fields = motion_fields(geo, record, seeds, with_omega);
+        for (&k, field) in record.motion.iter().zip(fields.iter()) {
+            let Some(field) = field else {
+                continue;
+            };
+            let m = field.m(&record.gamma);
+            for (g, p) in geo.iter().zip(record.rows[k].iter()) {
+                let r = p - g.reading(&(field.sigma0 + m * g.position));
+                if r.is_finite() {
+                    sum += r * r / (g.noise * g.noise);
+                }
+            }
+        }
+    }
+    sum
 }
 
 /// Passes of the kinematic tie at most (the first removes nearly all of the relative
@@ -398,6 +487,11 @@ fn tie_kinematics(
         else {
             break;
         };
+        if !r.holds() {
+            // The record's kinematics do not hold: said, not applied (a later pass has
+            // already moved the geometry by passes that held; keep those).
+            return Some(total.unwrap_or(r));
+        }
         super::kinematics::remove(geo, &r.d);
         seeds = fields.iter().map(|f| f.map(|f| f.omega)).collect();
         let small = (0..3).all(|i| r.d[i].abs() <= 0.1 * r.sd[i]);
@@ -513,11 +607,17 @@ fn motion_fields(
                 return Some(field);
             }
             // Then all nine by Gauss–Newton increments; directions the sample does not
-            // determine (near rest the centripetal columns vanish) keep their value.
-            for _ in 0..2 {
+            // determine (near rest the centripetal columns vanish) keep their value. A step
+            // that does not lower the sample's residual is not taken (the per-sample problem
+            // has mirror solutions and flat directions: undamped steps can climb), so the
+            // field only ever improves on its start.
+            let mut best = f64::INFINITY;
+            let mut previous = field;
+            for _ in 0..FIELD_ITERATIONS {
                 let m = field.m(&record.gamma);
                 let mut a = DMatrix::<f64>::zeros(9, 9);
                 let mut b = DVector::<f64>::zeros(9);
+                let mut ssr = 0.0;
                 for (g, p) in geo.iter().zip(row.iter()).filter(|(_, p)| p.is_finite()) {
                     let kv = g.axis * g.scale;
                     let rk = g.position.cross(&kv);
@@ -527,9 +627,15 @@ fn motion_fields(
                     ]);
                     let e = p - g.reading(&(field.sigma0 + m * g.position));
                     let w = 1.0 / (g.noise * g.noise);
+                    ssr += e * e * w;
                     a += &h * h.transpose() * w;
                     b += &h * (e * w);
                 }
+                if ssr > best {
+                    field = previous;
+                    break;
+                }
+                best = ssr;
                 let tiny = a.diagonal().max() * 1e-8;
                 let inv = a.pseudo_inverse(tiny).ok()?;
                 let d = &inv * b;
@@ -541,14 +647,22 @@ fn motion_fields(
                 } else {
                     f64::INFINITY
                 };
+                previous = field;
                 field.sigma0 += Vector3::new(d[0], d[1], d[2]);
                 field.domega += Vector3::new(d[3], d[4], d[5]);
                 field.omega += Vector3::new(d[6], d[7], d[8]);
+                // Converged: the step no longer moves Ω by a relevant amount.
+                if d.rows(6, 3).norm_squared() <= 1e-12 * (1.0 + previous.omega.norm_squared()) {
+                    break;
+                }
             }
             Some(field)
         })
         .collect()
 }
+
+/// Gauss–Newton steps per sample for σ0, Ω′ and Ω.
+const FIELD_ITERATIONS: usize = 6;
 
 /// A basis `u1, u2` perpendicular to the unit axis `a`.
 pub(super) fn tilt_basis(a: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
