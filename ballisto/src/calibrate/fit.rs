@@ -372,6 +372,18 @@ pub fn identify(
         if descends {
             geo = trial;
         }
+        if let Some((i, g)) = geo
+            .iter()
+            .enumerate()
+            .find(|(_, g)| !(g.scale > 0.5 && g.scale < 2.0 && g.bias.is_finite()))
+        {
+            return Err(format!(
+                "the identification diverged: after {} alternations channel {i} (arrangement order, from 0) has scale {:.3} and bias {:.3} m/s², outside any part's range; the record does not determine them (in free fall, without static poses, a channel's scale and its lever arm are seen only as their product): nothing written",
+                it + 1,
+                g.scale,
+                g.bias
+            ));
+        }
         flat = if !descends || before - after <= 1e-7 * before {
             flat + 1
         } else {
