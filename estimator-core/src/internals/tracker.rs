@@ -17,7 +17,7 @@
 //! is reported unresolved while a state with the same branch and opposite sign is within
 //! [`SIGN_MARGIN`].
 
-use crate::linalg::{norm2, scale, sub, Vec3};
+use crate::linalg::{dot, norm2, scale, sub, Vec3};
 use crate::real::Real;
 
 /// Most candidate branches per sample.
@@ -250,6 +250,7 @@ impl<T: Real> Tracker<T> {
             (&hi[0], &mut lo[0])
         };
         let np = self.n;
+        let self_best = self.best;
         let mut nn = 0usize;
         let model_var = self.model_var;
         for (ci, c) in cands.iter().enumerate().take(nc) {
@@ -259,6 +260,8 @@ impl<T: Real> Tracker<T> {
             // The cheapest distinct histories of each output, `top[sign][..nt[sign]]`:
             // (state, model-error sample).
             let mut nt = [0usize; 2];
+            // The best predecessor's cost before the innovation term (for `restart`).
+            let mut best_base = T::ZERO;
             if np == 0 {
                 for (si, z) in zs.iter().enumerate() {
                     let mut cost = c.fit;
@@ -290,6 +293,9 @@ impl<T: Real> Tracker<T> {
                 let sv = pvar + r;
                 let inv_sv = T::ONE / sv;
                 let base = s.cost + c.fit + three * sv.ln_approx();
+                if i == self_best {
+                    best_base = base;
+                }
                 let gain = pvar * inv_sv;
                 for (si, z) in zs.iter().enumerate() {
                     let nu = sub(z, &pred);
@@ -334,6 +340,29 @@ impl<T: Real> Tracker<T> {
                     if *n == 2 && kept[1].0.cost < kept[0].0.cost {
                         kept.swap(0, 1);
                     }
+                }
+            }
+            if np > 0 {
+                // The restart test, from the best hypothesis (see `restart`): only the output
+                // that points along the prediction can restart, and only beyond the cap.
+                let s = &prev[self_best];
+                let mut pred = [T::ZERO; 3];
+                for k in 0..3 {
+                    pred[k] = s.omega[k] + half_dt * (s.domega[k] + c.domega[k]);
+                }
+                let along = dot(&c.omega, &pred);
+                let nu2 = norm2(&c.omega) + norm2(&pred) - T::of(2.0) * along.abs();
+                let sv = s.var + q + c.omega_var.max(T::of(1e-30));
+                if nu2 > step_cap * sv {
+                    let si = if along >= T::ZERO { 0 } else { 1 };
+                    let cost = best_base + step_cap;
+                    restart(
+                        (c, ci),
+                        (si, self_best, cost),
+                        &mut top[si],
+                        &mut nt[si],
+                        histories,
+                    );
                 }
             }
             for (si, kept) in top.iter().enumerate() {
@@ -425,6 +454,50 @@ impl<T: Real> Tracker<T> {
             sign_unresolved,
             branch_ambiguous,
         })
+    }
+}
+
+/// Where a candidate's output is beyond the cap from the best hypothesis of the previous step,
+/// also the hypothesis that restarts there. Such a sample is either a wild one in the continued
+/// history (which [`Tracker::step`] keeps: robust) or a branch that history's filter was never
+/// on: continued, its filter memory would hold the hypothesis off its own branch for good (at
+/// 1 kHz the nine-channel tumble lost the true branch that way: README, "Branch lock"). The
+/// restart starts at the candidate with its own variance, at the continuation's capped cost;
+/// only from the best hypothesis (from any other it would cost more and start the same), and
+/// not for an output pointing against the prediction (the other sign: no rate turns over in
+/// one step). Out of line, after the continuations: the per-sample path stays as it was.
+#[inline(never)]
+fn restart<T: Real>(
+    (c, ci): (&Candidate<T>, usize),
+    (si, from, cost): (usize, usize, T),
+    kept: &mut [(State<T>, T); HISTORIES_PER_OUTPUT],
+    n: &mut usize,
+    histories: usize,
+) {
+    let st = State {
+        omega: scale(T::of(SIGNS[si] as f64), &c.omega),
+        var: c.omega_var.max(T::of(1e-30)),
+        domega: c.domega,
+        cost,
+        candidate: ci as u8,
+        sign: SIGNS[si],
+        from: from as u8,
+    };
+    let same = kept[..*n]
+        .iter()
+        .position(|k| norm2(&sub(&k.0.omega, &st.omega)) <= T::of(0.25) * (k.0.var + st.var));
+    match same {
+        Some(j) if cost < kept[j].0.cost => kept[j] = (st, T::ZERO),
+        Some(_) => {}
+        None if *n < histories => {
+            kept[*n] = (st, T::ZERO);
+            *n += 1;
+        }
+        None if cost < kept[*n - 1].0.cost => kept[*n - 1] = (st, T::ZERO),
+        None => {}
+    }
+    if *n == 2 && kept[1].0.cost < kept[0].0.cost {
+        kept.swap(0, 1);
     }
 }
 
