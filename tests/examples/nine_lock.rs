@@ -1,40 +1,95 @@
-//! Experiment: the nine-channel ballistometer at a given rate, noise and arm (issue 15).
-//! Usage: cargo run --release -p e2e-tests --example nine_lock -- RATE_HZ NOISE ARM SECONDS SEED [tumble|manoeuvre]
+//! Branch lock of the nine-channel ballistometer (issue 15): one case of the family (nine
+//! single-axis channels, ~1 mm / ~1° mounting jitter, torque-free tumble or manoeuvre at
+//! |Ω| ≈ 2.2 rad/s, a correct initial Ω), estimated raw through the forward path (the
+//! firmware's) and the smoothed one (`ballisto estimate`'s), against the truth and, with `ML=1`,
+//! the truth-started per-sample maximum likelihood of `tests/`.
+//!
+//! `cargo run --release -p e2e-tests --example nine_lock -- RATE_HZ NOISE ARM SECONDS SEED [tumble|manoeuvre]`
+//!
+//! Prints per path: Ω RMS, the share of rows more than 1 rad/s off, flagged rows, and rows off by
+//! more than 5 reported sd with no flag ("silent"). `WINDOW=SAMPLES` (with `ML=1`) also prints
+//! the Ω RMS of both per window; `TRACE=T0,T1` the candidates and hypotheses of the forward path
+//! between those times.
 
 use ballisto::estimate::HostEstimator;
-use estimator_core::{Estimator, Model, Options};
+use estimator_core::smoother::StepRecord;
+use estimator_core::{Estimate, Estimator, Model, Options};
 use hal_sim::arrangement_file::HOST_CAP;
 use hal_sim::ideal::simulate_outputs;
-use hal_sim::motion::{Environment, Motion, Rotation, Torque};
+use hal_sim::motion::{Environment, Motion, Rotation, Torque, Truth};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
+}
+
+fn env_pair(name: &str) -> Option<(f64, f64)> {
+    let v = std::env::var(name).ok()?;
+    let (a, b) = v.split_once(',')?;
+    Some((a.parse().ok()?, b.parse().ok()?))
+}
+
+/// The forward path, printing the candidates and hypotheses within `trace`.
+fn forward(
+    loaded: &hal_sim::arrangement_file::LoadedArrangement,
+    truth: &[Truth],
+    outputs: &[Vec<f64>],
+    options: Options,
+    trace: Option<(f64, f64)>,
+) -> Vec<Estimate<f64>> {
+    let mut e = Estimator::<f64, HOST_CAP>::new(&loaded.arrangement, Model::FreeFloat, options)
+        .expect("arrangement");
+    let mut rec = StepRecord::<f64>::default();
+    let mut rows = Vec::with_capacity(truth.len());
+    for (tr, p) in truth.iter().zip(outputs.iter()) {
+        let r = *e.update_with(tr.t, p, Some(&mut rec));
+        if trace.is_some_and(|(a, b)| tr.t >= a && tr.t <= b) {
+            let w = tr.omega;
+            print!("t {:.3} |", tr.t);
+            for c in rec.candidates.iter().take(rec.n_candidates as usize) {
+                let neg = [-c.omega[0], -c.omega[1], -c.omega[2]];
+                let d = dist(&c.omega, &w).min(dist(&neg, &w));
+                print!(" cand off {d:.3} fit {:.1} |", c.chi2);
+            }
+            for s in rec.states.iter().take(rec.n_states as usize) {
+                print!(" ({:.1}, off {:.2})", s.cost, dist(&s.omega, &w));
+            }
+            println!(" best {} error {:.3}", rec.best, dist(&r.omega, &w));
+        }
+        rows.push(r);
+    }
+    rows
+}
+
 fn main() {
     let a: Vec<String> = std::env::args().collect();
-    let rate: f64 = a[1].parse().unwrap();
-    let noise: f64 = a[2].parse().unwrap();
-    let arm: f64 = a[3].parse().unwrap();
-    let secs: f64 = a[4].parse().unwrap();
-    let seed: u64 = a[5].parse().unwrap();
-    let manoeuvre = a.get(6).map(|s| s == "manoeuvre").unwrap_or(false);
+    if a.len() < 6 {
+        eprintln!("usage: nine_lock RATE_HZ NOISE ARM SECONDS SEED [tumble|manoeuvre]");
+        std::process::exit(2);
+    }
+    let num = |i: usize| -> f64 { a[i].parse().expect("a number") };
+    let (rate, noise, arm, secs) = (num(1), num(2), num(3), num(4));
+    let seed: u64 = a[5].parse().expect("a seed");
+    let manoeuvre = a.get(6).is_some_and(|s| s == "manoeuvre");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut file = test_fixtures::families::nine_channel(arm, noise);
+    // Mounting jitter: ±1 mm, axes turned by up to ±1° about each axis.
     for ch in file.channels.iter_mut() {
         for v in ch.position.iter_mut() {
             *v += rng.gen_range(-1e-3..1e-3);
         }
         let t: [f64; 3] = core::array::from_fn(|_| rng.gen_range(-0.017..0.017));
-        let ax = ch.axis;
-        let c = [
-            t[1] * ax[2] - t[2] * ax[1],
-            t[2] * ax[0] - t[0] * ax[2],
-            t[0] * ax[1] - t[1] * ax[0],
+        let s = ch.axis;
+        let n = [
+            s[0] + t[1] * s[2] - t[2] * s[1],
+            s[1] + t[2] * s[0] - t[0] * s[2],
+            s[2] + t[0] * s[1] - t[1] * s[0],
         ];
-        let n = [ax[0] + c[0], ax[1] + c[1], ax[2] + c[2]];
-        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        let l = dist(&n, &[0.0; 3]);
         ch.axis = [n[0] / l, n[1] / l, n[2] / l];
     }
-    let loaded = file.load("nine").unwrap();
+    let loaded = file.load("nine").expect("arrangement");
     let dir = test_fixtures::families::random_rotation(&mut rng)[0];
     let w = 2.2;
     let motion = Motion {
@@ -58,157 +113,72 @@ fn main() {
         burns: Vec::new(),
     };
     let dt = 1.0 / rate;
-    let n = (secs * rate) as usize;
-    let truth = motion.run(dt, n, 4);
+    let truth = motion.run(dt, (secs * rate) as usize, 4);
     let outputs = simulate_outputs(&loaded, &truth, true, seed ^ 0x5eed);
-    let hint = Some(truth[0].omega);
-    if std::env::var_os("ML").is_some() {
+    let options = Options {
+        raw: true,
+        initial_omega: Some(truth[0].omega),
+        ..Default::default()
+    };
+    let ml: Option<Vec<f64>> = std::env::var_os("ML").map(|_| {
         let ml = e2e_tests::ml::MlReference::new(&loaded, Model::FreeFloat);
-        let mut s2 = 0.0;
-        let mut win = Vec::new();
-        for (tr, p) in truth.iter().zip(outputs.iter()) {
-            let m = ml.estimate(p, &tr.omega);
-            let e = (0..3)
-                .map(|i| (m.omega[i] - tr.omega[i]).powi(2))
-                .sum::<f64>();
-            s2 += e;
-            win.push(e);
-        }
-        unsafe {
-            std::env::set_var(
-                "ML_WIN",
-                win.iter()
-                    .map(|v| v.to_string())
-                    .collect::<Vec<_>>()
-                    .join(","),
-            )
-        };
-        println!("ML: Ω RMS {:.4}", (s2 / truth.len() as f64).sqrt());
+        truth
+            .iter()
+            .zip(outputs.iter())
+            .map(|(tr, p)| dist(&ml.estimate(p, &tr.omega).omega, &tr.omega).powi(2))
+            .collect()
+    });
+    if let Some(ml) = &ml {
+        let rms = (ml.iter().sum::<f64>() / ml.len() as f64).sqrt();
+        println!("truth-started ML: Ω RMS {rms:.4}");
     }
-    for (label, smoothed) in [("raw forward", false), ("raw smoothed", true)] {
-        let opts = Options {
-            raw: true,
-            initial_omega: hint,
-            ..Default::default()
-        };
-        let mut rows = Vec::new();
-        if smoothed {
-            let mut e = HostEstimator::<f64>::new(&loaded, Model::FreeFloat, opts).unwrap();
-            let mut emit = |_t: f64, r: &estimator_core::Estimate<f64>| rows.push(*r);
-            for (tr, p) in truth.iter().zip(outputs.iter()) {
-                e.push(tr.t, p, &mut emit);
-            }
-            e.finish(&mut emit);
-        } else {
-            let mut e =
-                Estimator::<f64, HOST_CAP>::new(&loaded.arrangement, Model::FreeFloat, opts)
-                    .unwrap();
-            let trace: Option<(f64, f64)> = std::env::var("TRACE").ok().map(|v| {
-                let mut it = v.split(',').map(|x| x.parse::<f64>().unwrap());
-                (it.next().unwrap(), it.next().unwrap())
-            });
-            let mut rec = estimator_core::smoother::StepRecord::<f64>::default();
-            for (tr, p) in truth.iter().zip(outputs.iter()) {
-                let r = *e.update_with(tr.t, p, Some(&mut rec));
-                if let Some((a, b)) = trace {
-                    if tr.t >= a && tr.t <= b {
-                        let w = tr.omega;
-                        print!(
-                            "t {:.3} true [{:.3} {:.3} {:.3}] cands",
-                            tr.t, w[0], w[1], w[2]
-                        );
-                        for c in rec.candidates.iter().take(rec.n_candidates as usize) {
-                            let o = c.omega;
-                            let d = ((o[0] - w[0]).powi(2)
-                                + (o[1] - w[1]).powi(2)
-                                + (o[2] - w[2]).powi(2))
-                            .sqrt();
-                            let d2 = ((o[0] + w[0]).powi(2)
-                                + (o[1] + w[1]).powi(2)
-                                + (o[2] + w[2]).powi(2))
-                            .sqrt();
-                            print!(
-                                " [{:.3} {:.3} {:.3} fit {:.1} d {:.3}]",
-                                o[0],
-                                o[1],
-                                o[2],
-                                c.chi2,
-                                d.min(d2)
-                            );
-                        }
-                        print!(" states");
-                        for s in rec.states.iter().take(rec.n_states as usize) {
-                            let o = s.omega;
-                            let d = ((o[0] - w[0]).powi(2)
-                                + (o[1] - w[1]).powi(2)
-                                + (o[2] - w[2]).powi(2))
-                            .sqrt();
-                            print!(" ({:.1} d{:.2})", s.cost, d);
-                        }
-                        println!(
-                            " mv {:.3e} best {} err {:.3}",
-                            e.rate_model_variance(),
-                            rec.best,
-                            ((r.omega[0] - w[0]).powi(2)
-                                + (r.omega[1] - w[1]).powi(2)
-                                + (r.omega[2] - w[2]).powi(2))
-                            .sqrt()
-                        );
-                    }
-                }
-                rows.push(r);
-            }
+    let window: Option<usize> = std::env::var("WINDOW").ok().and_then(|v| v.parse().ok());
+    let forward_rows = forward(&loaded, &truth, &outputs, options, env_pair("TRACE"));
+    let mut smoothed = Vec::with_capacity(truth.len());
+    {
+        let mut e =
+            HostEstimator::<f64>::new(&loaded, Model::FreeFloat, options).expect("estimator");
+        let mut emit = |_t: f64, r: &Estimate<f64>| smoothed.push(*r);
+        for (tr, p) in truth.iter().zip(outputs.iter()) {
+            e.push(tr.t, p, &mut emit);
         }
-        let (mut off, mut silent, mut flagged, mut s2) = (0, 0, 0, 0.0);
-        let mut first_off = None;
-        for (k, (r, tr)) in rows.iter().zip(truth.iter()).enumerate() {
-            let e: Vec<f64> = (0..3).map(|i| r.omega[i] - tr.omega[i]).collect();
-            let en = e.iter().map(|x| x * x).sum::<f64>();
-            s2 += en;
-            if en.sqrt() > 1.0 {
-                off += 1;
-                first_off.get_or_insert(k);
-            }
-            if r.flags.0 != 0 {
-                flagged += 1;
-            } else if (0..3).any(|i| e[i].abs() > 5.0 * r.sd_omega[i]) {
-                silent += 1;
-            }
-        }
-        if let (Ok(w), Ok(ws)) = (std::env::var("ML_WIN"), std::env::var("WIN")) {
-            let ml: Vec<f64> = w.split(',').map(|v| v.parse().unwrap()).collect();
-            let len: usize = ws.parse().unwrap();
-            for k0 in (0..rows.len()).step_by(len) {
+        e.finish(&mut emit);
+    }
+    for (label, rows) in [("raw forward", &forward_rows), ("raw smoothed", &smoothed)] {
+        let err2: Vec<f64> = rows
+            .iter()
+            .zip(truth.iter())
+            .map(|(r, tr)| dist(&r.omega, &tr.omega).powi(2))
+            .collect();
+        let off = err2.iter().filter(|e| **e > 1.0).count();
+        let flagged = rows.iter().filter(|r| r.flags.0 != 0).count();
+        let silent = rows
+            .iter()
+            .zip(truth.iter())
+            .filter(|(r, tr)| {
+                r.flags.0 == 0
+                    && (0..3).any(|i| (r.omega[i] - tr.omega[i]).abs() > 5.0 * r.sd_omega[i])
+            })
+            .count();
+        if let (Some(ml), Some(len)) = (&ml, window) {
+            for k0 in (0..rows.len()).step_by(len.max(1)) {
                 let k1 = (k0 + len).min(rows.len());
-                let se: f64 = (k0..k1)
-                    .map(|k| {
-                        (0..3)
-                            .map(|i| (rows[k].omega[i] - truth[k].omega[i]).powi(2))
-                            .sum::<f64>()
-                    })
-                    .sum();
-                let sm: f64 = ml[k0..k1].iter().sum();
-                let fl = (k0..k1).filter(|&k| rows[k].flags.0 != 0).count();
-                let wn = truth[k0].omega.iter().map(|x| x * x).sum::<f64>().sqrt();
+                let (se, sm): (f64, f64) = (err2[k0..k1].iter().sum(), ml[k0..k1].iter().sum());
+                let n = (k1 - k0) as f64;
                 println!(
-                    "  t {:.2} est {:.4} ml {:.4} ratio {:.2} flagged {} |w| {:.2}",
+                    "  t {:.2} Ω RMS {:.4} ML {:.4} ratio {:.2}",
                     k0 as f64 * dt,
-                    (se / (k1 - k0) as f64).sqrt(),
-                    (sm / (k1 - k0) as f64).sqrt(),
-                    (se / sm).sqrt(),
-                    fl,
-                    wn
+                    (se / n).sqrt(),
+                    (sm / n).sqrt(),
+                    (se / sm).sqrt()
                 );
             }
         }
         println!(
-            "{label}: rows {} Ω RMS {:.4} off>1 {:.1}% first off at {:?} s; flagged {} silent {}",
+            "{label}: rows {} Ω RMS {:.4} off>1 {:.1}% flagged {flagged} silent {silent}",
             rows.len(),
-            (s2 / rows.len() as f64).sqrt(),
+            (err2.iter().sum::<f64>() / rows.len() as f64).sqrt(),
             100.0 * off as f64 / rows.len() as f64,
-            first_off.map(|k| k as f64 * dt),
-            flagged,
-            silent
         );
     }
 }

@@ -57,7 +57,7 @@ impl Estimation {
             initial_omega: config.hint,
             ..Options::default()
         };
-        let estimator = Estimator::new(&config.arrangement, config.model, options)?;
+        let estimator = ballisto_fw_precompute::new(&config.arrangement, config.model, options)?;
         let mut channels = [[None; 3]; MAX_PARTS];
         for (i, p) in config.sampling.parts() {
             channels[i] = p.channels;
@@ -100,7 +100,7 @@ impl Estimation {
     /// (too few channels left, or a degenerate geometry) nothing changes.
     pub fn set_commanded(&mut self, commanded: ChannelSet) -> Result<(), ConfigError> {
         let mask = self.mask(self.excluded, commanded);
-        self.estimator.set_mask(mask)?;
+        ballisto_fw_precompute::set_mask(&mut self.estimator, mask)?;
         self.commanded = commanded;
         let _ = self.estimator.set_hint(self.last_omega);
         Ok(())
@@ -122,7 +122,7 @@ impl Estimation {
             initial_omega: self.last_omega,
             ..self.options
         };
-        self.estimator.configure(arrangement, model, mask, options)
+        ballisto_fw_precompute::configure(&mut self.estimator, arrangement, model, mask, options)
     }
 
     /// A rate hint (settles sign and branch from the next set on).
@@ -212,7 +212,7 @@ impl Estimation {
         }
         let mask = self.mask(wanted, self.commanded);
         // Too few channels left for the model: keep the mask (the sets stay flagged).
-        if self.estimator.set_mask(mask).is_ok() {
+        if ballisto_fw_precompute::set_mask(&mut self.estimator, mask).is_ok() {
             self.excluded = wanted;
             let _ = self.estimator.set_hint(self.last_omega);
         }

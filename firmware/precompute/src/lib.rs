@@ -1,0 +1,47 @@
+//! The firmware estimator's precomputation — the projections, forms and covariances of every
+//! frame, built by estimator-core's `Projection::build` (an SVD per frame, in `f64`) — as plain
+//! functions of the firmware's own estimator type.
+//!
+//! Generic code is compiled in the crate that first uses it with concrete types, at that
+//! crate's optimisation level. `ballisto-fw` runs the per-sample path and is built for speed
+//! (`opt-level = 3`, the instruction budget); called from there, the precomputation was built
+//! for speed as well, although it runs once per configuration. Called through this crate
+//! (the flashed profile's `opt-level = "z"`), it is built for size. Measured on the STM32H743
+//! image: see the README, "Budgets".
+#![no_std]
+
+use estimator_core::{Arrangement, ChannelMask, ConfigError, Estimator, Model, Options};
+
+/// Most channels of the firmware's arrangement.
+pub const MAX_CHANNELS: usize = ballisto_link::ids::MAX_CHANNELS;
+
+/// The firmware's estimator (f32 on target).
+pub type FwEstimator = Estimator<f32, MAX_CHANNELS>;
+
+/// [`Estimator::new`] for the firmware's estimator.
+#[inline(never)]
+pub fn new(
+    arrangement: &Arrangement<MAX_CHANNELS>,
+    model: Model,
+    options: Options,
+) -> Result<FwEstimator, ConfigError> {
+    Estimator::new(arrangement, model, options)
+}
+
+/// [`Estimator::set_mask`] (a new precomputation for the channels in use).
+#[inline(never)]
+pub fn set_mask(estimator: &mut FwEstimator, mask: ChannelMask) -> Result<(), ConfigError> {
+    estimator.set_mask(mask)
+}
+
+/// [`Estimator::configure`] (a new arrangement, model, mask and options).
+#[inline(never)]
+pub fn configure(
+    estimator: &mut FwEstimator,
+    arrangement: &Arrangement<MAX_CHANNELS>,
+    model: Model,
+    mask: ChannelMask,
+    options: Options,
+) -> Result<(), ConfigError> {
+    estimator.configure(arrangement, model, mask, options)
+}
