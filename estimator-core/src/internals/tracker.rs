@@ -34,6 +34,10 @@ pub const COST_CAP: f64 = 200.0;
 pub const STEP_CAP: f64 = 60.0;
 /// Most hypotheses (histories) kept per output (candidate and sign).
 pub const HISTORIES_PER_OUTPUT: usize = 2;
+/// Memory of the learnt model error, s (the time constant of its running mean above 100 Hz).
+pub const MODEL_ERROR_MEMORY_S: f64 = 1.0;
+/// Memory of the learnt model error, samples (what sets it at 100 Hz and below).
+pub const MODEL_ERROR_MEMORY_SAMPLES: f64 = 100.0;
 /// Cost margin that settles the sign / the branch (≈ 4 σ).
 pub const SIGN_MARGIN: f64 = 16.0;
 
@@ -426,7 +430,13 @@ impl<T: Real> Tracker<T> {
             // Per-sample samples may be negative (no clamp: clamping would bias the mean up);
             // bounded influence above; the running mean is kept non-negative.
             let e = innov[best].min(T::of(25.0) * (q + next[best].var));
-            self.model_var = (self.model_var + T::of(0.01) * (e - self.model_var)).max(T::ZERO);
+            // A running mean over at least MODEL_ERROR_MEMORY_SAMPLES innovations and at least
+            // MODEL_ERROR_MEMORY_S: with a memory of samples alone a 1–4 kHz tracker followed
+            // its innovations' noise and learnt a mirror branch's inconsistency as model error
+            // within 25 ms (README, "Branch lock").
+            let alpha =
+                (dt / T::of(MODEL_ERROR_MEMORY_S)).min(T::ONE / T::of(MODEL_ERROR_MEMORY_SAMPLES));
+            self.model_var = (self.model_var + alpha * (e - self.model_var)).max(T::ZERO);
         }
         let margin = T::of(SIGN_MARGIN);
         let b = next[best];
