@@ -466,16 +466,24 @@ fn cost(
             let Some(field) = field else {
                 continue;
             };
-            let m = field.m(&record.gamma);
-            for (g, p) in geo.iter().zip(record.rows[k].iter()) {
-                let r = p - g.reading(&(field.sigma0 + m * g.position));
-                if r.is_finite() {
-                    sum += r * r / (g.noise * g.noise);
-                }
-            }
+            sum += sample_chi2(geo, &record.rows[k], &record.gamma, field);
         }
     }
     sum
+}
+
+/// One motion sample's whitened residual `Σ ((p − reading) / noise)²` over its finite readings,
+/// with the field `f` (what [`cost`] sums and [`reject_outliers`] tests).
+fn sample_chi2(geo: &[Geometry], row: &[f64], gamma: &Matrix3<f64>, f: &Field) -> f64 {
+    let m = f.m(gamma);
+    geo.iter()
+        .zip(row.iter())
+        .filter(|(_, p)| p.is_finite())
+        .map(|(g, p)| {
+            let e = p - g.reading(&(f.sigma0 + m * g.position));
+            e * e / (g.noise * g.noise)
+        })
+        .sum()
 }
 
 /// Passes of the kinematic tie at most (the first removes nearly all of the relative
@@ -694,18 +702,8 @@ fn reject_outliers(geo: &[Geometry], record: &Record, fields: &mut [Option<Field
         .iter()
         .zip(fields.iter())
         .map(|(&k, f)| {
-            let f = f.as_ref()?;
-            let m = f.m(&record.gamma);
-            Some(
-                geo.iter()
-                    .zip(record.rows[k].iter())
-                    .filter(|(_, p)| p.is_finite())
-                    .map(|(g, p)| {
-                        let e = p - g.reading(&(f.sigma0 + m * g.position));
-                        e * e / (g.noise * g.noise)
-                    })
-                    .sum(),
-            )
+            f.as_ref()
+                .map(|f| sample_chi2(geo, &record.rows[k], &record.gamma, f))
         })
         .collect();
     let mut sorted: Vec<f64> = ssr.iter().flatten().copied().collect();
