@@ -111,16 +111,11 @@ fn writes_a_calibrated_arrangement_that_estimate_reads() {
     assert!(md.contains("](report.png)"));
     let png = std::fs::read(dir.join("report.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
-    common::run_ok(
-        ballisto()
-            .arg("estimate")
-            .arg("--arrangement")
-            .arg(dir.join("calibrated.toml"))
-            .arg("--samples")
-            .arg(dir.join("samples.csv"))
-            .arg("--out")
-            .arg(dir.join("estimates.csv")),
-    );
+    common::run_ok(&mut common::estimate(
+        &dir.join("calibrated.toml"),
+        &dir.join("samples.csv"),
+        &dir.join("estimates.csv"),
+    ));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -2,10 +2,9 @@
 
 mod common;
 
-use common::ballisto;
+use common::estimate;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use ballisto::samples_csv::write_samples;
 use ballisto::truth_csv::write_truth;
@@ -13,19 +12,6 @@ use hal_sim::arrangement_file::ArrangementFile;
 use hal_sim::ideal::simulate_outputs;
 use rand::SeedableRng;
 use test_fixtures::{families, motions};
-
-/// `ballisto estimate --arrangement A --samples S --out O` (more arguments to be added).
-fn estimate(arrangement: &Path, samples: &Path, out: &Path) -> Command {
-    let mut c = ballisto();
-    c.arg("estimate")
-        .arg("--arrangement")
-        .arg(arrangement)
-        .arg("--samples")
-        .arg(samples)
-        .arg("--out")
-        .arg(out);
-    c
-}
 
 fn tmpdir(name: &str) -> PathBuf {
     common::tmpdir("cli", name)
@@ -71,15 +57,11 @@ fn estimate_writes_the_contract_columns_one_row_per_sample() {
     let d = tmpdir("contract");
     let truth = scenario(&d, 600);
     let out = d.join("estimates.csv");
-    common::run_ok(
-        ballisto()
-            .args(["estimate", "--arrangement"])
-            .arg(d.join("arrangement.toml"))
-            .arg("--samples")
-            .arg(d.join("samples.csv"))
-            .arg("--out")
-            .arg(&out),
-    );
+    common::run_ok(&mut estimate(
+        &d.join("arrangement.toml"),
+        &d.join("samples.csv"),
+        &out,
+    ));
     let (header, rows) = read_csv(&out);
     let want = "t,sigma0_x,sigma0_y,sigma0_z,domega_x,domega_y,domega_z,omega_x,omega_y,omega_z,A_xx,A_yy,A_zz,A_xy,A_xz,A_yz,flags";
     assert_eq!(header[..17].join(","), want);

@@ -22,15 +22,12 @@ fn read(path: &Path) -> (HashMap<String, usize>, Vec<Vec<String>>) {
 
 fn estimate(dir: &Path, model: &str, out: &str) {
     common::run_ok(
-        ballisto()
-            .arg("estimate")
-            .arg("--arrangement")
-            .arg(dir.join("arrangement.toml"))
-            .arg("--samples")
-            .arg(dir.join("samples.csv"))
-            .arg("--out")
-            .arg(dir.join(out))
-            .args(["--model", model]),
+        common::estimate(
+            &dir.join("arrangement.toml"),
+            &dir.join("samples.csv"),
+            &dir.join(out),
+        )
+        .args(["--model", model]),
     );
 }
 

@@ -10,6 +10,19 @@ pub fn ballisto() -> Command {
     Command::new(env!("CARGO_BIN_EXE_ballisto"))
 }
 
+/// `ballisto estimate --arrangement A --samples S --out O` (more arguments to be added).
+pub fn estimate(arrangement: &Path, samples: &Path, out: &Path) -> Command {
+    let mut c = ballisto();
+    c.arg("estimate")
+        .arg("--arrangement")
+        .arg(arrangement)
+        .arg("--samples")
+        .arg(samples)
+        .arg("--out")
+        .arg(out);
+    c
+}
+
 /// Asserts that the command succeeded (showing its stderr if not); its stdout.
 pub fn succeeded(out: &Output) -> String {
     assert!(
