@@ -177,6 +177,18 @@ impl<T: Real> Sym3<T> {
         self.0[5] += g[1] * g[2];
     }
 
+    /// `self + k g gᵀ`.
+    #[inline]
+    pub fn add_outer_scaled(&mut self, k: T, g: &Vec3<T>) {
+        let kg = [k * g[0], k * g[1], k * g[2]];
+        self.0[0] += kg[0] * g[0];
+        self.0[1] += kg[1] * g[1];
+        self.0[2] += kg[2] * g[2];
+        self.0[3] += kg[0] * g[1];
+        self.0[4] += kg[0] * g[2];
+        self.0[5] += kg[1] * g[2];
+    }
+
     /// `k self`.
     #[inline]
     pub fn scaled(&self, k: T) -> Self {

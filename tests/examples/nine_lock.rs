@@ -44,18 +44,92 @@ fn forward(
     let mut rows = Vec::with_capacity(truth.len());
     for (tr, p) in truth.iter().zip(outputs.iter()) {
         let r = *e.update_with(tr.t, p, Some(&mut rec));
+        let w = tr.omega;
+        let silent =
+            r.flags.0 == 0 && (0..3).any(|i| (r.omega[i] - w[i]).abs() > 5.0 * r.sd_omega[i]);
+        if std::env::var_os("DIAG").is_some() {
+            // t, candidates, closest root pair / sd, truth-nearest candidate's error / sd,
+            // chosen error / sd, flags.
+            let nc = rec.n_candidates as usize;
+            let cs = &rec.candidates[..nc];
+            let sdm = |c: &Estimate<f64>| c.sd_omega.iter().fold(0.0f64, |m, v| m.max(*v));
+            let sdist =
+                |a: &[f64; 3], b: &[f64; 3]| dist(a, b).min(dist(&[-a[0], -a[1], -a[2]], b));
+            let mut sep = f64::INFINITY;
+            for i in 0..nc {
+                for j in (i + 1)..nc {
+                    sep = sep.min(sdist(&cs[i].omega, &cs[j].omega) / sdm(&cs[i]).max(sdm(&cs[j])));
+                }
+            }
+            let near = cs
+                .iter()
+                .map(|c| sdist(&c.omega, &w) / sdm(c))
+                .fold(f64::INFINITY, f64::min);
+            println!(
+                "diag {:.4} {} {:.2} {:.2} {:.2} {}",
+                tr.t,
+                nc,
+                sep,
+                near,
+                dist(&r.omega, &w) / sdm(&r),
+                r.flags.0
+            );
+        }
+        if silent && std::env::var_os("SILENT").is_some() {
+            print!(
+                "silent t {:.3} off {:.3} sd {:.4} |Ω| {:.2} cands",
+                tr.t,
+                dist(&r.omega, &w),
+                r.sd_omega.iter().fold(0.0f64, |m, v| m.max(*v)),
+                dist(&w, &[0.0; 3])
+            );
+            for c in rec.candidates.iter().take(rec.n_candidates as usize) {
+                let neg = [-c.omega[0], -c.omega[1], -c.omega[2]];
+                let d = dist(&c.omega, &w).min(dist(&neg, &w));
+                let dr = dist(&c.omega, &r.omega).min(dist(&neg, &r.omega));
+                print!(
+                    " [truth {d:.3} chosen {dr:.3} sd {:.4} {:.4} {:.4} branches {}]",
+                    c.sd_omega[0], c.sd_omega[1], c.sd_omega[2], c.branches
+                );
+            }
+            print!(" states");
+            for s in rec.states.iter().take(rec.n_states as usize) {
+                print!(
+                    " ({:.1} c{} off {:.2})",
+                    s.cost,
+                    s.candidate,
+                    dist(&s.omega, &w)
+                );
+            }
+            println!();
+        }
         if trace.is_some_and(|(a, b)| tr.t >= a && tr.t <= b) {
-            let w = tr.omega;
             print!("t {:.3} |", tr.t);
             for c in rec.candidates.iter().take(rec.n_candidates as usize) {
                 let neg = [-c.omega[0], -c.omega[1], -c.omega[2]];
                 let d = dist(&c.omega, &w).min(dist(&neg, &w));
-                print!(" cand off {d:.3} fit {:.1} |", c.chi2);
+                print!(
+                    " cand off {d:.3} dΩ′ {:.3} fit {:.1} Ω {:.4} {:.4} {:.4} Ω′ {:.3} {:.3} {:.3} |",
+                    dist(&c.domega, &tr.domega),
+                    c.chi2,
+                    c.omega[0],
+                    c.omega[1],
+                    c.omega[2],
+                    c.domega[0],
+                    c.domega[1],
+                    c.domega[2]
+                );
             }
             for s in rec.states.iter().take(rec.n_states as usize) {
                 print!(" ({:.1}, off {:.2})", s.cost, dist(&s.omega, &w));
             }
-            println!(" best {} error {:.3}", rec.best, dist(&r.omega, &w));
+            println!(
+                " best {} error {:.3} model sd {:.4} best sd {:.4}",
+                rec.best,
+                dist(&r.omega, &w),
+                e.rate_model_variance().sqrt(),
+                rec.states[rec.best as usize].var.sqrt()
+            );
         }
         rows.push(r);
     }
@@ -174,11 +248,23 @@ fn main() {
                 );
             }
         }
+        // RMS of Ω's error over its reported deviation, per component, over all rows.
+        let z2: f64 = rows
+            .iter()
+            .zip(truth.iter())
+            .map(|(r, tr)| {
+                (0..3)
+                    .map(|i| ((r.omega[i] - tr.omega[i]) / r.sd_omega[i]).powi(2))
+                    .sum::<f64>()
+                    / 3.0
+            })
+            .sum();
         println!(
-            "{label}: rows {} Ω RMS {:.4} off>1 {:.1}% flagged {flagged} silent {silent}",
+            "{label}: rows {} Ω RMS {:.4} off>1 {:.1}% flagged {flagged} silent {silent} z {:.2}",
             rows.len(),
             (err2.iter().sum::<f64>() / rows.len() as f64).sqrt(),
             100.0 * off as f64 / rows.len() as f64,
+            (z2 / rows.len() as f64).sqrt(),
         );
     }
 }

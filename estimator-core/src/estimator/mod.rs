@@ -16,6 +16,7 @@
 //! per-sample sequence that ties them together.
 
 mod config;
+mod crossing;
 mod deviations;
 mod frames;
 mod output;
@@ -420,6 +421,11 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 domega: cfg.proj[frame].to_body(&[b.x[3], b.x[4], b.x[5]]),
                 fit: b.fit,
             };
+        }
+        if cfg.model == Model::FreeFloat && nb > 1 {
+            // After the candidates took their first-order variances: the tracker keeps those
+            // (see `crossing`); the output's deviations are widened.
+            crossing::widen_near_crossings(&mut branches[..nb]);
         }
         let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
         // Several histories per output only where mirror branches exist and can merge.
