@@ -52,7 +52,8 @@ pub(super) fn widen_near_crossings<T: Real>(branches: &mut [Branch<T>]) {
             }
         }
     }
-    let k8 = T::of(CROSSING_RHO.powi(8));
+    let k2 = CROSSING_RHO * CROSSING_RHO;
+    let k8 = T::of(k2 * k2 * k2 * k2);
     for (b, (d2, d)) in branches.iter_mut().zip(near.iter()).take(n) {
         // ρ² = h² / s² with h² = |d|² / 4 and s² = dᵀ cov d / |d|².
         let q = b.cov_a.quad(d).max(T::of(1e-30));
