@@ -53,14 +53,20 @@ pub const GAMMA_COLUMNS: [&str; 12] = [
     "sd_gamma_yz",
 ];
 
+/// The branch tracker's cost margin of the best competing branch (README, "Flags"), after
+/// [`GAMMA_COLUMNS`]; empty when the record does not carry it (a motion report of the
+/// 142-octet layout).
+pub const MARGIN_COLUMNS: [&str; 1] = ["branch_margin"];
+
 /// Writes the header line.
 pub fn write_header<W: Write>(w: &mut W) -> std::io::Result<()> {
     writeln!(
         w,
-        "{},{},{}",
+        "{},{},{},{}",
         COLUMNS.join(","),
         EXTRA_COLUMNS.join(","),
-        GAMMA_COLUMNS.join(",")
+        GAMMA_COLUMNS.join(","),
+        MARGIN_COLUMNS.join(",")
     )
 }
 
@@ -117,6 +123,12 @@ fn format_row<T: Real>(line: &mut Vec<u8>, t: f64, e: &Estimate<T>, gamma: bool)
         }
     } else {
         line.extend_from_slice(&[b','; GAMMA_COLUMNS.len()]);
+    }
+    let margin = e.branch_margin.to_f64();
+    if margin.is_finite() {
+        real(line, margin);
+    } else {
+        line.push(b',');
     }
     line.push(b'\n');
 }

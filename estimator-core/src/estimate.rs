@@ -66,6 +66,11 @@ pub struct Estimate<T> {
     pub sd_omega: Vec3<T>,
     /// Standard deviations of the components of A (`[xx, yy, zz, xy, xz, yz]`).
     pub sd_field: Sym3<T>,
+    /// The branch tracker's cost margin of the best competing branch over the chosen one
+    /// (twice the negative log-likelihood ratio of its hypothesis; below 16, the sign margin,
+    /// [`Flags::BRANCH_AMBIGUOUS`] is set); 200, the tracker's memory, when no other branch
+    /// is left in it.
+    pub branch_margin: T,
 }
 
 /// 99.9 % points of χ² for 1..=30 degrees of freedom (beyond: Wilson–Hilferty).
@@ -126,7 +131,7 @@ impl<T: Real> Estimate<T> {
         add(&self.field.0);
         add(&self.a);
         add(&self.d);
-        add(&[self.chi2]);
+        add(&[self.chi2, self.branch_margin]);
         add(&self.sd_sigma0);
         add(&self.sd_domega);
         add(&self.sd_omega);

@@ -9,7 +9,7 @@
 use crate::estimate::{Estimate, Flags};
 use crate::frame_uncertainty::FrameUncertainty;
 use crate::real::Real;
-use crate::tracker::{State, MAX_CANDIDATES, MAX_STATES, SIGN_MARGIN};
+use crate::tracker::{State, COST_CAP, MAX_CANDIDATES, MAX_STATES, SIGN_MARGIN};
 
 /// Everything about one sample that a later decision may need.
 #[derive(Clone, Copy, Debug)]
@@ -229,24 +229,25 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
         // Margins of the alternatives (opposite sign, other branch) at the newest record.
         let margin = T::of(SIGN_MARGIN);
         let mut sign_unresolved = false;
-        let mut branch_ambiguous = false;
+        // The cheapest alternative on another branch (at the oldest record) above the choice.
+        let mut branch_margin = T::of(COST_CAP);
         if last == 0 {
             sign_unresolved = oldest.forward.flags.has(Flags::SIGN_UNRESOLVED);
-            branch_ambiguous = oldest.forward.flags.has(Flags::BRANCH_AMBIGUOUS);
+            branch_margin = oldest.forward.branch_margin;
         } else {
             for j in 0..newest.n_states as usize {
                 if let Some(a) = anc[j] {
-                    let close = newest.states[j].cost - chosen_cost < margin;
+                    let above = newest.states[j].cost - chosen_cost;
                     let (sa, sc) = (&oldest.states[a], &oldest.states[choice]);
-                    if close && sa.candidate == sc.candidate && sa.sign != sc.sign {
+                    if sa.candidate != sc.candidate {
+                        branch_margin = branch_margin.min(above.max(T::ZERO));
+                    } else if above < margin && sa.sign != sc.sign {
                         sign_unresolved = true;
-                    }
-                    if close && sa.candidate != sc.candidate {
-                        branch_ambiguous = true;
                     }
                 }
             }
         }
+        let branch_ambiguous = branch_margin < margin;
         let st = &oldest.states[choice];
         let mut est = oldest.candidates[st.candidate as usize];
         let sign = T::of(st.sign as f64);
@@ -258,6 +259,7 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
             flags |= Flags::BRANCH_AMBIGUOUS;
         }
         est.flags = Flags(flags);
+        est.branch_margin = branch_margin;
         if oldest.raw {
             for v in est.omega.iter_mut() {
                 *v *= sign;

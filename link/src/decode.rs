@@ -9,7 +9,7 @@ use crate::cuc::{cuc_seconds, TIME_LEN};
 use crate::event::{Event, EventId, EVENT_LEN};
 use crate::housekeeping::{Housekeeping, HOUSEKEEPING_LEN};
 use crate::ids::{service, sid, subtype, APID};
-use crate::motion::{MotionReport, MOTION_LEN};
+use crate::motion::{MotionReport, MOTION_LEN, MOTION_LEN_NO_MARGIN};
 use crate::verification::{FailureCode, RequestId, Verification};
 
 /// One decoded telemetry packet.
@@ -84,9 +84,10 @@ pub fn decode(raw: &[u8]) -> Result<Decoded, DecodeError> {
     let bad = DecodeError::Data(s, st);
     let report = match (s, st) {
         (service::HOUSEKEEPING, subtype::HK_REPORT) => match g.u16().ok_or(bad)? {
-            sid::MOTION if data.len() == MOTION_LEN => {
+            sid::MOTION if data.len() == MOTION_LEN || data.len() == MOTION_LEN_NO_MARGIN => {
                 let k = g.u32().ok_or(bad)?;
-                let mut m = MotionReport::decode(&mut g).ok_or(bad)?;
+                let margin = data.len() == MOTION_LEN;
+                let mut m = MotionReport::decode(&mut g, margin).ok_or(bad)?;
                 m.k = k;
                 Report::Motion(m)
             }

@@ -23,7 +23,12 @@ pub struct MotionReport {
 }
 
 /// Application data length of the motion report.
-pub const MOTION_LEN: usize = 142;
+pub const MOTION_LEN: usize = 146;
+
+/// Application data length of the motion report before the branch margin was added (firmware
+/// 0.x up to issue 15): decoded with the margin absent (NaN; an empty cell in the estimates
+/// file).
+pub const MOTION_LEN_NO_MARGIN: usize = 142;
 
 impl MotionReport {
     /// Encodes the application data; returns its length ([`MOTION_LEN`]).
@@ -48,13 +53,15 @@ impl MotionReport {
             .f32s(&e.sd_field.0)
             .u8(self.missing_parts.0)
             .u8(self.excluded_parts.0)
-            .u32(self.excluded_channels.0);
+            .u32(self.excluded_channels.0)
+            .f32(e.branch_margin);
         p.finish()
     }
 
-    /// Decodes the application data after the SID and `k`.
+    /// Decodes the application data after the SID and `k`; `margin`: the layout carries the
+    /// branch margin ([`MOTION_LEN`], else [`MOTION_LEN_NO_MARGIN`]).
     #[cfg_attr(not(feature = "ground"), allow(dead_code))]
-    pub(crate) fn decode(g: &mut Get) -> Option<Self> {
+    pub(crate) fn decode(g: &mut Get, margin: bool) -> Option<Self> {
         let mut e = Estimate::<f32> {
             sigma0: g.f32s()?,
             domega: g.f32s()?,
@@ -72,12 +79,14 @@ impl MotionReport {
         e.sd_domega = g.f32s()?;
         e.sd_omega = g.f32s()?;
         e.sd_field = Sym3(g.f32s()?);
-        Some(MotionReport {
+        let mut m = MotionReport {
             k: 0,
             estimate: e,
             missing_parts: PartSet(g.u8()?),
             excluded_parts: PartSet(g.u8()?),
             excluded_channels: ChannelSet(g.u32()?),
-        })
+        };
+        m.estimate.branch_margin = if margin { g.f32()? } else { f32::NAN };
+        Some(m)
     }
 }

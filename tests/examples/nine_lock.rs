@@ -11,14 +11,10 @@
 //! the Ω RMS of both per window; `TRACE=T0,T1` the candidates and hypotheses of the forward path
 //! between those times.
 
-use ballisto::estimate::HostEstimator;
+use e2e_tests::nine::{self, Params, Score};
 use estimator_core::smoother::StepRecord;
-use estimator_core::{Estimate, Estimator, Model, Options};
+use estimator_core::{Estimate, Estimator, Model};
 use hal_sim::arrangement_file::HOST_CAP;
-use hal_sim::ideal::simulate_outputs;
-use hal_sim::motion::{Environment, Motion, Rotation, Torque, Truth};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
@@ -31,15 +27,11 @@ fn env_pair(name: &str) -> Option<(f64, f64)> {
 }
 
 /// The forward path, printing the candidates and hypotheses within `trace`.
-fn forward(
-    loaded: &hal_sim::arrangement_file::LoadedArrangement,
-    truth: &[Truth],
-    outputs: &[Vec<f64>],
-    options: Options,
-    trace: Option<(f64, f64)>,
-) -> Vec<Estimate<f64>> {
-    let mut e = Estimator::<f64, HOST_CAP>::new(&loaded.arrangement, Model::FreeFloat, options)
-        .expect("arrangement");
+fn forward(case: &nine::Case, trace: Option<(f64, f64)>) -> Vec<Estimate<f64>> {
+    let (truth, outputs) = (&case.truth, &case.outputs);
+    let mut e =
+        Estimator::<f64, HOST_CAP>::new(&case.loaded.arrangement, Model::FreeFloat, case.options)
+            .expect("arrangement");
     let mut rec = StepRecord::<f64>::default();
     let mut rows = Vec::with_capacity(truth.len());
     for (tr, p) in truth.iter().zip(outputs.iter()) {
@@ -143,128 +135,55 @@ fn main() {
         std::process::exit(2);
     }
     let num = |i: usize| -> f64 { a[i].parse().expect("a number") };
-    let (rate, noise, arm, secs) = (num(1), num(2), num(3), num(4));
-    let seed: u64 = a[5].parse().expect("a seed");
-    let manoeuvre = a.get(6).is_some_and(|s| s == "manoeuvre");
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut file = test_fixtures::families::nine_channel(arm, noise);
-    // Mounting jitter: ±1 mm, axes turned by up to ±1° about each axis.
-    for ch in file.channels.iter_mut() {
-        for v in ch.position.iter_mut() {
-            *v += rng.gen_range(-1e-3..1e-3);
-        }
-        let t: [f64; 3] = core::array::from_fn(|_| rng.gen_range(-0.017..0.017));
-        let s = ch.axis;
-        let n = [
-            s[0] + t[1] * s[2] - t[2] * s[1],
-            s[1] + t[2] * s[0] - t[0] * s[2],
-            s[2] + t[0] * s[1] - t[1] * s[0],
-        ];
-        let l = dist(&n, &[0.0; 3]);
-        ch.axis = [n[0] / l, n[1] / l, n[2] / l];
-    }
-    let loaded = file.load("nine").expect("arrangement");
-    let dir = test_fixtures::families::random_rotation(&mut rng)[0];
-    let w = 2.2;
-    let motion = Motion {
-        rotation: Rotation::Euler {
-            inertia: [1.0, 1.8, 2.5],
-            torque: if manoeuvre {
-                Torque::Sinusoid {
-                    amplitude: [1.5, 2.0, 2.5],
-                    frequency: 0.3,
-                    phase: [0.0, 1.0, 2.0],
-                }
-            } else {
-                Torque::None
-            },
-        },
-        environment: Environment::Space,
-        omega0: [dir[0] * w, dir[1] * w, dir[2] * w],
-        attitude0: [1.0, 0.0, 0.0, 0.0],
-        origin_offset: [0.0; 3],
-        non_grav: [0.0; 3],
-        burns: Vec::new(),
+    let params = Params {
+        rate_hz: num(1),
+        noise: num(2),
+        arm: num(3),
+        seconds: num(4),
+        seed: a[5].parse().expect("a seed"),
+        manoeuvre: a.get(6).is_some_and(|s| s == "manoeuvre"),
     };
-    let dt = 1.0 / rate;
-    let truth = motion.run(dt, (secs * rate) as usize, 4);
-    let outputs = simulate_outputs(&loaded, &truth, true, seed ^ 0x5eed);
-    let options = Options {
-        raw: true,
-        initial_omega: Some(truth[0].omega),
-        ..Default::default()
-    };
-    let ml: Option<Vec<f64>> = std::env::var_os("ML").map(|_| {
-        let ml = e2e_tests::ml::MlReference::new(&loaded, Model::FreeFloat);
-        truth
-            .iter()
-            .zip(outputs.iter())
-            .map(|(tr, p)| dist(&ml.estimate(p, &tr.omega).omega, &tr.omega).powi(2))
-            .collect()
-    });
+    let case = nine::make(params);
+    let ml = std::env::var_os("ML").map(|_| case.ml_errors());
     if let Some(ml) = &ml {
-        let rms = (ml.iter().sum::<f64>() / ml.len() as f64).sqrt();
-        println!("truth-started ML: Ω RMS {rms:.4}");
+        let n = ml.len() as f64;
+        let rms: [f64; 3] = core::array::from_fn(|i| (ml.iter().map(|e| e[i]).sum::<f64>() / n).sqrt());
+        println!("truth-started ML: σ0 {:.4e} Ω′ {:.4} Ω {:.4}", rms[0], rms[1], rms[2]);
     }
     let window: Option<usize> = std::env::var("WINDOW").ok().and_then(|v| v.parse().ok());
-    let forward_rows = forward(&loaded, &truth, &outputs, options, env_pair("TRACE"));
-    let mut smoothed = Vec::with_capacity(truth.len());
-    {
-        let mut e =
-            HostEstimator::<f64>::new(&loaded, Model::FreeFloat, options).expect("estimator");
-        let mut emit = |_t: f64, r: &Estimate<f64>| smoothed.push(*r);
-        for (tr, p) in truth.iter().zip(outputs.iter()) {
-            e.push(tr.t, p, &mut emit);
-        }
-        e.finish(&mut emit);
-    }
+    let forward_rows = forward(&case, env_pair("TRACE"));
+    let smoothed = case.smoothed();
     for (label, rows) in [("raw forward", &forward_rows), ("raw smoothed", &smoothed)] {
-        let err2: Vec<f64> = rows
-            .iter()
-            .zip(truth.iter())
-            .map(|(r, tr)| dist(&r.omega, &tr.omega).powi(2))
-            .collect();
-        let off = err2.iter().filter(|e| **e > 1.0).count();
-        let flagged = rows.iter().filter(|r| r.flags.0 != 0).count();
-        let silent = rows
-            .iter()
-            .zip(truth.iter())
-            .filter(|(r, tr)| {
-                r.flags.0 == 0
-                    && (0..3).any(|i| (r.omega[i] - tr.omega[i]).abs() > 5.0 * r.sd_omega[i])
-            })
-            .count();
         if let (Some(ml), Some(len)) = (&ml, window) {
             for k0 in (0..rows.len()).step_by(len.max(1)) {
                 let k1 = (k0 + len).min(rows.len());
-                let (se, sm): (f64, f64) = (err2[k0..k1].iter().sum(), ml[k0..k1].iter().sum());
+                let se: f64 = rows[k0..k1]
+                    .iter()
+                    .zip(case.truth[k0..k1].iter())
+                    .map(|(r, tr)| dist(&r.omega, &tr.omega).powi(2))
+                    .sum();
+                let sm: f64 = ml[k0..k1].iter().map(|e| e[2]).sum();
                 let n = (k1 - k0) as f64;
                 println!(
                     "  t {:.2} Ω RMS {:.4} ML {:.4} ratio {:.2}",
-                    k0 as f64 * dt,
+                    case.truth[k0].t,
                     (se / n).sqrt(),
                     (sm / n).sqrt(),
                     (se / sm).sqrt()
                 );
             }
         }
-        // RMS of Ω's error over its reported deviation, per component, over all rows.
-        let z2: f64 = rows
-            .iter()
-            .zip(truth.iter())
-            .map(|(r, tr)| {
-                (0..3)
-                    .map(|i| ((r.omega[i] - tr.omega[i]) / r.sd_omega[i]).powi(2))
-                    .sum::<f64>()
-                    / 3.0
-            })
-            .sum();
+        let s = Score::of(rows, &case.truth);
+        let [e0, e1, e2] = s.rms();
         println!(
-            "{label}: rows {} Ω RMS {:.4} off>1 {:.1}% flagged {flagged} silent {silent} z {:.2}",
-            rows.len(),
-            (err2.iter().sum::<f64>() / rows.len() as f64).sqrt(),
-            100.0 * off as f64 / rows.len() as f64,
-            (z2 / rows.len() as f64).sqrt(),
+            "{label}: rows {} σ0 {e0:.4e} Ω′ {e1:.4} Ω RMS {e2:.4} off>1 {:.1}% flagged {} ambiguous {} silent {} z {:.2} margin mismatches {}",
+            s.rows,
+            s.pct(s.off),
+            s.flagged,
+            s.ambiguous,
+            s.silent,
+            s.z_rms(),
+            s.margin_mismatch
         );
     }
 }

@@ -3,4 +3,5 @@
 
 pub mod cases;
 pub mod ml;
+pub mod nine;
 pub mod stats;

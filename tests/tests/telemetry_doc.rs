@@ -162,6 +162,7 @@ fn motion_report_table_matches_the_encoder() {
         sd_domega: f(60.0),
         sd_omega: f(70.0),
         sd_field: six(80.0),
+        branch_margin: 42.5,
         ..Estimate::default()
     };
     let report = MotionReport {
@@ -196,6 +197,7 @@ fn motion_report_table_matches_the_encoder() {
         ("parts without a value", vec![5.0]),
         ("parts excluded", vec![2.0]),
         ("channels not in the solve", vec![f64::from(0x0F00)]),
+        ("branch margin", vec![42.5]),
     ];
     check_rows(&data, &rows, &expected, "motion");
     let packet = format!("(packet {} octets)", 21 + MOTION_LEN + 2);

@@ -201,3 +201,53 @@ fn a_dead_part_is_reported_down_and_up_again() {
     assert_eq!(u3.state, ballisto_link::PartState::Down);
     assert!(u3.missed >= 10 && u3.implausible >= 10, "{down:?}");
 }
+
+/// The decoder reads the motion report with the branch margin (146 octets) and the layout
+/// before it (142: the margin is absent, NaN, and the estimates file's cell empty); any other
+/// length is refused.
+#[test]
+fn motion_reports_with_and_without_the_branch_margin_decode() {
+    use ballisto_link::decode::{decode, DecodeError};
+    use ballisto_link::ids::TM_MAX;
+    use ballisto_link::motion::{MOTION_LEN, MOTION_LEN_NO_MARGIN};
+    use ballisto_link::{tm, ChannelSet, MotionReport, PartSet};
+    let m = MotionReport {
+        k: 9,
+        estimate: estimator_core::Estimate {
+            omega: [1.0, 2.0, 3.0],
+            branch_margin: 33.0,
+            ..Default::default()
+        },
+        missing_parts: PartSet(0),
+        excluded_parts: PartSet(0),
+        excluded_channels: ChannelSet(5),
+    };
+    let packet = |len: usize| {
+        let mut p = [0u8; TM_MAX];
+        let n = tm::build(&mut p, 1, service::HOUSEKEEPING, subtype::HK_REPORT, 0, |d| {
+            m.encode(d).map(|_| len)
+        })
+        .unwrap();
+        p[..n].to_vec()
+    };
+    for (len, margin) in [(MOTION_LEN, Some(33.0)), (MOTION_LEN_NO_MARGIN, None)] {
+        let Report::Motion(r) = decode(&packet(len)).expect("decodes").report else {
+            panic!("not a motion report");
+        };
+        assert_eq!((r.k, r.estimate.omega), (9, [1.0, 2.0, 3.0]));
+        assert_eq!(r.excluded_channels.0, 5);
+        match margin {
+            Some(v) => assert_eq!(r.estimate.branch_margin, v),
+            None => assert!(r.estimate.branch_margin.is_nan()),
+        }
+        let mut row = Vec::new();
+        ballisto::estimates_csv::write_row(&mut row, 0.0, &r.estimate, false).unwrap();
+        let row = String::from_utf8(row).unwrap();
+        let last = row.trim_end().rsplit(',').next().unwrap().to_string();
+        assert_eq!(last, margin.map_or(String::new(), |v| format!("{v}")));
+    }
+    assert!(matches!(
+        decode(&packet(MOTION_LEN - 1)),
+        Err(DecodeError::Data(..))
+    ));
+}

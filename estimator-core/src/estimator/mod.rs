@@ -455,6 +455,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         let prev = self.has_last.then_some(prev);
         cfg.finish(frame, eps, b, &choice.omega, !cfg.options.raw, prev, est);
         common.apply(est, choice.sign_unresolved, choice.branch_ambiguous);
+        est.branch_margin = choice.branch_margin;
         let sd = &est.sd_domega;
         self.domega_var = (sd[0].sq() + sd[1].sq() + sd[2].sq()) / T::of(3.0);
         if !cfg.options.raw {

@@ -122,6 +122,10 @@ pub struct Choice<T> {
     pub sign_unresolved: bool,
     /// Another branch is nearly as good.
     pub branch_ambiguous: bool,
+    /// Cost of the cheapest hypothesis on another branch above the chosen one (twice the
+    /// negative log-likelihood ratio); [`COST_CAP`] when none is left in the tracker's memory.
+    /// Below [`SIGN_MARGIN`] the branch is ambiguous.
+    pub branch_margin: T,
 }
 
 /// The multi-hypothesis branch and sign tracker.
@@ -436,17 +440,18 @@ impl<T: Real> Tracker<T> {
         let margin = T::of(SIGN_MARGIN);
         let b = next[best];
         let mut sign_unresolved = false;
-        let mut branch_ambiguous = false;
+        let mut branch_margin = cap;
         for (j, s) in next.iter().enumerate().take(nn) {
-            if j != best && s.cost < margin {
-                if s.candidate == b.candidate && s.sign != b.sign {
-                    sign_unresolved = true;
-                }
-                if s.candidate != b.candidate {
-                    branch_ambiguous = true;
-                }
+            if j == best {
+                continue;
+            }
+            if s.candidate != b.candidate {
+                branch_margin = branch_margin.min(s.cost);
+            } else if s.sign != b.sign && s.cost < margin {
+                sign_unresolved = true;
             }
         }
+        let branch_ambiguous = branch_margin < margin;
         self.cur ^= 1;
         self.n = nn;
         self.best = best;
@@ -462,6 +467,7 @@ impl<T: Real> Tracker<T> {
             filtered: (b.omega, b.var),
             sign_unresolved,
             branch_ambiguous,
+            branch_margin,
         })
     }
 }
@@ -571,9 +577,33 @@ mod tests {
         }
         let (c, true_first, w) = last.unwrap();
         assert_eq!(c.candidate, if true_first { 0 } else { 1 });
+        assert!(c.branch_margin >= T_MARGIN && !c.branch_ambiguous, "{}", c.branch_margin);
         assert!(!c.sign_unresolved, "Ω′ ≠ 0 tells the signs apart");
         assert!(dist(&c.omega, &w) < 1e-6, "{:?} vs {w:?}", c.omega);
         assert!(dist(&c.filtered.0, &w) < 1e-2, "{:?}", c.filtered.0);
+    }
+
+    const T_MARGIN: f64 = SIGN_MARGIN;
+
+    /// Two branches that both integrate their Ω′ (a copy of the truth shifted by a constant):
+    /// no record can tell them apart, so the margin stays below [`SIGN_MARGIN`] and the branch
+    /// is flagged ambiguous at every step; the margin is the cost of the other branch's best
+    /// hypothesis, never negative.
+    #[test]
+    fn equally_consistent_branches_are_ambiguous_with_their_margin() {
+        let mut tr = Tracker::<f64>::new();
+        let hint = truth(0.0).0;
+        for k in 0..400 {
+            let t = k as f64 * DT;
+            let (w, dw) = truth(t);
+            let shifted = [w[0] + 0.5, w[1] - 0.3, w[2] + 0.2];
+            let h = (k == 0).then_some((hint, 1.0));
+            let c = tr
+                .step(&[cand(w, dw), cand(shifted, dw)], DT, 1e-6, h, 1)
+                .unwrap();
+            assert!(c.branch_margin >= 0.0 && c.branch_margin < SIGN_MARGIN, "step {k}");
+            assert!(c.branch_ambiguous, "step {k}");
+        }
     }
 
     /// In a steady spin (Ω′ = 0) nothing distinguishes Ω from −Ω: the sign is reported

@@ -1,0 +1,234 @@
+//! The nine-channel ballistometer family of issue 15 (the paper's MASER 5 layout: two
+//! tangential channels at a point on each axis and three radial ones at the edge midpoints,
+//! model F, m = 3) in a torque-free tumble or a manoeuvre at |Ω| ≈ 2.2 rad/s, with ±1 mm / ±1°
+//! mounting jitter and a correct initial Ω; its records estimated through the forward path
+//! (the firmware's) and the smoothed one (`ballisto estimate`'s), and scored against the truth
+//! and the truth-started maximum likelihood of [`crate::ml`].
+
+use ballisto::estimate::HostEstimator;
+use estimator_core::{Estimate, Estimator, Flags, Model, Options};
+use hal_sim::arrangement_file::{LoadedArrangement, HOST_CAP};
+use hal_sim::ideal::simulate_outputs;
+use hal_sim::motion::{Environment, Motion, Rotation, Torque, Truth};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use crate::ml::MlReference;
+
+/// |Ω| at the start, rad/s.
+pub const RATE: f64 = 2.2;
+
+/// One case of the family: its parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct Params {
+    /// Sample rate, Hz.
+    pub rate_hz: f64,
+    /// Noise per channel and sample, m/s² RMS (Gaussian).
+    pub noise: f64,
+    /// Distance of the tangential channels from the origin, m.
+    pub arm: f64,
+    /// Length of the record, s.
+    pub seconds: f64,
+    /// Seed of the jitter, the initial direction of Ω and the noise.
+    pub seed: u64,
+    /// A sinusoidal torque (else torque-free).
+    pub manoeuvre: bool,
+}
+
+/// A generated case: the arrangement, the truth, the readings and the estimator options.
+pub struct Case {
+    /// The jittered arrangement.
+    pub loaded: LoadedArrangement,
+    /// The truth at every sample.
+    pub truth: Vec<Truth>,
+    /// The readings at every sample.
+    pub outputs: Vec<Vec<f64>>,
+    /// Raw estimation with the correct initial Ω.
+    pub options: Options,
+}
+
+fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// Builds the case.
+pub fn make(p: Params) -> Case {
+    let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
+    let mut file = test_fixtures::families::nine_channel(p.arm, p.noise);
+    // Mounting jitter: ±1 mm, axes turned by up to ±1° about each axis.
+    for ch in file.channels.iter_mut() {
+        for v in ch.position.iter_mut() {
+            *v += rng.gen_range(-1e-3..1e-3);
+        }
+        let t: [f64; 3] = core::array::from_fn(|_| rng.gen_range(-0.017..0.017));
+        let s = ch.axis;
+        let n = [
+            s[0] + t[1] * s[2] - t[2] * s[1],
+            s[1] + t[2] * s[0] - t[0] * s[2],
+            s[2] + t[0] * s[1] - t[1] * s[0],
+        ];
+        let l = dist(&n, &[0.0; 3]);
+        ch.axis = [n[0] / l, n[1] / l, n[2] / l];
+    }
+    let loaded = file.load("nine").expect("arrangement");
+    let dir = test_fixtures::families::random_rotation(&mut rng)[0];
+    let motion = Motion {
+        rotation: Rotation::Euler {
+            inertia: [1.0, 1.8, 2.5],
+            torque: if p.manoeuvre {
+                Torque::Sinusoid {
+                    amplitude: [1.5, 2.0, 2.5],
+                    frequency: 0.3,
+                    phase: [0.0, 1.0, 2.0],
+                }
+            } else {
+                Torque::None
+            },
+        },
+        environment: Environment::Space,
+        omega0: [dir[0] * RATE, dir[1] * RATE, dir[2] * RATE],
+        attitude0: [1.0, 0.0, 0.0, 0.0],
+        origin_offset: [0.0; 3],
+        non_grav: [0.0; 3],
+        burns: Vec::new(),
+    };
+    let dt = 1.0 / p.rate_hz;
+    let truth = motion.run(dt, (p.seconds * p.rate_hz) as usize, 4);
+    let outputs = simulate_outputs(&loaded, &truth, true, p.seed ^ 0x5eed);
+    let options = Options {
+        raw: true,
+        initial_omega: Some(truth[0].omega),
+        ..Default::default()
+    };
+    Case {
+        loaded,
+        truth,
+        outputs,
+        options,
+    }
+}
+
+impl Case {
+    /// The forward path (the firmware's output), one estimate per sample.
+    pub fn forward(&self) -> Vec<Estimate<f64>> {
+        let mut e = Estimator::<f64, HOST_CAP>::new(
+            &self.loaded.arrangement,
+            Model::FreeFloat,
+            self.options,
+        )
+        .expect("arrangement");
+        self.truth
+            .iter()
+            .zip(self.outputs.iter())
+            .map(|(tr, p)| *e.update(tr.t, p))
+            .collect()
+    }
+
+    /// The smoothed path (`ballisto estimate`'s output).
+    pub fn smoothed(&self) -> Vec<Estimate<f64>> {
+        let mut rows = Vec::with_capacity(self.truth.len());
+        let mut e = HostEstimator::<f64>::new(&self.loaded, Model::FreeFloat, self.options)
+            .expect("estimator");
+        let mut emit = |_t: f64, r: &Estimate<f64>| rows.push(*r);
+        for (tr, p) in self.truth.iter().zip(self.outputs.iter()) {
+            e.push(tr.t, p, &mut emit);
+        }
+        e.finish(&mut emit);
+        rows
+    }
+
+    /// Squared errors of the truth-started maximum likelihood per sample: σ0, Ω′, Ω.
+    pub fn ml_errors(&self) -> Vec<[f64; 3]> {
+        let ml = MlReference::new(&self.loaded, Model::FreeFloat);
+        self.truth
+            .iter()
+            .zip(self.outputs.iter())
+            .map(|(tr, p)| {
+                let m = ml.estimate(p, &tr.omega);
+                [
+                    dist(&m.sigma0, &tr.sigma0).powi(2),
+                    dist(&m.domega, &tr.domega).powi(2),
+                    dist(&m.omega, &tr.omega).powi(2),
+                ]
+            })
+            .collect()
+    }
+}
+
+/// What one path's rows show against the truth.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Score {
+    /// Rows.
+    pub rows: usize,
+    /// Sums of squared errors: σ0, Ω′, Ω.
+    pub sq: [f64; 3],
+    /// Rows with Ω more than 1 rad/s off.
+    pub off: usize,
+    /// Rows with any flag.
+    pub flagged: usize,
+    /// Rows flagged branch ambiguous.
+    pub ambiguous: usize,
+    /// Rows with no flag and a component of Ω more than 5 reported deviations off.
+    pub silent: usize,
+    /// Sum over rows of the mean over components of (Ω error / reported deviation)².
+    pub z2: f64,
+    /// Rows whose branch-ambiguous flag disagrees with `branch_margin < 16`.
+    pub margin_mismatch: usize,
+    /// Rows with a non-finite number.
+    pub non_finite: usize,
+}
+
+impl Score {
+    /// Scores `rows` against `truth`.
+    pub fn of(rows: &[Estimate<f64>], truth: &[Truth]) -> Score {
+        let mut s = Score::default();
+        for (r, tr) in rows.iter().zip(truth.iter()) {
+            s.rows += 1;
+            s.sq[0] += dist(&r.sigma0, &tr.sigma0).powi(2);
+            s.sq[1] += dist(&r.domega, &tr.domega).powi(2);
+            let e = dist(&r.omega, &tr.omega);
+            s.sq[2] += e * e;
+            s.off += usize::from(e > 1.0);
+            s.flagged += usize::from(r.flags.0 != 0);
+            let ambiguous = r.flags.has(Flags::BRANCH_AMBIGUOUS);
+            s.ambiguous += usize::from(ambiguous);
+            let z: [f64; 3] = core::array::from_fn(|i| (r.omega[i] - tr.omega[i]) / r.sd_omega[i]);
+            s.silent += usize::from(r.flags.0 == 0 && z.iter().any(|v| v.abs() > 5.0));
+            s.z2 += z.iter().map(|v| v * v).sum::<f64>() / 3.0;
+            // Rows held over an unusable input carry the last margin and flags: both or neither.
+            s.margin_mismatch += usize::from(ambiguous != (r.branch_margin < 16.0));
+            s.non_finite += usize::from(!r.is_finite());
+        }
+        s
+    }
+
+    /// Adds another score (a record of the same family).
+    pub fn add(&mut self, o: &Score) {
+        self.rows += o.rows;
+        for i in 0..3 {
+            self.sq[i] += o.sq[i];
+        }
+        self.off += o.off;
+        self.flagged += o.flagged;
+        self.ambiguous += o.ambiguous;
+        self.silent += o.silent;
+        self.z2 += o.z2;
+        self.margin_mismatch += o.margin_mismatch;
+        self.non_finite += o.non_finite;
+    }
+
+    /// RMS errors: σ0, Ω′, Ω.
+    pub fn rms(&self) -> [f64; 3] {
+        self.sq.map(|v| (v / self.rows.max(1) as f64).sqrt())
+    }
+
+    /// Share of rows, %.
+    pub fn pct(&self, n: usize) -> f64 {
+        100.0 * n as f64 / self.rows.max(1) as f64
+    }
+
+    /// RMS of Ω's error over its reported deviation.
+    pub fn z_rms(&self) -> f64 {
+        (self.z2 / self.rows.max(1) as f64).sqrt()
+    }
+}
