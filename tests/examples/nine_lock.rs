@@ -57,6 +57,11 @@ fn forward(case: &nine::Case, trace: Option<(f64, f64)>) -> Vec<Estimate<f64>> {
                 .iter()
                 .map(|c| sdist(&c.omega, &w) / sdm(c))
                 .fold(f64::INFINITY, f64::min);
+            let near_abs = cs
+                .iter()
+                .map(|c| sdist(&c.omega, &w))
+                .fold(f64::INFINITY, f64::min);
+            print!("diagabs {near_abs:.5} {:.5} ", dist(&r.omega, &w));
             println!(
                 "diag {:.4} {} {:.2} {:.2} {:.2} {}",
                 tr.t,
