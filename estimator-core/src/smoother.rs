@@ -24,6 +24,9 @@ pub struct StepRecord<T> {
     pub candidates: [Estimate<T>; MAX_CANDIDATES],
     /// Number of candidates.
     pub n_candidates: u8,
+    /// Per candidate, the diagonal of its deviations' widening near a branch crossing (model
+    /// F; zero elsewhere), for the filtered output.
+    pub widening: [crate::linalg::Vec3<T>; MAX_CANDIDATES],
     /// The tracker's hypotheses after this sample.
     pub states: [State<T>; MAX_STATES],
     /// Number of hypotheses.
@@ -42,6 +45,7 @@ impl<T: Real> Default for StepRecord<T> {
             raw: true,
             candidates: [Estimate::default(); MAX_CANDIDATES],
             n_candidates: 0,
+            widening: [[T::ZERO; 3]; MAX_CANDIDATES],
             states: [State::default(); MAX_STATES],
             n_states: 0,
             best: 0,
@@ -268,6 +272,7 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
             est.omega = st.omega;
             let sd = st.var.max(T::ZERO).sqrt();
             est.sd_omega = [sd, sd, sd];
+            crate::estimator::widen_filtered(&mut est, &oldest.widening[st.candidate as usize]);
             if let Some(g) = self.gamma_free_float {
                 est.field = g.add_scaled(T::ONE, &crate::linalg::Sym3::skew_squared(&st.omega));
                 let v = st.var.max(T::ZERO);

@@ -29,9 +29,12 @@ fn env_pair(name: &str) -> Option<(f64, f64)> {
 /// The forward path, printing the candidates and hypotheses within `trace`.
 fn forward(case: &nine::Case, trace: Option<(f64, f64)>) -> Vec<Estimate<f64>> {
     let (truth, outputs) = (&case.truth, &case.outputs);
-    let mut e =
-        Estimator::<f64, HOST_CAP>::new(&case.loaded.arrangement, Model::FreeFloat, case.options)
-            .expect("arrangement");
+    let options = estimator_core::Options {
+        raw: std::env::var_os("FILTERED").is_none(),
+        ..case.options
+    };
+    let mut e = Estimator::<f64, HOST_CAP>::new(&case.loaded.arrangement, Model::FreeFloat, options)
+        .expect("arrangement");
     let mut rec = StepRecord::<f64>::default();
     let mut rows = Vec::with_capacity(truth.len());
     for (tr, p) in truth.iter().zip(outputs.iter()) {
@@ -157,7 +160,8 @@ fn main() {
     }
     let window: Option<usize> = std::env::var("WINDOW").ok().and_then(|v| v.parse().ok());
     let forward_rows = forward(&case, env_pair("TRACE"));
-    let smoothed = case.smoothed();
+    let raw = std::env::var_os("FILTERED").is_none();
+    let smoothed = case.smoothed(raw);
     for (label, rows) in [("raw forward", &forward_rows), ("raw smoothed", &smoothed)] {
         if let (Some(ml), Some(len)) = (&ml, window) {
             for k0 in (0..rows.len()).step_by(len.max(1)) {

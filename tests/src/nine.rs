@@ -109,12 +109,17 @@ pub fn make(p: Params) -> Case {
 }
 
 impl Case {
-    /// The forward path (the firmware's output), one estimate per sample.
-    pub fn forward(&self) -> Vec<Estimate<f64>> {
+    fn options(&self, raw: bool) -> Options {
+        Options { raw, ..self.options }
+    }
+
+    /// The forward path (the firmware's output), one estimate per sample; `raw`: per-sample
+    /// Ω (else the rate filter's, the firmware's default).
+    pub fn forward(&self, raw: bool) -> Vec<Estimate<f64>> {
         let mut e = Estimator::<f64, HOST_CAP>::new(
             &self.loaded.arrangement,
             Model::FreeFloat,
-            self.options,
+            self.options(raw),
         )
         .expect("arrangement");
         self.truth
@@ -124,10 +129,10 @@ impl Case {
             .collect()
     }
 
-    /// The smoothed path (`ballisto estimate`'s output).
-    pub fn smoothed(&self) -> Vec<Estimate<f64>> {
+    /// The smoothed path (`ballisto estimate`'s output; `raw` as in [`Case::forward`]).
+    pub fn smoothed(&self, raw: bool) -> Vec<Estimate<f64>> {
         let mut rows = Vec::with_capacity(self.truth.len());
-        let mut e = HostEstimator::<f64>::new(&self.loaded, Model::FreeFloat, self.options)
+        let mut e = HostEstimator::<f64>::new(&self.loaded, Model::FreeFloat, self.options(raw))
             .expect("estimator");
         let mut emit = |_t: f64, r: &Estimate<f64>| rows.push(*r);
         for (tr, p) in self.truth.iter().zip(self.outputs.iter()) {

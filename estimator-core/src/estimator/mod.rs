@@ -24,6 +24,7 @@ mod solve;
 
 pub use config::Options;
 pub use frames::{FRAME_QUATERNIONS, NUM_FRAMES};
+pub(crate) use crossing::widen_filtered;
 
 use crate::arrangement::{Arrangement, ChannelMask, Model};
 use crate::design::Projection;
@@ -55,6 +56,9 @@ struct Branch<T> {
     ill: bool,
     /// Model G: standard deviations of Ω (body frame), from the constant covariance of A.
     omega_sd: Vec3<T>,
+    /// Model F: the diagonal of what [`crossing`] added to `cov(a)` near a crossing (zero
+    /// elsewhere); the filtered output adds it too.
+    widening: Vec3<T>,
 }
 
 /// The estimator for up to `CAP` channels.
@@ -399,6 +403,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         }
         self.frame = frame;
         for (c, b) in cands.iter_mut().zip(branches.iter_mut()).take(nb) {
+            b.widening = [T::ZERO; 3];
             let omega = cfg.omega_of(frame, eps, b);
             let omega_var = match &cfg.proj[frame].general_cov {
                 Some(gc) => {
@@ -460,6 +465,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.domega_var = (sd[0].sq() + sd[1].sq() + sd[2].sq()) / T::of(3.0);
         if !cfg.options.raw {
             cfg.apply_filtered(est, choice.filtered);
+            crossing::widen_filtered(est, &b.widening);
         }
         if let Some(rec) = record {
             rec.t = t;
@@ -467,6 +473,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             rec.raw = cfg.options.raw;
             rec.n_candidates = nb as u8;
             for (ci, b) in branches.iter().enumerate().take(nb) {
+                rec.widening[ci] = b.widening;
                 let e = &mut rec.candidates[ci];
                 cfg.finish(frame, eps, b, &cands[ci].omega, false, prev, e);
                 common.apply(e, false, false);

