@@ -33,8 +33,9 @@ fn forward(case: &nine::Case, trace: Option<(f64, f64)>) -> Vec<Estimate<f64>> {
         raw: std::env::var_os("FILTERED").is_none(),
         ..case.options
     };
-    let mut e = Estimator::<f64, HOST_CAP>::new(&case.loaded.arrangement, Model::FreeFloat, options)
-        .expect("arrangement");
+    let mut e =
+        Estimator::<f64, HOST_CAP>::new(&case.loaded.arrangement, Model::FreeFloat, options)
+            .expect("arrangement");
     let mut rec = StepRecord::<f64>::default();
     let mut rows = Vec::with_capacity(truth.len());
     for (tr, p) in truth.iter().zip(outputs.iter()) {
@@ -155,8 +156,12 @@ fn main() {
     let ml = std::env::var_os("ML").map(|_| case.ml_errors());
     if let Some(ml) = &ml {
         let n = ml.len() as f64;
-        let rms: [f64; 3] = core::array::from_fn(|i| (ml.iter().map(|e| e[i]).sum::<f64>() / n).sqrt());
-        println!("truth-started ML: σ0 {:.4e} Ω′ {:.4} Ω {:.4}", rms[0], rms[1], rms[2]);
+        let rms: [f64; 3] =
+            core::array::from_fn(|i| (ml.iter().map(|e| e[i]).sum::<f64>() / n).sqrt());
+        println!(
+            "truth-started ML: σ0 {:.4e} Ω′ {:.4} Ω {:.4}",
+            rms[0], rms[1], rms[2]
+        );
     }
     let window: Option<usize> = std::env::var("WINDOW").ok().and_then(|v| v.parse().ok());
     let forward_rows = forward(&case, env_pair("TRACE"));

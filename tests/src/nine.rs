@@ -110,7 +110,10 @@ pub fn make(p: Params) -> Case {
 
 impl Case {
     fn options(&self, raw: bool) -> Options {
-        Options { raw, ..self.options }
+        Options {
+            raw,
+            ..self.options
+        }
     }
 
     /// The forward path (the firmware's output), one estimate per sample; `raw`: per-sample

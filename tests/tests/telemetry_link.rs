@@ -224,9 +224,14 @@ fn motion_reports_with_and_without_the_branch_margin_decode() {
     };
     let packet = |len: usize| {
         let mut p = [0u8; TM_MAX];
-        let n = tm::build(&mut p, 1, service::HOUSEKEEPING, subtype::HK_REPORT, 0, |d| {
-            m.encode(d).map(|_| len)
-        })
+        let n = tm::build(
+            &mut p,
+            1,
+            service::HOUSEKEEPING,
+            subtype::HK_REPORT,
+            0,
+            |d| m.encode(d).map(|_| len),
+        )
         .unwrap();
         p[..n].to_vec()
     };

@@ -23,8 +23,8 @@ mod output;
 mod solve;
 
 pub use config::Options;
-pub use frames::{FRAME_QUATERNIONS, NUM_FRAMES};
 pub(crate) use crossing::widen_filtered;
+pub use frames::{FRAME_QUATERNIONS, NUM_FRAMES};
 
 use crate::arrangement::{Arrangement, ChannelMask, Model};
 use crate::design::Projection;

@@ -577,7 +577,11 @@ mod tests {
         }
         let (c, true_first, w) = last.unwrap();
         assert_eq!(c.candidate, if true_first { 0 } else { 1 });
-        assert!(c.branch_margin >= T_MARGIN && !c.branch_ambiguous, "{}", c.branch_margin);
+        assert!(
+            c.branch_margin >= T_MARGIN && !c.branch_ambiguous,
+            "{}",
+            c.branch_margin
+        );
         assert!(!c.sign_unresolved, "Ω′ ≠ 0 tells the signs apart");
         assert!(dist(&c.omega, &w) < 1e-6, "{:?} vs {w:?}", c.omega);
         assert!(dist(&c.filtered.0, &w) < 1e-2, "{:?}", c.filtered.0);
@@ -601,7 +605,10 @@ mod tests {
             let c = tr
                 .step(&[cand(w, dw), cand(shifted, dw)], DT, 1e-6, h, 1)
                 .unwrap();
-            assert!(c.branch_margin >= 0.0 && c.branch_margin < SIGN_MARGIN, "step {k}");
+            assert!(
+                c.branch_margin >= 0.0 && c.branch_margin < SIGN_MARGIN,
+                "step {k}"
+            );
             assert!(c.branch_ambiguous, "step {k}");
         }
     }
