@@ -36,6 +36,12 @@ pub const CROSSING_RHO: f64 = 6.6;
 /// `Ω = a`; see the module documentation).
 pub(super) fn widen_near_crossings<T: Real>(branches: &mut [Branch<T>]) {
     let n = branches.len().min(MAX_CANDIDATES);
+    if n < 2 {
+        for b in branches.iter_mut() {
+            b.widening = [T::ZERO; 3];
+        }
+        return;
+    }
     // The nearest other root of each, either sign: squared distance and difference.
     let mut near = [(T::of(1e30), [T::ZERO; 3]); MAX_CANDIDATES];
     for i in 0..n {

@@ -403,7 +403,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         }
         self.frame = frame;
         for (c, b) in cands.iter_mut().zip(branches.iter_mut()).take(nb) {
-            b.widening = [T::ZERO; 3];
             let omega = cfg.omega_of(frame, eps, b);
             let omega_var = match &cfg.proj[frame].general_cov {
                 Some(gc) => {
@@ -427,7 +426,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 fit: b.fit,
             };
         }
-        if cfg.model == Model::FreeFloat && nb > 1 {
+        if cfg.model == Model::FreeFloat {
             // After the candidates took their first-order variances: the tracker keeps those
             // (see `crossing`); the output's deviations are widened.
             crossing::widen_near_crossings(&mut branches[..nb]);
@@ -465,7 +464,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.domega_var = (sd[0].sq() + sd[1].sq() + sd[2].sq()) / T::of(3.0);
         if !cfg.options.raw {
             cfg.apply_filtered(est, choice.filtered);
-            crossing::widen_filtered(est, &b.widening);
+            if cfg.model == Model::FreeFloat {
+                crossing::widen_filtered(est, &b.widening);
+            }
         }
         if let Some(rec) = record {
             rec.t = t;

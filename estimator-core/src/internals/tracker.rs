@@ -406,12 +406,18 @@ impl<T: Real> Tracker<T> {
                 best = j;
             }
         }
-        // Normalise; drop hypotheses that fell COST_CAP behind (dead).
+        // Normalise; drop hypotheses that fell COST_CAP behind (dead); the margin of the
+        // cheapest surviving hypothesis on another branch.
         let base = next[best].cost;
+        let best_candidate = next[best].candidate;
+        let mut branch_margin = cap;
         let mut kept = 0;
         for j in 0..nn {
             next[j].cost -= base;
             if next[j].cost < cap || j == best {
+                if next[j].candidate != best_candidate {
+                    branch_margin = branch_margin.min(next[j].cost);
+                }
                 if j != kept {
                     let src = next[j];
                     next[kept].set(&src);
@@ -440,14 +446,8 @@ impl<T: Real> Tracker<T> {
         let margin = T::of(SIGN_MARGIN);
         let b = next[best];
         let mut sign_unresolved = false;
-        let mut branch_margin = cap;
         for (j, s) in next.iter().enumerate().take(nn) {
-            if j == best {
-                continue;
-            }
-            if s.candidate != b.candidate {
-                branch_margin = branch_margin.min(s.cost);
-            } else if s.sign != b.sign && s.cost < margin {
+            if j != best && s.cost < margin && s.candidate == b.candidate && s.sign != b.sign {
                 sign_unresolved = true;
             }
         }
