@@ -163,6 +163,34 @@ fn main() {
             rms[0], rms[1], rms[2]
         );
     }
+    if std::env::var_os("MLBIAS").is_some() {
+        // The truth-started ML's Ω′ and σ0 errors averaged over 0.1 s windows.
+        let ml = e2e_tests::ml::MlReference::new(&case.loaded, Model::FreeFloat);
+        let n = ((0.1 * params.rate_hz) as usize).max(1);
+        let (mut a2, mut s2, mut p2, mut k) = (0.0, 0.0, 0.0, 0usize);
+        let mut per = 0.0;
+        for (ts, ps) in case.truth.chunks(n).zip(case.outputs.chunks(n)) {
+            let mut m = [0.0; 6];
+            for (tr, p) in ts.iter().zip(ps.iter()) {
+                let e = ml.estimate(p, &tr.omega);
+                for i in 0..3 {
+                    m[i] += (e.domega[i] - tr.domega[i]) / ts.len() as f64;
+                    m[3 + i] += (e.sigma0[i] - tr.sigma0[i]) / ts.len() as f64;
+                    per += (e.domega[i] - tr.domega[i]).powi(2);
+                }
+                p2 += 1.0;
+            }
+            a2 += m[..3].iter().map(|v| v * v).sum::<f64>();
+            s2 += m[3..].iter().map(|v| v * v).sum::<f64>();
+            k += 1;
+        }
+        println!(
+            "ML: per-sample Ω′ RMS {:.4}; 0.1 s means: Ω′ {:.4}, σ0 {:.4e}",
+            (per / p2).sqrt(),
+            (a2 / k as f64).sqrt(),
+            (s2 / k as f64).sqrt()
+        );
+    }
     let window: Option<usize> = std::env::var("WINDOW").ok().and_then(|v| v.parse().ok());
     let forward_rows = forward(&case, env_pair("TRACE"));
     let raw = std::env::var_os("FILTERED").is_none();
@@ -186,6 +214,32 @@ fn main() {
                     (se / sm).sqrt()
                 );
             }
+        }
+        if std::env::var_os("BIAS").is_some() {
+            // Ω′ and σ0 errors averaged over 0.1 s windows (white errors shrink by √n).
+            let n = ((0.1 * params.rate_hz) as usize).max(1);
+            let (mut a2, mut s2, mut w2, mut k) = (0.0, 0.0, 0.0, 0);
+            for (rs, ts) in rows.chunks(n).zip(case.truth.chunks(n)) {
+                let mut m = [0.0; 9];
+                for (r, tr) in rs.iter().zip(ts.iter()) {
+                    for i in 0..3 {
+                        m[i] += (r.domega[i] - tr.domega[i]) / rs.len() as f64;
+                        m[3 + i] += (r.sigma0[i] - tr.sigma0[i]) / rs.len() as f64;
+                        m[6 + i] += (r.omega[i] - tr.omega[i]) / rs.len() as f64;
+                    }
+                }
+                a2 += m[..3].iter().map(|v| v * v).sum::<f64>();
+                s2 += m[3..6].iter().map(|v| v * v).sum::<f64>();
+                w2 += m[6..].iter().map(|v| v * v).sum::<f64>();
+                k += 1;
+            }
+            let k = k as f64;
+            println!(
+                "  0.1 s means: Ω′ error RMS {:.4}, σ0 {:.4e}, Ω {:.4} ({n} samples each)",
+                (a2 / k).sqrt(),
+                (s2 / k).sqrt(),
+                (w2 / k).sqrt()
+            );
         }
         let s = Score::of(rows, &case.truth);
         let [e0, e1, e2] = s.rms();
