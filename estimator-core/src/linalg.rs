@@ -169,12 +169,8 @@ impl<T: Real> Sym3<T> {
     /// `self + g gᵀ` (rank-one update, for normal equations `JᵀJ`).
     #[inline]
     pub fn add_outer(&mut self, g: &Vec3<T>) {
-        self.0[0] += g[0] * g[0];
-        self.0[1] += g[1] * g[1];
-        self.0[2] += g[2] * g[2];
-        self.0[3] += g[0] * g[1];
-        self.0[4] += g[0] * g[2];
-        self.0[5] += g[1] * g[2];
+        // The products by 1 are exact and folded away.
+        self.add_outer_scaled(T::ONE, g);
     }
 
     /// `self + k g gᵀ`.
