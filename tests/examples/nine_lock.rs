@@ -9,7 +9,10 @@
 //! Prints per path: Ω RMS, the share of rows more than 1 rad/s off, flagged rows, and rows off by
 //! more than 5 reported sd with no flag ("silent"). `WINDOW=SAMPLES` (with `ML=1`) also prints
 //! the Ω RMS of both per window; `TRACE=T0,T1` the candidates and hypotheses of the forward path
-//! between those times.
+//! between those times; `SILENT=1` every silent row, `DIAG=1` per row the root separation and
+//! the errors of the truth-nearest and the chosen root, `FILTERED=1` the filtered outputs,
+//! `BIAS=1` / `MLBIAS=1` 0.1 s means of the errors, `TWOSTATE=1` a single-hypothesis probe
+//! with Ω′ as a filter state (`SJ` its jerk density, `PROBEWIN=1` per 0.25 s).
 
 use e2e_tests::nine::{self, Params, Score};
 use estimator_core::smoother::StepRecord;
@@ -24,6 +27,84 @@ fn env_pair(name: &str) -> Option<(f64, f64)> {
     let v = std::env::var(name).ok()?;
     let (a, b) = v.split_once(',')?;
     Some((a.parse().ok()?, b.parse().ok()?))
+}
+
+/// A candidate root for the probe: Ω, Ω′ and their per-component variances.
+type Root = ([f64; 3], [f64; 3], f64, f64);
+
+// With `TWOSTATE=1`: every sample's candidates.
+thread_local! {
+    static CANDS: std::cell::RefCell<Option<Vec<Vec<Root>>>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// A feasibility probe, not the estimator: one hypothesis, a rate filter with Ω′ as a state
+/// (constant Ω′, white jerk of spectral density `SJ`), choosing each sample the signed root
+/// nearest its prediction. Returns the chosen roots.
+fn two_state(case: &nine::Case, cands: &[Vec<Root>]) -> Vec<[f64; 3]> {
+    let sj: f64 = std::env::var("SJ")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(25.0);
+    let use_d = std::env::var_os("NOD").is_none();
+    let mut w = case.truth[0].omega;
+    let mut d = case.truth[0].domega;
+    let (mut pww, mut pwd, mut pdd) = (1e-4, 0.0, 1.0);
+    let mut out = Vec::with_capacity(cands.len());
+    let mut last_t = case.truth[0].t;
+    for (tr, cs) in case.truth.iter().zip(cands.iter()) {
+        let dt = tr.t - last_t;
+        last_t = tr.t;
+        for k in 0..3 {
+            w[k] += d[k] * dt;
+        }
+        pww += 2.0 * dt * pwd + dt * dt * pdd + sj * dt * dt * dt / 3.0;
+        pwd += dt * pdd + sj * dt * dt / 2.0;
+        pdd += sj * dt;
+        // (cost, signed Ω, signed Ω′, their variances)
+        let mut best: Option<(f64, Root)> = None;
+        for (o, dd, rw, rd) in cs {
+            for sg in [1.0, -1.0] {
+                let z = [sg * o[0], sg * o[1], sg * o[2]];
+                let zd = [sg * dd[0], sg * dd[1], sg * dd[2]];
+                let nu2: f64 = (0..3).map(|k| (z[k] - w[k]).powi(2)).sum();
+                let cost = nu2 / (pww + rw) + 3.0 * (pww + rw).ln();
+                if best.is_none_or(|b| cost < b.0) {
+                    best = Some((cost, (z, zd, *rw, *rd)));
+                }
+            }
+        }
+        let Some((_, (z, zd, rw, rd))) = best else {
+            out.push(w);
+            continue;
+        };
+        let s1 = pww + rw;
+        let (kw, kd) = (pww / s1, pwd / s1);
+        for k in 0..3 {
+            let nu = z[k] - w[k];
+            w[k] += kw * nu;
+            d[k] += kd * nu;
+        }
+        let (a, b, c) = (pww, pwd, pdd);
+        pww = a - a * a / s1;
+        pwd = b - a * b / s1;
+        pdd = c - b * b / s1;
+        if use_d {
+            let s2 = pdd + rd;
+            let (kw2, kd2) = (pwd / s2, pdd / s2);
+            for k in 0..3 {
+                let nu = zd[k] - d[k];
+                w[k] += kw2 * nu;
+                d[k] += kd2 * nu;
+            }
+            let (a, b, c) = (pww, pwd, pdd);
+            pww = a - b * b / s2;
+            pwd = b - b * c / s2;
+            pdd = c - c * c / s2;
+        }
+        out.push(z);
+    }
+    out
 }
 
 /// The forward path, printing the candidates and hypotheses within `trace`.
@@ -132,6 +213,18 @@ fn forward(case: &nine::Case, trace: Option<(f64, f64)>) -> Vec<Estimate<f64>> {
                 rec.states[rec.best as usize].var.sqrt()
             );
         }
+        if CANDS.with(|c| c.borrow().is_some()) {
+            let list: Vec<Root> = rec
+                .candidates
+                .iter()
+                .take(rec.n_candidates as usize)
+                .map(|c| {
+                    let v = |s: &[f64; 3]| s.iter().map(|x| x * x).sum::<f64>() / 3.0;
+                    (c.omega, c.domega, v(&c.sd_omega), v(&c.sd_domega))
+                })
+                .collect();
+            CANDS.with(|c| c.borrow_mut().as_mut().unwrap().push(list));
+        }
         rows.push(r);
     }
     rows
@@ -192,7 +285,65 @@ fn main() {
         );
     }
     let window: Option<usize> = std::env::var("WINDOW").ok().and_then(|v| v.parse().ok());
+    if std::env::var_os("TWOSTATE").is_some() {
+        CANDS.with(|c| *c.borrow_mut() = Some(Vec::new()));
+    }
     let forward_rows = forward(&case, env_pair("TRACE"));
+    if let Some(cands) = CANDS.with(|c| c.borrow_mut().take()) {
+        let chosen = two_state(&case, &cands);
+        let e2: f64 = chosen
+            .iter()
+            .zip(case.truth.iter())
+            .map(|(z, tr)| dist(z, &tr.omega).powi(2))
+            .sum();
+        let near: f64 = cands
+            .iter()
+            .zip(case.truth.iter())
+            .map(|(cs, tr)| {
+                cs.iter()
+                    .map(|c| {
+                        let m = [-c.0[0], -c.0[1], -c.0[2]];
+                        dist(&c.0, &tr.omega).min(dist(&m, &tr.omega)).powi(2)
+                    })
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .filter(|v| v.is_finite())
+            .sum();
+        if std::env::var_os("PROBEWIN").is_some() {
+            let m = (0.25 / (case.truth[1].t - case.truth[0].t)) as usize;
+            for (k, (zs, (cs, ts))) in chosen
+                .chunks(m)
+                .zip(cands.chunks(m).zip(case.truth.chunks(m)))
+                .enumerate()
+            {
+                let (mut a, mut b, mut nb) = (0.0, 0.0, 0usize);
+                for (z, (c, tr)) in zs.iter().zip(cs.iter().zip(ts.iter())) {
+                    a += dist(z, &tr.omega).powi(2);
+                    b += c
+                        .iter()
+                        .map(|c| {
+                            let m = [-c.0[0], -c.0[1], -c.0[2]];
+                            dist(&c.0, &tr.omega).min(dist(&m, &tr.omega)).powi(2)
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    nb += usize::from(c.len() == 1);
+                }
+                let n = zs.len() as f64;
+                println!(
+                    "  t {:.2} probe {:.3} nearest {:.3} single-root rows {nb}",
+                    k as f64 * 0.25,
+                    (a / n).sqrt(),
+                    (b / n).sqrt()
+                );
+            }
+        }
+        let n = chosen.len() as f64;
+        println!(
+            "two-state probe: Ω RMS {:.4} (truth-nearest root {:.4})",
+            (e2 / n).sqrt(),
+            (near / n).sqrt()
+        );
+    }
     let raw = std::env::var_os("FILTERED").is_none();
     let smoothed = case.smoothed(raw);
     for (label, rows) in [("raw forward", &forward_rows), ("raw smoothed", &smoothed)] {
