@@ -27,6 +27,9 @@ pub struct StepRecord<T> {
     /// Per candidate, the diagonal of its deviations' widening near a branch crossing (model
     /// F; zero elsewhere), for the filtered output.
     pub widening: [crate::linalg::Vec3<T>; MAX_CANDIDATES],
+    /// The forward path's bound on its rate filter's drift from crossings after this sample
+    /// (model F; zero elsewhere).
+    pub crossing_bias: crate::linalg::Vec3<T>,
     /// The tracker's hypotheses after this sample.
     pub states: [State<T>; MAX_STATES],
     /// Number of hypotheses.
@@ -46,6 +49,7 @@ impl<T: Real> Default for StepRecord<T> {
             candidates: [Estimate::default(); MAX_CANDIDATES],
             n_candidates: 0,
             widening: [[T::ZERO; 3]; MAX_CANDIDATES],
+            crossing_bias: [T::ZERO; 3],
             states: [State::default(); MAX_STATES],
             n_states: 0,
             best: 0,
@@ -272,7 +276,8 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
             est.omega = st.omega;
             let sd = st.var.max(T::ZERO).sqrt();
             est.sd_omega = [sd, sd, sd];
-            crate::estimator::widen_filtered(&mut est, &oldest.widening[st.candidate as usize]);
+            let w = &oldest.widening[st.candidate as usize];
+            crate::estimator::widen_smoothed(&mut est, &oldest.crossing_bias, w);
             if let Some(g) = self.gamma_free_float {
                 est.field = g.add_scaled(T::ONE, &crate::linalg::Sym3::skew_squared(&st.omega));
                 let v = st.var.max(T::ZERO);

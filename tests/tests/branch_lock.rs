@@ -1,13 +1,11 @@
 //! Issue 15: the nine-channel ballistometer (model F, m = 3) across the family — sample rates
 //! 50 Hz–4 kHz, noise 1e-4–1e-2 m/s², arms 0.05–0.2 m, torque-free tumble and manoeuvre,
 //! 20 s records, two seeds — is never silently wrong: at most 0.1 % of the rows of a family
-//! have Ω more than 5 reported deviations off with no flag. Asserted for the raw outputs
-//! (per-sample Ω) on the forward path (the firmware's) and the smoothed one (`ballisto
-//! estimate`'s) on every family but the two of [`OPEN`], and for the filtered outputs (the
-//! rate filter's Ω, both tools' default) at 50 and 100 Hz: at 1 and 4 kHz the rate filter's
-//! deviation is too small (Ω error / sd RMS 1.1–2.5, up to 0.9 % of the rows silent; README,
-//! "Branch lock"), which issue 15 leaves open. The branch margin agrees with the flag on every
-//! row of every path, and no number is non-finite.
+//! have Ω more than 5 reported deviations off with no flag. Asserted on every family but the
+//! two of [`OPEN`] for the raw outputs (per-sample Ω) and the filtered ones (the rate filter's
+//! Ω, both tools' default), each on the forward path (the firmware's) and the smoothed one
+//! (`ballisto estimate`'s). The branch margin agrees with the flag on every row of every path,
+//! and no number is non-finite.
 //!
 //! Printed (`--nocapture`), the README's table: per family the Ω RMS of both paths, the rows
 //! more than 1 rad/s off, flagged, ambiguous and silent, the RMS of Ω's error over its reported
@@ -95,8 +93,7 @@ fn never_silently_wrong_across_the_family() {
                             "{rate_hz} Hz, {noise:e} m/s², {arm} m, {}, {path}",
                             motion(manoeuvre)
                         );
-                        let open = OPEN.contains(&(rate_hz, noise, arm, manoeuvre))
-                            || (path.starts_with("filtered") && rate_hz > 100.0);
+                        let open = OPEN.contains(&(rate_hz, noise, arm, manoeuvre));
                         if !open && sc.silent as f64 > SILENT_MAX * sc.rows as f64 {
                             failures
                                 .push(format!("{what}: {} of {} rows silent", sc.silent, sc.rows));

@@ -23,7 +23,7 @@ mod output;
 mod solve;
 
 pub use config::Options;
-pub(crate) use crossing::widen_filtered;
+pub(crate) use crossing::widen_smoothed;
 pub use frames::{FRAME_QUATERNIONS, NUM_FRAMES};
 
 use crate::arrangement::{Arrangement, ChannelMask, Model};
@@ -76,6 +76,11 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     last: usize,
     has_last: bool,
     domega_var: T,
+    /// Model F: the bound on the rate filter's error from roots taken near crossings, per
+    /// component ([`crossing::carry_bias`]).
+    crossing_bias: Vec3<T>,
+    /// `crossing_bias` is non-zero or this sample widened a branch.
+    crossing_active: bool,
     work: Work<T, CAP>,
 }
 
@@ -184,6 +189,8 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             last: 0,
             has_last: false,
             domega_var: T::ZERO,
+            crossing_bias: [T::ZERO; 3],
+            crossing_active: false,
             work: Work::new(),
         };
         e.configure(arr, model, ChannelMask::all(arr.len()), options)?;
@@ -241,6 +248,8 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.last_t = None;
         self.has_last = false;
         self.domega_var = T::ZERO;
+        self.crossing_bias = [T::ZERO; 3];
+        self.crossing_active = false;
     }
 
     /// The model in use.
@@ -429,7 +438,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         if cfg.model == Model::FreeFloat {
             // After the candidates took their first-order variances: the tracker keeps those
             // (see `crossing`); the output's deviations are widened.
-            crossing::widen_near_crossings(&mut branches[..nb]);
+            if crossing::widen_near_crossings(&mut branches[..nb]) {
+                self.crossing_active = true;
+            }
         }
         let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
         // Several histories per output only where mirror branches exist and can merge.
@@ -464,8 +475,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.domega_var = (sd[0].sq() + sd[1].sq() + sd[2].sq()) / T::of(3.0);
         if !cfg.options.raw {
             cfg.apply_filtered(est, choice.filtered);
-            if cfg.model == Model::FreeFloat {
-                crossing::widen_filtered(est, &b.widening);
+            if self.crossing_active {
+                let (posterior, r) = (choice.filtered.1, cands[choice.candidate].omega_var);
+                self.crossing_active =
+                    crossing::carry_bias(&mut self.crossing_bias, (posterior, r), &b.widening, est);
             }
         }
         if let Some(rec) = record {
@@ -473,6 +486,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             rec.valid = true;
             rec.raw = cfg.options.raw;
             rec.n_candidates = nb as u8;
+            rec.crossing_bias = self.crossing_bias;
             for (ci, b) in branches.iter().enumerate().take(nb) {
                 rec.widening[ci] = b.widening;
                 let e = &mut rec.candidates[ci];
