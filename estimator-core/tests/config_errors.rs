@@ -266,6 +266,17 @@ fn non_finite_samples_give_a_flagged_prediction_not_nan() {
         e.is_finite() && e.flags.has(estimator_core::Flags::INPUT_INVALID),
         "short sample"
     );
+    // A first sample that cannot be used: nothing is known, and the branch margin agrees with
+    // the branch flag (flag 16 exactly when the margin is below 16).
+    let mut est = Estimator::<f32, 32>::new(&a, Model::General, Options::default()).unwrap();
+    let e = est.update(0.0, &p);
+    assert!(e.flags.has(estimator_core::Flags::INPUT_INVALID));
+    assert_eq!(
+        e.flags.has(estimator_core::Flags::BRANCH_AMBIGUOUS),
+        e.branch_margin < 16.0,
+        "margin {}",
+        e.branch_margin
+    );
 }
 
 #[test]

@@ -57,7 +57,8 @@ struct Branch<T> {
     /// Model G: standard deviations of Ω (body frame), from the constant covariance of A.
     omega_sd: Vec3<T>,
     /// Model F: the diagonal of what [`crossing`] added to `cov(a)` near a crossing (zero
-    /// elsewhere); the filtered output adds it too.
+    /// elsewhere): what the filtered output's drift bound takes in (`crossing::carry_bias`,
+    /// and the smoother's `widen_smoothed`).
     widening: Vec3<T>,
 }
 
@@ -519,7 +520,12 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         *est = if self.has_last {
             last
         } else {
-            Estimate::default()
+            // Nothing known: no other branch in the tracker's memory either (a margin of 0
+            // would contradict the absent branch flag).
+            Estimate {
+                branch_margin: T::of(crate::tracker::COST_CAP),
+                ..Estimate::default()
+            }
         };
         est.omega = [
             est.omega[0] + est.domega[0] * dt,
