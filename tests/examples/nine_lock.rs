@@ -78,33 +78,39 @@ fn two_state(case: &nine::Case, cands: &[Vec<Root>]) -> Vec<[f64; 3]> {
             out.push(w);
             continue;
         };
-        let s1 = pww + rw;
-        let (kw, kd) = (pww / s1, pwd / s1);
-        for k in 0..3 {
-            let nu = z[k] - w[k];
-            w[k] += kw * nu;
-            d[k] += kd * nu;
-        }
-        let (a, b, c) = (pww, pwd, pdd);
-        pww = a - a * a / s1;
-        pwd = b - a * b / s1;
-        pdd = c - b * b / s1;
+        let mut p = (pww, pwd, pdd);
+        measure(&mut w, &mut d, &mut p, &z, rw, true);
         if use_d {
-            let s2 = pdd + rd;
-            let (kw2, kd2) = (pwd / s2, pdd / s2);
-            for k in 0..3 {
-                let nu = zd[k] - d[k];
-                w[k] += kw2 * nu;
-                d[k] += kd2 * nu;
-            }
-            let (a, b, c) = (pww, pwd, pdd);
-            pww = a - b * b / s2;
-            pwd = b - b * c / s2;
-            pdd = c - c * c / s2;
+            measure(&mut w, &mut d, &mut p, &zd, rd, false);
         }
+        (pww, pwd, pdd) = p;
         out.push(z);
     }
     out
+}
+
+/// One scalar-per-axis Kalman update of the probe's state (Ω `w`, Ω′ `d`, covariance `p` =
+/// (P_ww, P_wd, P_dd)) by a measurement `z` of Ω (`of_rate`) or of Ω′, variance `r`.
+fn measure(
+    w: &mut [f64; 3],
+    d: &mut [f64; 3],
+    p: &mut (f64, f64, f64),
+    z: &[f64; 3],
+    r: f64,
+    of_rate: bool,
+) {
+    let (a, b, c) = *p;
+    // P Hᵀ for H = [1 0] (Ω) or [0 1] (Ω′).
+    let (hw, hd) = if of_rate { (a, b) } else { (b, c) };
+    let s = if of_rate { a } else { c } + r;
+    let (kw, kd) = (hw / s, hd / s);
+    let x = if of_rate { &*w } else { &*d };
+    let nu: [f64; 3] = core::array::from_fn(|k| z[k] - x[k]);
+    for k in 0..3 {
+        w[k] += kw * nu[k];
+        d[k] += kd * nu[k];
+    }
+    *p = (a - kw * hw, b - kw * hd, c - kd * hd);
 }
 
 /// The forward path, printing the candidates and hypotheses within `trace`.

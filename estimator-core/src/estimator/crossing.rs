@@ -12,9 +12,8 @@
 //! the nearest other root (either sign), `ρ = h / s` and `w = 1 / (1 + (ρ / CROSSING_RHO)⁸)`:
 //! 1/2 at the 99.9 % point, 3.6 % at ρ = 10; the variance along `d` grows by the factor
 //! `1 + w ρ²`: ×4.6 at ρ = 10, ×1.014 at ρ = 25; beyond ρ = 37 (w < 1e-6) nothing is added.
-//! Through `cov(a)` the
-//! widening reaches the deviations of Ω and, in proportion to their dependence on `a`, of σ0
-//! and Ω′.
+//! Through `cov(a)` the widening reaches the deviations of Ω and, in proportion to their
+//! dependence on `a`, of σ0 and Ω′.
 //!
 //! Measured (`tests/examples/nine_lock.rs`, the nine-channel family of issue 15, 10 s, seeds
 //! 1–4): at 1 kHz the chosen root was more than 5 first-order deviations off on 1.1 % of the
