@@ -8,8 +8,9 @@
 //!
 //! Prints per path: Ω RMS, the share of rows more than 1 rad/s off, flagged rows, and rows off by
 //! more than 5 reported sd with no flag ("silent"). `WINDOW=SAMPLES` (with `ML=1`) also prints
-//! the Ω RMS of both per window; `TRACE=T0,T1` the candidates and hypotheses of the forward path
-//! between those times; `SILENT=1` every silent row, `DIAG=1` per row the root separation and
+//! the Ω RMS of both per window; `TRACE=T0,T1` the candidates and hypotheses (cost, candidate
+//! and sign, Ω and Ω′ error, filter deviation) of the forward path between those times;
+//! `SILENT=1` every silent row, `DIAG=1` per row the root separation and
 //! the errors of the truth-nearest and the chosen root, `FILTERED=1` the filtered outputs,
 //! `BIAS=1` / `MLBIAS=1` 0.1 s means of the errors, `TWOSTATE=1` a single-hypothesis probe
 //! with Ω′ as a filter state (`SJ` its jerk density, `PROBEWIN=1` per 0.25 s).
@@ -209,7 +210,15 @@ fn forward(case: &nine::Case, trace: Option<(f64, f64)>) -> Vec<Estimate<f64>> {
                 );
             }
             for s in rec.states.iter().take(rec.n_states as usize) {
-                print!(" ({:.1}, off {:.2})", s.cost, dist(&s.omega, &w));
+                print!(
+                    " ({:.1}, c{}{} off {:.2} Ω′ off {:.2} sd {:.3})",
+                    s.cost,
+                    s.candidate,
+                    if s.sign > 0 { '+' } else { '-' },
+                    dist(&s.omega, &w),
+                    dist(&s.domega, &tr.domega),
+                    s.var.sqrt()
+                );
             }
             println!(
                 " best {} error {:.3} model sd {:.4} best sd {:.4}",
