@@ -7,6 +7,7 @@
 //! unsettled). Memory is `O(LAG)`, not proportional to the record.
 
 use crate::estimate::{Estimate, Flags};
+use crate::estimator::LockMonitor;
 use crate::frame_uncertainty::FrameUncertainty;
 use crate::real::Real;
 use crate::tracker::{State, COST_CAP, MAX_CANDIDATES, MAX_STATES, SIGN_MARGIN};
@@ -38,6 +39,9 @@ pub struct StepRecord<T> {
     pub best: u8,
     /// The forward estimate (as output without smoothing).
     pub forward: Estimate<T>,
+    /// The forward path checked its choice with the lock monitor (model F, m = 3): the
+    /// smoother checks its own output path the same way.
+    pub monitored: bool,
 }
 
 impl<T: Real> Default for StepRecord<T> {
@@ -54,6 +58,7 @@ impl<T: Real> Default for StepRecord<T> {
             n_states: 0,
             best: 0,
             forward: Estimate::default(),
+            monitored: false,
         }
     }
 }
@@ -66,6 +71,7 @@ impl<T: Real> StepRecord<T> {
         self.n_states = 0;
         self.n_candidates = 0;
         self.forward = forward;
+        self.monitored = false;
     }
 }
 
@@ -81,6 +87,10 @@ pub struct Smoother<T, const LAG: usize> {
     len: usize,
     gamma_free_float: Option<crate::linalg::Sym3<T>>,
     frame_uncertainty: FrameUncertainty<T>,
+    /// The lock monitor over the output path (records that ask for it).
+    lock: LockMonitor<T>,
+    /// Time of the last output the monitor took.
+    lock_t: Option<f64>,
 }
 
 impl<T: Real, const LAG: usize> Default for Smoother<T, LAG> {
@@ -99,6 +109,8 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
             len: 0,
             gamma_free_float: None,
             frame_uncertainty: FrameUncertainty::default(),
+            lock: LockMonitor::default(),
+            lock_t: None,
         }
     }
 
@@ -120,7 +132,7 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
         if LAG == 0 || self.len < LAG {
             return None;
         }
-        let out = self.decide_oldest();
+        let out = self.emit_oldest();
         self.head = (self.head + 1) % LAG;
         self.len -= 1;
         Some(out)
@@ -155,7 +167,7 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
     /// Emits the remaining samples at the end of a record, oldest first.
     pub fn drain(&mut self, mut emit: impl FnMut(f64, Estimate<T>)) {
         while self.len > 0 {
-            let out = self.decide_oldest();
+            let out = self.emit_oldest();
             emit(out.0, out.1);
             self.head = (self.head + 1) % LAG.max(1);
             self.len -= 1;
@@ -190,27 +202,58 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
         }
     }
 
-    /// The decision for the oldest record. A record of an unusable sample gives the
-    /// estimator's held output (its deviations already widened by the frame uncertainty);
-    /// a usable one's estimate (from the candidates, or its forward one if it holds no
-    /// hypothesis) is the solve's and is widened here.
-    fn decide_oldest(&self) -> (f64, Estimate<T>) {
+    /// The decision for the oldest record, its output path checked by the lock monitor where
+    /// the record asks for it: a path that does not integrate its own Ω′ is flagged
+    /// branch-ambiguous with margin 0, as the forward path flags its own.
+    fn emit_oldest(&mut self) -> (f64, Estimate<T>) {
+        let (t, mut est, chosen) = self.decide_oldest();
         let oldest = self.at(0);
-        if !oldest.valid {
-            return (oldest.t, oldest.forward);
-        }
-        let (t, mut est) = if oldest.n_states == 0 {
-            (oldest.t, oldest.forward)
-        } else {
-            self.decide_valid()
+        let Some(chosen) = chosen.filter(|_| oldest.monitored) else {
+            return (t, est);
         };
-        if !self.frame_uncertainty.is_zero() {
-            self.frame_uncertainty.widen(&mut est);
+        let st = &oldest.states[chosen];
+        let root = &oldest.candidates[st.candidate as usize];
+        let sign = T::of(f64::from(st.sign));
+        let omega = [
+            sign * root.omega[0],
+            sign * root.omega[1],
+            sign * root.omega[2],
+        ];
+        let (domega, sd_omega, sd_domega) = (root.domega, root.sd_omega, root.sd_domega);
+        let dt = T::of(self.lock_t.map_or(0.0, |t0| t - t0));
+        self.lock_t = Some(t);
+        if self
+            .lock
+            .update((&omega, &domega), (&sd_omega, &sd_domega), dt)
+        {
+            crate::estimator::mark_inconsistent(&mut est);
         }
         (t, est)
     }
 
-    fn decide_valid(&self) -> (f64, Estimate<T>) {
+    /// The decision for the oldest record. A record of an unusable sample gives the
+    /// estimator's held output (its deviations already widened by the frame uncertainty);
+    /// a usable one's estimate (from the candidates, or its forward one if it holds no
+    /// hypothesis) is the solve's and is widened here.
+    /// Also returns the chosen state, if any.
+    fn decide_oldest(&self) -> (f64, Estimate<T>, Option<usize>) {
+        let oldest = self.at(0);
+        if !oldest.valid {
+            return (oldest.t, oldest.forward, None);
+        }
+        let (t, mut est, chosen) = if oldest.n_states == 0 {
+            (oldest.t, oldest.forward, None)
+        } else {
+            let (t, est, chosen) = self.decide_valid();
+            (t, est, Some(chosen))
+        };
+        if !self.frame_uncertainty.is_zero() {
+            self.frame_uncertainty.widen(&mut est);
+        }
+        (t, est, chosen)
+    }
+
+    fn decide_valid(&self) -> (f64, Estimate<T>, usize) {
         let oldest = self.at(0);
         // The newest record whose chain reaches the oldest without a break, and where each of
         // its states' chains leads at the oldest record (one backward pass for all of them).
@@ -285,7 +328,7 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
                 est.sd_field = crate::linalg::skew_squared_sd(&st.omega, &iso);
             }
         }
-        (oldest.t, est)
+        (oldest.t, est, choice)
     }
 }
 

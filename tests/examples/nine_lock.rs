@@ -13,7 +13,8 @@
 //! `SILENT=1` every silent row, `DIAG=1` per row the root separation and
 //! the errors of the truth-nearest and the chosen root, `FILTERED=1` the filtered outputs,
 //! `BIAS=1` / `MLBIAS=1` 0.1 s means of the errors, `TWOSTATE=1` a single-hypothesis probe
-//! with Ω′ as a filter state (`SJ` its jerk density, `PROBEWIN=1` per 0.25 s).
+//! with Ω′ as a filter state (`SJ` its jerk density, `PROBEWIN=1` per 0.25 s), `MONITOR=1`
+//! the rows the lock monitor flagged and how far off they are.
 
 use e2e_tests::nine::{self, Params, Score};
 use estimator_core::smoother::StepRecord;
@@ -198,7 +199,8 @@ fn forward(case: &nine::Case, trace: Option<(f64, f64)>) -> Vec<Estimate<f64>> {
                 let neg = [-c.omega[0], -c.omega[1], -c.omega[2]];
                 let d = dist(&c.omega, &w).min(dist(&neg, &w));
                 print!(
-                    " cand off {d:.3} dΩ′ {:.3} fit {:.1} Ω {:.4} {:.4} {:.4} Ω′ {:.3} {:.3} {:.3} |",
+                    " cand off {d:.3} sd {:.3} dΩ′ {:.3} fit {:.1} Ω {:.4} {:.4} {:.4} Ω′ {:.3} {:.3} {:.3} |",
+                    (c.sd_omega.iter().map(|x| x * x).sum::<f64>() / 3.0).sqrt(),
                     dist(&c.domega, &tr.domega),
                     c.chi2,
                     c.omega[0],
@@ -221,11 +223,13 @@ fn forward(case: &nine::Case, trace: Option<(f64, f64)>) -> Vec<Estimate<f64>> {
                 );
             }
             println!(
-                " best {} error {:.3} model sd {:.4} best sd {:.4}",
+                " best {} error {:.3} model sd {:.4} best sd {:.4} flags {} margin {:.1}",
                 rec.best,
                 dist(&r.omega, &w),
                 e.rate_model_variance().sqrt(),
-                rec.states[rec.best as usize].var.sqrt()
+                rec.states[rec.best as usize].var.sqrt(),
+                r.flags.0,
+                r.branch_margin
             );
         }
         if CANDS.with(|c| c.borrow().is_some()) {
@@ -240,9 +244,32 @@ fn forward(case: &nine::Case, trace: Option<(f64, f64)>) -> Vec<Estimate<f64>> {
                 .collect();
             CANDS.with(|c| c.borrow_mut().as_mut().unwrap().push(list));
         }
+        if std::env::var_os("MONITOR").is_some() {
+            // The lock monitor's verdicts: rows it flagged (margin 0 with the branch flag; the
+            // tracker's own margin is 0 only on exact ties) and how far off they are.
+            let z = (0..3)
+                .map(|i| ((r.omega[i] - w[i]) / r.sd_omega[i].max(1e-12)).abs())
+                .fold(0.0f64, f64::max);
+            let by_monitor =
+                r.branch_margin == 0.0 && r.flags.has(estimator_core::Flags::BRANCH_AMBIGUOUS);
+            MON.with(|m| {
+                let mut m = m.borrow_mut();
+                let k = usize::from(by_monitor);
+                m[k].0 += 1;
+                m[k].1 += usize::from(z > 3.0);
+                m[k].2 += usize::from(dist(&r.omega, &w) > 1.0);
+            });
+        }
         rows.push(r);
     }
     rows
+}
+
+thread_local! {
+    /// Per class (0: not flagged by the monitor, 1: flagged by it): rows, rows > 3 sd off,
+    /// rows > 1 rad/s off.
+    static MON: std::cell::RefCell<[(usize, usize, usize); 2]> =
+        const { std::cell::RefCell::new([(0, 0, 0); 2]) };
 }
 
 fn main() {
@@ -304,6 +331,16 @@ fn main() {
         CANDS.with(|c| *c.borrow_mut() = Some(Vec::new()));
     }
     let forward_rows = forward(&case, env_pair("TRACE"));
+    if std::env::var_os("MONITOR").is_some() {
+        MON.with(|m| {
+            let m = m.borrow();
+            println!(
+                "lock monitor (forward): flagged {} rows, {} of them > 3 sd off, {} > 1 rad/s off; \
+                 other rows {}, {} > 3 sd off, {} > 1 rad/s off",
+                m[1].0, m[1].1, m[1].2, m[0].0, m[0].1, m[0].2
+            );
+        });
+    }
     if let Some(cands) = CANDS.with(|c| c.borrow_mut().take()) {
         let chosen = two_state(&case, &cands);
         let e2: f64 = chosen

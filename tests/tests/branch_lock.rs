@@ -1,8 +1,8 @@
 //! Issue 15: the nine-channel ballistometer (model F, m = 3) across the family — sample rates
 //! 50 Hz–4 kHz, noise 1e-4–1e-2 m/s², arms 0.05–0.2 m, torque-free tumble and manoeuvre,
-//! 20 s records, two seeds — is never silently wrong: at most 0.1 % of the rows of a family
+//! 20 s records, four seeds — is never silently wrong: at most 0.1 % of the rows of a family
 //! have Ω more than 5 reported deviations off with no flag. Asserted on every family but the
-//! two of [`OPEN`] for the raw outputs (per-sample Ω) and the filtered ones (the rate filter's
+//! one of [`OPEN`] for the raw outputs (per-sample Ω) and the filtered ones (the rate filter's
 //! Ω, both tools' default), each on the forward path (the firmware's) and the smoothed one
 //! (`ballisto estimate`'s). The branch margin agrees with the flag on every row of every path,
 //! and no number is non-finite.
@@ -17,14 +17,17 @@ use e2e_tests::nine::{self, Params, Score};
 /// Share of silently wrong rows allowed per family (issue 15).
 const SILENT_MAX: f64 = 0.001;
 
-/// Families where the requirement is not met yet (issue 15 stays open on them; README,
-/// "Branch lock"): the shortest arm with the largest noise in a manoeuvre at 1 and 4 kHz
-/// (per-sample Ω deviation ≈ 0.2 rad/s), where the tracker holds a wrong branch for seconds
-/// with a margin far above 16. Measured here, forward / smoothed: 1 kHz 0.47 % / 0.10 %,
-/// 4 kHz 4.9 % / 6.0 % (in a release build of the same code 0.06 % at 4 kHz: the lock there
-/// turns on the last bit of the arithmetic). They are printed and checked for finite numbers
-/// and a margin that agrees with the flag, not for the share.
-const OPEN: [(f64, f64, f64, bool); 2] = [(1000.0, 1e-2, 0.05, true), (4000.0, 1e-2, 0.05, true)];
+/// Families where the requirement is not met yet (issue 15 stays open on it; README,
+/// "Branch lock"): the shortest arm with the largest noise in a manoeuvre at 1 kHz (per-sample
+/// Ω deviation ≈ 0.2 rad/s). Seed 4 loses the sign of every hypothesis twice (7.75–7.83 s and
+/// 11.84–12.37 s), at moments when Ω′ is too small for the lock monitor to see it within its
+/// window. Measured here (four seeds), silent raw forward / smoothed, filtered forward /
+/// smoothed: 0.37 / 0.61 %, 0.12 / 0.65 %; all of it seed 4 (seeds 1–3: at most 2 rows).
+/// Printed and checked for finite numbers and a margin that agrees with the flag, not for the
+/// share.
+const OPEN: [(f64, f64, f64, bool); 1] = [(1000.0, 1e-2, 0.05, true)];
+/// Seeds of every family.
+const SEEDS: [u64; 4] = [1, 2, 3, 4];
 /// Length of every record, s.
 const SECONDS: f64 = 20.0;
 
@@ -56,7 +59,7 @@ fn motion(manoeuvre: bool) -> &'static str {
     }
 }
 
-/// Every combination of rate, noise, arm and motion, two seeds each.
+/// Every combination of rate, noise, arm and motion, four seeds each.
 #[test]
 fn never_silently_wrong_across_the_family() {
     let mut failures = Vec::new();
@@ -66,7 +69,7 @@ fn never_silently_wrong_across_the_family() {
         for noise in [1e-4, 2e-3, 1e-2] {
             for arm in [0.05, 0.12, 0.2] {
                 for manoeuvre in [false, true] {
-                    let [f, s, ff, fs] = family(rate_hz, noise, arm, manoeuvre, &[1, 2]);
+                    let [f, s, ff, fs] = family(rate_hz, noise, arm, manoeuvre, &SEEDS);
                     println!(
                         "| {rate_hz} Hz | {noise:e} | {arm} | {} | {:.4} / {:.4} | {:.2} % | {:.1} % | {:.1} % | {:.3} % / {:.3} %; {:.3} % / {:.3} % | {:.2}; {:.2} |",
                         motion(manoeuvre),

@@ -19,6 +19,7 @@ mod config;
 mod crossing;
 mod deviations;
 mod frames;
+mod lock_monitor;
 mod output;
 mod solve;
 
@@ -40,6 +41,7 @@ use crate::tracker::{Candidate, Tracker, MAX_CANDIDATES};
 use crate::quadratic::MAX_ROOTS;
 use deviations::{omega_variances, KELVIN_MIN_SCORE};
 use frames::frame_score;
+pub(crate) use lock_monitor::{mark_inconsistent, LockMonitor};
 use output::CommonFlags;
 use solve::{readings_usable, MAX_STARTS};
 
@@ -83,6 +85,8 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     /// `crossing_bias` is non-zero or this sample widened a branch.
     crossing_active: bool,
     work: Work<T, CAP>,
+    /// Model F, m = 3: whether the chosen root's Ω integrates its Ω′ ([`lock_monitor`]).
+    lock: LockMonitor<T>,
 }
 
 /// The configuration and everything precomputed from it (paper eq. 10–11): read-only in the
@@ -192,6 +196,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             domega_var: T::ZERO,
             crossing_bias: [T::ZERO; 3],
             crossing_active: false,
+            lock: LockMonitor::default(),
             work: Work::new(),
         };
         e.configure(arr, model, ChannelMask::all(arr.len()), options)?;
@@ -251,6 +256,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.domega_var = T::ZERO;
         self.crossing_bias = [T::ZERO; 3];
         self.crossing_active = false;
+        self.lock.reset();
     }
 
     /// The model in use.
@@ -472,6 +478,11 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         cfg.finish(frame, eps, b, &choice.omega, !cfg.options.raw, prev, est);
         common.apply(est, choice.sign_unresolved, choice.branch_ambiguous);
         est.branch_margin = choice.branch_margin;
+        // Where mirror branches cross (m = 3), the chosen root's own path is checked as well:
+        // contradicted by it, the branch is in doubt whatever the tracker's margin.
+        if histories == 2 {
+            self.lock.check(&choice.omega, est, dt_t);
+        }
         let sd = &est.sd_domega;
         self.domega_var = (sd[0].sq() + sd[1].sq() + sd[2].sq()) / T::of(3.0);
         if !cfg.options.raw {
@@ -488,6 +499,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             rec.raw = cfg.options.raw;
             rec.n_candidates = nb as u8;
             rec.crossing_bias = self.crossing_bias;
+            rec.monitored = histories == 2;
             for (ci, b) in branches.iter().enumerate().take(nb) {
                 rec.widening[ci] = b.widening;
                 let e = &mut rec.candidates[ci];
