@@ -55,7 +55,7 @@ impl Model {
 }
 
 /// Up to `CAP` channels, validated on insertion.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Arrangement<const CAP: usize> {
     channels: [Channel; CAP],
     len: usize,

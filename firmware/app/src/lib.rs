@@ -15,7 +15,7 @@
 //!   with the ground), CCSDS sequence counts, COBS framing on the link. Telecommand acceptance
 //!   is `ballisto_link::telecommand`.
 //! - [`config`] — what runs: parts, channels, rate, arrangement, model (built-in table or
-//!   command); [`time`] — the time base.
+//!   command); [`time`] — the time base; [`calstore`] — calibration records in flash.
 //! - Feature `demo` (not in the flight image): `demo` — the built-in scenario of boards
 //!   without parts (sample sets from `sampler::synthetic`, a scripted uplink), run by the QEMU
 //!   board and checked on the host.
@@ -32,6 +32,7 @@
 mod fmt;
 
 pub mod app;
+pub mod calstore;
 pub mod config;
 #[cfg(feature = "demo")]
 pub mod demo;

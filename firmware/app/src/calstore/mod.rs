@@ -1,0 +1,19 @@
+//! Calibration records in flash that survive resets and power loss (issue 16, "Stored").
+//!
+//! - [`record`] — the versioned record with its CRC and monotonic calibration id;
+//! - [`store`] — the newest record in a flash range (`sequential-storage`'s map over the
+//!   `embedded-storage` NOR-flash traits) and the choice at boot between it and the built-in
+//!   arrangement, with the identity (id, source, CRC) housekeeping reports;
+//! - [`ram_flash`] — a NOR flash in RAM with byte-granular power loss: the QEMU board's flash
+//!   and the host tests' (`tests/calstore.rs`: a cut at every octet of a commit and of the
+//!   erases it causes leaves the old or the new record in use, never a part of one).
+
+pub mod ram_flash;
+pub mod record;
+pub mod store;
+
+pub use ram_flash::{Programming, RamFlash, RamFlashError};
+pub use record::{CalibrationRecord, RecordError, FORMAT_VERSION, MAX_RECORD};
+pub use store::{
+    select_at_boot, ActiveCalibration, CalibrationSource, CalibrationStore, NotUsed, StoreError,
+};

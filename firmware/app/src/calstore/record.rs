@@ -1,0 +1,321 @@
+//! The calibration record: a calibrated arrangement (every channel's position, axis, noise,
+//! bias and scale, and the frame's uncertainty) with a monotonic calibration id, in a versioned
+//! little-endian layout closed by a CRC-32.
+//!
+//! | offset | size | field |
+//! |---|---|---|
+//! | 0 | 4 | magic `BCAL` |
+//! | 4 | 2 | format version ([`FORMAT_VERSION`]) |
+//! | 6 | 1 | channels N (1 ..= [`MAX_CHANNELS`]) |
+//! | 7 | 1 | reserved, 0 |
+//! | 8 | 4 | calibration id (u32, > 0, increasing with every commit) |
+//! | 12 | 32 | frame uncertainty: rotation, translation, size, relative rotation (f64) |
+//! | 44 | 72 N | per channel: position (3 × f64, m), axis (3 × f64), noise, bias, scale (f64) |
+//! | 44 + 72 N | 4 | CRC-32 (ISO-HDLC, the zip/Ethernet one) of everything before it |
+//!
+//! f64 throughout, so a record holds exactly what `ballisto calibrate` wrote (1 776 octets at
+//! N = 24: the two 128 KiB sectors of the store hold 140 of them between erases).
+
+use ballisto_link::ids::MAX_CHANNELS;
+use crc::{Crc, CRC_32_ISO_HDLC};
+use estimator_core::{Arrangement, ConfigError, FrameUncertainty};
+
+/// The layout's version.
+pub const FORMAT_VERSION: u16 = 1;
+/// The magic number at offset 0.
+pub const MAGIC: [u8; 4] = *b"BCAL";
+/// Octets before the channels.
+const HEADER: usize = 44;
+/// Octets per channel.
+const PER_CHANNEL: usize = 72;
+/// The longest record (N = [`MAX_CHANNELS`]).
+pub const MAX_RECORD: usize = HEADER + PER_CHANNEL * MAX_CHANNELS + 4;
+
+const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
+
+/// A calibration: the calibrated arrangement and its id.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CalibrationRecord {
+    /// Monotonic calibration id (> 0).
+    pub id: u32,
+    /// The calibrated arrangement.
+    pub arrangement: Arrangement<MAX_CHANNELS>,
+}
+
+/// What is wrong with a stored record.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RecordError {
+    /// Shorter than its header or than its channels need.
+    Truncated {
+        /// Octets present.
+        len: usize,
+    },
+    /// Not a calibration record.
+    Magic,
+    /// A layout this firmware does not know.
+    Version {
+        /// The record's version.
+        found: u16,
+    },
+    /// No channel, or more than the firmware holds.
+    Channels {
+        /// The record's count.
+        found: u8,
+    },
+    /// Calibration id 0 (ids start at 1).
+    IdZero,
+    /// The CRC does not match the contents.
+    Crc {
+        /// CRC stored in the record.
+        stored: u32,
+        /// CRC of the contents.
+        computed: u32,
+    },
+    /// The contents are not a valid arrangement (estimator-core's check, naming the channel).
+    Invalid(ConfigError),
+}
+
+impl core::fmt::Display for RecordError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            RecordError::Truncated { len } => write!(f, "calibration record truncated ({len} octets)"),
+            RecordError::Magic => write!(f, "not a calibration record (magic)"),
+            RecordError::Version { found } => write!(
+                f,
+                "calibration record version {found}, this firmware reads {FORMAT_VERSION}"
+            ),
+            RecordError::Channels { found } => write!(
+                f,
+                "calibration record has {found} channels (1 ..= {MAX_CHANNELS})"
+            ),
+            RecordError::IdZero => write!(f, "calibration id 0"),
+            RecordError::Crc { stored, computed } => write!(
+                f,
+                "calibration record CRC {stored:#010x} does not match its contents ({computed:#010x})"
+            ),
+            RecordError::Invalid(e) => write!(f, "calibration record: {e}"),
+        }
+    }
+}
+
+impl CalibrationRecord {
+    /// Length of the encoding for N channels.
+    pub fn encoded_len(channels: usize) -> usize {
+        HEADER + PER_CHANNEL * channels + 4
+    }
+
+    /// Writes the record into `out` and returns the octets used. `out` must hold
+    /// [`CalibrationRecord::encoded_len`] octets ([`MAX_RECORD`] always does); `None` if not, or
+    /// if the id is 0.
+    pub fn encode(&self, out: &mut [u8]) -> Option<usize> {
+        let a = &self.arrangement;
+        let n = a.len();
+        let len = Self::encoded_len(n);
+        if self.id == 0 || n == 0 || out.len() < len {
+            return None;
+        }
+        let out = &mut out[..len];
+        out[0..4].copy_from_slice(&MAGIC);
+        out[4..6].copy_from_slice(&FORMAT_VERSION.to_le_bytes());
+        out[6] = n as u8;
+        out[7] = 0;
+        out[8..12].copy_from_slice(&self.id.to_le_bytes());
+        let fr = a.frame_uncertainty();
+        let mut at = 12;
+        let mut put = |out: &mut [u8], v: f64| {
+            out[at..at + 8].copy_from_slice(&v.to_le_bytes());
+            at += 8;
+        };
+        for v in [fr.rotation, fr.translation, fr.size, fr.relative_rotation] {
+            put(out, v);
+        }
+        for c in a.channels() {
+            for v in c.position.iter().chain(c.axis.iter()) {
+                put(out, *v);
+            }
+            for v in [c.noise, c.bias, c.scale] {
+                put(out, v);
+            }
+        }
+        let crc = CRC32.checksum(&out[..len - 4]);
+        out[len - 4..].copy_from_slice(&crc.to_le_bytes());
+        Some(len)
+    }
+
+    /// Reads a record, checking everything; the error names what is wrong.
+    pub fn decode(bytes: &[u8]) -> Result<Self, RecordError> {
+        if bytes.len() < HEADER + 4 {
+            return Err(RecordError::Truncated { len: bytes.len() });
+        }
+        if bytes[0..4] != MAGIC {
+            return Err(RecordError::Magic);
+        }
+        let version = u16::from_le_bytes([bytes[4], bytes[5]]);
+        if version != FORMAT_VERSION {
+            return Err(RecordError::Version { found: version });
+        }
+        let n = usize::from(bytes[6]);
+        if n == 0 || n > MAX_CHANNELS {
+            return Err(RecordError::Channels { found: bytes[6] });
+        }
+        let len = Self::encoded_len(n);
+        if bytes.len() < len {
+            return Err(RecordError::Truncated { len: bytes.len() });
+        }
+        let bytes = &bytes[..len];
+        let stored = u32::from_le_bytes([
+            bytes[len - 4],
+            bytes[len - 3],
+            bytes[len - 2],
+            bytes[len - 1],
+        ]);
+        let computed = CRC32.checksum(&bytes[..len - 4]);
+        if stored != computed {
+            return Err(RecordError::Crc { stored, computed });
+        }
+        let id = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+        if id == 0 {
+            return Err(RecordError::IdZero);
+        }
+        let mut at = 12;
+        let mut get = || {
+            let mut b = [0u8; 8];
+            b.copy_from_slice(&bytes[at..at + 8]);
+            at += 8;
+            f64::from_le_bytes(b)
+        };
+        let frame = FrameUncertainty {
+            rotation: get(),
+            translation: get(),
+            size: get(),
+            relative_rotation: get(),
+        };
+        let mut arrangement = Arrangement::new();
+        for channel in 0..n {
+            let position = [get(), get(), get()];
+            let axis = [get(), get(), get()];
+            let (noise, bias, scale) = (get(), get(), get());
+            arrangement
+                .push(position, axis, noise)
+                .map_err(RecordError::Invalid)?;
+            arrangement
+                .set_calibration(channel, bias, scale)
+                .map_err(RecordError::Invalid)?;
+        }
+        arrangement
+            .set_frame_uncertainty(frame)
+            .map_err(RecordError::Invalid)?;
+        Ok(CalibrationRecord { id, arrangement })
+    }
+
+    /// The CRC a valid encoding carries (its last four octets): with the id, the record's
+    /// identity in housekeeping. (Decoding normalises the axes again, which may move their
+    /// last bit: re-encoding a decoded record need not give the stored CRC, so the stored one
+    /// is the identity.)
+    pub fn stored_crc(bytes: &[u8]) -> Option<u32> {
+        let n = usize::from(*bytes.get(6)?);
+        let len = Self::encoded_len(n);
+        let b = bytes.get(len - 4..len)?;
+        Some(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(id: u32, n: usize) -> CalibrationRecord {
+        let mut a = Arrangement::new();
+        for i in 0..n {
+            let x = i as f64;
+            a.push([0.01 * x, -0.02 * x, 0.1], [1.0, 0.01 * x, -0.02], 1e-3)
+                .unwrap();
+            a.set_calibration(i, 0.02 - 0.001 * x, 1.0 + 0.001 * x)
+                .unwrap();
+        }
+        a.set_frame_uncertainty(FrameUncertainty {
+            rotation: 1e-4,
+            translation: 2e-5,
+            size: 3e-5,
+            relative_rotation: 4e-4,
+        })
+        .unwrap();
+        CalibrationRecord { id, arrangement: a }
+    }
+
+    /// Encoding and decoding give back the record: every number exactly (f64: what the host
+    /// wrote) but the axes, which the arrangement normalises again (to within 2 ulp).
+    #[test]
+    fn round_trip_is_exact() {
+        for n in [1, 9, MAX_CHANNELS] {
+            let r = record(7, n);
+            let mut buf = [0u8; MAX_RECORD];
+            let len = r.encode(&mut buf).unwrap();
+            assert_eq!(len, CalibrationRecord::encoded_len(n));
+            let d = CalibrationRecord::decode(&buf[..len]).unwrap();
+            assert_eq!(d.id, r.id);
+            let (a, b) = (d.arrangement, r.arrangement);
+            assert_eq!(a.frame_uncertainty(), b.frame_uncertainty());
+            assert_eq!(a.len(), b.len());
+            for (x, y) in a.channels().iter().zip(b.channels()) {
+                assert_eq!(
+                    (x.position, x.noise, x.bias, x.scale),
+                    (y.position, y.noise, y.bias, y.scale)
+                );
+                for k in 0..3 {
+                    assert!(
+                        (x.axis[k] - y.axis[k]).abs() <= 2.0 * f64::EPSILON,
+                        "{:?} {:?}",
+                        x.axis,
+                        y.axis
+                    );
+                }
+            }
+            let crc = CalibrationRecord::stored_crc(&buf[..len]).unwrap();
+            assert_eq!(crc, CRC32.checksum(&buf[..len - 4]));
+        }
+        assert_eq!(CalibrationRecord::encoded_len(24), 1776);
+    }
+
+    /// Every kind of damage is refused with its own error, and any flipped bit fails the CRC
+    /// (or an earlier check).
+    #[test]
+    fn damage_is_named() {
+        let r = record(3, 12);
+        let mut buf = [0u8; MAX_RECORD];
+        let len = r.encode(&mut buf).unwrap();
+        let good = buf;
+        let dec = |b: &[u8]| CalibrationRecord::decode(b);
+        assert_eq!(dec(&good[..10]), Err(RecordError::Truncated { len: 10 }));
+        assert_eq!(
+            dec(&good[..len - 1]),
+            Err(RecordError::Truncated { len: len - 1 })
+        );
+        let mut b = good;
+        b[0] = b'X';
+        assert_eq!(dec(&b[..len]), Err(RecordError::Magic));
+        let mut b = good;
+        b[4] = 2;
+        assert_eq!(dec(&b[..len]), Err(RecordError::Version { found: 2 }));
+        let mut b = good;
+        b[6] = 0;
+        assert_eq!(dec(&b[..len]), Err(RecordError::Channels { found: 0 }));
+        for bit in 0..(8 * len) {
+            let mut b = good;
+            b[bit / 8] ^= 1 << (bit % 8);
+            assert!(dec(&b[..len]).is_err(), "bit {bit} flipped and accepted");
+        }
+        // A record whose CRC is right but whose contents are not an arrangement.
+        let mut b = good;
+        b[44 + 6 * 8..44 + 7 * 8].copy_from_slice(&(-1.0f64).to_le_bytes()); // noise of channel 0
+        let crc = CRC32.checksum(&b[..len - 4]);
+        b[len - 4..len].copy_from_slice(&crc.to_le_bytes());
+        assert!(matches!(
+            dec(&b[..len]),
+            Err(RecordError::Invalid(ConfigError::NoiseInvalid {
+                channel: 0
+            }))
+        ));
+        assert_eq!(record(0, 3).encode(&mut [0u8; MAX_RECORD]), None);
+    }
+}
