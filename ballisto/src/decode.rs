@@ -9,7 +9,9 @@ use std::path::Path;
 use ballisto_link::decode::{decode, Decoded, Report};
 use ballisto_link::framing::{max_encoded_len, Deframed, Deframer};
 use ballisto_link::ids::TC_MAX;
-use ballisto_link::{subtype, EventId, Housekeeping, Mode, ModelCode, PartState};
+use ballisto_link::{
+    subtype, CalibrationSource, EventId, Housekeeping, Mode, ModelCode, PartState,
+};
 
 /// Extra columns of the decoded estimates file, after the estimates-file columns.
 pub const LINK_COLUMNS: [&str; 4] = ["k", "missing_parts", "excluded_parts", "excluded_channels"];
@@ -200,6 +202,16 @@ fn housekeeping_text(h: &Housekeeping) -> String {
             " | part{i} {state} reads={} bus_errors={} implausible={} missed={} failed_starts={} resyncs={}",
             c.reads, c.bus_errors, c.implausible, c.missed, c.failed_starts, c.resyncs
         );
+    }
+    match h.calibration {
+        Some(c) => {
+            let source = match c.source {
+                CalibrationSource::Builtin => "builtin",
+                CalibrationSource::Flash => "flash",
+            };
+            let _ = write!(s, " | calibration {source} id={} crc={:#010x}", c.id, c.crc);
+        }
+        None => s.push_str(" | calibration unknown (layout before issue 16)"),
     }
     s
 }

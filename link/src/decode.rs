@@ -7,7 +7,7 @@ use spacepackets::CcsdsPacket;
 use crate::codec::Get;
 use crate::cuc::{cuc_seconds, TIME_LEN};
 use crate::event::{Event, EventId, EVENT_LEN};
-use crate::housekeeping::{Housekeeping, HOUSEKEEPING_LEN};
+use crate::housekeeping::{Housekeeping, HOUSEKEEPING_LEN, HOUSEKEEPING_LEN_NO_CALIBRATION};
 use crate::ids::{service, sid, subtype, APID};
 use crate::motion::{MotionReport, MOTION_LEN, MOTION_LEN_NO_MARGIN};
 use crate::verification::{FailureCode, RequestId, Verification};
@@ -91,8 +91,12 @@ pub fn decode(raw: &[u8]) -> Result<Decoded, DecodeError> {
                 m.k = k;
                 Report::Motion(m)
             }
-            sid::HOUSEKEEPING if data.len() == HOUSEKEEPING_LEN => {
-                Report::Housekeeping(Housekeeping::decode(&mut g).ok_or(bad)?)
+            sid::HOUSEKEEPING
+                if data.len() == HOUSEKEEPING_LEN
+                    || data.len() == HOUSEKEEPING_LEN_NO_CALIBRATION =>
+            {
+                let calibration = data.len() == HOUSEKEEPING_LEN;
+                Report::Housekeeping(Housekeeping::decode(&mut g, calibration).ok_or(bad)?)
             }
             sid::MOTION | sid::HOUSEKEEPING => return Err(bad),
             _ => return Err(DecodeError::Unknown(s, st)),

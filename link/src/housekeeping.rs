@@ -1,5 +1,6 @@
 //! The housekeeping report, TM[3,25] SID 2: mode, model, rates, the loop's and every part's
-//! counters, the link's counters.
+//! counters, the link's counters, and the identity of the calibration in use (issue 16: added
+//! at the end; the decoder still reads the layout before it).
 
 use crate::codec::{Get, Put};
 use crate::ids::{sid, PART_SLOTS};
@@ -30,6 +31,43 @@ impl TryFrom<u8> for PartState {
             _ => Err(v),
         }
     }
+}
+
+/// Where the calibration in use comes from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(u8)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CalibrationSource {
+    /// The built-in or commanded arrangement: no stored calibration is in use.
+    #[default]
+    Builtin = 0,
+    /// The newest calibration record in flash.
+    Flash = 1,
+}
+
+impl TryFrom<u8> for CalibrationSource {
+    type Error = u8;
+
+    fn try_from(v: u8) -> Result<Self, u8> {
+        match v {
+            0 => Ok(CalibrationSource::Builtin),
+            1 => Ok(CalibrationSource::Flash),
+            _ => Err(v),
+        }
+    }
+}
+
+/// The identity of the calibration in use: its source, calibration id and the CRC-32 its
+/// record carries (id and CRC 0 for the built-in one).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CalibrationId {
+    /// Where it comes from.
+    pub source: CalibrationSource,
+    /// Calibration id (monotonic; 0: built-in).
+    pub id: u32,
+    /// CRC-32 of its record (0: built-in).
+    pub crc: u32,
 }
 
 /// The sampling loop's counters (since boot).
@@ -101,10 +139,14 @@ pub struct Housekeeping {
     pub tm_lost: u32,
     /// Per part slot: its state and counters.
     pub parts: [PartCounters; PART_SLOTS],
+    /// The calibration in use (`None` when decoded from the layout before it).
+    pub calibration: Option<CalibrationId>,
 }
 
 /// Application data length of the housekeeping report.
-pub const HOUSEKEEPING_LEN: usize = 2 + 6 + 4 + 4 + 20 + 1 + 8 + 16 + 8 * 25;
+pub const HOUSEKEEPING_LEN: usize = HOUSEKEEPING_LEN_NO_CALIBRATION + 9;
+/// Application data length of the layout before the calibration identity (still decoded).
+pub const HOUSEKEEPING_LEN_NO_CALIBRATION: usize = 2 + 6 + 4 + 4 + 20 + 1 + 8 + 16 + 8 * 25;
 
 impl Housekeeping {
     /// Encodes the application data; returns its length ([`HOUSEKEEPING_LEN`]).
@@ -139,12 +181,15 @@ impl Housekeeping {
                 .u32(c.failed_starts)
                 .u32(c.resyncs);
         }
+        let cal = self.calibration.unwrap_or_default();
+        p.u8(cal.source as u8).u32(cal.id).u32(cal.crc);
         p.finish()
     }
 
-    /// Decodes the application data after the SID.
+    /// Decodes the application data after the SID; `calibration`: the layout with the
+    /// calibration identity ([`HOUSEKEEPING_LEN`]) or the one before it.
     #[cfg_attr(not(feature = "ground"), allow(dead_code))]
-    pub(crate) fn decode(g: &mut Get) -> Option<Self> {
+    pub(crate) fn decode(g: &mut Get, calibration: bool) -> Option<Self> {
         let mut h = Housekeeping {
             version: g.array()?,
             mode: g.u8()?,
@@ -179,6 +224,13 @@ impl Housekeeping {
                 failed_starts: g.u32()?,
                 resyncs: g.u32()?,
             };
+        }
+        if calibration {
+            h.calibration = Some(CalibrationId {
+                source: CalibrationSource::try_from(g.u8()?).ok()?,
+                id: g.u32()?,
+                crc: g.u32()?,
+            });
         }
         Some(h)
     }

@@ -38,7 +38,9 @@ pub mod tm;
 pub mod verification;
 
 pub use event::{Event, EventId};
-pub use housekeeping::{Housekeeping, LoopCounters, PartCounters, PartState};
+pub use housekeeping::{
+    CalibrationId, CalibrationSource, Housekeeping, LoopCounters, PartCounters, PartState,
+};
 pub use ids::{service, sid, subtype, APID};
 pub use masks::{ChannelSet, PartSet};
 pub use mode::{Mode, ModelCode};

@@ -10,8 +10,8 @@ use ballisto_link::event::EVENT_LEN;
 use ballisto_link::housekeeping::HOUSEKEEPING_LEN;
 use ballisto_link::motion::MOTION_LEN;
 use ballisto_link::{
-    ChannelSet, Housekeeping, LoopCounters, MotionReport, PartCounters, PartSet, PartState,
-    RequestId, Verification,
+    CalibrationId, CalibrationSource, ChannelSet, Housekeeping, LoopCounters, MotionReport,
+    PartCounters, PartSet, PartState, RequestId, Verification,
 };
 use estimator_core::linalg::Sym3;
 use estimator_core::{Estimate, Flags};
@@ -242,6 +242,11 @@ fn housekeeping_table_matches_the_encoder() {
         frames_garbage: 9,
         tm_lost: 10,
         parts,
+        calibration: Some(CalibrationId {
+            source: CalibrationSource::Flash,
+            id: 11,
+            crc: 12,
+        }),
     };
     let mut data = [0u8; HOUSEKEEPING_LEN];
     assert_eq!(hk.encode(&mut data), Some(HOUSEKEEPING_LEN));
@@ -271,6 +276,9 @@ fn housekeeping_table_matches_the_encoder() {
             "per part slot",
             vec![0.0, 23.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         ),
+        ("calibration source", vec![1.0]),
+        ("calibration id", vec![11.0]),
+        ("CRC-32 of the calibration record", vec![12.0]),
     ];
     check_rows(&data, &rows, &expected, "housekeeping");
     // Slot 1 octet by octet: the state, then six u32 counters.

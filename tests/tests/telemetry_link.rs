@@ -256,3 +256,63 @@ fn motion_reports_with_and_without_the_branch_margin_decode() {
         Err(DecodeError::Data(..))
     ));
 }
+
+/// The decoder reads the housekeeping report with the calibration identity (270 octets) and the
+/// layout before it (261: the identity is unknown); any other length is refused; a source code
+/// it does not know is refused too.
+#[test]
+fn housekeeping_with_and_without_the_calibration_identity_decodes() {
+    use ballisto_link::decode::{decode, DecodeError};
+    use ballisto_link::housekeeping::{HOUSEKEEPING_LEN, HOUSEKEEPING_LEN_NO_CALIBRATION};
+    use ballisto_link::ids::TM_MAX;
+    use ballisto_link::{tm, CalibrationId, CalibrationSource, Housekeeping};
+    let id = CalibrationId {
+        source: CalibrationSource::Flash,
+        id: 42,
+        crc: 0xDEAD_BEEF,
+    };
+    let hk = Housekeeping {
+        channels: 12,
+        estimates: 77,
+        calibration: Some(id),
+        ..Default::default()
+    };
+    let packet = |len: usize, patch: Option<(usize, u8)>| {
+        let mut p = [0u8; TM_MAX];
+        let n = tm::build(
+            &mut p,
+            1,
+            service::HOUSEKEEPING,
+            subtype::HK_REPORT,
+            0,
+            |d| {
+                hk.encode(d)?;
+                if let Some((at, v)) = patch {
+                    d[at] = v;
+                }
+                Some(len)
+            },
+        )
+        .unwrap();
+        p[..n].to_vec()
+    };
+    for (len, expected) in [
+        (HOUSEKEEPING_LEN, Some(id)),
+        (HOUSEKEEPING_LEN_NO_CALIBRATION, None),
+    ] {
+        let Report::Housekeeping(h) = decode(&packet(len, None)).expect("decodes").report else {
+            panic!("not housekeeping");
+        };
+        assert_eq!((h.channels, h.estimates), (12, 77));
+        assert_eq!(h.calibration, expected);
+    }
+    assert!(matches!(
+        decode(&packet(HOUSEKEEPING_LEN - 1, None)),
+        Err(DecodeError::Data(..))
+    ));
+    // Source code 7 at offset 261: refused, not guessed.
+    assert!(matches!(
+        decode(&packet(HOUSEKEEPING_LEN, Some((261, 7)))),
+        Err(DecodeError::Data(..))
+    ));
+}

@@ -79,7 +79,10 @@ impl App {
         let model = self.estimation.estimator().model();
         self.estimation
             .configure(&arrangement, model)
-            .map_err(refused)
+            .map_err(refused)?;
+        // A commanded arrangement is no stored calibration.
+        self.calibration = ballisto_link::CalibrationId::default();
+        Ok(())
     }
 }
 

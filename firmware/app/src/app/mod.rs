@@ -52,6 +52,7 @@ const fn parse_u8(s: &str) -> u8 {
     v
 }
 
+use ballisto_link::CalibrationId;
 /// Operating mode (the link's codes).
 pub use ballisto_link::Mode;
 
@@ -71,6 +72,8 @@ pub struct App {
     parts_seen: [PartState; MAX_PARTS],
     lost_seen: (u32, u32),
     health: Health,
+    /// The calibration the arrangement in use comes from (housekeeping reports it).
+    calibration: CalibrationId,
 }
 
 impl App {
@@ -96,7 +99,19 @@ impl App {
             parts_seen,
             lost_seen: (0, 0),
             health: Health::default(),
+            calibration: CalibrationId::default(),
         })
+    }
+
+    /// Says which calibration the configuration's arrangement is (the board's choice at boot
+    /// between the stored calibration and the built-in one: `calstore::select_at_boot`).
+    pub fn set_calibration(&mut self, calibration: CalibrationId) {
+        self.calibration = calibration;
+    }
+
+    /// The calibration in use.
+    pub fn calibration(&self) -> CalibrationId {
+        self.calibration
     }
 
     /// The estimation (model, mask, counters).

@@ -48,6 +48,7 @@ impl App {
             frames_garbage: self.frames_garbage,
             tm_lost,
             parts: self.health.parts.map(|p| part_counters(p.as_ref())),
+            calibration: Some(self.calibration),
         }
     }
 

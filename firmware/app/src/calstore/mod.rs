@@ -12,8 +12,7 @@ pub mod ram_flash;
 pub mod record;
 pub mod store;
 
+pub use ballisto_link::{CalibrationId, CalibrationSource};
 pub use ram_flash::{Programming, RamFlash, RamFlashError};
 pub use record::{CalibrationRecord, RecordError, FORMAT_VERSION, MAX_RECORD};
-pub use store::{
-    select_at_boot, ActiveCalibration, CalibrationSource, CalibrationStore, NotUsed, StoreError,
-};
+pub use store::{select_at_boot, CalibrationStore, NotUsed, StoreError};

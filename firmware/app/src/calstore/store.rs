@@ -12,6 +12,7 @@ use sequential_storage::map::{MapConfig, MapConfigError, MapStorage};
 
 use super::record::{CalibrationRecord, RecordError, MAX_RECORD};
 use ballisto_link::ids::MAX_CHANNELS;
+use ballisto_link::{CalibrationId, CalibrationSource};
 
 /// The map key of the active calibration.
 const KEY: u8 = 1;
@@ -117,26 +118,6 @@ impl<F: NorFlash> CalibrationStore<F> {
     }
 }
 
-/// Where the calibration in use comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CalibrationSource {
-    /// The firmware's built-in (or commanded) arrangement: no stored calibration is in use.
-    Builtin,
-    /// The newest record in flash.
-    Flash,
-}
-
-/// The calibration in use and its identity (housekeeping reports it).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ActiveCalibration {
-    /// Where it comes from.
-    pub source: CalibrationSource,
-    /// Its calibration id (0 for the built-in one).
-    pub id: u32,
-    /// The CRC of its record (0 for the built-in one).
-    pub crc: u32,
-}
-
 /// Why the stored calibration was not used at boot (the built-in one was).
 #[derive(Debug)]
 pub enum NotUsed<E> {
@@ -154,24 +135,20 @@ pub enum NotUsed<E> {
 }
 
 /// The arrangement to run at boot: the newest stored calibration if it is whole and fits the
-/// configured channels, else `builtin`; with its identity and, if the stored one was not used,
-/// why.
+/// configured channels, else `builtin`; with its identity (for `App::set_calibration` and
+/// housekeeping) and, if the stored one was not used, why.
 pub async fn select_at_boot<F: NorFlash>(
     store: &mut CalibrationStore<F>,
     builtin: &Arrangement<MAX_CHANNELS>,
 ) -> (
     Arrangement<MAX_CHANNELS>,
-    ActiveCalibration,
+    CalibrationId,
     Option<NotUsed<F::Error>>,
 ) {
-    let fallback = ActiveCalibration {
-        source: CalibrationSource::Builtin,
-        id: 0,
-        crc: 0,
-    };
+    let fallback = CalibrationId::default();
     match store.newest().await {
         Ok(Some((r, crc))) if r.arrangement.len() == builtin.len() => {
-            let active = ActiveCalibration {
+            let active = CalibrationId {
                 source: CalibrationSource::Flash,
                 id: r.id,
                 crc,
