@@ -39,9 +39,23 @@ impl TimeBase for StepTime {
 }
 
 /// The built-in scenario on the host, booting at 0 with the first instant one period later.
+/// The scenario's calibration boots on a RAM flash of the QEMU board's layout (two 4 KiB
+/// sectors, 32-octet words): the configuration they leave and what each boot chose.
+fn calibration_boots() -> (ballisto_fw::config::AppConfig, demo::CalibrationBoots) {
+    use ballisto_fw::calstore::{Programming, RamFlash};
+    let mut mem = vec![0u8; 2 * 4096];
+    let mut erases = [0u32; 2];
+    let mut flash = RamFlash::<4096, 32>::new(&mut mem, &mut erases, Programming::WordOnce);
+    flash.erase_all();
+    let (config, boots, _) =
+        embassy_futures::block_on(demo::calibration_boots(flash, 0..2 * 4096)).unwrap();
+    (config, boots)
+}
+
 fn host_run() -> Vec<u8> {
-    let config = demo::config();
+    let (config, boots) = calibration_boots();
     let mut app = App::new(&config, Mode::Operate).unwrap();
+    app.set_calibration(boots.second);
     let mut source = Synthetic::new(&config, Some(demo::OUTAGE));
     let mut time = StepTime(Rc::new(Cell::new(0)));
     let app_time = time.clone();
@@ -229,4 +243,38 @@ fn qemu_stream_matches_the_host_run() {
             .collect()
     };
     assert_eq!(kinds(&qemu), kinds(&host));
+    // The QEMU board's store → reset → boot chose as the host's did.
+    let calibration = |s: &Stream| {
+        s.packets.iter().find_map(|p| match &p.report {
+            Report::Housekeeping(h) => Some(h.calibration),
+            _ => None,
+        })
+    };
+    let q = calibration(&qemu).expect("QEMU housekeeping");
+    assert_eq!(q, calibration(&host).unwrap());
+    println!("QEMU: calibration in use {q:?}");
+}
+
+/// The scenario's store → reset → boot: the first boot, on an erased store, runs the built-in
+/// arrangement; the second, after committing it as calibration 1, runs the record read back
+/// from flash, and says so (source, id, the record's CRC) in every housekeeping report.
+#[test]
+fn calibration_store_reset_boot() {
+    use ballisto_fw::calstore::CalibrationSource;
+    let (config, boots) = calibration_boots();
+    assert_eq!(boots.first.source, CalibrationSource::Builtin);
+    assert_eq!((boots.first.id, boots.first.crc), (0, 0));
+    assert_eq!(boots.second.source, CalibrationSource::Flash);
+    assert_eq!(boots.second.id, 1);
+    assert_ne!(boots.second.crc, 0);
+    assert_eq!(config.arrangement.len(), demo::config().arrangement.len());
+    let stream = decode_stream(&host_run());
+    let mut seen = 0;
+    for p in &stream.packets {
+        if let Report::Housekeeping(h) = &p.report {
+            assert_eq!(h.calibration, Some(boots.second));
+            seen += 1;
+        }
+    }
+    assert!(seen >= 10, "{seen} housekeeping reports");
 }

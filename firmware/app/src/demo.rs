@@ -9,6 +9,12 @@ use ballisto_link::telecommand::{self, ACK_ACCEPTANCE, ACK_COMPLETION};
 use ballisto_link::{service, sid, subtype};
 use embedded_io_async::{ErrorType, Read};
 
+use core::ops::Range;
+
+use ballisto_link::CalibrationId;
+use embedded_storage_async::nor_flash::NorFlash;
+
+use crate::calstore::{select_at_boot, CalibrationRecord, CalibrationStore};
 use crate::config::{tetra, AppConfig};
 use crate::sampler::synthetic::Outage;
 use crate::time::{Nanos, TimeBase};
@@ -26,6 +32,45 @@ pub const OUTAGE: Outage = Outage {
 /// The configuration: the built-in `tetra` board.
 pub fn config() -> AppConfig {
     tetra()
+}
+
+/// What the calibration boots of the scenario found ([`calibration_boots`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CalibrationBoots {
+    /// The first boot, on an erased store: the built-in arrangement.
+    pub first: CalibrationId,
+    /// The second, after the commit and a reset: the stored record.
+    pub second: CalibrationId,
+}
+
+/// The scenario's store → reset → boot on `flash` (erased; `range` of it, whole sectors): boot
+/// on the empty store (the built-in arrangement), commit the built-in arrangement as
+/// calibration 1 (what a ground calibration uploaded by command would be), give the flash
+/// back as a reset does, and boot again from the store. Returns the configuration with the
+/// arrangement read back from flash, what each boot chose, and the flash.
+pub async fn calibration_boots<F: NorFlash>(
+    flash: F,
+    range: Range<u32>,
+) -> Result<(AppConfig, CalibrationBoots, F), &'static str> {
+    let mut config = config();
+    let builtin = config.arrangement.clone();
+    let mut store = CalibrationStore::new(flash, range.clone()).map_err(|_| "store range")?;
+    let (_, first, _) = select_at_boot(&mut store, &builtin).await;
+    let record = CalibrationRecord {
+        id: 1,
+        arrangement: builtin.clone(),
+    };
+    store.commit(&record).await.map_err(|_| "commit")?;
+    // The reset: everything in RAM is gone but the flash.
+    let flash = store.into_flash();
+    let mut store = CalibrationStore::new(flash, range).map_err(|_| "store range")?;
+    let (arrangement, second, _) = select_at_boot(&mut store, &builtin).await;
+    config.arrangement = arrangement;
+    Ok((
+        config,
+        CalibrationBoots { first, second },
+        store.into_flash(),
+    ))
 }
 
 /// What arrives on the uplink.

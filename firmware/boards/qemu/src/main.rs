@@ -4,7 +4,9 @@
 //! - the built-in scenario in place of the parts (QEMU has no accelerometers) and its
 //!   scripted uplink,
 //! - the telemetry link written to `telemetry.bin` in QEMU's working directory through
-//!   semihosting.
+//!   semihosting,
+//! - a RAM-backed flash for the calibration store, on which the scenario's store → reset →
+//!   boot runs before the application starts (`demo::calibration_boots`).
 //!
 //! It runs [`ballisto_fw::demo::SETS`] sets, prints a summary and exits with status 0, or 1
 //! if telemetry was lost, the file could not be written or nothing was estimated.
@@ -19,6 +21,7 @@ mod board {
     use ballisto_fw::app::{
         app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
     };
+    use ballisto_fw::calstore::{Programming, RamFlash};
     use ballisto_fw::demo::{self, ScriptedUplink, SETS};
     use ballisto_fw::sampler::synthetic::{synthetic_task, Synthetic};
     use ballisto_fw::sampler::{HealthBoard, SampleSet};
@@ -110,6 +113,10 @@ mod board {
     static APP: StaticCell<App> = StaticCell::new();
     static SOURCE: StaticCell<Synthetic> = StaticCell::new();
     static TELEMETRY: StaticCell<Telemetry<HostFile>> = StaticCell::new();
+    /// Sector of the RAM-backed calibration flash.
+    const CAL_SECTOR: usize = 4096;
+    static CAL_FLASH: StaticCell<[u8; 2 * CAL_SECTOR]> = StaticCell::new();
+    static CAL_ERASES: StaticCell<[u32; 2]> = StaticCell::new();
     static OBSERVATIONS: Observations<Cs> = Observations::new();
 
     #[embassy_executor::task]
@@ -191,11 +198,28 @@ mod board {
             hprintln!("board-qemu: cannot create telemetry.bin");
             finish(false)
         };
-        let config = demo::config();
-        let Ok(app) = App::new(&config, Mode::Operate) else {
+        // Calibration: the scenario's store → reset → boot on a RAM-backed flash of the
+        // STM32H743's word size (two 4 KiB sectors here), then the arrangement it chose.
+        let mem = CAL_FLASH.init([0u8; 2 * CAL_SECTOR]);
+        let erases = CAL_ERASES.init([0u32; 2]);
+        let mut flash = RamFlash::<CAL_SECTOR, 32>::new(mem, erases, Programming::WordOnce);
+        flash.erase_all();
+        let Ok((config, boots, _)) =
+            demo::calibration_boots(flash, 0..(2 * CAL_SECTOR) as u32).await
+        else {
+            hprintln!("board-qemu: the calibration store failed");
+            finish(false)
+        };
+        hprintln!(
+            "board-qemu: calibration at boot 1 {:?}, after commit and reset {:?}",
+            boots.first,
+            boots.second
+        );
+        let Ok(mut app) = App::new(&config, Mode::Operate) else {
             hprintln!("board-qemu: the built-in configuration is invalid");
             finish(false)
         };
+        app.set_calibration(boots.second);
         let app = APP.init(app);
         let source = SOURCE.init(Synthetic::new(&config, Some(demo::OUTAGE)));
         let tm = TELEMETRY.init(Telemetry::new(file));
