@@ -32,7 +32,8 @@
 mod fmt;
 
 pub mod app;
-pub mod calstore;
+/// Calibration records in flash (its own crate, compiled for size: `firmware/calstore`).
+pub use ballisto_calstore as calstore;
 pub mod config;
 #[cfg(feature = "demo")]
 pub mod demo;

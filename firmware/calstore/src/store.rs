@@ -10,7 +10,7 @@ use estimator_core::Arrangement;
 use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapConfigError, MapStorage};
 
-use super::record::{CalibrationRecord, RecordError, MAX_RECORD};
+use crate::record::{CalibrationRecord, RecordError, MAX_RECORD};
 use ballisto_link::ids::MAX_CHANNELS;
 use ballisto_link::{CalibrationId, CalibrationSource};
 

@@ -1,4 +1,8 @@
-//! Calibration records in flash that survive resets and power loss (issue 16, "Stored").
+//! # ballisto-calstore
+//!
+//! Calibration records in flash that survive resets and power loss (issue 16, "Stored"). Its
+//! own crate so that the flight profile builds it for size (the application crate is built for
+//! speed for the per-sample path; this runs at boot and on a commit).
 //!
 //! - [`record`] — the versioned record with its CRC and monotonic calibration id;
 //! - [`store`] — the newest record in a flash range (`sequential-storage`'s map over the
@@ -7,6 +11,9 @@
 //! - [`ram_flash`] — a NOR flash in RAM with byte-granular power loss: the QEMU board's flash
 //!   and the host tests' (`tests/calstore.rs`: a cut at every octet of a commit and of the
 //!   erases it causes leaves the old or the new record in use, never a part of one).
+
+#![no_std]
+#![deny(missing_docs)]
 
 pub mod ram_flash;
 pub mod record;

@@ -9,7 +9,7 @@
 //! - Wear over 10⁴ updates on the STM32H743's layout (two 128 KiB sectors, 32-octet flash
 //!   words), printed.
 
-use ballisto_fw::calstore::{
+use ballisto_calstore::{
     select_at_boot, CalibrationRecord, CalibrationSource, CalibrationStore, NotUsed, Programming,
     RamFlash, StoreError, MAX_RECORD,
 };

@@ -17,7 +17,7 @@
 //! N = 24: the two 128 KiB sectors of the store hold 140 of them between erases).
 
 use ballisto_link::ids::MAX_CHANNELS;
-use crc::{Crc, CRC_32_ISO_HDLC};
+use crc::{Crc, NoTable, CRC_32_ISO_HDLC};
 use estimator_core::{Arrangement, ConfigError, FrameUncertainty};
 
 /// The layout's version.
@@ -31,7 +31,22 @@ const PER_CHANNEL: usize = 72;
 /// The longest record (N = [`MAX_CHANNELS`]).
 pub const MAX_RECORD: usize = HEADER + PER_CHANNEL * MAX_CHANNELS + 4;
 
-const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
+// Bitwise, without the 1 KiB table: a record is checked once per boot and commit.
+/// Reads fixed-size fields in order, every access checked.
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn take<const N: usize>(&mut self) -> Option<[u8; N]> {
+        let field = self.bytes.get(self.at..self.at.checked_add(N)?)?;
+        self.at += N;
+        field.try_into().ok()
+    }
+}
+
+const CRC32: Crc<u32, NoTable> = Crc::<u32, NoTable>::new(&CRC_32_ISO_HDLC);
 
 /// A calibration: the calibrated arrangement and its id.
 #[derive(Clone, Debug, PartialEq)]
@@ -107,6 +122,7 @@ impl CalibrationRecord {
     /// Writes the record into `out` and returns the octets used. `out` must hold
     /// [`CalibrationRecord::encoded_len`] octets ([`MAX_RECORD`] always does); `None` if not, or
     /// if the id is 0.
+    #[inline(never)]
     pub fn encode(&self, out: &mut [u8]) -> Option<usize> {
         let a = &self.arrangement;
         let n = a.len();
@@ -142,59 +158,51 @@ impl CalibrationRecord {
         Some(len)
     }
 
-    /// Reads a record, checking everything; the error names what is wrong.
+    /// Reads a record, checking everything; the error names what is wrong. No panic path
+    /// (every access is checked: in the STM32 image, one indexing panic would also bring in
+    /// `core::fmt`'s integer formatting, ≈ 0.6 KiB).
+    #[inline(never)]
     pub fn decode(bytes: &[u8]) -> Result<Self, RecordError> {
-        if bytes.len() < HEADER + 4 {
-            return Err(RecordError::Truncated { len: bytes.len() });
-        }
-        if bytes[0..4] != MAGIC {
+        let truncated = RecordError::Truncated { len: bytes.len() };
+        let mut r = Reader { bytes, at: 0 };
+        if r.take::<4>().ok_or(truncated)? != MAGIC {
             return Err(RecordError::Magic);
         }
-        let version = u16::from_le_bytes([bytes[4], bytes[5]]);
+        let version = u16::from_le_bytes(r.take::<2>().ok_or(truncated)?);
         if version != FORMAT_VERSION {
             return Err(RecordError::Version { found: version });
         }
-        let n = usize::from(bytes[6]);
+        let [count, _] = r.take::<2>().ok_or(truncated)?;
+        let n = usize::from(count);
         if n == 0 || n > MAX_CHANNELS {
-            return Err(RecordError::Channels { found: bytes[6] });
+            return Err(RecordError::Channels { found: count });
         }
         let len = Self::encoded_len(n);
-        if bytes.len() < len {
-            return Err(RecordError::Truncated { len: bytes.len() });
-        }
-        let bytes = &bytes[..len];
-        let stored = u32::from_le_bytes([
-            bytes[len - 4],
-            bytes[len - 3],
-            bytes[len - 2],
-            bytes[len - 1],
-        ]);
-        let computed = CRC32.checksum(&bytes[..len - 4]);
+        let (body, crc) = match (bytes.get(..len - 4), bytes.get(len - 4..len)) {
+            (Some(body), Some(crc)) => (body, crc),
+            _ => return Err(truncated),
+        };
+        let stored = u32::from_le_bytes(crc.try_into().map_err(|_| truncated)?);
+        let computed = CRC32.checksum(body);
         if stored != computed {
             return Err(RecordError::Crc { stored, computed });
         }
-        let id = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+        let id = u32::from_le_bytes(r.take::<4>().ok_or(truncated)?);
         if id == 0 {
             return Err(RecordError::IdZero);
         }
-        let mut at = 12;
-        let mut get = || {
-            let mut b = [0u8; 8];
-            b.copy_from_slice(&bytes[at..at + 8]);
-            at += 8;
-            f64::from_le_bytes(b)
-        };
+        let mut f = || r.take::<8>().map(f64::from_le_bytes).ok_or(truncated);
         let frame = FrameUncertainty {
-            rotation: get(),
-            translation: get(),
-            size: get(),
-            relative_rotation: get(),
+            rotation: f()?,
+            translation: f()?,
+            size: f()?,
+            relative_rotation: f()?,
         };
         let mut arrangement = Arrangement::new();
         for channel in 0..n {
-            let position = [get(), get(), get()];
-            let axis = [get(), get(), get()];
-            let (noise, bias, scale) = (get(), get(), get());
+            let position = [f()?, f()?, f()?];
+            let axis = [f()?, f()?, f()?];
+            let (noise, bias, scale) = (f()?, f()?, f()?);
             arrangement
                 .push(position, axis, noise)
                 .map_err(RecordError::Invalid)?;
