@@ -22,9 +22,6 @@ QEMU_BENCH_STRICT=1 cargo qemu-bench
 
 # The boards. STM32H743: built from its directory (its .cargo/config.toml: Cortex-M7 FPU,
 # probe-rs runner). QEMU: runs the built-in scenario, writes out/qemu/telemetry.bin.
-# The calibration store's boot path (issue 16) is built but not yet in the flight image (over
-# the flash budget, README): built with its feature first, then the image that is measured.
-(cd firmware/boards/stm32h743 && cargo build --profile flight --features calibration-store)
 (cd firmware/boards/stm32h743 && cargo build --profile flight)
 cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf
 cargo build --release --bin ballisto

@@ -184,7 +184,9 @@ impl Estimation {
             }
         }
         self.update_exclusions();
-        let estimate = *self.estimator.update(seconds(set.t), &self.p[..self.n]);
+        // Through the speed-built crate: this crate is built for size.
+        let estimate =
+            *ballisto_fw_estimate::update(&mut self.estimator, seconds(set.t), &self.p[..self.n]);
         if estimate.is_finite() && !estimate.flags.has(estimator_core::Flags::INPUT_INVALID) {
             self.last_omega = Some(estimate.omega.map(f64::from));
         }

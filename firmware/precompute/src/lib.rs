@@ -3,11 +3,11 @@
 //! functions of the firmware's own estimator type.
 //!
 //! Generic code is compiled in the crate that first uses it with concrete types, at that
-//! crate's optimisation level. `ballisto-fw` runs the per-sample path and is built for speed
-//! (`opt-level = 3`, the instruction budget); called from there, the precomputation was built
-//! for speed as well, although it runs once per configuration. Called through this crate
-//! (the flashed profile's `opt-level = "z"`), it is built for size. Measured on the STM32H743
-//! image: see the README, "Budgets".
+//! crate's optimisation level. `ballisto-fw` was built for speed for its per-sample path (now
+//! only `ballisto-fw-estimate` is); called from there, the precomputation was built for speed
+//! as well, although it runs once per configuration. Called through this crate (the flashed
+//! profile's `opt-level = "z"`), it is built for size. Measured on the STM32H743 image: see the
+//! README, "Budgets".
 #![no_std]
 
 use estimator_core::{Arrangement, ChannelMask, ConfigError, Estimator, Model, Options};

@@ -11,11 +11,10 @@
 //! Time base: embassy-time (TIM2, 1 MHz ticks). Log: defmt over RTT. Flash and run from this
 //! directory with `cargo run --profile flight` (probe-rs runner, see `.cargo/config.toml`).
 //!
-//! Calibration store (feature `calibration-store`, **not in the flight image yet**: with it the
-//! image is 136 316 B, 5.2 KiB over the 128 KiB budget; README, "Calibration store"): the store
-//! in bank 2's first two sectors (`CAL_RANGE`); at boot its newest whole record replaces the
-//! built-in arrangement if it is for the same channels (`calstore::select_at_boot`), and the
-//! choice is logged and reported in housekeeping.
+//! Calibration: the store in bank 2's first two sectors (`CAL_RANGE`), opened read-only at
+//! boot; its newest whole record replaces the built-in arrangement if it is for the same
+//! channels (`calstore::select_at_boot`), and the choice is logged and reported in
+//! housekeeping.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
@@ -23,9 +22,9 @@ mod board {
     use ballisto_fw::app::{
         app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
     };
-    #[cfg(feature = "calibration-store")]
-    use ballisto_fw::calstore::{select_at_boot, CalibrationId, CalibrationStore, NotUsed};
-    #[cfg(feature = "calibration-store")]
+    use ballisto_fw::calstore::{
+        select_at_boot, CalibrationId, CalibrationStore, NotUsed, ReadOnly,
+    };
     use ballisto_fw::config::AppConfig;
     use ballisto_fw::config::{builtin, PartKind, MAX_PARTS};
     use ballisto_fw::sampler::{sampling_task, HealthBoard, PartBus, SampleSet, Sampler};
@@ -33,11 +32,9 @@ mod board {
     use ballisto_fw::time::{Nanos, TimeBase};
     use defmt::{error, info};
     use defmt_rtt as _;
-    #[cfg(feature = "calibration-store")]
     use embassy_embedded_hal::adapter::BlockingAsync;
     use embassy_embedded_hal::shared_bus::asynch::{i2c::I2cDevice, spi::SpiDevice};
     use embassy_executor::Spawner;
-    #[cfg(feature = "calibration-store")]
     use embassy_stm32::flash::Flash;
     use embassy_stm32::gpio::{Level, Output, Speed};
     use embassy_stm32::i2c::{self, I2c};
@@ -99,35 +96,37 @@ mod board {
     static RX_DMA: StaticCell<[u8; 256]> = StaticCell::new();
     /// The calibration store: bank 2's first two 128 KiB sectors (offsets from 0x0800_0000;
     /// `memory.x` keeps the image in bank 1).
-    #[cfg(feature = "calibration-store")]
     const CAL_RANGE: core::ops::Range<u32> = 0x10_0000..0x14_0000;
 
     /// The calibration to run: the store's newest whole record for the configured channels,
     /// else the built-in arrangement (logged either way). Out of the main task and polled to
     /// completion here (the H7's flash operations block anyway): in the main task's state
     /// machine the store's futures cost more flash.
-    #[cfg(feature = "calibration-store")]
     #[inline(never)]
     fn calibration_at_boot(
         flash: embassy_stm32::Peri<'static, embassy_stm32::peripherals::FLASH>,
         config: &mut AppConfig,
     ) -> CalibrationId {
-        let flash = BlockingAsync::new(Flash::new_blocking(flash));
+        // Read only: booting never writes (and the driver's program and erase code stays out).
+        let flash = ReadOnly(BlockingAsync::new(Flash::new_blocking(flash)));
         let Ok(mut store) = CalibrationStore::new(flash, CAL_RANGE) else {
             error!("calibration store range invalid: built-in arrangement");
             return CalibrationId::default();
         };
         let (arrangement, id, why) =
             embassy_futures::block_on(select_at_boot(&mut store, &config.arrangement));
-        match why {
-            None => info!("calibration {} from flash (CRC {:#010x})", id.id, id.crc),
-            Some(NotUsed::Empty) => info!("no stored calibration: built-in arrangement"),
-            Some(NotUsed::Channels { stored, configured }) => error!(
-                "stored calibration for {} channels, {} configured: built-in arrangement",
-                stored, configured
-            ),
-            Some(NotUsed::Store(_)) => error!("calibration store unreadable: built-in arrangement"),
-        }
+        // One line (0 from flash, 1 nothing stored, 2 another channel count, 3 unreadable): the
+        // image had 268 B too few for four.
+        let reason = match why {
+            None => 0u8,
+            Some(NotUsed::Empty) => 1,
+            Some(NotUsed::Channels { .. }) => 2,
+            Some(NotUsed::Store(_)) => 3,
+        };
+        info!(
+            "calibration: id {} CRC {:#010x} (0 from flash; 1 none stored, 2 other channels, 3 unreadable: built-in): {}",
+            id.id, id.crc, reason
+        );
         config.arrangement = arrangement;
         id
     }
@@ -194,12 +193,10 @@ mod board {
     async fn main(spawner: Spawner) {
         let p = embassy_stm32::init(clocks());
         info!("ballistometer {}", env!("CARGO_PKG_VERSION"));
-        #[allow(unused_mut)]
         let Some(mut config) = builtin("tetra") else {
             error!("no built-in configuration");
             return;
         };
-        #[cfg(feature = "calibration-store")]
         let calibration = calibration_at_boot(p.FLASH, &mut config);
 
         let mut spi_config = spi::Config::default();
@@ -254,9 +251,7 @@ mod board {
         let rx = rx.into_ring_buffered(RX_DMA.init([0; 256]));
 
         let app = match App::new(&config, Mode::Operate) {
-            #[allow(unused_mut)]
             Ok(mut app) => {
-                #[cfg(feature = "calibration-store")]
                 app.set_calibration(calibration);
                 app
             }
