@@ -246,3 +246,37 @@ fn wear_over_ten_thousand_updates() {
     assert!(counts.iter().max().unwrap() - counts.iter().min().unwrap() <= 1);
     assert!(per_update < 0.05, "{per_update}");
 }
+
+/// The boot path's read-only flash: the newest record reads through it; a commit through it is
+/// refused by the flash (nothing is written: the stored record stays the newest).
+#[test]
+fn read_only_flash_reads_and_refuses_to_write() {
+    use ballisto_calstore::{ReadOnly, ReadOnlyError};
+    let mut mem = vec![0u8; SECTORS * SECTOR];
+    {
+        let mut erases = [0u32; SECTORS];
+        let mut flash = RamFlash::<SECTOR, WORD>::new(&mut mem, &mut erases, Programming::WordOnce);
+        flash.erase_all();
+        let mut s = CalibrationStore::new(flash, 0..(SECTORS * SECTOR) as u32).unwrap();
+        block_on(s.commit(&record(4, 12))).unwrap();
+    }
+    let before = mem.clone();
+    let mut erases = [0u32; SECTORS];
+    let flash = RamFlash::<SECTOR, WORD>::new(&mut mem, &mut erases, Programming::WordOnce);
+    let mut s = CalibrationStore::new(ReadOnly(flash), 0..(SECTORS * SECTOR) as u32).unwrap();
+    assert_eq!(block_on(s.newest()).unwrap().unwrap().0.id, 4);
+    let e = block_on(s.commit(&record(5, 12))).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            StoreError::Flash(sequential_storage::Error::Storage {
+                value: ReadOnlyError::Refused,
+                ..
+            })
+        ),
+        "{e:?}"
+    );
+    assert_eq!(block_on(s.newest()).unwrap().unwrap().0.id, 4);
+    drop(s);
+    assert_eq!(mem, before, "nothing written");
+}
