@@ -277,6 +277,6 @@ fn read_only_flash_reads_and_refuses_to_write() {
         "{e:?}"
     );
     assert_eq!(block_on(s.newest()).unwrap().unwrap().0.id, 4);
-    drop(s);
+    let _ = s.into_flash();
     assert_eq!(mem, before, "nothing written");
 }
