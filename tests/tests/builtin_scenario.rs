@@ -40,7 +40,9 @@ impl TimeBase for StepTime {
 
 /// The built-in scenario on the host, booting at 0 with the first instant one period later.
 /// The scenario's calibration boots on a RAM flash of the QEMU board's layout (two 4 KiB
-/// sectors, 32-octet words): the configuration they leave and what each boot chose.
+/// sectors, 32-octet words), the flash handed from the first boot's store to the second's
+/// (the QEMU board resets the machine between them): the configuration they leave and what
+/// each boot chose.
 fn calibration_boots() -> (ballisto_fw::config::AppConfig, demo::CalibrationBoots) {
     use ballisto_fw::calstore::{Programming, RamFlash};
     let mut mem = vec![0u8; 2 * 4096];

@@ -43,34 +43,46 @@ pub struct CalibrationBoots {
     pub second: CalibrationId,
 }
 
-/// The scenario's store → reset → boot on `flash` (erased; `range` of it, whole sectors): boot
-/// on the empty store (the built-in arrangement), commit the built-in arrangement as
-/// calibration 1 (what a ground calibration uploaded by command would be), give the flash
-/// back as a reset does, and boot again from the store. Returns the configuration with the
-/// arrangement read back from flash, what each boot chose, and the flash.
+/// The scenario's first boot on `flash` (erased; `range` of it, whole sectors): the empty
+/// store gives the built-in arrangement; the built-in arrangement is then committed as
+/// calibration 1 (what a ground calibration uploaded by command would be). Returns what the
+/// boot chose and the flash; a reset follows.
+pub async fn first_boot<F: NorFlash>(
+    flash: F,
+    range: Range<u32>,
+) -> Result<(CalibrationId, F), &'static str> {
+    let builtin = config().arrangement;
+    let mut store = CalibrationStore::new(flash, range).map_err(|_| "store range")?;
+    let (_, first, _) = select_at_boot(&mut store, &builtin).await;
+    let record = CalibrationRecord {
+        id: 1,
+        arrangement: builtin,
+    };
+    store.commit(&record).await.map_err(|_| "commit")?;
+    Ok((first, store.into_flash()))
+}
+
+/// A boot after it: the configuration with the arrangement the store gives, and its identity.
+pub async fn boot<F: NorFlash>(
+    flash: F,
+    range: Range<u32>,
+) -> Result<(AppConfig, CalibrationId, F), &'static str> {
+    let mut config = config();
+    let mut store = CalibrationStore::new(flash, range).map_err(|_| "store range")?;
+    let (arrangement, id, _) = select_at_boot(&mut store, &config.arrangement).await;
+    config.arrangement = arrangement;
+    Ok((config, id, store.into_flash()))
+}
+
+/// [`first_boot`], a reset (here: the flash given back, everything else dropped) and [`boot`]:
+/// what the host runs; the QEMU board runs the two with a reset of the machine between them.
 pub async fn calibration_boots<F: NorFlash>(
     flash: F,
     range: Range<u32>,
 ) -> Result<(AppConfig, CalibrationBoots, F), &'static str> {
-    let mut config = config();
-    let builtin = config.arrangement.clone();
-    let mut store = CalibrationStore::new(flash, range.clone()).map_err(|_| "store range")?;
-    let (_, first, _) = select_at_boot(&mut store, &builtin).await;
-    let record = CalibrationRecord {
-        id: 1,
-        arrangement: builtin.clone(),
-    };
-    store.commit(&record).await.map_err(|_| "commit")?;
-    // The reset: everything in RAM is gone but the flash.
-    let flash = store.into_flash();
-    let mut store = CalibrationStore::new(flash, range).map_err(|_| "store range")?;
-    let (arrangement, second, _) = select_at_boot(&mut store, &builtin).await;
-    config.arrangement = arrangement;
-    Ok((
-        config,
-        CalibrationBoots { first, second },
-        store.into_flash(),
-    ))
+    let (first, flash) = first_boot(flash, range.clone()).await?;
+    let (config, second, flash) = boot(flash, range).await?;
+    Ok((config, CalibrationBoots { first, second }, flash))
 }
 
 /// What arrives on the uplink.

@@ -5,8 +5,9 @@
 //!   scripted uplink,
 //! - the telemetry link written to `telemetry.bin` in QEMU's working directory through
 //!   semihosting,
-//! - a RAM-backed flash for the calibration store, on which the scenario's store → reset →
-//!   boot runs before the application starts (`demo::calibration_boots`).
+//! - a RAM-backed flash for the calibration store in the SSRAM QEMU maps as flash, beyond the
+//!   image: at power-on the first boot commits calibration 1 and resets the machine
+//!   (`demo::first_boot`); the second boot runs the arrangement read back (`demo::boot`).
 //!
 //! It runs [`ballisto_fw::demo::SETS`] sets, prints a summary and exits with status 0, or 1
 //! if telemetry was lost, the file could not be written or nothing was estimated.
@@ -115,7 +116,11 @@ mod board {
     static TELEMETRY: StaticCell<Telemetry<HostFile>> = StaticCell::new();
     /// Sector of the RAM-backed calibration flash.
     const CAL_SECTOR: usize = 4096;
-    static CAL_FLASH: StaticCell<[u8; 2 * CAL_SECTOR]> = StaticCell::new();
+    /// The calibration flash: two sectors of the SSRAM QEMU maps at 0 as flash, at 3 MiB.
+    const CAL_ADDR: usize = 0x0030_0000;
+    /// The stage marker, just below it: the first boot is done (survives the reset).
+    const STAGE_ADDR: usize = CAL_ADDR - 16;
+    const FIRST_BOOT_DONE: u32 = 0x5EED_CA11;
     static CAL_ERASES: StaticCell<[u32; 2]> = StaticCell::new();
     static OBSERVATIONS: Observations<Cs> = Observations::new();
 
@@ -194,32 +199,52 @@ mod board {
         p.SYST.enable_interrupt();
         p.SYST.enable_counter();
 
+        // Calibration: the scenario's store → reset → boot, with a reset of the machine. The
+        // store is a RAM-backed flash of the STM32H743's word size in the part of the SSRAM
+        // QEMU maps as flash beyond the image (`CAL_ADDR`): QEMU reloads only the image's
+        // segments on a reset, so it keeps its contents as a flash would.
+        // SAFETY: `CAL_ADDR .. + 2 sectors` and `STAGE_ADDR` lie in the 4 MiB flash region
+        // (memory.x) far beyond the image (≈ 120 KiB); nothing else refers to them.
+        let mem = unsafe { core::slice::from_raw_parts_mut(CAL_ADDR as *mut u8, 2 * CAL_SECTOR) };
+        let stage = STAGE_ADDR as *mut u32;
+        let erases = CAL_ERASES.init([0u32; 2]);
+        let mut flash = RamFlash::<CAL_SECTOR, 32>::new(mem, erases, Programming::WordOnce);
+        let range = 0..(2 * CAL_SECTOR) as u32;
+        // SAFETY: as above.
+        if unsafe { stage.read_volatile() } != FIRST_BOOT_DONE {
+            // Power-on: an erased part; the first boot (built-in), the commit, a reset.
+            flash.erase_all();
+            let Ok((first, _)) = demo::first_boot(flash, range).await else {
+                hprintln!("board-qemu: the calibration store failed at boot 1");
+                finish(false)
+            };
+            hprintln!(
+                "board-qemu: boot 1 runs {:?}; calibration 1 committed; reset",
+                first
+            );
+            // SAFETY: as above.
+            unsafe { stage.write_volatile(FIRST_BOOT_DONE) };
+            cortex_m::peripheral::SCB::sys_reset();
+        }
+        // SAFETY: as above (a later power-on starts from an erased part again).
+        unsafe { stage.write_volatile(0) };
+        let Ok((config, calibration, _)) = demo::boot(flash, range).await else {
+            hprintln!("board-qemu: the calibration store failed at boot 2");
+            finish(false)
+        };
+        hprintln!(
+            "board-qemu: boot 2, after the reset, runs {:?}",
+            calibration
+        );
         let Some(file) = HostFile::create("telemetry.bin\0") else {
             hprintln!("board-qemu: cannot create telemetry.bin");
             finish(false)
         };
-        // Calibration: the scenario's store → reset → boot on a RAM-backed flash of the
-        // STM32H743's word size (two 4 KiB sectors here), then the arrangement it chose.
-        let mem = CAL_FLASH.init([0u8; 2 * CAL_SECTOR]);
-        let erases = CAL_ERASES.init([0u32; 2]);
-        let mut flash = RamFlash::<CAL_SECTOR, 32>::new(mem, erases, Programming::WordOnce);
-        flash.erase_all();
-        let Ok((config, boots, _)) =
-            demo::calibration_boots(flash, 0..(2 * CAL_SECTOR) as u32).await
-        else {
-            hprintln!("board-qemu: the calibration store failed");
-            finish(false)
-        };
-        hprintln!(
-            "board-qemu: calibration at boot 1 {:?}, after commit and reset {:?}",
-            boots.first,
-            boots.second
-        );
         let Ok(mut app) = App::new(&config, Mode::Operate) else {
             hprintln!("board-qemu: the built-in configuration is invalid");
             finish(false)
         };
-        app.set_calibration(boots.second);
+        app.set_calibration(calibration);
         let app = APP.init(app);
         let source = SOURCE.init(Synthetic::new(&config, Some(demo::OUTAGE)));
         let tm = TELEMETRY.init(Telemetry::new(file));
