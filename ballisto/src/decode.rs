@@ -208,6 +208,7 @@ fn housekeeping_text(h: &Housekeeping) -> String {
             let source = match c.source {
                 CalibrationSource::Builtin => "builtin",
                 CalibrationSource::Flash => "flash",
+                CalibrationSource::Commanded => "commanded",
             };
             let _ = write!(s, " | calibration {source} id={} crc={:#010x}", c.id, c.crc);
         }

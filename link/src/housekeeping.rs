@@ -38,11 +38,14 @@ impl TryFrom<u8> for PartState {
 #[repr(u8)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum CalibrationSource {
-    /// The built-in or commanded arrangement: no stored calibration is in use.
+    /// The built-in arrangement: no stored calibration is in use.
     #[default]
     Builtin = 0,
     /// The newest calibration record in flash.
     Flash = 1,
+    /// An arrangement loaded by command (TC[200,6]); its CRC is the CRC-32 of the command's
+    /// application data.
+    Commanded = 2,
 }
 
 impl TryFrom<u8> for CalibrationSource {
@@ -52,13 +55,15 @@ impl TryFrom<u8> for CalibrationSource {
         match v {
             0 => Ok(CalibrationSource::Builtin),
             1 => Ok(CalibrationSource::Flash),
+            2 => Ok(CalibrationSource::Commanded),
             _ => Err(v),
         }
     }
 }
 
 /// The identity of the calibration in use: its source, calibration id and the CRC-32 its
-/// record carries (id and CRC 0 for the built-in one).
+/// record carries (id and CRC 0 for the built-in one; id 0 and the CRC-32 of the command's data
+/// for a commanded one).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct CalibrationId {

@@ -278,7 +278,7 @@ fn housekeeping_table_matches_the_encoder() {
         ),
         ("calibration source", vec![1.0]),
         ("calibration id", vec![11.0]),
-        ("CRC-32 of the calibration record", vec![12.0]),
+        ("CRC-32 (ISO-HDLC) of the calibration record", vec![12.0]),
     ];
     check_rows(&data, &rows, &expected, "housekeeping");
     // Slot 1 octet by octet: the state, then six u32 counters.

@@ -279,9 +279,21 @@ fn every_command_is_verified_and_takes_effect() {
         }
     }
     assert_eq!(data.len(), 1 + 12 * CHANNEL_LEN);
+    assert_eq!(u.app.calibration(), ballisto_link::CalibrationId::default());
     ok(&u.command(&tc(b, subtype::LOAD_ARRANGEMENT, &data, 7)));
     let got = u.app.estimation().estimator().arrangement().channels()[0].position[0];
     assert!((got - (u.cfg.arrangement.channels()[0].position[0] + 0.01)).abs() < 1e-6);
+    // Its identity in housekeeping: commanded, with the CRC-32 of the command's data.
+    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(&data);
+    assert_eq!(
+        u.app.calibration(),
+        ballisto_link::CalibrationId {
+            source: ballisto_link::CalibrationSource::Commanded,
+            id: 0,
+            crc,
+        }
+    );
+    assert_eq!(u.app.housekeeping(0).calibration, Some(u.app.calibration()));
 
     ok(&u.command(&tc(b, subtype::SET_RATES, &[0, 10, 0, 50], 8)));
     let before = motion_values(&mut u).len();

@@ -48,6 +48,12 @@ impl Reader<'_> {
 
 const CRC32: Crc<u32, NoTable> = Crc::<u32, NoTable>::new(&CRC_32_ISO_HDLC);
 
+/// The CRC-32 of the records (ISO-HDLC) of any octets: also the identity of an arrangement
+/// loaded by command (of the command's application data).
+pub fn crc32(bytes: &[u8]) -> u32 {
+    CRC32.checksum(bytes)
+}
+
 /// A calibration: the calibrated arrangement and its id.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CalibrationRecord {

@@ -80,8 +80,12 @@ impl App {
         self.estimation
             .configure(&arrangement, model)
             .map_err(refused)?;
-        // A commanded arrangement is no stored calibration.
-        self.calibration = ballisto_link::CalibrationId::default();
+        // A commanded arrangement is no stored calibration: its identity is the command's data.
+        self.calibration = ballisto_link::CalibrationId {
+            source: ballisto_link::CalibrationSource::Commanded,
+            id: 0,
+            crc: ballisto_calstore::record::crc32(data),
+        };
         Ok(())
     }
 }
