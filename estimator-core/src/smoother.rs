@@ -213,12 +213,7 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
         };
         let st = &oldest.states[chosen];
         let root = &oldest.candidates[st.candidate as usize];
-        let sign = T::of(f64::from(st.sign));
-        let omega = [
-            sign * root.omega[0],
-            sign * root.omega[1],
-            sign * root.omega[2],
-        ];
+        let omega = crate::linalg::scale(T::of(f64::from(st.sign)), &root.omega);
         let (domega, sd_omega, sd_domega) = (root.domega, root.sd_omega, root.sd_domega);
         let dt = T::of(self.lock_t.map_or(0.0, |t0| t - t0));
         self.lock_t = Some(t);

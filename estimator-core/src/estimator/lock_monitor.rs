@@ -93,8 +93,8 @@ impl<T: Real> LockMonitor<T> {
         (sd_omega, sd_domega): (&Vec3<T>, &Vec3<T>),
         dt: T,
     ) -> bool {
-        let mean_sq = |v: &Vec3<T>| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) / T::of(3.0);
-        let (r, domega_var) = (mean_sq(sd_omega), mean_sq(sd_domega));
+        let three = T::of(3.0);
+        let (r, domega_var) = (norm2(sd_omega) / three, norm2(sd_domega) / three);
         let w = T::ONE / r.max(T::of(1e-30));
         if self.n == 0 || !(dt > T::ZERO) {
             // First sample (or no time step): the path starts here; u = Ω.
@@ -110,7 +110,6 @@ impl<T: Real> LockMonitor<T> {
             .min(T::ONE / T::of(MIN_SAMPLES))
             .min(T::ONE);
         let lam = T::ONE - alpha;
-        let lam2 = lam * lam;
         let half_dt = T::of(0.5) * dt;
         // The change of u since the last sample (the re-centring shift).
         let du: Vec3<T> = core::array::from_fn(|k| {
@@ -118,24 +117,15 @@ impl<T: Real> LockMonitor<T> {
         });
         // Older samples move back by dt and are discounted; their u is taken relative to the
         // new sample's: Σ a (u − u_new) = Σ a (u − u_old) − du Σ a.
-        let [a0, a1, a2] = self.a;
+        let [a0, a1, _] = self.a;
         for k in 0..3 {
             let u_rel = self.u[k] - du[k] * a0;
             let tu_rel = self.tu[k] - du[k] * a1;
             self.tu[k] = lam * (tu_rel - dt * u_rel);
             self.u[k] = lam * u_rel;
         }
-        self.a = [
-            lam * a0 + w,
-            lam * (a1 - dt * a0),
-            lam * (a2 - T::of(2.0) * dt * a1 + dt * dt * a0),
-        ];
-        let [b0, b1, b2] = self.b;
-        self.b = [
-            lam2 * b0 + w,
-            lam2 * (b1 - dt * b0),
-            lam2 * (b2 - T::of(2.0) * dt * b1 + dt * dt * b0),
-        ];
+        self.a = shifted(self.a, lam, dt, w);
+        self.b = shifted(self.b, lam * lam, dt, w);
         self.last_omega = *omega;
         self.last_domega = *domega;
         self.n = self.n.saturating_add(1);
@@ -159,13 +149,24 @@ impl<T: Real> LockMonitor<T> {
         let var_walk = T::of(0.25) * domega_var * alpha;
         let w2 = norm2(omega);
         // |Ω′|² less its noise's expectation (a noisy Ω′ must not raise the floor).
-        let d2 = (norm2(domega) - T::of(3.0) * domega_var).max(T::ZERO);
+        let d2 = (norm2(domega) - three * domega_var).max(T::ZERO);
         let scale2 = d2 + w2 * w2;
         let var_model = T::of(MODEL_FLOOR * MODEL_FLOOR) * scale2;
         let var = (var_white + var_walk + var_model).max(T::of(1e-30));
         self.stat = norm2(&slope) / var;
         self.stat > T::of(THRESHOLD)
     }
+}
+
+/// Time moments `[Σ cₖ, Σ cₖ tₖ, Σ cₖ tₖ²]` after a step of `dt`: every older time moves back by
+/// `dt`, every weight is multiplied by `decay`, and the new sample enters at `t = 0` with weight
+/// `w` (`cₖ = aₖ` with `decay = λ`, `cₖ = aₖ² Rₖ` with `decay = λ²`).
+fn shifted<T: Real>([m0, m1, m2]: [T; 3], decay: T, dt: T, w: T) -> [T; 3] {
+    [
+        decay * m0 + w,
+        decay * (m1 - dt * m0),
+        decay * (m2 - T::of(2.0) * dt * m1 + dt * dt * m0),
+    ]
 }
 
 #[cfg(test)]

@@ -578,7 +578,7 @@ mod tests {
         let (c, true_first, w) = last.unwrap();
         assert_eq!(c.candidate, if true_first { 0 } else { 1 });
         assert!(
-            c.branch_margin >= T_MARGIN && !c.branch_ambiguous,
+            c.branch_margin >= SIGN_MARGIN && !c.branch_ambiguous,
             "{}",
             c.branch_margin
         );
@@ -586,8 +586,6 @@ mod tests {
         assert!(dist(&c.omega, &w) < 1e-6, "{:?} vs {w:?}", c.omega);
         assert!(dist(&c.filtered.0, &w) < 1e-2, "{:?}", c.filtered.0);
     }
-
-    const T_MARGIN: f64 = SIGN_MARGIN;
 
     /// Two branches that both integrate their Ω′ (a copy of the truth shifted by a constant):
     /// no record can tell them apart, so the margin stays below [`SIGN_MARGIN`] and the branch

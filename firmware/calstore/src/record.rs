@@ -31,7 +31,6 @@ const PER_CHANNEL: usize = 72;
 /// The longest record (N = [`MAX_CHANNELS`]).
 pub const MAX_RECORD: usize = HEADER + PER_CHANNEL * MAX_CHANNELS + 4;
 
-// Bitwise, without the 1 KiB table: a record is checked once per boot and commit.
 /// Reads fixed-size fields in order, every access checked.
 struct Reader<'a> {
     bytes: &'a [u8],
@@ -46,6 +45,7 @@ impl Reader<'_> {
     }
 }
 
+// Bitwise, without the 1 KiB table: a record is checked once per boot and commit.
 const CRC32: Crc<u32, NoTable> = Crc::<u32, NoTable>::new(&CRC_32_ISO_HDLC);
 
 /// The CRC-32 of the records (ISO-HDLC) of any octets: also the identity of an arrangement

@@ -145,25 +145,21 @@ pub async fn select_at_boot<F: NorFlash>(
     CalibrationId,
     Option<NotUsed<F::Error>>,
 ) {
-    let fallback = CalibrationId::default();
-    match store.newest().await {
+    let why = match store.newest().await {
         Ok(Some((r, crc))) if r.arrangement.len() == builtin.len() => {
             let active = CalibrationId {
                 source: CalibrationSource::Flash,
                 id: r.id,
                 crc,
             };
-            (r.arrangement, active, None)
+            return (r.arrangement, active, None);
         }
-        Ok(Some((r, _))) => (
-            builtin.clone(),
-            fallback,
-            Some(NotUsed::Channels {
-                stored: r.arrangement.len(),
-                configured: builtin.len(),
-            }),
-        ),
-        Ok(None) => (builtin.clone(), fallback, Some(NotUsed::Empty)),
-        Err(e) => (builtin.clone(), fallback, Some(NotUsed::Store(e))),
-    }
+        Ok(Some((r, _))) => NotUsed::Channels {
+            stored: r.arrangement.len(),
+            configured: builtin.len(),
+        },
+        Ok(None) => NotUsed::Empty,
+        Err(e) => NotUsed::Store(e),
+    };
+    (builtin.clone(), CalibrationId::default(), Some(why))
 }

@@ -19,7 +19,7 @@ mod task;
 mod uplink;
 
 use ballisto_link::telecommand::{self, Accepted, Context};
-use ballisto_link::{subtype, EventId, PartState};
+use ballisto_link::{subtype, CalibrationId, EventId, PartState};
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embedded_io_async::Write;
 use estimator_core::ConfigError;
@@ -52,7 +52,6 @@ const fn parse_u8(s: &str) -> u8 {
     v
 }
 
-use ballisto_link::CalibrationId;
 /// Operating mode (the link's codes).
 pub use ballisto_link::Mode;
 
