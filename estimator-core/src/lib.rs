@@ -14,6 +14,7 @@
 //! - [`estimator`]: configuration (precomputation) and the per-sample solve.
 //! - [`estimate`]: the outputs and their status flags.
 //! - [`smoother`]: fixed-lag smoothing of branch and sign decisions (host tools).
+//! - [`identify`]: each channel's geometry from a known field (paper §6), at sample rate.
 //! - [`frame_uncertainty`]: the common errors of a calibrated frame, added to the reported
 //!   deviations.
 //! - [`error`], [`linalg`] (the small fixed-size vectors and matrices of the interface),
@@ -37,6 +38,7 @@ pub mod error;
 pub mod estimate;
 pub mod estimator;
 pub mod frame_uncertainty;
+pub mod identify;
 pub mod linalg;
 pub mod real;
 pub mod smoother;
