@@ -177,6 +177,27 @@ pub fn log_line(p: &Decoded, time_offset: f64) -> Option<String> {
             s
         }
         Report::Alive => "ALIVE".to_string(),
+        Report::IdentificationSummary(s) => format!(
+            "IDENTIFICATION solution={} channels={} sets={} not_covered={} incomplete={} reference_points={} restarts={} centre_of_mass=[{:.6},{:.6},{:.6}] m sd=[{:.2e},{:.2e},{:.2e}] frame rotation_sd={:.2e} translation_sd={:.2e} size_sd={:.2e}",
+            s.solution, s.channels, s.sets, s.not_covered, s.incomplete, s.points, s.restarts,
+            s.centre_of_mass[0], s.centre_of_mass[1], s.centre_of_mass[2],
+            s.centre_of_mass_sd[0], s.centre_of_mass_sd[1], s.centre_of_mass_sd[2],
+            s.frame[0], s.frame[1], s.frame[2]
+        ),
+        Report::IdentifiedChannel(c) => {
+            let held: Vec<&str> = estimator_core::identify::Param::ALL
+                .iter()
+                .filter(|p| c.held & p.bit() != 0)
+                .map(|p| p.name())
+                .collect();
+            format!(
+                "IDENTIFIED solution={} channel={} position=[{:.6},{:.6},{:.6}] axis=[{:.6},{:.6},{:.6}] bias={:.5} scale={:.5} sd=[{}] residual_rms={:.3e} noise={:.3e} held=[{}]",
+                c.solution, c.channel, c.position[0], c.position[1], c.position[2],
+                c.axis[0], c.axis[1], c.axis[2], c.bias, c.scale,
+                c.sd.iter().map(|v| format!("{v:.2e}")).collect::<Vec<_>>().join(","),
+                c.residual_rms, c.noise, held.join(",")
+            )
+        }
     };
     Some(format!("{head} {body}"))
 }

@@ -14,6 +14,8 @@ use std::convert::Infallible;
 use ballisto_fw::app::{
     app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
 };
+use ballisto_fw::calstore::ram_flash::RamFlash;
+use ballisto_fw::calstore::store::CalibrationStore;
 use ballisto_fw::config::{
     Alignment, AppConfig, PartConfig, PartKind, SamplingConfig, MAX_CHANNELS, MAX_PARTS,
 };
@@ -22,8 +24,10 @@ use ballisto_fw::estimation::SetEstimate;
 use ballisto_fw::sampler::{
     sampling_task, HealthBoard, LoopHealth, PartBus, PartHealth, SampleSet, Sampler,
 };
+use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
 use ballisto_fw::telemetry::Telemetry;
 use ballisto_fw::time::{Nanos, TimeBase};
+use ballisto_link::CalibrationId;
 use embassy_futures::select::select;
 use embassy_futures::yield_now;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
@@ -191,6 +195,9 @@ struct HostUplink<'a> {
     clock: SimClock,
     schedule: &'a Uplink,
     next: usize,
+    /// Octets of the current chunk already handed out (a chunk longer than the reader's
+    /// buffer takes several reads).
+    offset: usize,
 }
 
 impl embedded_io_async::ErrorType for HostUplink<'_> {
@@ -205,9 +212,14 @@ impl embedded_io_async::Read for HostUplink<'_> {
         while self.clock.now() < *at {
             yield_now().await;
         }
-        let n = bytes.len().min(buf.len());
-        buf[..n].copy_from_slice(&bytes[..n]);
-        self.next += 1;
+        let rest = &bytes[self.offset.min(bytes.len())..];
+        let n = rest.len().min(buf.len());
+        buf[..n].copy_from_slice(&rest[..n]);
+        self.offset += n;
+        if self.offset >= bytes.len() {
+            self.next += 1;
+            self.offset = 0;
+        }
         Ok(n)
     }
 }
@@ -281,6 +293,41 @@ pub fn run_firmware_with(
     downlink: &mut dyn std::io::Write,
     emit: Emit,
 ) -> Result<FirmwareReport, String> {
+    let boot = Boot {
+        store: None,
+        calibration: CalibrationId::default(),
+    };
+    run_firmware_boot(sc, config, instants, uplink, downlink, emit, boot)
+}
+
+/// The flash of the host's calibration store: the STM32H743's word programming (32 octets,
+/// once per erase) in 4 KiB sectors.
+pub type HostFlash<'a> = RamFlash<'a, HOST_SECTOR, 32>;
+/// The host's calibration store.
+pub type HostStore<'a> = CalibrationStore<HostFlash<'a>>;
+/// Sector size of [`HostFlash`].
+pub const HOST_SECTOR: usize = 4096;
+
+/// What a boot of the firmware comes up with besides its configuration: a writable
+/// calibration store (its storage task runs, commits are taken) and which calibration the
+/// configuration's arrangement is (housekeeping reports it).
+pub struct Boot<'s, 'f> {
+    /// The store, if the board has a writable one.
+    pub store: Option<&'s mut HostStore<'f>>,
+    /// The calibration the arrangement comes from.
+    pub calibration: CalibrationId,
+}
+
+/// [`run_firmware_with`] for one boot ([`Boot`]).
+pub fn run_firmware_boot(
+    sc: &Scenario,
+    config: &AppConfig,
+    instants: u32,
+    uplink: &Uplink,
+    downlink: &mut dyn std::io::Write,
+    emit: Emit,
+    boot: Boot,
+) -> Result<FirmwareReport, String> {
     let rig = Rig::build(sc)?;
     let mut buses: [Option<PartBus<SimSpiDevice, SimI2cBus>>; MAX_PARTS] = Default::default();
     for (slot, port) in buses.iter_mut().zip(rig.ports.iter()) {
@@ -296,6 +343,10 @@ pub fn run_firmware_with(
     let mut sampler = Sampler::new(&config.sampling, buses, sync);
     let mut app =
         App::new(config, Mode::Operate).map_err(|e| format!("firmware estimator: {e}"))?;
+    app.set_calibration(boot.calibration);
+    let requests = CommitRequests::<NoopRawMutex>::new();
+    let replies = CommitReplies::<NoopRawMutex>::new();
+    let writable = boot.store.is_some();
     let mut time = SimTime(rig.clock.clone());
     let app_time = SimTime(rig.clock.clone());
     let queue = Channel::<NoopRawMutex, SampleSet, { ballisto_fw::QUEUE }>::new();
@@ -341,6 +392,10 @@ pub fn run_firmware_with(
                 health: &health,
                 telemetry: &mut telemetry,
                 observations: &observations,
+                storage: writable.then(|| StorageLinks {
+                    requests: requests.sender(),
+                    replies: replies.receiver(),
+                }),
             },
         );
         let truth = rig.truth.clone();
@@ -358,10 +413,19 @@ pub fn run_firmware_with(
             clock: rig.clock.clone(),
             schedule: uplink,
             next: 0,
+            offset: 0,
         };
         let receiving = async {
             uplink_task(link, command_tx).await;
             core::future::pending::<()>().await
+        };
+        let storing = async {
+            match boot.store {
+                Some(store) => {
+                    storage_task(store, requests.receiver(), replies.sender()).await;
+                }
+                None => core::future::pending::<()>().await,
+            }
         };
         task_sizes = (
             std::mem::size_of_val(&sampling),
@@ -370,7 +434,7 @@ pub fn run_firmware_with(
         );
         embassy_futures::block_on(select(
             sampling,
-            select(application, select(receiving, observing)),
+            select(application, select(receiving, select(observing, storing))),
         ));
     }
     let parts = (0..sc.parts.len())

@@ -16,6 +16,7 @@ pub mod clock;
 pub mod faults;
 pub mod firmware_host;
 pub mod ideal;
+pub mod in_flight;
 pub mod motion;
 pub mod recorder;
 pub mod reference;

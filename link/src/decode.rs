@@ -8,6 +8,7 @@ use crate::codec::Get;
 use crate::cuc::{cuc_seconds, TIME_LEN};
 use crate::event::{Event, EventId, EVENT_LEN};
 use crate::housekeeping::{Housekeeping, HOUSEKEEPING_LEN, HOUSEKEEPING_LEN_NO_CALIBRATION};
+use crate::identification::{IdentificationSummary, IdentifiedChannel};
 use crate::ids::{service, sid, subtype, APID};
 use crate::motion::{MotionReport, MOTION_LEN, MOTION_LEN_NO_MARGIN};
 use crate::verification::{FailureCode, RequestId, Verification};
@@ -25,6 +26,10 @@ pub enum Report {
     Verification(Verification),
     /// TM[17,2].
     Alive,
+    /// TM[200,128].
+    IdentificationSummary(IdentificationSummary),
+    /// TM[200,129].
+    IdentifiedChannel(IdentifiedChannel),
 }
 
 /// A decoded packet: header fields and content.
@@ -131,6 +136,12 @@ pub fn decode(raw: &[u8]) -> Result<Decoded, DecodeError> {
                 request,
                 failure,
             })
+        }
+        (service::BALLISTOMETER, subtype::IDENTIFICATION_SUMMARY) => {
+            Report::IdentificationSummary(IdentificationSummary::decode(data).ok_or(bad)?)
+        }
+        (service::BALLISTOMETER, subtype::IDENTIFIED_CHANNEL) => {
+            Report::IdentifiedChannel(IdentifiedChannel::decode(data).ok_or(bad)?)
         }
         (service::TEST, subtype::ALIVE) if data.is_empty() => Report::Alive,
         (service::TEST, subtype::ALIVE) => return Err(bad),

@@ -27,6 +27,9 @@ pub enum EventId {
     /// Sample sets were lost since the last report: `a` = instants skipped, `b` = sets dropped
     /// (both since boot).
     SetsLost = 9,
+    /// A calibration was committed to the store (TC[200,11]); it is used from the next boot:
+    /// `a` = calibration id, `b` = its record's CRC-32.
+    CalibrationStored = 10,
 }
 
 impl EventId {
@@ -43,6 +46,7 @@ impl EventId {
             Reconfigured,
             FrameRejected,
             SetsLost,
+            CalibrationStored,
         ]
         .into_iter()
         .find(|e| *e as u16 == v)
@@ -69,6 +73,7 @@ impl EventId {
             EventId::Reconfigured => "reconfigured",
             EventId::FrameRejected => "frame-rejected",
             EventId::SetsLost => "sets-lost",
+            EventId::CalibrationStored => "calibration-stored",
         }
     }
 }

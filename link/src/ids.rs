@@ -59,6 +59,18 @@ pub mod subtype {
     pub const LOAD_ARRANGEMENT: u8 = 6;
     /// TC[200,7] set the telemetry rates.
     pub const SET_RATES: u8 = 7;
+    /// TC[200,8] start an identification window.
+    pub const START_IDENTIFICATION: u8 = 8;
+    /// TC[200,9] reference rate points.
+    pub const REFERENCE_RATE: u8 = 9;
+    /// TC[200,10] solve the identification and report it.
+    pub const REPORT_IDENTIFICATION: u8 = 10;
+    /// TC[200,11] commit a reported solution to the calibration store.
+    pub const COMMIT_CALIBRATION: u8 = 11;
+    /// TM[200,128] identification summary.
+    pub const IDENTIFICATION_SUMMARY: u8 = 128;
+    /// TM[200,129] one identified channel.
+    pub const IDENTIFIED_CHANNEL: u8 = 129;
 }
 
 /// Housekeeping structure identifiers (TM[3,25]).

@@ -10,7 +10,8 @@
 //! - [`mode`]: the mode and model codes; [`masks`]: sets of part slots and of channels.
 //! - [`cuc`]: the time field (CUC 4+3, epoch = boot).
 //! - [`codec`]: big-endian field writer and reader.
-//! - One module per report: [`motion`], [`housekeeping`], [`event`], [`verification`].
+//! - One module per report: [`motion`], [`housekeeping`], [`event`], [`verification`],
+//!   [`identification`] (with the reference points of TC[200,9]).
 //! - [`tm`]: a telemetry packet around its application data (headers, CRC).
 //! - [`telecommand`]: acceptance (parse) and construction (build) of telecommands.
 //! - [`framing`]: COBS frames between zero delimiters.
@@ -29,6 +30,7 @@ pub mod decode;
 pub mod event;
 pub mod framing;
 pub mod housekeeping;
+pub mod identification;
 pub mod ids;
 pub mod masks;
 pub mod mode;

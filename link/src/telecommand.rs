@@ -17,6 +17,7 @@ use spacepackets::ecss::tc::PusTcReader;
 use spacepackets::ecss::PusError;
 
 use crate::codec::{Get, Put};
+use crate::identification;
 use crate::ids::{service, sid, subtype, APID, MAX_CHANNELS};
 use crate::mode::{Mode, ModelCode};
 use crate::verification::{config_error_code, FailureCode, RequestId};
@@ -56,6 +57,25 @@ pub enum Command<'a> {
         motion_every: u16,
         /// Sets per housekeeping report.
         housekeeping_every: u16,
+    },
+    /// TC[200,8]: start accumulating an identification window (paper §6) with the field from
+    /// a reference rate (TC[200,9]); what was accumulated before is dropped.
+    StartIdentification {
+        /// The reference's period as the bus sends it, ms (a longer interval between two
+        /// points is a gap, not covered).
+        period_ms: u16,
+        /// The window's length from now, ms.
+        window_ms: u32,
+    },
+    /// TC[200,9]: reference rate points (the application data, already checked;
+    /// [`crate::identification::points`] reads them).
+    ReferenceRate(&'a [u8]),
+    /// TC[200,10]: solve the window and report the solution (TM[200,128], TM[200,129] × N).
+    ReportIdentification,
+    /// TC[200,11]: commit the reported solution `solution` to the calibration store.
+    CommitCalibration {
+        /// The number TM[200,128] gave it.
+        solution: u16,
     },
     /// TC[3,27] for the housekeeping structure (SID 2).
     ReportHousekeeping,
@@ -221,6 +241,65 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
             Ok(Command::SetRates {
                 motion_every,
                 housekeeping_every,
+            })
+        }
+        (service::BALLISTOMETER, subtype::START_IDENTIFICATION) => {
+            length(7)?;
+            let source = g.u8().unwrap_or(0);
+            let period_ms = g.u16().unwrap_or(0);
+            let window_ms = g.u32().unwrap_or(0);
+            if source != identification::SOURCE_REFERENCE {
+                // 2 (the estimator itself in a torque-free tumble) is not in this version.
+                return Err((FailureCode::OutOfRange, 0));
+            }
+            if !(1..=identification::PERIOD_MAX_MS).contains(&period_ms) {
+                return Err((FailureCode::OutOfRange, 1));
+            }
+            if !(1..=identification::WINDOW_MAX_MS).contains(&window_ms) {
+                return Err((FailureCode::OutOfRange, 2));
+            }
+            Ok(Command::StartIdentification {
+                period_ms,
+                window_ms,
+            })
+        }
+        (service::BALLISTOMETER, subtype::REFERENCE_RATE) => {
+            let n = usize::from(*data.first().ok_or((FailureCode::DataLength, 1))?);
+            length(1 + identification::POINT_LEN * n)?;
+            if !(1..=identification::MAX_POINTS).contains(&n) {
+                return Err((FailureCode::OutOfRange, 0));
+            }
+            // Field index 1 + 4·point + j: the time (j = 0), then Ω x, y, z.
+            let mut last = None;
+            for (i, chunk) in data[1..]
+                .chunks_exact(identification::POINT_LEN)
+                .enumerate()
+            {
+                let field = |j: usize| 1 + 4 * i + j;
+                let mut time = [0u8; crate::cuc::TIME_LEN];
+                time.copy_from_slice(&chunk[..crate::cuc::TIME_LEN]);
+                let t = identification::cuc_nanos(&time)
+                    .ok_or((FailureCode::OutOfRange, field(0) as u32))?;
+                if last.is_some_and(|l| t <= l) {
+                    return Err((FailureCode::OutOfRange, field(0) as u32));
+                }
+                last = Some(t);
+                let mut w = Get::new(&chunk[crate::cuc::TIME_LEN..]);
+                let omega: [f32; 3] = w.f32s().ok_or((FailureCode::DataLength, 0))?;
+                for (j, v) in omega.iter().enumerate() {
+                    real(*v, field(1 + j), identification::REFERENCE_MAX)?;
+                }
+            }
+            Ok(Command::ReferenceRate(data))
+        }
+        (service::BALLISTOMETER, subtype::REPORT_IDENTIFICATION) => {
+            length(0)?;
+            Ok(Command::ReportIdentification)
+        }
+        (service::BALLISTOMETER, subtype::COMMIT_CALIBRATION) => {
+            length(2)?;
+            Ok(Command::CommitCalibration {
+                solution: g.u16().unwrap_or(0),
             })
         }
         (service::HOUSEKEEPING, subtype::HK_ONE_SHOT) => {

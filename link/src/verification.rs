@@ -30,6 +30,44 @@ pub enum FailureCode {
     /// The estimator refused the new configuration (it keeps the old one): data = the
     /// reason (see [`config_error_code`]).
     Refused = 11,
+    /// The command does not apply in the unit's present state: data = the reason
+    /// ([`not_ready`]).
+    NotReady = 12,
+    /// The calibration store failed; the stored calibration is the previous one: data = the
+    /// reason ([`store_failed`]).
+    StoreFailed = 13,
+}
+
+/// The data of [`FailureCode::NotReady`].
+pub mod not_ready {
+    /// No identification window was started.
+    pub const NO_WINDOW: u32 = 1;
+    /// The window's sums cannot be solved: too few sets (low 16 bits: sets).
+    pub const TOO_FEW_SETS: u32 = 2 << 16;
+    /// A channel's Gauss–Newton did not settle (low 16 bits: channel).
+    pub const NOT_CONVERGED: u32 = 3 << 16;
+    /// No solution was reported, or the solution named is not the last one reported.
+    pub const NO_SUCH_SOLUTION: u32 = 4;
+    /// A channel's residual exceeds 3 × its noise: the field does not explain it (a
+    /// misaligned reference, a fault); low 16 bits: channel.
+    pub const RESIDUAL_HIGH: u32 = 5 << 16;
+    /// The unit has no writable calibration store.
+    pub const NO_STORE: u32 = 6;
+    /// A commit is still in progress.
+    pub const STORE_BUSY: u32 = 7;
+    /// The solution is not a valid arrangement (low 16 bits: the estimator's check, as
+    /// [`super::config_error_code`]'s high half).
+    pub const INVALID: u32 = 8 << 16;
+}
+
+/// The data of [`FailureCode::StoreFailed`].
+pub mod store_failed {
+    /// The flash or the map failed.
+    pub const FLASH: u32 = 1;
+    /// The stored record is damaged or not for this firmware: the newest id is unknown.
+    pub const RECORD: u32 = 2;
+    /// The record could not be encoded.
+    pub const UNENCODABLE: u32 = 3;
 }
 
 impl FailureCode {
@@ -48,6 +86,8 @@ impl FailureCode {
             OutOfRange,
             NotFinite,
             Refused,
+            NotReady,
+            StoreFailed,
         ]
         .into_iter()
         .find(|c| *c as u16 == v)
@@ -67,6 +107,8 @@ impl FailureCode {
             FailureCode::OutOfRange => "field out of range",
             FailureCode::NotFinite => "field not finite",
             FailureCode::Refused => "refused by the estimator",
+            FailureCode::NotReady => "not applicable now",
+            FailureCode::StoreFailed => "calibration store failed",
         }
     }
 }

@@ -81,6 +81,7 @@ fn host_run() -> Vec<u8> {
                 health: &health,
                 telemetry: &mut tm,
                 observations: &observations,
+                storage: None,
             },
         );
         // As the QEMU board: the run ends with the last set handled.

@@ -37,5 +37,7 @@
 mod solve;
 mod sums;
 
-pub use solve::{identify, ChannelFit, Identified, IdentifyError, Param, Tolerance, ALWAYS_HELD};
+pub use solve::{
+    identify, ChannelFit, Identified, IdentifyError, Param, Tolerance, ALWAYS_HELD, PARAMS,
+};
 pub use sums::{field_terms, FieldSums, TERMS};

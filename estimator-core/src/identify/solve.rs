@@ -86,6 +86,7 @@ impl Tolerance {
         bias: 0.5,
     };
 
+    #[inline]
     fn of(&self, p: usize) -> f64 {
         match p {
             0 => self.scale,
@@ -168,16 +169,28 @@ impl<const CAP: usize> Identified<CAP> {
     /// How well the frame of the identified geometry is tied to the body. The channels'
     /// errors are independent (each has its own normal equations), so the common ones are
     /// their means: the translation is the convention's (`tolerance / √n` of the free
-    /// position components per axis, the largest), the rotation the mean of the axis tilts,
-    /// the size the mean of the relative position errors; the rotation of the axes against
-    /// the lever arms is taken as the rotation (the reference ties both).
+    /// position components per axis, the largest) and that of the held scales (a scale off by
+    /// `δ` moves its channel's lever arm from the centre of mass by `δ (R − ρ)`: their mean is
+    /// a translation, `tolerance · rms|R − ρ| / √(3n)` per axis), the rotation the mean of
+    /// the axis tilts, the size the mean of the relative position errors; the rotation of the
+    /// axes against the lever arms is taken as the rotation (the reference ties both).
+    #[inline]
     pub fn frame_uncertainty(&self) -> FrameUncertainty<f64> {
         let (mut tilt, mut nt, mut size, mut ns) = (0.0, 0.0, 0.0, 0.0);
         let mut free_axis = [0.0f64; 3];
+        let mut scale_shift = 0.0;
+        let n = self.len as f64;
         for f in self.channels() {
-            if !f.is_held(Param::TiltA) {
-                tilt += 0.5 * (f.sd[1] * f.sd[1] + f.sd[2] * f.sd[2]);
-                nt += 1.0;
+            for k in [1, 2] {
+                if f.held & (1 << k) == 0 {
+                    tilt += f.sd[k] * f.sd[k];
+                    nt += 1.0;
+                }
+            }
+            if f.is_held(Param::Scale) {
+                let arm: Vec3<f64> =
+                    core::array::from_fn(|l| f.channel.position[l] - self.centre_of_mass[l]);
+                scale_shift += self.tolerance.scale * self.tolerance.scale * norm2(&arm) / 3.0;
             }
             let r2 = norm2(&f.channel.position);
             for (l, n) in free_axis.iter_mut().enumerate() {
@@ -191,10 +204,11 @@ impl<const CAP: usize> Identified<CAP> {
             }
         }
         let pos = self.tolerance.position;
-        let translation = free_axis
+        let convention = free_axis
             .iter()
             .map(|n| if *n > 0.0 { pos / Real::sqrt(*n) } else { pos })
             .fold(0.0f64, f64::max);
+        let translation = Real::sqrt(convention * convention + scale_shift / (n * n).max(1.0));
         let rotation = if nt > 0.0 {
             Real::sqrt(tilt / nt / nt)
         } else {
@@ -217,6 +231,7 @@ impl<const CAP: usize> Identified<CAP> {
     ///
     /// Errors: the estimator-core checks (an identified scale outside (0.5, 2) is refused by
     /// channel).
+    #[inline]
     pub fn arrangement(&self) -> Result<Arrangement<CAP>, ConfigError> {
         let mut a = Arrangement::new();
         for f in self.channels() {
@@ -229,9 +244,15 @@ impl<const CAP: usize> Identified<CAP> {
     }
 }
 
+// Every function of the solve is `#[inline]`: its code is then generated in the crate that
+// calls it, at that crate's optimisation level — the firmware's application, built for size —
+// and not at estimator-core's speed level (`3` in the flight profile), where `normal` alone
+// unrolled to 4.7 KB of the flight image. The solve runs once per telecommand.
+
 /// Identifies every channel of `nominal` from the sums of a window (paper §6; see the module
 /// documentation): two passes, the second with the positions' nominal values moved to the
 /// centre of mass the first found.
+#[inline(never)]
 pub fn identify<const CAP: usize>(
     sums: &FieldSums<CAP>,
     nominal: &Arrangement<CAP>,
@@ -319,6 +340,7 @@ struct State {
 }
 
 impl State {
+    #[inline]
     fn new(scale: f64, axis: Vec3<f64>, position: Vec3<f64>, bias: f64) -> Self {
         State {
             scale,
@@ -331,6 +353,7 @@ impl State {
     }
 
     /// The unit axis and its length before normalising.
+    #[inline]
     fn axis(&self) -> (Vec3<f64>, f64) {
         let (t1, t2) = &self.basis;
         let v: Vec3<f64> = core::array::from_fn(|k| {
@@ -341,6 +364,7 @@ impl State {
     }
 
     /// `q = (vec(c s Rᵀ), b)`: the reading is `qᵀ k`.
+    #[inline]
     fn q(&self) -> [f64; TERMS] {
         let (s, _) = self.axis();
         let mut q = [0.0; TERMS];
@@ -355,6 +379,7 @@ impl State {
 
     /// `∂q/∂θ` (TERMS × PARAMS), θ = (scale, tilts, position, bias) (paper eq. 9 with scale
     /// and bias).
+    #[inline]
     fn jacobian(&self) -> [[f64; PARAMS]; TERMS] {
         let (s, n) = self.axis();
         // ∂(v/|v|)/∂tilt = (t − s (s·t)) / |v|.
@@ -379,6 +404,7 @@ impl State {
     }
 
     /// The parameters after the step `d`.
+    #[inline]
     fn step(&self, d: &[f64; PARAMS]) -> State {
         State {
             scale: self.scale + d[0],
@@ -396,6 +422,7 @@ impl State {
 
 /// Two unit vectors perpendicular to the unit `s` and to each other (the tilt directions):
 /// the first along `s × e`, `e` the coordinate axis least aligned with `s`.
+#[inline]
 fn tilt_basis(s: &Vec3<f64>) -> (Vec3<f64>, Vec3<f64>) {
     let a = [s[0].abs(), s[1].abs(), s[2].abs()];
     let e = if a[0] <= a[1] && a[0] <= a[2] {
@@ -436,6 +463,7 @@ pub const ALWAYS_HELD: u8 = Param::Scale.bit();
 
 impl Problem<'_> {
     /// `Σ (p − qᵀk)²`.
+    #[inline]
     fn cost(&self, q: &[f64; TERMS]) -> f64 {
         let mut qmq = 0.0;
         for i in 0..TERMS {
@@ -445,6 +473,7 @@ impl Problem<'_> {
     }
 
     /// The tolerance-scaled normal matrix `D JᵀMJ D` and right-hand side `D Jᵀ(g − Mq)`.
+    #[inline]
     fn normal(&self, st: &State) -> ([[f64; PARAMS]; PARAMS], [f64; PARAMS]) {
         let (j, q) = (st.jacobian(), st.q());
         let mut mj = [[0.0; PARAMS]; TERMS];
@@ -476,6 +505,7 @@ impl Problem<'_> {
     }
 
     /// Gauss–Newton from `start` on the parameters not in `held`; `None` if it does not settle.
+    #[inline]
     fn settle(&self, start: State, held: u8) -> Option<State> {
         let mut st = start;
         for _ in 0..MAX_ITERATIONS {
@@ -510,6 +540,7 @@ impl Problem<'_> {
     /// nominal (the worst first) and Gauss–Newton again, until every
     /// free parameter is determined to half its tolerance. `None` if a Gauss–Newton does not
     /// settle.
+    #[inline]
     fn fit(&self, nominal: State, noise: f64) -> Option<ChannelFit> {
         let mut held = ALWAYS_HELD;
         loop {
@@ -558,11 +589,13 @@ impl Problem<'_> {
     }
 
     /// The residual's deviation, not below the channel's declared noise.
+    #[inline]
     fn sigma(&self, st: &State, noise: f64, free: usize) -> f64 {
         let dof = (self.sets - free as f64).max(1.0);
         Real::sqrt(self.cost(&st.q()) / dof).max(noise)
     }
 
+    #[inline]
     fn report(&self, st: &State, mut sd: [f64; PARAMS], held: u8, noise: f64) -> ChannelFit {
         for (p, s) in sd.iter_mut().enumerate() {
             if held & (1 << p) != 0 {
@@ -584,11 +617,13 @@ impl Problem<'_> {
     }
 }
 
+#[inline]
 fn dot_row(a: &[f64; TERMS], b: &[f64; TERMS]) -> f64 {
     a.iter().zip(b.iter()).map(|(x, y)| x * y).sum()
 }
 
 /// The rows and columns of `h` not in `held`, packed to the top left; their indices; how many.
+#[inline]
 fn compact(
     h: &[[f64; PARAMS]; PARAMS],
     held: u8,
@@ -616,6 +651,7 @@ fn compact(
 
 /// Cholesky factor (lower) of the leading `n × n` block of the symmetric `a`, in place;
 /// `false` unless positive definite with every pivot above 10⁻¹³ of the largest diagonal.
+#[inline]
 fn cholesky(a: &mut [[f64; PARAMS]; PARAMS], n: usize) -> bool {
     let top = (0..n).map(|i| a[i][i]).fold(0.0f64, f64::max);
     if !(top > 0.0) || !top.is_finite() {
@@ -643,6 +679,7 @@ fn cholesky(a: &mut [[f64; PARAMS]; PARAMS], n: usize) -> bool {
 }
 
 /// Solves `L Lᵀ x = b` with the factor [`cholesky`] left in `l`.
+#[inline]
 fn cholesky_solve(l: &[[f64; PARAMS]; PARAMS], n: usize, b: &[f64; PARAMS]) -> [f64; PARAMS] {
     let mut y = [0.0; PARAMS];
     for i in 0..n {
@@ -658,6 +695,7 @@ fn cholesky_solve(l: &[[f64; PARAMS]; PARAMS], n: usize, b: &[f64; PARAMS]) -> [
 }
 
 /// `(L Lᵀ)⁻¹` at `(k, k)`.
+#[inline]
 fn inverse_diagonal(l: &[[f64; PARAMS]; PARAMS], n: usize, k: usize) -> f64 {
     let mut e = [0.0; PARAMS];
     e[k] = 1.0;

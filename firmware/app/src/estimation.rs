@@ -155,6 +155,11 @@ impl Estimation {
         mask
     }
 
+    /// The last set's channel vector as the estimator got it (NaN where a part had no value).
+    pub fn readings(&self) -> &[f32] {
+        &self.p[..self.n]
+    }
+
     /// The estimator (model, mask, condition).
     pub fn estimator(&self) -> &Estimator<f32, MAX_CHANNELS> {
         &self.estimator

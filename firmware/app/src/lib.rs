@@ -9,13 +9,16 @@
 //!   common instants, health counters on a board (driver → sampler).
 //! - [`estimation`] — estimator-core on every sample set, automatic and commanded channel
 //!   exclusion (sampler → estimator).
+//! - [`identification`] — identification in flight (paper §6): sample sets and a reference
+//!   rate into estimator-core's sums, solved on command (estimator → identification).
 //! - [`app`] — the application task: estimates, housekeeping and events out as telemetry,
 //!   telecommands in, mode (estimator → telemetry).
 //! - [`telemetry`] — the downlink writer: PUS packets (the layouts are `ballisto_link`'s, shared
 //!   with the ground), CCSDS sequence counts, COBS framing on the link. Telecommand acceptance
 //!   is `ballisto_link::telecommand`.
 //! - [`config`] — what runs: parts, channels, rate, arrangement, model (built-in table or
-//!   command); [`time`] — the time base; [`calstore`] — calibration records in flash.
+//!   command); [`time`] — the time base; [`calstore`] — calibration records in flash;
+//!   [`storage`] — the task that commits a calibration to them (app → storage).
 //! - Feature `demo` (not in the flight image): `demo` — the built-in scenario of boards
 //!   without parts (sample sets from `sampler::synthetic`, a scripted uplink), run by the QEMU
 //!   board and checked on the host.
@@ -39,7 +42,9 @@ pub mod config;
 pub mod demo;
 pub mod drivers;
 pub mod estimation;
+pub mod identification;
 pub mod sampler;
+pub mod storage;
 pub mod telemetry;
 pub mod time;
 

@@ -1,5 +1,5 @@
 //! Executing an accepted telecommand: the mode, the model, the rate hint, channel exclusion,
-//! a new arrangement, the telemetry rates, one-shot reports. On failure nothing has changed.
+//! a new arrangement, the telemetry rates, identification (`identify`), one-shot reports. On failure nothing has changed.
 
 use ballisto_link::telecommand::{self, Command};
 use ballisto_link::verification::config_error_code;
@@ -66,6 +66,29 @@ impl App {
                 self.since_motion = 0;
                 self.since_housekeeping = 0;
             }
+            Command::StartIdentification {
+                period_ms,
+                window_ms,
+            } => {
+                let channels = self.estimation.channels();
+                let rate = self.rate_hz;
+                self.identification
+                    .start(t, period_ms, window_ms, channels, rate);
+                info!("identification window of {} ms started", window_ms);
+            }
+            Command::ReferenceRate(data) => {
+                if !self.identification.started() {
+                    return Err((
+                        FailureCode::NotReady,
+                        ballisto_link::verification::not_ready::NO_WINDOW,
+                    ));
+                }
+                self.identification
+                    .on_points(ballisto_link::identification::points(data));
+            }
+            Command::ReportIdentification => self.report_identification(t, tm).await?,
+            // Handled before execution: its completion comes from the storage task.
+            Command::CommitCalibration { .. } => {}
             Command::ReportHousekeeping => self.send_housekeeping(t, tm).await,
             Command::AreYouAlive => tm.send(t, service::TEST, subtype::ALIVE, &[]).await,
         }

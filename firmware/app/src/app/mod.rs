@@ -14,6 +14,7 @@
 //! [`task`] (the task and its links; observers subscribe to [`Observations`]).
 
 mod commands;
+mod identify;
 mod reports;
 mod task;
 mod uplink;
@@ -24,13 +25,16 @@ use embassy_sync::blocking_mutex::raw::RawMutex;
 use embedded_io_async::Write;
 use estimator_core::ConfigError;
 
+pub use identify::RESIDUAL_LIMIT;
 pub use reports::{motion_report, part_state};
 pub use task::{app_task, Links, Observation, Observations, Status};
 pub use uplink::{uplink_task, Incoming, COMMAND_QUEUE};
 
 use crate::config::{AppConfig, MAX_PARTS};
 use crate::estimation::Estimation;
+use crate::identification::Identification;
 use crate::sampler::{Health, HealthBoard, SampleSet};
+use crate::storage::CommitRequest;
 use crate::telemetry::Telemetry;
 use crate::time::Nanos;
 
@@ -73,6 +77,11 @@ pub struct App {
     health: Health,
     /// The calibration the arrangement in use comes from (housekeeping reports it).
     calibration: CalibrationId,
+    /// Identification in flight (TC[200,8–11]).
+    identification: Identification,
+    /// The storage task's state, and a commit waiting to be sent to it.
+    store: identify::Store,
+    outbox: Option<CommitRequest>,
 }
 
 impl App {
@@ -99,6 +108,9 @@ impl App {
             lost_seen: (0, 0),
             health: Health::default(),
             calibration: CalibrationId::default(),
+            identification: Identification::new(),
+            store: identify::Store::None,
+            outbox: None,
         })
     }
 
@@ -155,6 +167,9 @@ impl App {
             let excluded_before = self.estimation.excluded_parts();
             let m = self.estimation.process(set);
             self.estimates = self.estimates.wrapping_add(1);
+            // After the estimate: the identification only reads the channel vector.
+            self.identification
+                .on_set(set.t, self.estimation.readings());
             self.exclusion_events(set.t, tm, excluded_before, &m).await;
             self.since_motion += 1;
             if self.since_motion >= self.motion_every {
@@ -216,6 +231,14 @@ impl App {
         } = accepted;
         if ack_acceptance {
             self.verify(t, tm, subtype::ACCEPTED, request, None).await;
+        }
+        if let telecommand::Command::CommitCalibration { solution } = command {
+            // Completed when the store answers (`on_commit_reply`).
+            if let Err(failure) = self.commit_calibration(solution, request, ack_completion) {
+                self.verify(t, tm, subtype::NOT_COMPLETED, request, Some(failure))
+                    .await;
+            }
+            return;
         }
         match self.execute(command, t, tm).await {
             Ok(()) if ack_completion => self.verify(t, tm, subtype::COMPLETED, request, None).await,

@@ -3,7 +3,7 @@
 //! board ends its run) published on an embassy-sync `PubSubChannel` — no hooks in the
 //! application. With no subscriber (the flight board) nothing is queued.
 
-use embassy_futures::select::{select, Either};
+use embassy_futures::select::{select3, Either3};
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::channel::Receiver;
 use embassy_sync::pubsub::PubSubChannel;
@@ -13,6 +13,7 @@ use embedded_io_async::Write;
 use super::{App, Incoming};
 use crate::estimation::SetEstimate;
 use crate::sampler::{HealthBoard, LoopHealth, SampleSet};
+use crate::storage::StorageLinks;
 use crate::telemetry::Telemetry;
 use crate::time::TimeBase;
 
@@ -62,6 +63,9 @@ pub struct Links<'a, M: RawMutex, W, const Q: usize> {
     pub telemetry: &'a mut Telemetry<W>,
     /// Where each handled set is published for observers.
     pub observations: &'a Observations<M>,
+    /// The calibration storage task, where the board has a writable store (else commits are
+    /// refused).
+    pub storage: Option<StorageLinks<'a, M>>,
 }
 
 /// The application task: boots, then handles sample sets and telecommands as they come.
@@ -78,22 +82,36 @@ where
         health,
         telemetry: tm,
         observations,
+        storage,
     } = links;
     // One publisher per channel, taken here: `observations` is this task's alone.
     let publisher = observations.publisher();
+    app.set_store_writable(storage.is_some());
     app.boot(time.now(), tm).await;
     loop {
-        match select(samples.receive(), commands.receive()).await {
-            Either::First(set) => {
+        let replies = async {
+            match &storage {
+                Some(s) => s.replies.receive().await,
+                None => core::future::pending().await,
+            }
+        };
+        match select3(samples.receive(), commands.receive(), replies).await {
+            Either3::First(set) => {
                 let seen = app.on_set(&set, health, tm).await;
                 if let Ok(p) = &publisher {
                     p.publish(seen).await;
                 }
             }
-            Either::Second(incoming) => {
+            Either3::Second(incoming) => {
                 app.on_incoming(incoming, time.now(), tm).await;
                 commands.receive_done();
+                if let (Some(request), Some(s)) = (app.take_commit(), &storage) {
+                    // One commit at a time (the application refuses another while busy): the
+                    // channel has room.
+                    s.requests.send(request).await;
+                }
             }
+            Either3::Third(reply) => app.on_commit_reply(reply, time.now(), tm).await,
         }
     }
 }

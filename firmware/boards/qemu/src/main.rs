@@ -147,6 +147,7 @@ mod board {
             health: &HEALTH,
             telemetry: tm,
             observations: &OBSERVATIONS,
+            storage: None,
         };
         app_task(app, &SysTickTime, links).await;
     }

@@ -161,6 +161,7 @@ mod board {
             health: &HEALTH,
             telemetry: tm,
             observations: &OBSERVATIONS,
+            storage: None,
         };
         app_task(app, &EmbassyTime, links).await;
     }

@@ -1,0 +1,218 @@
+//! Identification in flight on the firmware host (issue 16, paper §6): the ground's side — the
+//! scenario's reference gyro sent up in TC[200,9] batches, the window started, reported and
+//! committed by telecommand — and two boots of the firmware with the calibration store's flash
+//! handed from the first to the second (a reset: everything else is dropped).
+
+use ballisto_fw::calstore::ram_flash::{Programming, RamFlash};
+use ballisto_fw::calstore::store::{select_at_boot, CalibrationStore};
+use ballisto_fw::config::AppConfig;
+use ballisto_link::identification::{MAX_POINTS, POINT_LEN, SOURCE_REFERENCE};
+use ballisto_link::telecommand::{build, ACK_ACCEPTANCE, ACK_COMPLETION};
+use ballisto_link::{cuc, framing, service, subtype, CalibrationId};
+
+use crate::firmware_host::{run_firmware_boot, Boot, Emit, FirmwareReport, HOST_SECTOR};
+use crate::motion::Propagator;
+use crate::reference::ReferenceSensor;
+use crate::rig::{POWER_ON, TRUTH_STEP};
+use crate::scenario::Scenario;
+
+/// When the ground identifies: the window (scenario seconds), the reference points per
+/// telecommand and how late each batch arrives after its last point.
+#[derive(Clone, Copy, Debug)]
+pub struct Plan {
+    /// The window starts (TC[200,8] arrives just before).
+    pub start: f64,
+    /// The window ends; TC[200,10] arrives after the last batch, TC[200,11] after it.
+    pub end: f64,
+    /// Reference points per TC[200,9].
+    pub batch: usize,
+    /// Delay of a batch after its last point, s (the bus and the OBC).
+    pub latency: f64,
+}
+
+impl Plan {
+    /// From 1 s to 1 s before the scenario's end, 4 points per telecommand, 50 ms late.
+    pub fn for_scenario(sc: &Scenario) -> Self {
+        Plan {
+            start: 1.0,
+            end: (sc.duration - 1.0).max(1.5),
+            batch: 4,
+            latency: 0.05,
+        }
+    }
+}
+
+/// On-board time (ns since power-on) of a scenario instant.
+fn on_board(t: f64) -> u64 {
+    ((t - POWER_ON) * 1e9).round().max(0.0) as u64
+}
+
+/// The uplink of an identification: TC[200,8] at the start, the reference (the scenario's
+/// `[reference]` sensor, on the unit's time) in batches, TC[200,10] after the last batch and
+/// TC[200,11] committing solution 1 (the first one a boot reports) after it. Frames are COBS,
+/// as on the line; times are scenario seconds.
+pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String> {
+    let mut sensor = ReferenceSensor::of(sc).ok_or_else(|| {
+        format!(
+            "scenario {}: no [reference] sensor to identify with",
+            sc.description
+        )
+    })?;
+    let reference_rate = sc
+        .reference
+        .as_ref()
+        .and_then(|r| r.rate)
+        .unwrap_or(sc.rate);
+    let batch = plan.batch.clamp(1, MAX_POINTS);
+    let mut truth = Propagator::new(sc.motion(), TRUTH_STEP);
+    let mut out = Vec::new();
+    let mut seq = 0u16;
+    let mut frame = |at: f64, st: u8, ack: u8, data: &[u8], out: &mut Vec<(f64, Vec<u8>)>| {
+        let mut raw = vec![0u8; 16 + data.len()];
+        let n = build(&mut raw, seq, ack, service::BALLISTOMETER, st, data)
+            .ok_or("telecommand too long")?;
+        let mut framed = vec![0u8; framing::max_encoded_len(n)];
+        let m = framing::encode(&raw[..n], &mut framed).ok_or("framing")?;
+        framed.truncate(m);
+        out.push((at, framed));
+        seq = seq.wrapping_add(1);
+        Ok::<(), String>(())
+    };
+    let acks = ACK_ACCEPTANCE | ACK_COMPLETION;
+    let period_ms = (1000.0 / reference_rate).round().clamp(1.0, 1000.0) as u16;
+    let window_ms = ((plan.end - plan.start) * 1000.0).round() as u32;
+    let mut start = vec![SOURCE_REFERENCE];
+    start.extend_from_slice(&period_ms.to_be_bytes());
+    start.extend_from_slice(&window_ms.to_be_bytes());
+    frame(
+        plan.start - 0.002,
+        subtype::START_IDENTIFICATION,
+        acks,
+        &start,
+        &mut out,
+    )?;
+    let mut points: Vec<u8> = Vec::new();
+    let mut n = 0;
+    let mut last = plan.start;
+    let sets = (sc.duration * sc.rate).round() as usize;
+    for k in 0..=sets {
+        let t = k as f64 / sc.rate;
+        if t > plan.end {
+            break;
+        }
+        let tr = truth.truth_at(t);
+        let Some(w) = sensor.sample(k, &tr) else {
+            continue;
+        };
+        if t < plan.start {
+            continue;
+        }
+        points.extend_from_slice(&cuc::cuc(on_board(t)));
+        for v in w {
+            points.extend_from_slice(&(v as f32).to_be_bytes());
+        }
+        n += 1;
+        last = t;
+        if n == batch {
+            let mut data = vec![n as u8];
+            data.append(&mut points);
+            frame(
+                t + plan.latency,
+                subtype::REFERENCE_RATE,
+                0,
+                &data,
+                &mut out,
+            )?;
+            n = 0;
+        }
+    }
+    if n > 0 {
+        let mut data = vec![n as u8];
+        data.append(&mut points);
+        frame(
+            last + plan.latency,
+            subtype::REFERENCE_RATE,
+            0,
+            &data,
+            &mut out,
+        )?;
+    }
+    debug_assert_eq!(POINT_LEN, 20);
+    let report_at = last + plan.latency + 0.1;
+    frame(
+        report_at,
+        subtype::REPORT_IDENTIFICATION,
+        acks,
+        &[],
+        &mut out,
+    )?;
+    frame(
+        report_at + 0.1,
+        subtype::COMMIT_CALIBRATION,
+        acks,
+        &1u16.to_be_bytes(),
+        &mut out,
+    )?;
+    Ok(out)
+}
+
+/// Flash of the host's calibration store: four sectors.
+pub const STORE_LEN: usize = 4 * HOST_SECTOR;
+
+/// Two boots: the first on an erased store runs `config` (the nominal arrangement) with
+/// `uplink` (an identification ending in a commit) and its telemetry into `downlink1`; the
+/// second, after the reset, boots with what the store gives (`select_at_boot`) and runs the
+/// scenario again, telemetry into `downlink2`, every estimate through `emit`. Returns both
+/// reports and the calibration the second boot used.
+pub fn identify_and_reboot(
+    sc: &Scenario,
+    config: &AppConfig,
+    uplink: &[(f64, Vec<u8>)],
+    downlink1: &mut dyn std::io::Write,
+    downlink2: &mut dyn std::io::Write,
+    emit: Emit,
+) -> Result<(FirmwareReport, FirmwareReport, CalibrationId), String> {
+    let mut mem = vec![0xFFu8; STORE_LEN];
+    let mut erases = [0u32; STORE_LEN / HOST_SECTOR];
+    let flash = RamFlash::new(&mut mem, &mut erases, Programming::WordOnce);
+    let range = 0..STORE_LEN as u32;
+    let mut store = CalibrationStore::new(flash, range.clone()).map_err(|e| format!("{e}"))?;
+    let instants = (sc.duration * sc.rate).round() as u32 + 1;
+    let first = run_firmware_boot(
+        sc,
+        config,
+        instants,
+        uplink,
+        downlink1,
+        &mut |_, _, _| {},
+        Boot {
+            store: Some(&mut store),
+            calibration: CalibrationId::default(),
+        },
+    )?;
+    // The reset: only the flash survives.
+    let flash = store.into_flash();
+    let mut store = CalibrationStore::new(flash, range).map_err(|e| format!("{e}"))?;
+    let (arrangement, id, not_used) =
+        embassy_futures::block_on(select_at_boot(&mut store, &config.arrangement));
+    if let Some(why) = not_used {
+        return Err(format!(
+            "second boot: the stored calibration was not used ({why:?})"
+        ));
+    }
+    let mut second_config = config.clone();
+    second_config.arrangement = arrangement;
+    let second = run_firmware_boot(
+        sc,
+        &second_config,
+        instants,
+        &[],
+        downlink2,
+        emit,
+        Boot {
+            store: Some(&mut store),
+            calibration: id,
+        },
+    )?;
+    Ok((first, second, id))
+}
