@@ -557,6 +557,16 @@ fn garbage_on_the_link_is_counted_and_reported() {
 fn mutated_commands_never_panic() {
     let cfg = config();
     let mut seeds: Vec<Vec<u8>> = bad_commands(&cfg).into_iter().map(|c| c.1).collect();
+    seeds.extend(bad_identification_commands().into_iter().map(|c| c.1));
+    seeds.push(tc(
+        service::BALLISTOMETER,
+        subtype::REFERENCE_RATE,
+        &reference_data(&[
+            (1_000_000_000, [0.1, 0.2, 0.3]),
+            (1_050_000_000, [0.1, 0.2, 0.3]),
+        ]),
+        2,
+    ));
     seeds.push(tc(
         service::BALLISTOMETER,
         subtype::SET_RATES,
@@ -589,4 +599,313 @@ fn mutated_commands_never_panic() {
     }
     // Mutations almost always break the CRC; the few accepted are counted, not forbidden.
     assert!(accepted < 2_000, "{accepted}");
+}
+
+/// TC[200,9] application data: `points` as (on-board ns, Ω).
+fn reference_data(points: &[(u64, [f32; 3])]) -> Vec<u8> {
+    let mut d = vec![points.len() as u8];
+    for (t, w) in points {
+        d.extend_from_slice(&ballisto_link::cuc::cuc(*t));
+        for v in w {
+            d.extend_from_slice(&v.to_be_bytes());
+        }
+    }
+    d
+}
+
+/// TC[200,8] application data: source, period (ms), window (ms).
+fn start_data(source: u8, period_ms: u16, window_ms: u32) -> Vec<u8> {
+    let mut d = vec![source];
+    d.extend_from_slice(&period_ms.to_be_bytes());
+    d.extend_from_slice(&window_ms.to_be_bytes());
+    d
+}
+
+/// The identification's commands refused at acceptance, each with its reason.
+fn bad_identification_commands() -> Vec<(&'static str, Vec<u8>, FailureCode, u32)> {
+    let b = service::BALLISTOMETER;
+    let p = |t: u64| (t, [0.0f32, 0.0, 0.5]);
+    let mut bad_pfield = reference_data(&[p(1_000_000_000)]);
+    bad_pfield[1] = 0x2E;
+    let mut nan = reference_data(&[p(1_000_000_000), p(1_010_000_000)]);
+    nan[1 + 20 + 8 + 4..1 + 20 + 8 + 8].copy_from_slice(&f32::NAN.to_be_bytes());
+    let many: Vec<_> = (0..17).map(|i| p(1_000_000_000 + i * 10_000_000)).collect();
+    vec![
+        (
+            "tumble source (not in this version)",
+            tc(
+                b,
+                subtype::START_IDENTIFICATION,
+                &start_data(2, 50, 10_000),
+                60,
+            ),
+            FailureCode::OutOfRange,
+            0,
+        ),
+        (
+            "period 0",
+            tc(
+                b,
+                subtype::START_IDENTIFICATION,
+                &start_data(1, 0, 10_000),
+                61,
+            ),
+            FailureCode::OutOfRange,
+            1,
+        ),
+        (
+            "window 0",
+            tc(b, subtype::START_IDENTIFICATION, &start_data(1, 50, 0), 62),
+            FailureCode::OutOfRange,
+            2,
+        ),
+        (
+            "window over an hour",
+            tc(
+                b,
+                subtype::START_IDENTIFICATION,
+                &start_data(1, 50, 3_600_001),
+                63,
+            ),
+            FailureCode::OutOfRange,
+            2,
+        ),
+        (
+            "start too short",
+            tc(b, subtype::START_IDENTIFICATION, &[1, 0, 50], 64),
+            FailureCode::DataLength,
+            7,
+        ),
+        (
+            "no points",
+            tc(b, subtype::REFERENCE_RATE, &[0], 65),
+            FailureCode::OutOfRange,
+            0,
+        ),
+        (
+            "17 points",
+            tc(b, subtype::REFERENCE_RATE, &reference_data(&many), 66),
+            FailureCode::OutOfRange,
+            0,
+        ),
+        (
+            "points cut short",
+            tc(
+                b,
+                subtype::REFERENCE_RATE,
+                &reference_data(&[p(1)])[..15],
+                67,
+            ),
+            FailureCode::DataLength,
+            21,
+        ),
+        (
+            "not CUC",
+            tc(b, subtype::REFERENCE_RATE, &bad_pfield, 68),
+            FailureCode::OutOfRange,
+            1,
+        ),
+        (
+            "time going back",
+            tc(
+                b,
+                subtype::REFERENCE_RATE,
+                &reference_data(&[p(2_000_000_000), p(1_000_000_000)]),
+                69,
+            ),
+            FailureCode::OutOfRange,
+            5,
+        ),
+        (
+            "Ω not finite",
+            tc(b, subtype::REFERENCE_RATE, &nan, 70),
+            FailureCode::NotFinite,
+            7,
+        ),
+        (
+            "Ω over 50 rad/s",
+            tc(
+                b,
+                subtype::REFERENCE_RATE,
+                &reference_data(&[(1, [0.0, 51.0, 0.0])]),
+                71,
+            ),
+            FailureCode::OutOfRange,
+            3,
+        ),
+        (
+            "report with data",
+            tc(b, subtype::REPORT_IDENTIFICATION, &[0], 72),
+            FailureCode::DataLength,
+            0,
+        ),
+        (
+            "commit without its solution",
+            tc(b, subtype::COMMIT_CALIBRATION, &[1], 73),
+            FailureCode::DataLength,
+            2,
+        ),
+    ]
+}
+
+#[test]
+fn identification_commands_are_refused_with_their_reason() {
+    let mut u = Unit::new();
+    u.sets(5);
+    for (what, raw, code, data) in bad_identification_commands() {
+        let r = u.command(&raw);
+        assert_eq!(r.len(), 1, "{what}");
+        assert_eq!(
+            verification(&r[0]),
+            (subtype::NOT_ACCEPTED, Some((code, data))),
+            "{what}"
+        );
+    }
+    // Accepted, but nothing to do yet: no window started, no store.
+    let b = service::BALLISTOMETER;
+    let not_ready = |r: &[Decoded]| verification(r.last().unwrap());
+    let no_window = Some((FailureCode::NotReady, 1));
+    let pts = reference_data(&[(1_000_000_000, [0.0, 0.0, 0.5])]);
+    assert_eq!(
+        not_ready(&u.command(&tc(b, subtype::REFERENCE_RATE, &pts, 80))),
+        (subtype::NOT_COMPLETED, no_window)
+    );
+    assert_eq!(
+        not_ready(&u.command(&tc(b, subtype::REPORT_IDENTIFICATION, &[], 81))),
+        (subtype::NOT_COMPLETED, no_window)
+    );
+    assert_eq!(
+        not_ready(&u.command(&tc(b, subtype::COMMIT_CALIBRATION, &[0, 1], 82))),
+        (subtype::NOT_COMPLETED, Some((FailureCode::NotReady, 6)))
+    );
+}
+
+/// A window over a steady spin about z with the reference sent in batches: the report names
+/// what a single-axis spin cannot show (every lever arm along z, the scale always), a commit
+/// names the solution, waits for the store and is completed when it answers; a second commit
+/// meanwhile, a wrong solution number and a failed store are refused with their reasons.
+#[test]
+fn a_window_is_reported_and_committed_through_the_store() {
+    let mut u = Unit::new();
+    u.app.set_store_writable(true);
+    let b = service::BALLISTOMETER;
+    u.sets(10);
+    // 10 ms sets; reference every 50 ms, sent four points at a time.
+    let r = u.command(&tc(
+        b,
+        subtype::START_IDENTIFICATION,
+        &start_data(1, 50, 4_000),
+        90,
+    ));
+    assert_eq!(verification(r.last().unwrap()).0, subtype::COMPLETED);
+    let mut seq = 91;
+    for batch in 0..20u64 {
+        u.sets(20);
+        let pts: Vec<_> = (0..4)
+            .map(|i| {
+                (
+                    100_000_000 + (batch * 4 + i) * 50_000_000,
+                    [0.0f32, 0.0, 0.5],
+                )
+            })
+            .collect();
+        u.command(&tc(b, subtype::REFERENCE_RATE, &reference_data(&pts), seq));
+        seq += 1;
+    }
+    let r = u.command(&tc(b, subtype::REPORT_IDENTIFICATION, &[], seq));
+    let summary = r
+        .iter()
+        .find_map(|p| match p.report {
+            Report::IdentificationSummary(s) => Some(s),
+            _ => None,
+        })
+        .expect("a summary");
+    assert_eq!(summary.channels, 12);
+    assert!(summary.sets > 300, "{summary:?}");
+    assert_eq!(summary.points, 80);
+    let channels: Vec<_> = r
+        .iter()
+        .filter_map(|p| match p.report {
+            Report::IdentifiedChannel(c) => Some(c),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(channels.len(), 12);
+    for c in &channels {
+        assert!(c.held & 1 != 0, "scale held: {c:?}");
+        assert!(
+            c.held & (1 << 5) != 0,
+            "z lever arm held in a spin about z: {c:?}"
+        );
+        assert!(c.residual_rms < 1e-4, "{c:?}");
+    }
+    assert_eq!(verification(r.last().unwrap()).0, subtype::COMPLETED);
+    let n = summary.solution;
+    // Not the reported solution.
+    let r = u.command(&tc(
+        b,
+        subtype::COMMIT_CALIBRATION,
+        &(n + 1).to_be_bytes(),
+        seq + 1,
+    ));
+    assert_eq!(
+        verification(r.last().unwrap()),
+        (subtype::NOT_COMPLETED, Some((FailureCode::NotReady, 4)))
+    );
+    // The commit goes to the store; no completion yet.
+    let r = u.command(&tc(
+        b,
+        subtype::COMMIT_CALIBRATION,
+        &n.to_be_bytes(),
+        seq + 2,
+    ));
+    assert_eq!(
+        r.iter().map(verification).map(|v| v.0).collect::<Vec<_>>(),
+        vec![subtype::ACCEPTED]
+    );
+    let request = u.app.take_commit().expect("a commit for the storage task");
+    assert_eq!(request.arrangement.len(), 12);
+    assert!(u.app.take_commit().is_none());
+    let r = u.command(&tc(
+        b,
+        subtype::COMMIT_CALIBRATION,
+        &n.to_be_bytes(),
+        seq + 3,
+    ));
+    assert_eq!(
+        verification(r.last().unwrap()),
+        (subtype::NOT_COMPLETED, Some((FailureCode::NotReady, 7)))
+    );
+    // The store answers: event and completion.
+    let before = u.all().len();
+    block_on(u.app.on_commit_reply(
+        ballisto_fw::storage::CommitReply::Stored { id: 4, crc: 0xABCD },
+        0,
+        &mut u.tm,
+    ));
+    let r = &u.all()[before..];
+    assert!(
+        matches!(r[0].report, Report::Event(e) if e.id == EventId::CalibrationStored && e.a == 4 && e.b == 0xABCD)
+    );
+    assert_eq!(verification(&r[1]).0, subtype::COMPLETED);
+    // A failed store.
+    u.command(&tc(
+        b,
+        subtype::COMMIT_CALIBRATION,
+        &n.to_be_bytes(),
+        seq + 4,
+    ));
+    assert!(u.app.take_commit().is_some());
+    let before = u.all().len();
+    block_on(
+        u.app
+            .on_commit_reply(ballisto_fw::storage::CommitReply::Failed(1), 0, &mut u.tm),
+    );
+    let r = &u.all()[before..];
+    assert_eq!(
+        verification(&r[0]),
+        (subtype::NOT_COMPLETED, Some((FailureCode::StoreFailed, 1)))
+    );
+    // The calibration in use is still the boot's: a commit is used from the next boot.
+    assert_eq!(u.app.calibration(), ballisto_link::CalibrationId::default());
 }
