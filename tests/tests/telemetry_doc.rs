@@ -336,3 +336,82 @@ fn stated_lengths_are_the_layouts() {
         assert_eq!(cell, len, "{report}");
     }
 }
+
+#[test]
+fn identification_tables_match_the_encoders() {
+    use ballisto_link::identification::{
+        IdentificationSummary, IdentifiedChannel, CHANNEL_LEN, SUMMARY_LEN,
+    };
+    let doc = doc();
+    let rows = table(&doc, "### Identification summary");
+    check_tiling(&rows, SUMMARY_LEN, "identification summary");
+    let s = IdentificationSummary {
+        solution: 3,
+        channels: 12,
+        sets: 5800,
+        not_covered: 4,
+        incomplete: 5,
+        points: 1161,
+        restarts: 2,
+        centre_of_mass: [0.25, 0.5, 0.75],
+        centre_of_mass_sd: [1.25, 1.5, 1.75],
+        frame: [2.25, 2.5, 2.75],
+    };
+    let mut data = [0u8; SUMMARY_LEN];
+    assert_eq!(s.encode(&mut data), Some(SUMMARY_LEN));
+    let expected = [
+        ("solution number", vec![3.0]),
+        ("channels", vec![12.0]),
+        ("spare", vec![0.0]),
+        ("sample sets in the solution", vec![5800.0]),
+        ("sets the reference did not cover", vec![4.0]),
+        ("sets with a reading missing", vec![5.0]),
+        ("reference points taken", vec![1161.0]),
+        ("reference restarts", vec![2.0]),
+        ("centre of mass", vec![0.25, 0.5, 0.75]),
+        ("its standard deviation", vec![1.25, 1.5, 1.75]),
+        ("the identified frame's uncertainty", vec![2.25, 2.5, 2.75]),
+    ];
+    check_rows(&data, &rows, &expected, "identification summary");
+    assert!(doc.contains(&format!(
+        "### Identification summary — TM[200,128] (packet {} octets)",
+        21 + SUMMARY_LEN + 2
+    )));
+
+    let rows = table(&doc, "### Identified channel");
+    check_tiling(&rows, CHANNEL_LEN, "identified channel");
+    let c = IdentifiedChannel {
+        solution: 3,
+        channel: 7,
+        held: 0b100001,
+        position: [0.25, 0.5, 0.75],
+        axis: [1.25, 1.5, 1.75],
+        bias: 2.5,
+        scale: 3.5,
+        sd: [4.0, 4.25, 4.5, 4.75, 5.0, 5.25, 5.5],
+        residual_rms: 6.5,
+        noise: 7.5,
+    };
+    let mut data = [0u8; CHANNEL_LEN];
+    assert_eq!(c.encode(&mut data), Some(CHANNEL_LEN));
+    let expected = [
+        ("solution number", vec![3.0]),
+        ("channel", vec![7.0]),
+        ("held", vec![33.0]),
+        ("position", vec![0.25, 0.5, 0.75]),
+        ("axis", vec![1.25, 1.5, 1.75]),
+        ("bias", vec![2.5]),
+        ("scale", vec![3.5]),
+        (
+            "standard deviations",
+            vec![4.0, 4.25, 4.5, 4.75, 5.0, 5.25, 5.5],
+        ),
+        ("RMS of the channel's residual", vec![6.5]),
+        ("the channel's declared noise", vec![7.5]),
+    ];
+    check_rows(&data, &rows, &expected, "identified channel");
+    assert!(doc.contains(&format!(
+        "### Identified channel — TM[200,129] (packet {} octets)",
+        21 + CHANNEL_LEN + 2
+    )));
+}
