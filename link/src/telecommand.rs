@@ -17,6 +17,7 @@ use spacepackets::ecss::tc::PusTcReader;
 use spacepackets::ecss::PusError;
 
 use crate::codec::{Get, Put};
+#[cfg(feature = "identification")]
 use crate::identification;
 use crate::ids::{service, sid, subtype, APID, MAX_CHANNELS};
 use crate::mode::{Mode, ModelCode};
@@ -243,6 +244,7 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
                 housekeeping_every,
             })
         }
+        #[cfg(feature = "identification")]
         (service::BALLISTOMETER, subtype::START_IDENTIFICATION) => {
             length(7)?;
             let source = g.u8().unwrap_or(0);
@@ -263,6 +265,7 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
                 window_ms,
             })
         }
+        #[cfg(feature = "identification")]
         (service::BALLISTOMETER, subtype::REFERENCE_RATE) => {
             let n = usize::from(*data.first().ok_or((FailureCode::DataLength, 1))?);
             length(1 + identification::POINT_LEN * n)?;
@@ -292,10 +295,12 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
             }
             Ok(Command::ReferenceRate(data))
         }
+        #[cfg(feature = "identification")]
         (service::BALLISTOMETER, subtype::REPORT_IDENTIFICATION) => {
             length(0)?;
             Ok(Command::ReportIdentification)
         }
+        #[cfg(feature = "identification")]
         (service::BALLISTOMETER, subtype::COMMIT_CALIBRATION) => {
             length(2)?;
             Ok(Command::CommitCalibration {

@@ -557,6 +557,7 @@ fn garbage_on_the_link_is_counted_and_reported() {
 fn mutated_commands_never_panic() {
     let cfg = config();
     let mut seeds: Vec<Vec<u8>> = bad_commands(&cfg).into_iter().map(|c| c.1).collect();
+    #[cfg(feature = "identification")]
     seeds.extend(bad_identification_commands().into_iter().map(|c| c.1));
     seeds.push(tc(
         service::BALLISTOMETER,
@@ -622,6 +623,7 @@ fn start_data(source: u8, period_ms: u16, window_ms: u32) -> Vec<u8> {
 }
 
 /// The identification's commands refused at acceptance, each with its reason.
+#[cfg(feature = "identification")]
 fn bad_identification_commands() -> Vec<(&'static str, Vec<u8>, FailureCode, u32)> {
     let b = service::BALLISTOMETER;
     let p = |t: u64| (t, [0.0f32, 0.0, 0.5]);
@@ -748,6 +750,7 @@ fn bad_identification_commands() -> Vec<(&'static str, Vec<u8>, FailureCode, u32
     ]
 }
 
+#[cfg(feature = "identification")]
 #[test]
 fn identification_commands_are_refused_with_their_reason() {
     let mut u = Unit::new();
@@ -784,6 +787,7 @@ fn identification_commands_are_refused_with_their_reason() {
 /// what a single-axis spin cannot show (every lever arm along z, the scale always), a commit
 /// names the solution, waits for the store and is completed when it answers; a second commit
 /// meanwhile, a wrong solution number and a failed store are refused with their reasons.
+#[cfg(feature = "identification")]
 #[test]
 fn a_window_is_reported_and_committed_through_the_store() {
     let mut u = Unit::new();
@@ -908,4 +912,25 @@ fn a_window_is_reported_and_committed_through_the_store() {
     );
     // The calibration in use is still the boot's: a commit is used from the next boot.
     assert_eq!(u.app.calibration(), ballisto_link::CalibrationId::default());
+}
+
+/// An image built without identification does not know its commands.
+#[cfg(not(feature = "identification"))]
+#[test]
+fn an_image_without_identification_does_not_know_its_commands() {
+    let mut u = Unit::new();
+    for (st, data) in [
+        (subtype::START_IDENTIFICATION, start_data(1, 50, 4_000)),
+        (subtype::REPORT_IDENTIFICATION, vec![]),
+        (subtype::COMMIT_CALIBRATION, vec![0, 1]),
+    ] {
+        let r = u.command(&tc(service::BALLISTOMETER, st, &data, 90));
+        assert_eq!(
+            verification(r.last().unwrap()),
+            (
+                subtype::NOT_ACCEPTED,
+                Some((FailureCode::UnknownCommand, (200 << 8) | u32::from(st)))
+            )
+        );
+    }
 }

@@ -66,29 +66,12 @@ impl App {
                 self.since_motion = 0;
                 self.since_housekeeping = 0;
             }
-            Command::StartIdentification {
-                period_ms,
-                window_ms,
-            } => {
-                let channels = self.estimation.channels();
-                let rate = self.rate_hz;
-                self.identification
-                    .start(t, period_ms, window_ms, channels, rate);
-                info!("identification window of {} ms started", window_ms);
+            Command::StartIdentification { .. }
+            | Command::ReferenceRate(_)
+            | Command::ReportIdentification
+            | Command::CommitCalibration { .. } => {
+                self.identification_command(command, t, tm).await?
             }
-            Command::ReferenceRate(data) => {
-                if !self.identification.started() {
-                    return Err((
-                        FailureCode::NotReady,
-                        ballisto_link::verification::not_ready::NO_WINDOW,
-                    ));
-                }
-                self.identification
-                    .on_points(ballisto_link::identification::points(data));
-            }
-            Command::ReportIdentification => self.report_identification(t, tm).await?,
-            // Handled before execution: its completion comes from the storage task.
-            Command::CommitCalibration { .. } => {}
             Command::ReportHousekeeping => self.send_housekeeping(t, tm).await,
             Command::AreYouAlive => tm.send(t, service::TEST, subtype::ALIVE, &[]).await,
         }

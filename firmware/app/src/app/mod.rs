@@ -232,6 +232,7 @@ impl App {
         if ack_acceptance {
             self.verify(t, tm, subtype::ACCEPTED, request, None).await;
         }
+        #[cfg(feature = "identification")]
         if let telecommand::Command::CommitCalibration { solution } = command {
             // Completed when the store answers (`on_commit_reply`).
             if let Err(failure) = self.commit_calibration(solution, request, ack_completion) {

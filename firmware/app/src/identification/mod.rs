@@ -11,25 +11,22 @@
 //! orbit, 4e-7 m/s² on a 0.1 m arm) is left out.
 
 mod reference;
+#[cfg(feature = "identification")]
+mod window;
 
-use ballisto_link::identification::{IdentificationSummary, ReferencePoint};
-use estimator_core::identify::Tolerance;
-use estimator_core::identify::{field_terms, identify, FieldSums, Identified, IdentifyError};
-use estimator_core::{Arrangement, Sym3};
-use heapless::Deque;
+#[cfg(not(feature = "identification"))]
+mod absent;
 
+#[cfg(not(feature = "identification"))]
+pub use absent::Identification;
 pub use reference::{Push, ReferenceTrack};
-
-use crate::config::MAX_CHANNELS;
-use crate::time::Nanos;
+#[cfg(feature = "identification")]
+pub use window::Identification;
 
 /// Sample sets that can wait for the reference to cover them. At sample rates where that is
 /// less than three reference periods, only every d-th set is taken (the window then averages
 /// fewer sets; nothing else changes).
 pub const PENDING: usize = 48;
-
-/// A reference interval longer than this many stated periods is a gap.
-const GAP_PERIODS: u64 = 3;
 
 /// What the window has seen.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -43,195 +40,4 @@ pub struct Counters {
     pub points: u32,
     /// Reference points that restarted the track (after the first).
     pub restarts: u32,
-}
-
-/// The identification's state.
-pub struct Identification {
-    /// The open window: its end, and which sets it takes (every `decimation`-th).
-    window: Option<(Nanos, u32)>,
-    seen: u32,
-    track: ReferenceTrack,
-    pending: Deque<(Nanos, [f32; MAX_CHANNELS]), PENDING>,
-    sums: FieldSums<MAX_CHANNELS>,
-    counters: Counters,
-    solution: Option<(u16, Identified<MAX_CHANNELS>)>,
-    next_solution: u16,
-}
-
-impl Default for Identification {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl Identification {
-    /// No window.
-    pub const fn new() -> Self {
-        Identification {
-            window: None,
-            seen: 0,
-            track: ReferenceTrack::new(0),
-            pending: Deque::new(),
-            sums: FieldSums::new(),
-            counters: Counters {
-                not_covered: 0,
-                incomplete: 0,
-                points: 0,
-                restarts: 0,
-            },
-            solution: None,
-            next_solution: 1,
-        }
-    }
-
-    /// Starts a window of `window_ms` from `now` over `channels` channels sampled at
-    /// `rate_hz`, with the reference sent every `period_ms`; what was accumulated is dropped
-    /// (a reported solution stays committable).
-    #[inline(never)]
-    pub fn start(
-        &mut self,
-        now: Nanos,
-        period_ms: u16,
-        window_ms: u32,
-        channels: usize,
-        rate_hz: f32,
-    ) {
-        let period = u64::from(period_ms) * 1_000_000;
-        // Sets the queue must hold: three periods' worth.
-        let needed = libm::ceilf(3.0 * f32::from(period_ms) * 1e-3 * rate_hz);
-        let decimation = libm::ceilf(needed / PENDING as f32).max(1.0) as u32;
-        self.window = Some((now + u64::from(window_ms) * 1_000_000, decimation));
-        self.seen = 0;
-        self.track = ReferenceTrack::new(GAP_PERIODS * period);
-        self.pending.clear();
-        self.sums.clear(channels);
-        self.counters = Counters::default();
-    }
-
-    /// Whether a window was started.
-    pub fn started(&self) -> bool {
-        self.window.is_some()
-    }
-
-    /// A sample set's channel vector (NaN where a part had no value) at `t`.
-    #[inline(never)]
-    pub fn on_set(&mut self, t: Nanos, p: &[f32]) {
-        let Some((end, decimation)) = self.window else {
-            return;
-        };
-        if t > end {
-            return;
-        }
-        self.seen = self.seen.wrapping_add(1);
-        if !self.seen.is_multiple_of(decimation) {
-            return;
-        }
-        if p.iter().any(|v| !v.is_finite()) {
-            self.counters.incomplete += 1;
-            return;
-        }
-        let mut v = [0.0; MAX_CHANNELS];
-        let n = p.len().min(MAX_CHANNELS);
-        v[..n].copy_from_slice(&p[..n]);
-        if self.pending.is_full() {
-            self.pending.pop_front();
-            self.counters.not_covered += 1;
-        }
-        // Room was made above.
-        let _ = self.pending.push_back((t, v));
-    }
-
-    /// Reference points (in time order, as acceptance checked).
-    #[inline(never)]
-    pub fn on_points(&mut self, points: impl Iterator<Item = ReferencePoint>) {
-        if self.window.is_none() {
-            return;
-        }
-        for p in points {
-            self.counters.points += 1;
-            if self.track.push(&p) == Push::Restarted && self.counters.points > 1 {
-                self.counters.restarts += 1;
-            }
-            self.drain();
-        }
-    }
-
-    /// Moves the sets the track now covers into the sums; drops those it never will.
-    #[inline(never)]
-    fn drain(&mut self) {
-        let channels = self.sums.channels();
-        let Some((t0, t2)) = self.track.span() else {
-            // A restarted track covers nothing before its first point.
-            if let Some(first) = self.track.first() {
-                while self.pending.front().is_some_and(|(t, _)| *t < first) {
-                    self.pending.pop_front();
-                    self.counters.not_covered += 1;
-                }
-            }
-            return;
-        };
-        let gamma = Sym3([0.0; 6]);
-        while let Some((t, p)) = self.pending.front() {
-            if *t > t2 {
-                break;
-            }
-            if let (true, Some((w, dw))) = (*t >= t0, self.track.field_at(*t)) {
-                let k = field_terms(&w, &dw, &gamma);
-                if !self.sums.add(&k, &p[..channels]) {
-                    self.counters.incomplete += 1;
-                }
-            } else {
-                self.counters.not_covered += 1;
-            }
-            self.pending.pop_front();
-        }
-    }
-
-    /// Solves the window for `arrangement` (paper §6) and keeps the solution under a new
-    /// number; returns it with its summary.
-    #[inline(never)]
-    pub fn solve(
-        &mut self,
-        arrangement: &Arrangement<MAX_CHANNELS>,
-    ) -> Result<(&Identified<MAX_CHANNELS>, IdentificationSummary), Option<IdentifyError>> {
-        if self.window.is_none() {
-            return Err(None);
-        }
-        let id = identify(&self.sums, arrangement, &Tolerance::DATASHEET).map_err(Some)?;
-        let number = self.next_solution;
-        self.next_solution = self.next_solution.wrapping_add(1).max(1);
-        let frame = id.frame_uncertainty();
-        let c = self.counters;
-        let summary = IdentificationSummary {
-            solution: number,
-            channels: arrangement.len() as u8,
-            sets: id.sets,
-            not_covered: c.not_covered + self.pending.len() as u32,
-            incomplete: c.incomplete,
-            points: c.points,
-            restarts: c.restarts,
-            centre_of_mass: id.centre_of_mass.map(|v| v as f32),
-            centre_of_mass_sd: id.centre_of_mass_sd.map(|v| v as f32),
-            frame: [
-                frame.rotation as f32,
-                frame.translation as f32,
-                frame.size as f32,
-            ],
-        };
-        let (_, kept) = self.solution.insert((number, id));
-        Ok((kept, summary))
-    }
-
-    /// The solution reported under `number`, if it is the last one.
-    pub fn solution(&self, number: u16) -> Option<&Identified<MAX_CHANNELS>> {
-        self.solution
-            .as_ref()
-            .filter(|(n, _)| *n == number)
-            .map(|(_, id)| id)
-    }
-
-    /// The window's counters.
-    pub fn counters(&self) -> Counters {
-        self.counters
-    }
 }
