@@ -125,6 +125,11 @@ enum Command {
         /// instants: interpolate (timestamped FIFO samples) or latest (the unaligned reference).
         #[arg(long, value_enum, default_value = "interpolate")]
         align: AlignArg,
+        /// With --firmware: identify in flight first (paper §6) with the scenario's reference
+        /// gyro sent by telecommand, commit, reset, and run the scenario again on the stored
+        /// calibration (the first boot's telemetry in telemetry-identify.bin).
+        #[arg(long, requires = "firmware")]
+        identify: bool,
     },
     /// Decode a telemetry stream (COBS-framed PUS packets, as `sim --firmware` writes in
     /// telemetry.bin or the unit sends on its link): motion reports to an estimates file,
@@ -369,6 +374,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             estimate,
             firmware,
             align,
+            identify,
         } => {
             let alignment = match align {
                 AlignArg::Interpolate => Alignment::Interpolate,
@@ -382,6 +388,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 estimate,
                 progress: true,
                 firmware: firmware.then_some(alignment),
+                identify,
             })?;
             println!("ballisto sim: {scenario}: {}", sc.description);
             println!(
@@ -410,6 +417,9 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             }
             if let Some(fw) = &r.firmware {
                 print_firmware(&sc, fw);
+            }
+            for line in &r.identification {
+                println!("  identify: {line}");
             }
             if let Some(c) = &r.errors {
                 println!(

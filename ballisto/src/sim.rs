@@ -30,6 +30,12 @@ pub struct SimJob<'a> {
     /// Run the firmware's tasks instead of the bench reader: its samples and its estimates
     /// (implies the comparison and the plot), with this alignment of free-running parts.
     pub firmware: Option<ballisto_fw::config::Alignment>,
+    /// With `firmware`: identify in flight first (issue 16, paper §6). A first boot on an
+    /// erased calibration store gets the scenario's reference gyro by telecommand
+    /// (TC[200,8–11]: window, reference points, report, commit; its telemetry in
+    /// `telemetry-identify.bin`); the unit is reset, boots with the stored calibration and
+    /// runs the scenario again: that second boot is what the other files hold.
+    pub identify: bool,
 }
 
 /// Reads and failures of one part.
@@ -62,6 +68,9 @@ pub struct SimReport {
     pub flag_counts: [u64; 16],
     /// With `--firmware`: what the firmware counted and measured.
     pub firmware: Option<hal_sim::firmware_host::FirmwareReport>,
+    /// With `--identify`: the first boot's identification reports, events and verifications,
+    /// decoded from its telemetry (one line each).
+    pub identification: Vec<String>,
 }
 
 /// Runs a scenario (see the module doc).
@@ -127,6 +136,9 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
     }
     if job.firmware.is_some() {
         report.files.push(path("telemetry.bin"));
+    }
+    if job.identify {
+        report.files.push(path("telemetry-identify.bin"));
     }
     Ok(report)
 }
@@ -195,6 +207,7 @@ fn record_bench(
         errors: None,
         flag_counts: [0; 16],
         firmware: None,
+        identification: Vec::new(),
     })
 }
 
@@ -245,8 +258,40 @@ fn record_firmware(
     };
     let tm_path = job.out.join("telemetry.bin");
     let mut downlink = create(&tm_path)?;
-    let fw = run_firmware_with(sc, &config, n as u32, &[], &mut downlink, &mut emit)
-        .map_err(|e| format!("{}: {e}", tm_path.display()))?;
+    let mut identification = Vec::new();
+    let fw = if job.identify {
+        use hal_sim::in_flight::{identify_and_reboot, uplink, Plan};
+        let up = uplink(sc, &Plan::for_scenario(sc))?;
+        let first_path = job.out.join("telemetry-identify.bin");
+        let mut first = Vec::new();
+        let (_, second, id) =
+            identify_and_reboot(sc, &config, &up, &mut first, &mut downlink, &mut emit)?;
+        std::fs::write(&first_path, &first)
+            .map_err(|e| format!("{}: cannot write: {e}", first_path.display()))?;
+        let stream = crate::decode::decode_stream(&first);
+        use ballisto_link::decode::Report;
+        for p in &stream.packets {
+            let wanted = match &p.report {
+                Report::IdentificationSummary(_) | Report::IdentifiedChannel(_) => true,
+                Report::Event(e) => e.id == ballisto_link::EventId::CalibrationStored,
+                Report::Verification(v) => v.failure.is_some(),
+                _ => false,
+            };
+            if wanted {
+                // On-board time → scenario time (the unit powers up 50 ms before it starts).
+                identification.extend(crate::decode::log_line(p, -0.05));
+            }
+        }
+        identification.extend(stream.problems);
+        identification.push(format!(
+            "second boot: calibration {:?} id={} crc={:#010x}",
+            id.source, id.id, id.crc
+        ));
+        second
+    } else {
+        run_firmware_with(sc, &config, n as u32, &[], &mut downlink, &mut emit)
+            .map_err(|e| format!("{}: {e}", tm_path.display()))?
+    };
     bar.finish_and_clear();
     if let Some(e) = failure {
         return Err(e.into());
@@ -273,6 +318,7 @@ fn record_firmware(
         errors: None,
         flag_counts,
         firmware: Some(fw),
+        identification,
     })
 }
 

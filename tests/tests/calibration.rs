@@ -61,6 +61,7 @@ fn sim(sc: &Scenario, out: &Path) {
         estimate: false,
         progress: false,
         firmware: Some(Alignment::Interpolate),
+        identify: false,
     })
     .unwrap();
 }

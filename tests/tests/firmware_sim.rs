@@ -108,6 +108,7 @@ fn named_scenarios_through_the_firmware_match_estimator_core_on_the_same_samples
             estimate: false,
             progress: false,
             firmware: Some(Alignment::Interpolate),
+            identify: false,
         })
         .unwrap();
         assert_eq!(report.samples, sc.samples(), "{name}: every set estimated");
