@@ -170,6 +170,63 @@ fn run_model<P: Platform>(
     mean
 }
 
+/// The firmware's identification in flight (issue 16) beside the estimate, on the same motion:
+/// a set into the window's queue (every set), a reference point (every fifth set: 20 Hz at
+/// 100 Hz) with the sets it covers moved into the sums, and the solve on command. Counted, not
+/// budgeted: the sums are `f64` (soft-float on this M4F; the STM32H743 has a double-precision
+/// FPU), and the work runs after the set's estimate and motion report.
+fn run_identification<P: Platform>(p: &mut P, per_tick: f64) {
+    use ballisto_fw::identification::Identification;
+    use ballisto_link::identification::ReferencePoint;
+    let arr = scenario::arrangement::<24>(12);
+    let mut id = Identification::new();
+    id.start(0, 50, 3_600_000, 12, 100.0);
+    let mut p64 = [0.0f64; 12];
+    let mut p32 = [0.0f32; 12];
+    let (mut set_total, mut set_worst) = (0u64, 0u64);
+    let (mut point_total, mut point_worst, mut points) = (0u64, 0u64, 0u64);
+    for k in 0..SAMPLES {
+        let t = k as f64 * scenario::DT;
+        scenario::outputs(&arr, t, 0.002, &mut p64);
+        // In free fall (σ0 = 0 at the origin, here the centre of mass), as the identification
+        // takes the field.
+        let s0 = scenario::field(t).0;
+        for ((a, b), ch) in p32.iter_mut().zip(p64.iter()).zip(arr.channels()) {
+            *a = (*b - estimator_core::linalg::dot(&ch.axis, &s0)) as f32;
+        }
+        let tn = (t * 1e9) as u64;
+        let (_, n) = measure(p, per_tick, || id.on_set(tn, &p32));
+        set_total += n;
+        set_worst = set_worst.max(n);
+        if k % 5 == 0 {
+            let w = scenario::field(t).2;
+            let point = ReferencePoint {
+                t: tn,
+                omega: w.map(|v| v as f32),
+            };
+            let (_, n) = measure(p, per_tick, || id.on_points(core::iter::once(point)));
+            if k >= 10 {
+                point_total += n;
+                point_worst = point_worst.max(n);
+                points += 1;
+            }
+        }
+    }
+    let (solved, solve) = measure(p, per_tick, || id.solve(&arr).map(|(_, s)| s.sets));
+    let sets = SAMPLES as u64;
+    let _ = writeln!(
+        p,
+        "identification (N = 12, reference at 20 Hz): per set queued mean {} instructions, max \
+         {set_worst}; per reference point (its 5 sets into the sums) mean {}, max \
+         {point_worst}: {} per set; solve {solve} ({} sets{})",
+        set_total / sets.max(1),
+        point_total / points.max(1),
+        (set_total + point_total) / sets.max(1),
+        solved.unwrap_or(0),
+        if solved.is_ok() { "" } else { ": FAILED" }
+    );
+}
+
 fn run<P: Platform>(p: &mut P) -> i32 {
     let per_tick = p.calibrate();
     let _ = writeln!(
@@ -190,6 +247,9 @@ fn run<P: Platform>(p: &mut P) -> i32 {
             Some("general") => 0,
             _ => run_model(p, per_tick, Model::FreeFloat, 12, calibrated),
         };
+    }
+    if only.is_none() {
+        run_identification(p, per_tick);
     }
     let measured = p.ticks().is_some();
     let over = measured && (means[0][0] > BUDGET || means[0][1] > BUDGET);
