@@ -19,6 +19,7 @@ else
 fi
 cargo test --workspace --doc
 QEMU_BENCH_STRICT=1 cargo qemu-bench
+bash scripts/qemu-bench-m7.sh
 
 # The boards. STM32H743: built from its directory (its .cargo/config.toml: Cortex-M7 FPU,
 # probe-rs runner). QEMU: runs the built-in scenario, writes out/qemu/telemetry.bin.
