@@ -6,7 +6,7 @@
 use ballisto_fw::calstore::ram_flash::{Programming, RamFlash};
 use ballisto_fw::calstore::store::{select_at_boot, CalibrationStore};
 use ballisto_fw::config::AppConfig;
-use ballisto_link::identification::{MAX_POINTS, POINT_LEN, SOURCE_REFERENCE};
+use ballisto_link::identification::{MAX_POINTS, SOURCE_REFERENCE};
 use ballisto_link::telecommand::{build, ACK_ACCEPTANCE, ACK_COMPLETION};
 use ballisto_link::{cuc, framing, service, subtype, CalibrationId};
 
@@ -91,9 +91,8 @@ pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String>
         &start,
         &mut out,
     )?;
-    let mut points: Vec<u8> = Vec::new();
-    let mut n = 0;
-    let mut last = plan.start;
+    // The reference's points in the window: (scenario time, TC[200,9] octets).
+    let mut points: Vec<(f64, Vec<u8>)> = Vec::new();
     let sets = (sc.duration * sc.rate).round() as usize;
     for k in 0..=sets {
         let t = k as f64 / sc.rate;
@@ -107,37 +106,21 @@ pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String>
         if t < plan.start {
             continue;
         }
-        points.extend_from_slice(&cuc::cuc(on_board(t)));
+        let mut octets = cuc::cuc(on_board(t)).to_vec();
         for v in w {
-            points.extend_from_slice(&(v as f32).to_be_bytes());
+            octets.extend_from_slice(&(v as f32).to_be_bytes());
         }
-        n += 1;
-        last = t;
-        if n == batch {
-            let mut data = vec![n as u8];
-            data.append(&mut points);
-            frame(
-                t + plan.latency,
-                subtype::REFERENCE_RATE,
-                0,
-                &data,
-                &mut out,
-            )?;
-            n = 0;
+        points.push((t, octets));
+    }
+    for chunk in points.chunks(batch) {
+        let mut data = vec![chunk.len() as u8];
+        for (_, octets) in chunk {
+            data.extend_from_slice(octets);
         }
+        let at = chunk.last().map_or(plan.start, |p| p.0) + plan.latency;
+        frame(at, subtype::REFERENCE_RATE, 0, &data, &mut out)?;
     }
-    if n > 0 {
-        let mut data = vec![n as u8];
-        data.append(&mut points);
-        frame(
-            last + plan.latency,
-            subtype::REFERENCE_RATE,
-            0,
-            &data,
-            &mut out,
-        )?;
-    }
-    debug_assert_eq!(POINT_LEN, 20);
+    let last = points.last().map_or(plan.start, |p| p.0);
     let report_at = last + plan.latency + 0.1;
     frame(
         report_at,

@@ -29,23 +29,32 @@ fn packets(stream: &[u8]) -> Vec<ballisto_link::decode::Decoded> {
     out
 }
 
+/// The motion reports in `stream` after `skip` s, each with the truth at its instant.
+fn reports_with_truth(
+    sc: &Scenario,
+    stream: &[u8],
+    skip: f64,
+) -> Vec<(ballisto_link::MotionReport, hal_sim::motion::Truth)> {
+    let mut truth = Propagator::new(sc.motion(), TRUTH_STEP);
+    packets(stream)
+        .into_iter()
+        .filter_map(|p| match p.report {
+            Report::Motion(m) if p.t + POWER_ON >= skip => {
+                Some((m, truth.truth_at(p.t + POWER_ON)))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
 /// RMS errors of σ0, Ω′, Ω of the motion reports in `stream` against the scenario's truth,
 /// over the rows after `skip` s (the tracker's start); σ0 compared at the point `origin` of
 /// the true geometry (the origin an identified geometry calls its own: `σ0 + (A + {Ω′}) origin`,
 /// paper eq. 4).
 fn rms_from_stream(sc: &Scenario, stream: &[u8], skip: f64, origin: [f64; 3]) -> [f64; 3] {
-    let mut truth = Propagator::new(sc.motion(), TRUTH_STEP);
+    let rows = reports_with_truth(sc, stream, skip);
     let mut sum = [0.0; 3];
-    let mut n = 0usize;
-    for p in packets(stream) {
-        let Report::Motion(m) = p.report else {
-            continue;
-        };
-        let t = p.t + POWER_ON;
-        if t < skip {
-            continue;
-        }
-        let tr = truth.truth_at(t);
+    for (m, tr) in &rows {
         let e = &m.estimate;
         let at = tr.field.mul_vec(&origin);
         let sigma0 = [
@@ -58,35 +67,27 @@ fn rms_from_stream(sc: &Scenario, stream: &[u8], skip: f64, origin: [f64; 3]) ->
             sum[1] += (f64::from(e.domega[k]) - tr.domega[k]).powi(2);
             sum[2] += (f64::from(e.omega[k]) - tr.omega[k]).powi(2);
         }
-        n += 1;
     }
-    assert!(n > 100, "{n} motion reports");
-    sum.map(|s| (s / (3 * n) as f64).sqrt())
+    assert!(rows.len() > 100, "{} motion reports", rows.len());
+    sum.map(|s| (s / (3 * rows.len()) as f64).sqrt())
 }
 
 /// Rows of the stream's motion reports after `skip` s whose σ0 (at the drawn origin) or Ω
 /// error exceeds 5 reported deviations with no flag set, and all rows.
 fn silent_rows(sc: &Scenario, stream: &[u8], skip: f64) -> (usize, usize) {
-    let mut truth = Propagator::new(sc.motion(), TRUTH_STEP);
-    let (mut silent, mut n) = (0, 0);
-    for p in packets(stream) {
-        let Report::Motion(m) = p.report else {
-            continue;
-        };
-        let t = p.t + POWER_ON;
-        if t < skip {
-            continue;
-        }
-        let tr = truth.truth_at(t);
-        let e = &m.estimate;
-        let off = (0..3).any(|k| {
-            (f64::from(e.sigma0[k]) - tr.sigma0[k]).abs() > 5.0 * f64::from(e.sd_sigma0[k])
-                || (f64::from(e.omega[k]) - tr.omega[k]).abs() > 5.0 * f64::from(e.sd_omega[k])
-        });
-        silent += usize::from(off && e.flags.0 == 0);
-        n += 1;
-    }
-    (silent, n)
+    let rows = reports_with_truth(sc, stream, skip);
+    let silent = rows
+        .iter()
+        .filter(|(m, tr)| {
+            let e = &m.estimate;
+            let off = (0..3).any(|k| {
+                (f64::from(e.sigma0[k]) - tr.sigma0[k]).abs() > 5.0 * f64::from(e.sd_sigma0[k])
+                    || (f64::from(e.omega[k]) - tr.omega[k]).abs() > 5.0 * f64::from(e.sd_omega[k])
+            });
+            off && e.flags.0 == 0
+        })
+        .count();
+    (silent, rows.len())
 }
 
 /// The scenario with ideal parts: every datasheet error removed.

@@ -34,10 +34,13 @@
 //! A constant specific force at the centre of mass (drag, thrust) would be taken as bias: the
 //! identification is for free flight, where it is far below the parts' noise (1e-6 m/s²).
 
+mod cholesky;
+mod fit;
+mod result;
 mod solve;
 mod sums;
 
-pub use solve::{
-    identify, ChannelFit, Identified, IdentifyError, Param, Tolerance, ALWAYS_HELD, PARAMS,
-};
+pub use fit::ALWAYS_HELD;
+pub use result::{ChannelFit, Identified, IdentifyError, Param, Tolerance, PARAMS};
+pub use solve::identify;
 pub use sums::{field_terms, FieldSums, TERMS};

@@ -1,0 +1,95 @@
+//! The small symmetric positive definite solves of a channel's fit.
+
+use super::result::PARAMS;
+use crate::real::Real;
+
+// A 7×7 Cholesky of our own, not nalgebra's: estimator-core has no nalgebra in its target
+// build (its SVD is its own, `svd.rs`), and the flight image had 244 B of flash left when this
+// was written; these three functions are 40 lines.
+
+/// Cholesky factor (lower) of the leading `n × n` block of the symmetric `a`, in place;
+/// `false` unless positive definite with every pivot above 10⁻¹³ of the largest diagonal.
+#[inline]
+pub(super) fn cholesky(a: &mut [[f64; PARAMS]; PARAMS], n: usize) -> bool {
+    let top = (0..n).map(|i| a[i][i]).fold(0.0f64, f64::max);
+    if !(top > 0.0) || !top.is_finite() {
+        return false;
+    }
+    for j in 0..n {
+        let mut d = a[j][j];
+        for k in 0..j {
+            d -= a[j][k] * a[j][k];
+        }
+        if !(d > 1e-13 * top) {
+            return false;
+        }
+        let d = Real::sqrt(d);
+        a[j][j] = d;
+        for i in (j + 1)..n {
+            let mut s = a[i][j];
+            for k in 0..j {
+                s -= a[i][k] * a[j][k];
+            }
+            a[i][j] = s / d;
+        }
+    }
+    true
+}
+
+/// Solves `L Lᵀ x = b` with the factor [`cholesky`] left in `l`.
+#[inline]
+pub(super) fn cholesky_solve(
+    l: &[[f64; PARAMS]; PARAMS],
+    n: usize,
+    b: &[f64; PARAMS],
+) -> [f64; PARAMS] {
+    let mut y = [0.0; PARAMS];
+    for i in 0..n {
+        let s: f64 = (0..i).map(|k| l[i][k] * y[k]).sum();
+        y[i] = (b[i] - s) / l[i][i];
+    }
+    let mut x = [0.0; PARAMS];
+    for i in (0..n).rev() {
+        let s: f64 = ((i + 1)..n).map(|k| l[k][i] * x[k]).sum();
+        x[i] = (y[i] - s) / l[i][i];
+    }
+    x
+}
+
+/// `(L Lᵀ)⁻¹` at `(k, k)`.
+#[inline]
+pub(super) fn inverse_diagonal(l: &[[f64; PARAMS]; PARAMS], n: usize, k: usize) -> f64 {
+    let mut e = [0.0; PARAMS];
+    e[k] = 1.0;
+    cholesky_solve(l, n, &e)[k]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cholesky_solves_and_refuses_a_singular_matrix() {
+        let mut a = [[0.0; PARAMS]; PARAMS];
+        for i in 0..PARAMS {
+            for j in 0..PARAMS {
+                a[i][j] =
+                    1.0 / (1.0 + (i as f64 - j as f64).abs()) + if i == j { 1.0 } else { 0.0 };
+            }
+        }
+        let orig = a;
+        let b = [1.0, -2.0, 0.5, 3.0, 0.0, 1.0, -1.0];
+        assert!(cholesky(&mut a, PARAMS));
+        let x = cholesky_solve(&a, PARAMS, &b);
+        for i in 0..PARAMS {
+            let r: f64 = (0..PARAMS).map(|j| orig[i][j] * x[j]).sum();
+            assert!((r - b[i]).abs() < 1e-12);
+        }
+        let mut s = [[0.0; PARAMS]; PARAMS];
+        s[0][0] = 1.0;
+        s[0][1] = 1.0;
+        s[1][0] = 1.0;
+        s[1][1] = 1.0;
+        assert!(!cholesky(&mut s, 2));
+    }
+}
