@@ -1,0 +1,113 @@
+//! Feasibility probe for issue 16's identification without a reference (source 2): the field
+//! from the estimator's own Ω in a torque-free tumble, Ω′ from Euler's equations with the
+//! inertia given, iterated window after window (each window's solution is the next one's
+//! geometry). Prints, per iteration, the Ω RMS error of the estimate and the geometry's errors
+//! against the truth.
+//!
+//! `cargo run --release -p e2e-tests --example tumble_identify -- [ITERATIONS]`
+
+use estimator_core::identify::{field_terms, identify, FieldSums, Tolerance};
+use estimator_core::{Arrangement, Estimator, Model, Options, Sym3};
+use hal_sim::arrangement_file::HOST_CAP;
+use hal_sim::recorder::Recorder;
+use hal_sim::scenario::Scenario;
+
+fn main() {
+    let iterations: usize = std::env::args()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(4);
+    let mut sc = Scenario::load("orbit-identify").unwrap();
+    sc.body.torque = None;
+    let inertia = sc.body.inertia.unwrap();
+    let loaded = sc.arrangement().load("arrangement.toml").unwrap();
+    let truth_geo = sc.truth_geometry().load("truth_geometry.toml").unwrap().arrangement;
+    let mut rec = Recorder::new(&sc).unwrap();
+    let n = sc.samples();
+    let mut samples = Vec::with_capacity(n);
+    let mut truth = Vec::with_capacity(n);
+    for k in 0..n {
+        let (t, set) = rec.sample_set(k);
+        let mut p = vec![f64::NAN; loaded.names.len()];
+        for (part, reading) in sc.parts.iter().zip(set.iter()) {
+            if let Ok(a) = reading {
+                for j in 0..3 {
+                    if let Some(c) = loaded.channel(&part.name, j) {
+                        p[c] = a[j];
+                    }
+                }
+            }
+        }
+        samples.push((t, p));
+        truth.push(rec.truth(t));
+    }
+    let mut arr: Arrangement<HOST_CAP> = loaded.arrangement.clone();
+    for it in 0..=iterations {
+        let mut est = Estimator::<f64, HOST_CAP>::new(
+            &arr,
+            Model::General,
+            Options {
+                initial_omega: Some(truth[0].omega),
+                ..Options::default()
+            },
+        )
+        .unwrap();
+        let mut sums = FieldSums::<HOST_CAP>::new();
+        sums.clear(arr.len());
+        let (mut err2, mut rows) = (0.0, 0usize);
+        for ((t, p), tr) in samples.iter().zip(truth.iter()) {
+            let e = *est.update(*t, p);
+            let w = e.omega;
+            err2 += (0..3).map(|i| (w[i] - tr.omega[i]).powi(2)).sum::<f64>();
+            rows += 1;
+            if e.flags.0 != 0 || *t < 1.0 {
+                continue;
+            }
+            let iw = [inertia[0] * w[0], inertia[1] * w[1], inertia[2] * w[2]];
+            let c = [
+                iw[1] * w[2] - iw[2] * w[1],
+                iw[2] * w[0] - iw[0] * w[2],
+                iw[0] * w[1] - iw[1] * w[0],
+            ];
+            let dw = [c[0] / inertia[0], c[1] / inertia[1], c[2] / inertia[2]];
+            let k = field_terms(&w, &dw, &Sym3([0.0; 6]));
+            sums.add(&k, p);
+        }
+        let rms = (err2 / (3 * rows) as f64).sqrt();
+        let geo = arr.channels();
+        let (mut eb, mut ep, mut ea) = (0.0, 0.0, 0.0);
+        for (g, tg) in geo.iter().zip(truth_geo.channels().iter()) {
+            eb += (g.bias - tg.bias).powi(2);
+            ep += (0..3).map(|k| (g.position[k] - tg.position[k]).powi(2)).sum::<f64>();
+            let d = (0..3).map(|k| g.axis[k] * tg.axis[k]).sum::<f64>().min(1.0);
+            ea += d.acos().powi(2);
+        }
+        let m = geo.len() as f64;
+        println!(
+            "iteration {it}: Ω RMS {rms:.3e} rad/s; geometry RMS: bias {:.2e} m/s², position {:.2e} m, axis {:.2e} rad; {} sets used",
+            (eb / m).sqrt(),
+            (ep / m).sqrt(),
+            (ea / m).sqrt(),
+            sums.sets()
+        );
+        if it == iterations {
+            break;
+        }
+        match identify(&sums, &arr, &Tolerance::DATASHEET) {
+            Ok(id) => {
+                let held: Vec<u8> = id.channels().iter().map(|f| f.held).collect();
+                let resid: Vec<String> = id
+                    .channels()
+                    .iter()
+                    .map(|f| format!("{:.1e}", f.residual_rms))
+                    .collect();
+                println!("  held {held:?}\n  residuals {}", resid.join(" "));
+                arr = id.arrangement().unwrap();
+            }
+            Err(e) => {
+                println!("  identification failed: {e:?}");
+                break;
+            }
+        }
+    }
+}
