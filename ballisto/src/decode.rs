@@ -270,3 +270,104 @@ pub fn decode_file(
     }
     Ok((stream, rows, text))
 }
+
+/// The last identification solution in a decoded stream (TM[200,128] and its N × TM[200,129])
+/// as an arrangement file (interfaces.md) over the channel names of the nominal `arrangement`
+/// file: positions, axes, bias and scale with the deviations of what the window determined
+/// (a held parameter gets no `*_sd` key: not identified, kept at the value in use), the frame's
+/// uncertainty, and a header saying where it came from. Errors: no solution in the stream, a
+/// channel report missing, or another channel count than the nominal file's.
+pub fn identified_arrangement(
+    stream: &Stream,
+    source: &Path,
+    arrangement: &Path,
+) -> Result<String, String> {
+    use ballisto_link::identification::IdentifiedChannel;
+    use hal_sim::arrangement_file::{ArrangementFile, ChannelSpec};
+    let summary = stream
+        .packets
+        .iter()
+        .rev()
+        .find_map(|p| match &p.report {
+            Report::IdentificationSummary(s) => Some(*s),
+            _ => None,
+        })
+        .ok_or_else(|| {
+            format!(
+                "{}: no identification solution (TM[200,128])",
+                source.display()
+            )
+        })?;
+    let mut channels: Vec<Option<IdentifiedChannel>> = vec![None; usize::from(summary.channels)];
+    for p in &stream.packets {
+        if let Report::IdentifiedChannel(c) = &p.report {
+            if c.solution == summary.solution {
+                if let Some(slot) = channels.get_mut(usize::from(c.channel)) {
+                    *slot = Some(*c);
+                }
+            }
+        }
+    }
+    let nominal = ArrangementFile::read(arrangement).map_err(|e| e.to_string())?;
+    let specs = nominal
+        .expanded_channels(&arrangement.display().to_string())
+        .map_err(|e| e.to_string())?;
+    if specs.len() != channels.len() {
+        return Err(format!(
+            "{}: {} channels, the solution has {}",
+            arrangement.display(),
+            specs.len(),
+            channels.len()
+        ));
+    }
+    let mut out = Vec::with_capacity(specs.len());
+    for (i, (spec, c)) in specs.iter().zip(channels.iter()).enumerate() {
+        let c = c.ok_or_else(|| {
+            format!(
+                "{}: solution {}: no report of channel {i} (TM[200,129])",
+                source.display(),
+                summary.solution
+            )
+        })?;
+        let free = |bit: u8| c.held & (1 << bit) == 0;
+        let sd = |k: usize| f64::from(c.sd[k]);
+        let f3 = |v: [f32; 3]| v.map(f64::from);
+        out.push(ChannelSpec {
+            name: spec.name.clone(),
+            position: f3(c.position),
+            axis: f3(c.axis),
+            noise: Some(f64::from(c.noise)),
+            bias: Some(f64::from(c.bias)),
+            scale: Some(f64::from(c.scale)),
+            position_sd: (free(3) && free(4) && free(5)).then(|| [sd(3), sd(4), sd(5)]),
+            axis_sd: (free(1) && free(2)).then(|| sd(1).max(sd(2))),
+            bias_sd: free(6).then(|| sd(6)),
+            scale_sd: free(0).then(|| sd(0)),
+        });
+    }
+    let file = ArrangementFile {
+        model: nominal.model.clone(),
+        frame_rotation_sd: Some(f64::from(summary.frame[0])),
+        frame_translation_sd: Some(f64::from(summary.frame[1])),
+        frame_size_sd: Some(f64::from(summary.frame[2])),
+        frame_relative_rotation_sd: Some(f64::from(summary.frame[0])),
+        channels: out,
+        sensors: Vec::new(),
+    };
+    let mut header = format!(
+        "# Identified in flight (paper §6): solution {} decoded from {}, {} sample sets, {} reference points; nominal geometry {}.\n",
+        summary.solution,
+        source.display(),
+        summary.sets,
+        summary.points,
+        arrangement.display()
+    );
+    let c = summary.centre_of_mass;
+    let _ = writeln!(
+        header,
+        "# Centre of mass from the origin: [{:.6}, {:.6}, {:.6}] m. The scale is held in free fall (one product with the lever arm).",
+        c[0], c[1], c[2]
+    );
+    header.push_str("# A missing *_sd key means that parameter was not identified.\n");
+    Ok(header + &file.to_toml())
+}

@@ -156,6 +156,13 @@ enum Command {
             allow_hyphen_values = true
         )]
         time_offset: f64,
+        /// Also write the stream's last identification solution (TM[200,128–129], issue 16)
+        /// as an arrangement file over the channel names of --arrangement.
+        #[arg(long, value_name = "FILE.toml", requires = "arrangement")]
+        calibration: Option<PathBuf>,
+        /// The nominal arrangement the unit runs (its channel names), for --calibration.
+        #[arg(long, value_name = "FILE.toml")]
+        arrangement: Option<PathBuf>,
     },
     /// Identify every channel's position, axis, scale and bias from a record of static poses
     /// and motion (paper §6); writes a calibrated arrangement file with standard deviations
@@ -443,9 +450,17 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             out,
             log,
             time_offset,
+            calibration,
+            arrangement,
         } => {
             let (stream, rows, text) =
                 ballisto::decode::decode_file(&input, &out, log.as_deref(), time_offset)?;
+            if let (Some(cal), Some(nominal)) = (&calibration, &arrangement) {
+                let file = ballisto::decode::identified_arrangement(&stream, &input, nominal)?;
+                std::fs::write(cal, file)
+                    .map_err(|e| format!("{}: cannot write: {e}", cal.display()))?;
+                eprintln!("{}: identification solution written", cal.display());
+            }
             if log.is_none() {
                 print!("{text}");
             }

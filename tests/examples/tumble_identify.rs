@@ -21,7 +21,11 @@ fn main() {
     sc.body.torque = None;
     let inertia = sc.body.inertia.unwrap();
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
-    let truth_geo = sc.truth_geometry().load("truth_geometry.toml").unwrap().arrangement;
+    let truth_geo = sc
+        .truth_geometry()
+        .load("truth_geometry.toml")
+        .unwrap()
+        .arrangement;
     let mut rec = Recorder::new(&sc).unwrap();
     let n = sc.samples();
     let mut samples = Vec::with_capacity(n);
@@ -78,7 +82,9 @@ fn main() {
         let (mut eb, mut ep, mut ea) = (0.0, 0.0, 0.0);
         for (g, tg) in geo.iter().zip(truth_geo.channels().iter()) {
             eb += (g.bias - tg.bias).powi(2);
-            ep += (0..3).map(|k| (g.position[k] - tg.position[k]).powi(2)).sum::<f64>();
+            ep += (0..3)
+                .map(|k| (g.position[k] - tg.position[k]).powi(2))
+                .sum::<f64>();
             let d = (0..3).map(|k| g.axis[k] * tg.axis[k]).sum::<f64>().min(1.0);
             ea += d.acos().powi(2);
         }

@@ -1,0 +1,97 @@
+//! `ballisto sim --firmware --identify` and `ballisto decode --calibration`: identification in
+//! flight (issue 16) from the command line, and the ground's arrangement file of the solution.
+
+mod common;
+
+use std::process::Command;
+
+use hal_sim::arrangement_file::load_arrangement;
+
+fn ballisto(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_ballisto"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn identify_in_flight_then_decode_the_solution_as_an_arrangement_file() {
+    let d = common::tmpdir("identify", "orbit");
+    let out = d.to_str().unwrap();
+    let r = ballisto(&[
+        "sim",
+        "--firmware",
+        "--identify",
+        "--scenario",
+        "orbit-identify",
+        "--out",
+        out,
+    ]);
+    let stdout = String::from_utf8_lossy(&r.stdout);
+    assert!(
+        r.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+    assert!(
+        stdout.contains("IDENTIFICATION solution=1 channels=12"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("calibration-stored"), "{stdout}");
+    assert!(
+        stdout.contains("second boot: calibration Flash id=1"),
+        "{stdout}"
+    );
+    assert!(d.join("telemetry-identify.bin").exists());
+
+    let cal = d.join("identified.toml");
+    let r = ballisto(&[
+        "decode",
+        d.join("telemetry-identify.bin").to_str().unwrap(),
+        "--out",
+        d.join("first.csv").to_str().unwrap(),
+        "--log",
+        d.join("first.txt").to_str().unwrap(),
+        "--calibration",
+        cal.to_str().unwrap(),
+        "--arrangement",
+        d.join("arrangement.toml").to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let text = std::fs::read_to_string(&cal).unwrap();
+    assert!(text.starts_with("# Identified in flight (paper §6): solution 1"));
+    let loaded = load_arrangement(&cal).unwrap();
+    let nominal = load_arrangement(&d.join("arrangement.toml")).unwrap();
+    assert_eq!(loaded.names, nominal.names);
+    // Every bias identified (0.2 m/s² datasheet offsets), every scale held.
+    assert_eq!(text.matches("bias_sd").count(), 12);
+    assert_eq!(text.matches("scale_sd").count(), 0);
+    let truth = load_arrangement(&d.join("truth_geometry.toml")).unwrap();
+    for (c, t) in loaded
+        .arrangement
+        .channels()
+        .iter()
+        .zip(truth.arrangement.channels())
+    {
+        assert!((c.bias - t.bias).abs() < 2e-3, "{} vs {}", c.bias, t.bias);
+    }
+
+    // A stream without a solution: said so, nothing written.
+    let none = d.join("none.toml");
+    let r = ballisto(&[
+        "decode",
+        d.join("telemetry.bin").to_str().unwrap(),
+        "--out",
+        d.join("second.csv").to_str().unwrap(),
+        "--log",
+        d.join("second.txt").to_str().unwrap(),
+        "--calibration",
+        none.to_str().unwrap(),
+        "--arrangement",
+        d.join("arrangement.toml").to_str().unwrap(),
+    ]);
+    assert!(!r.status.success());
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(err.contains("no identification solution"), "{err}");
+    assert!(!none.exists());
+}
