@@ -35,9 +35,9 @@ fn main() {
         let mut p = vec![f64::NAN; loaded.names.len()];
         for (part, reading) in sc.parts.iter().zip(set.iter()) {
             if let Ok(a) = reading {
-                for j in 0..3 {
+                for (j, v) in a.iter().enumerate() {
                     if let Some(c) = loaded.channel(&part.name, j) {
-                        p[c] = a[j];
+                        p[c] = *v;
                     }
                 }
             }
