@@ -95,3 +95,33 @@ fn identify_in_flight_then_decode_the_solution_as_an_arrangement_file() {
     assert!(err.contains("no identification solution"), "{err}");
     assert!(!none.exists());
 }
+
+#[test]
+fn identifying_needs_a_reference_sensor() {
+    let d = common::tmpdir("identify", "no-reference");
+    let r = ballisto(&[
+        "sim",
+        "--firmware",
+        "--identify",
+        "--scenario",
+        "tetra-orbit",
+        "--out",
+        d.to_str().unwrap(),
+    ]);
+    assert!(!r.status.success());
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        err.contains("no [reference] sensor to identify with"),
+        "{err}"
+    );
+    // --identify without --firmware is a usage error.
+    let r = ballisto(&[
+        "sim",
+        "--identify",
+        "--scenario",
+        "tetra-orbit",
+        "--out",
+        d.to_str().unwrap(),
+    ]);
+    assert!(!r.status.success());
+}
