@@ -14,6 +14,28 @@ fn ballisto(args: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
+/// `ballisto decode STREAM --calibration CAL --arrangement arrangement.toml` in `d`, the
+/// estimates and log beside.
+fn decode_with_calibration(
+    d: &std::path::Path,
+    stream: &str,
+    cal: &std::path::Path,
+) -> std::process::Output {
+    let path = |f: &str| d.join(f).to_str().unwrap().to_string();
+    ballisto(&[
+        "decode",
+        &path(stream),
+        "--out",
+        &path(&format!("{stream}.csv")),
+        "--log",
+        &path(&format!("{stream}.txt")),
+        "--calibration",
+        cal.to_str().unwrap(),
+        "--arrangement",
+        &path("arrangement.toml"),
+    ])
+}
+
 #[test]
 fn identify_in_flight_then_decode_the_solution_as_an_arrangement_file() {
     let d = common::tmpdir("identify", "orbit");
@@ -45,18 +67,7 @@ fn identify_in_flight_then_decode_the_solution_as_an_arrangement_file() {
     assert!(d.join("telemetry-identify.bin").exists());
 
     let cal = d.join("identified.toml");
-    let r = ballisto(&[
-        "decode",
-        d.join("telemetry-identify.bin").to_str().unwrap(),
-        "--out",
-        d.join("first.csv").to_str().unwrap(),
-        "--log",
-        d.join("first.txt").to_str().unwrap(),
-        "--calibration",
-        cal.to_str().unwrap(),
-        "--arrangement",
-        d.join("arrangement.toml").to_str().unwrap(),
-    ]);
+    let r = decode_with_calibration(&d, "telemetry-identify.bin", &cal);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let text = std::fs::read_to_string(&cal).unwrap();
     assert!(text.starts_with("# Identified in flight (paper §6): solution 1"));
@@ -78,18 +89,7 @@ fn identify_in_flight_then_decode_the_solution_as_an_arrangement_file() {
 
     // A stream without a solution: said so, nothing written.
     let none = d.join("none.toml");
-    let r = ballisto(&[
-        "decode",
-        d.join("telemetry.bin").to_str().unwrap(),
-        "--out",
-        d.join("second.csv").to_str().unwrap(),
-        "--log",
-        d.join("second.txt").to_str().unwrap(),
-        "--calibration",
-        none.to_str().unwrap(),
-        "--arrangement",
-        d.join("arrangement.toml").to_str().unwrap(),
-    ]);
+    let r = decode_with_calibration(&d, "telemetry.bin", &none);
     assert!(!r.status.success());
     let err = String::from_utf8_lossy(&r.stderr);
     assert!(err.contains("no identification solution"), "{err}");
