@@ -4,7 +4,15 @@
 //! geometry). Prints, per iteration, the Ω RMS error of the estimate and the geometry's errors
 //! against the truth.
 //!
-//! `cargo run --release -p e2e-tests --example tumble_identify -- [ITERATIONS]`
+//! `cargo run --release -p e2e-tests --example tumble_identify -- [ITERATIONS]`; with
+//! `START=ground` the first geometry is the truth shifted as a launch would (bias 0.02 m/s²,
+//! 0.1 mm, 1 mrad) instead of the nominal one.
+//!
+//! Found (issue 16): from the nominal geometry of datasheet parts the estimator's Ω is
+//! 0.25 rad/s off and a channel's fit does not settle; from the shifted ground calibration the
+//! iteration drifts along what no accelerometer record without a reference fixes — the common
+//! rotation (44 mrad after one window), translation and size — while Ω does not improve
+//! (2.30e-2 → 2.15e-2 rad/s).
 
 use estimator_core::identify::{field_terms, identify, FieldSums, Tolerance};
 use estimator_core::{Arrangement, Estimator, Model, Options, Sym3};
@@ -45,7 +53,29 @@ fn main() {
         samples.push((t, p));
         truth.push(rec.truth(t));
     }
-    let mut arr: Arrangement<HOST_CAP> = loaded.arrangement.clone();
+    // START=ground: start from a ground calibration (the truth) that launch has shifted:
+    // bias 20 mg·0.1, 0.1 mm, 1 mrad, per channel, deterministic.
+    let mut arr: Arrangement<HOST_CAP> = if std::env::var_os("START").is_some() {
+        let mut a = Arrangement::new();
+        for (i, c) in truth_geo.channels().iter().enumerate() {
+            let f = |k: usize| ((i * 7 + k * 13) as f64 * 0.618).sin();
+            let pos = [
+                c.position[0] + 1e-4 * f(0),
+                c.position[1] + 1e-4 * f(1),
+                c.position[2] + 1e-4 * f(2),
+            ];
+            let axis = [
+                c.axis[0] + 1e-3 * f(3),
+                c.axis[1] + 1e-3 * f(4),
+                c.axis[2] + 1e-3 * f(5),
+            ];
+            let j = a.push(pos, axis, c.noise).unwrap();
+            a.set_calibration(j, c.bias + 0.02 * f(6), c.scale).unwrap();
+        }
+        a
+    } else {
+        loaded.arrangement.clone()
+    };
     for it in 0..=iterations {
         let mut est = Estimator::<f64, HOST_CAP>::new(
             &arr,
