@@ -14,7 +14,9 @@
 //! the errors of the truth-nearest and the chosen root, `FILTERED=1` the filtered outputs,
 //! `BIAS=1` / `MLBIAS=1` 0.1 s means of the errors, `TWOSTATE=1` a single-hypothesis probe
 //! with Ω′ as a filter state (`SJ` its jerk density, `PROBEWIN=1` per 0.25 s), `MONITOR=1`
-//! the rows the lock monitor flagged and how far off they are.
+//! the rows the lock monitor flagged and how far off they are, `SWITCH=W` how many silent rows
+//! fall within `W` samples after a switch of the chosen candidate and how many unflagged rows
+//! a flag there would add.
 
 use e2e_tests::nine::{self, Params, Score};
 use estimator_core::smoother::StepRecord;
@@ -260,9 +262,39 @@ fn forward(case: &nine::Case, trace: Option<(f64, f64)>) -> Vec<Estimate<f64>> {
                 m[k].2 += usize::from(dist(&r.omega, &w) > 1.0);
             });
         }
+        if let Some(window) = std::env::var("SWITCH")
+            .ok()
+            .and_then(|v| v.parse::<usize>().ok())
+        {
+            // Would a flag for a switch of the chosen candidate within the last `window`
+            // samples catch the silent rows, and what would it cost? (Issue 15 analysis.)
+            let chosen = rec.states[rec.best as usize].candidate;
+            SWITCH.with(|sw| {
+                let mut sw = sw.borrow_mut();
+                if sw.0.is_some_and(|c| c != chosen) {
+                    sw.1 = 0;
+                } else {
+                    sw.1 = sw.1.saturating_add(1);
+                }
+                sw.0 = Some(chosen);
+                let recent = sw.1 < window;
+                let flagged = r.flags.0 != 0;
+                sw.2[0] += usize::from(silent);
+                sw.2[1] += usize::from(silent && recent);
+                sw.2[2] += usize::from(!flagged && recent);
+                sw.2[3] += 1;
+            });
+        }
         rows.push(r);
     }
     rows
+}
+
+thread_local! {
+    /// The last chosen candidate, samples since it last changed, and the counts: silent rows,
+    /// silent rows within the window after a switch, unflagged rows within it, all rows.
+    static SWITCH: std::cell::RefCell<(Option<u8>, usize, [usize; 4])> =
+        const { std::cell::RefCell::new((None, 0, [0; 4])) };
 }
 
 thread_local! {
@@ -331,6 +363,15 @@ fn main() {
         CANDS.with(|c| *c.borrow_mut() = Some(Vec::new()));
     }
     let forward_rows = forward(&case, env_pair("TRACE"));
+    if std::env::var_os("SWITCH").is_some() {
+        SWITCH.with(|sw| {
+            let c = sw.borrow().2;
+            println!(
+                "switch window: {} of {} silent rows within it; {} unflagged rows of {} would be flagged",
+                c[1], c[0], c[2], c[3]
+            );
+        });
+    }
     if std::env::var_os("MONITOR").is_some() {
         MON.with(|m| {
             let m = m.borrow();
