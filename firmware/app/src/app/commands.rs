@@ -1,5 +1,6 @@
 //! Executing an accepted telecommand: the mode, the model, the rate hint, channel exclusion,
-//! a new arrangement, the telemetry rates, identification (`identify`), one-shot reports. On failure nothing has changed.
+//! a new arrangement, the telemetry rates, identification (`identify`), one-shot reports. On
+//! failure nothing has changed.
 
 use ballisto_link::telecommand::{self, Command};
 use ballisto_link::verification::config_error_code;

@@ -119,16 +119,14 @@ impl App {
             summary.centre_of_mass[1],
             summary.centre_of_mass[2]
         );
-        let mut buf = [0u8; ballisto_link::identification::SUMMARY_LEN];
-        if let Some(n) = summary.encode(&mut buf) {
-            tm.send(
-                t,
-                service::BALLISTOMETER,
-                subtype::IDENTIFICATION_SUMMARY,
-                &buf[..n],
-            )
-            .await;
-        }
+        // Encoded in the writer's own buffer (`Telemetry::stage`), as every report.
+        let framed = tm.stage(
+            t,
+            service::BALLISTOMETER,
+            subtype::IDENTIFICATION_SUMMARY,
+            |buf| summary.encode(buf),
+        );
+        tm.transmit(framed).await;
         for (c, f) in id.channels().iter().enumerate() {
             let ch = &f.channel;
             let report = IdentifiedChannel {
@@ -143,16 +141,13 @@ impl App {
                 residual_rms: f.residual_rms as f32,
                 noise: ch.noise as f32,
             };
-            let mut buf = [0u8; ballisto_link::identification::CHANNEL_LEN];
-            if let Some(n) = report.encode(&mut buf) {
-                tm.send(
-                    t,
-                    service::BALLISTOMETER,
-                    subtype::IDENTIFIED_CHANNEL,
-                    &buf[..n],
-                )
-                .await;
-            }
+            let framed = tm.stage(
+                t,
+                service::BALLISTOMETER,
+                subtype::IDENTIFIED_CHANNEL,
+                |buf| report.encode(buf),
+            );
+            tm.transmit(framed).await;
         }
         Ok(())
     }
