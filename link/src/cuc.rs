@@ -22,14 +22,29 @@ pub fn cuc(t: u64) -> [u8; TIME_LEN] {
     [CUC_P_FIELD, c[0], c[1], c[2], c[3], f[1], f[2], f[3]]
 }
 
-/// Seconds since boot of a CUC time field, or `None` if it is not the unit's format.
-pub fn cuc_seconds(field: &[u8]) -> Option<f64> {
+/// The coarse (s) and fine (2⁻²⁴ s) parts of a CUC time field, or `None` if it is not the
+/// unit's format.
+fn parts(field: &[u8]) -> Option<(u32, u32)> {
     if field.len() != TIME_LEN || field[0] != CUC_P_FIELD {
         return None;
     }
     let coarse = u32::from_be_bytes([field[1], field[2], field[3], field[4]]);
     let fine = u32::from_be_bytes([0, field[5], field[6], field[7]]);
+    Some((coarse, fine))
+}
+
+/// Seconds since boot of a CUC time field, or `None` if it is not the unit's format.
+pub fn cuc_seconds(field: &[u8]) -> Option<f64> {
+    let (coarse, fine) = parts(field)?;
     Some(f64::from(coarse) + f64::from(fine) / f64::from(1u32 << 24))
+}
+
+/// Nanoseconds since boot of a CUC time field (rounded to the nearest; the inverse of [`cuc`]
+/// to its fine resolution), or `None` if it is not the unit's format.
+pub fn cuc_nanos(field: &[u8]) -> Option<u64> {
+    let (coarse, fine) = parts(field)?;
+    let (coarse, fine) = (u64::from(coarse), u64::from(fine));
+    Some(coarse * 1_000_000_000 + ((fine * 1_000_000_000 + (1 << 23)) >> 24))
 }
 
 #[cfg(test)]

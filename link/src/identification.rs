@@ -2,7 +2,7 @@
 //! summary TM[200,128] and one TM[200,129] per channel of a solution.
 
 use crate::codec::{Get, Put};
-use crate::cuc::{CUC_P_FIELD, TIME_LEN};
+use crate::cuc::{cuc_nanos, TIME_LEN};
 
 /// Octets per reference point in TC[200,9]: time (CUC 4+3 with its P-field), Ω (3 × f32).
 pub const POINT_LEN: usize = TIME_LEN + 12;
@@ -25,16 +25,6 @@ pub struct ReferencePoint {
     pub t: u64,
     /// Ω, rad/s.
     pub omega: [f32; 3],
-}
-
-/// The time of a CUC 4+3 field with the unit's P-field, ns since boot.
-pub fn cuc_nanos(field: &[u8; TIME_LEN]) -> Option<u64> {
-    if field[0] != CUC_P_FIELD {
-        return None;
-    }
-    let coarse = u64::from(u32::from_be_bytes([field[1], field[2], field[3], field[4]]));
-    let fine = u64::from(u32::from_be_bytes([0, field[5], field[6], field[7]]));
-    Some(coarse * 1_000_000_000 + ((fine * 1_000_000_000 + (1 << 23)) >> 24))
 }
 
 /// The points of TC[200,9] application data, already checked by acceptance (u8 n, then n ×

@@ -281,7 +281,7 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
                 let field = |j: usize| 1 + 4 * i + j;
                 let mut time = [0u8; crate::cuc::TIME_LEN];
                 time.copy_from_slice(&chunk[..crate::cuc::TIME_LEN]);
-                let t = identification::cuc_nanos(&time)
+                let t = crate::cuc::cuc_nanos(&time)
                     .ok_or((FailureCode::OutOfRange, field(0) as u32))?;
                 if last.is_some_and(|l| t <= l) {
                     return Err((FailureCode::OutOfRange, field(0) as u32));
