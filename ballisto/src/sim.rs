@@ -279,7 +279,7 @@ fn record_firmware(
             };
             if wanted {
                 // On-board time → scenario time (the unit powers up 50 ms before it starts).
-                identification.extend(crate::decode::log_line(p, -0.05));
+                identification.extend(crate::decode::log_line(p, hal_sim::rig::POWER_ON));
             }
         }
         identification.extend(stream.problems);

@@ -56,11 +56,16 @@ impl SimTime {
         // Whole nanoseconds from 0, divided once: 10 ms prints as 0.01.
         (t as i64 + POWER_ON_NS) as f64 / 1e9
     }
+
+    /// The firmware instant of simulated seconds `t` (the inverse of [`SimTime::seconds`]).
+    pub fn nanos(t: f64) -> Nanos {
+        ((t - POWER_ON) * 1e9).round().max(0.0) as Nanos
+    }
 }
 
 impl TimeBase for SimTime {
     fn now(&self) -> Nanos {
-        ((self.0.now() - POWER_ON) * 1e9).round().max(0.0) as Nanos
+        Self::nanos(self.0.now())
     }
 
     async fn wait_until(&mut self, at: Nanos) {

@@ -10,10 +10,10 @@ use ballisto_link::identification::{MAX_POINTS, SOURCE_REFERENCE};
 use ballisto_link::telecommand::{build, ACK_ACCEPTANCE, ACK_COMPLETION};
 use ballisto_link::{cuc, framing, service, subtype, CalibrationId};
 
-use crate::firmware_host::{run_firmware_boot, Boot, Emit, FirmwareReport, HOST_SECTOR};
+use crate::firmware_host::{run_firmware_boot, Boot, Emit, FirmwareReport, SimTime, HOST_SECTOR};
 use crate::motion::Propagator;
 use crate::reference::ReferenceSensor;
-use crate::rig::{POWER_ON, TRUTH_STEP};
+use crate::rig::TRUTH_STEP;
 use crate::scenario::Scenario;
 
 /// When the ground identifies: the window (scenario seconds), the reference points per
@@ -40,11 +40,6 @@ impl Plan {
             latency: 0.05,
         }
     }
-}
-
-/// On-board time (ns since power-on) of a scenario instant.
-fn on_board(t: f64) -> u64 {
-    ((t - POWER_ON) * 1e9).round().max(0.0) as u64
 }
 
 /// The uplink of an identification: TC[200,8] at the start, the reference (the scenario's
@@ -106,7 +101,7 @@ pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String>
         if t < plan.start {
             continue;
         }
-        let mut octets = cuc::cuc(on_board(t)).to_vec();
+        let mut octets = cuc::cuc(SimTime::nanos(t)).to_vec();
         for v in w {
             octets.extend_from_slice(&(v as f32).to_be_bytes());
         }
