@@ -14,6 +14,22 @@ fn ballisto(args: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
+/// `ballisto sim [--firmware] --identify --scenario SCENARIO --out D`.
+fn sim_identify(firmware: bool, scenario: &str, d: &std::path::Path) -> std::process::Output {
+    let mut args = vec!["sim"];
+    if firmware {
+        args.push("--firmware");
+    }
+    args.extend([
+        "--identify",
+        "--scenario",
+        scenario,
+        "--out",
+        d.to_str().unwrap(),
+    ]);
+    ballisto(&args)
+}
+
 /// `ballisto decode STREAM --calibration CAL --arrangement arrangement.toml` in `d`, the
 /// estimates and log beside.
 fn decode_with_calibration(
@@ -39,16 +55,7 @@ fn decode_with_calibration(
 #[test]
 fn identify_in_flight_then_decode_the_solution_as_an_arrangement_file() {
     let d = common::tmpdir("identify", "orbit");
-    let out = d.to_str().unwrap();
-    let r = ballisto(&[
-        "sim",
-        "--firmware",
-        "--identify",
-        "--scenario",
-        "orbit-identify",
-        "--out",
-        out,
-    ]);
+    let r = sim_identify(true, "orbit-identify", &d);
     let stdout = String::from_utf8_lossy(&r.stdout);
     assert!(
         r.status.success(),
@@ -99,15 +106,7 @@ fn identify_in_flight_then_decode_the_solution_as_an_arrangement_file() {
 #[test]
 fn identifying_needs_a_reference_sensor() {
     let d = common::tmpdir("identify", "no-reference");
-    let r = ballisto(&[
-        "sim",
-        "--firmware",
-        "--identify",
-        "--scenario",
-        "tetra-orbit",
-        "--out",
-        d.to_str().unwrap(),
-    ]);
+    let r = sim_identify(true, "tetra-orbit", &d);
     assert!(!r.status.success());
     let err = String::from_utf8_lossy(&r.stderr);
     assert!(
@@ -115,13 +114,6 @@ fn identifying_needs_a_reference_sensor() {
         "{err}"
     );
     // --identify without --firmware is a usage error.
-    let r = ballisto(&[
-        "sim",
-        "--identify",
-        "--scenario",
-        "tetra-orbit",
-        "--out",
-        d.to_str().unwrap(),
-    ]);
+    let r = sim_identify(false, "tetra-orbit", &d);
     assert!(!r.status.success());
 }

@@ -181,7 +181,7 @@ impl<const CAP: usize> Identified<CAP> {
         let n = self.len as f64;
         for f in self.channels() {
             for k in [1, 2] {
-                if f.held & (1 << k) == 0 {
+                if !f.is_held(Param::ALL[k]) {
                     tilt += f.sd[k] * f.sd[k];
                     nt += 1.0;
                 }
@@ -193,7 +193,7 @@ impl<const CAP: usize> Identified<CAP> {
             }
             let r2 = norm2(&f.channel.position);
             for (l, n) in free_axis.iter_mut().enumerate() {
-                if f.held & (1 << (3 + l)) == 0 {
+                if !f.is_held(Param::ALL[3 + l]) {
                     *n += 1.0;
                     if r2 > 0.0 {
                         size += f.sd[3 + l] * f.sd[3 + l] / r2;

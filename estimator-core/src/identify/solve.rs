@@ -2,7 +2,7 @@
 //! from the positions.
 
 use super::fit::{Problem, State};
-use super::result::{ChannelFit, Identified, IdentifyError, Tolerance, PARAMS};
+use super::result::{ChannelFit, Identified, IdentifyError, Param, Tolerance, PARAMS};
 use super::sums::FieldSums;
 use crate::arrangement::Arrangement;
 use crate::real::Real;
@@ -66,7 +66,7 @@ pub fn identify<const CAP: usize>(
         for l in 0..3 {
             let (mut sw, mut swx, mut k) = (0.0, 0.0, 0.0);
             for (f, ch) in out.fits[..n].iter().zip(nominal.channels()) {
-                if f.held & (1 << (3 + l)) == 0 && f.sd[3 + l] > 0.0 {
+                if !f.is_held(Param::ALL[3 + l]) && f.sd[3 + l] > 0.0 {
                     let w = 1.0 / (f.sd[3 + l] * f.sd[3 + l]);
                     sw += w;
                     swx += w * (ch.position[l] - f.channel.position[l]);
