@@ -225,11 +225,12 @@ impl Problem<'_> {
     #[inline]
     pub(super) fn fit(&self, nominal: State, noise: f64) -> Option<ChannelFit> {
         let mut held = ALWAYS_HELD;
+        let (at_nominal, _) = self.normal(&nominal);
         loop {
             // What the window cannot determine is decided first, at the nominal point with the
             // declared noise: a Gauss–Newton along a direction only the ridge holds creeps
             // (0.9 of the step left per iteration in a torque-free tumble) and never settles.
-            if let Some(p) = self.worst(&nominal, held, noise).1 {
+            if let Some(p) = self.worst(&at_nominal, held, noise).1 {
                 held |= 1 << p;
                 continue;
             }
@@ -240,7 +241,7 @@ impl Problem<'_> {
             let st = self.settle(nominal, held)?;
             // At the solution, with the residual's deviation where it exceeds the noise.
             let sigma = self.sigma(&st, noise, PARAMS - held.count_ones() as usize);
-            match self.worst(&st, held, sigma) {
+            match self.worst(&self.normal(&st).0, held, sigma) {
                 (Some(sd), None) => return Some(self.report(&st, sd, held, noise)),
                 (_, Some(p)) => held |= 1 << p,
                 (None, None) => return None,
@@ -248,13 +249,17 @@ impl Problem<'_> {
         }
     }
 
-    /// The deviations of the parameters not in `held` at `st` with the residual deviation
-    /// `sigma` (`None` if the normal matrix is not positive definite), and the worst of
-    /// those beyond half its tolerance (or, not positive definite, the least informed).
+    /// The deviations of the parameters not in `held` from the scaled normal matrix `h` with
+    /// the residual deviation `sigma` (`None` if `h` is not positive definite), and the worst
+    /// of those beyond half its tolerance (or, not positive definite, the least informed).
     #[inline]
-    fn worst(&self, st: &State, held: u8, sigma: f64) -> (Option<[f64; PARAMS]>, Option<usize>) {
-        let (h, _) = self.normal(st);
-        let (mut a, idx, n) = compact(&h, held);
+    fn worst(
+        &self,
+        h: &[[f64; PARAMS]; PARAMS],
+        held: u8,
+        sigma: f64,
+    ) -> (Option<[f64; PARAMS]>, Option<usize>) {
+        let (mut a, idx, n) = compact(h, held);
         if n == 0 {
             return (Some([0.0; PARAMS]), None);
         }
