@@ -88,8 +88,7 @@ pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String>
     )?;
     // The reference's points in the window: (scenario time, TC[200,9] octets).
     let mut points: Vec<(f64, Vec<u8>)> = Vec::new();
-    let sets = (sc.duration * sc.rate).round() as usize;
-    for k in 0..=sets {
+    for k in 0..sc.samples() {
         let t = k as f64 / sc.rate;
         if t > plan.end {
             break;
@@ -155,7 +154,7 @@ pub fn identify_and_reboot(
     let flash = RamFlash::new(&mut mem, &mut erases, Programming::WordOnce);
     let range = 0..STORE_LEN as u32;
     let mut store = CalibrationStore::new(flash, range.clone()).map_err(|e| format!("{e}"))?;
-    let instants = (sc.duration * sc.rate).round() as u32 + 1;
+    let instants = sc.samples() as u32;
     let first = run_firmware_boot(
         sc,
         config,
