@@ -14,6 +14,8 @@
 //! - [`estimator`]: configuration (precomputation) and the per-sample solve.
 //! - [`estimate`]: the outputs and their status flags.
 //! - [`smoother`]: fixed-lag smoothing of branch and sign decisions (host tools).
+//! - [`two_way`]: each sample decided from the forward pass and the time-reversed one (host
+//!   tools).
 //! - [`identify`]: each channel's geometry from a known field (paper §6), at sample rate.
 //! - [`frame_uncertainty`]: the common errors of a calibrated frame, added to the reported
 //!   deviations.
@@ -42,6 +44,7 @@ pub mod identify;
 pub mod linalg;
 pub mod real;
 pub mod smoother;
+pub mod two_way;
 
 #[doc(hidden)]
 pub mod internals;

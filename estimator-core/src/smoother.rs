@@ -126,6 +126,14 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
         self.frame_uncertainty = frame;
     }
 
+    /// Forgets every record (a new record follows); the settings stay.
+    pub fn reset(&mut self) {
+        self.head = 0;
+        self.len = 0;
+        self.lock.reset();
+        self.lock_t = None;
+    }
+
     /// When the window is full, decides and returns the oldest sample and frees its slot.
     /// Call before [`Smoother::slot`] for every new sample.
     pub fn make_room(&mut self) -> Option<(f64, Estimate<T>)> {

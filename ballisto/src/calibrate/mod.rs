@@ -204,21 +204,8 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     let tolerance = Tolerance::default();
     let mut identification = fit::identify(&nominal, &record, &source, job.fit, &tolerance)
         .map_err(|e| format!("{}: {e}", job.samples.display()))?;
-    if identification
-        .channels
-        .iter()
-        .all(|c| c.sd.iter().all(|s| s.is_nan()))
-    {
-        return Err(format!(
-            "{}: the record determines no parameter of any channel ({} static poses, {} samples in motion): nothing written",
-            job.samples.display(),
-            poses.len(),
-            motion.len()
-        )
-        .into());
-    }
-    // A record that leaves most parameters undetermined is not a calibration: what it does
-    // determine are combinations (one pose: bias with scale and axis) that the fit can only
+    // A record that leaves most parameters undetermined (or all of them) is not a calibration:
+    // what it does determine are combinations (one pose: bias with scale and axis) that the fit can only
     // split arbitrarily.
     let held = held_counts(&identification, job.fit);
     let (identified, fitted) = held
