@@ -60,14 +60,21 @@ fn inconsistent<T: Real>(e: &Estimate<T>) -> bool {
 /// [`reversed`]): the estimate of the direction with the larger branch margin, with the
 /// combined margin and [`Flags::BRANCH_AMBIGUOUS`] set exactly when it is below the sign
 /// margin. A sample the estimator could not use ([`Flags::INPUT_INVALID`]) keeps the forward
-/// output. The sign is unresolved only if the chosen direction's is and the two do not agree.
+/// output. The sign is unresolved only if the chosen direction's is and the two do not agree,
+/// or if the two hold opposite signs, each settled.
 pub fn combine<T: Real>(forward: &Estimate<T>, backward: &Estimate<T>) -> Estimate<T> {
     if forward.flags.has(Flags::INPUT_INVALID) || backward.flags.has(Flags::INPUT_INVALID) {
         return *forward;
     }
     if agree(forward, &reversed(backward)) && !agree(forward, backward) {
-        // The passes hold opposite signs (the branch margins do not weigh the sign): keep the
-        // forward pass's, whose sign descends from the record's start, and say so.
+        // The passes hold opposite signs (the branch margins do not weigh the sign). A pass
+        // whose sign is settled wins over one whose is not (the first samples of a record
+        // without a rate hint); two settled ones keep the forward pass's, whose sign descends
+        // from the record's start, and say so.
+        let unresolved = |e: &Estimate<T>| e.flags.has(Flags::SIGN_UNRESOLVED);
+        if unresolved(forward) && !unresolved(backward) {
+            return *backward;
+        }
         let mut out = *forward;
         out.flags = Flags(out.flags.0 | Flags::SIGN_UNRESOLVED);
         return out;
@@ -176,8 +183,8 @@ mod tests {
         let f = est([1.0; 3], 0.1, 30.0, Flags::SIGN_UNRESOLVED);
         let b = est([1.0; 3], 0.1, 20.0, 0);
         assert!(!combine(&f, &b).flags.has(Flags::SIGN_UNRESOLVED));
-        let b = est([-1.0; 3], 0.1, 20.0, 0);
-        assert!(combine(&f, &b).flags.has(Flags::SIGN_UNRESOLVED));
+        let both = est([1.0; 3], 0.1, 20.0, Flags::SIGN_UNRESOLVED);
+        assert!(combine(&f, &both).flags.has(Flags::SIGN_UNRESOLVED));
     }
 
     #[test]
@@ -187,6 +194,15 @@ mod tests {
         let c = combine(&f, &b);
         assert_eq!(c.omega, f.omega);
         assert!(c.flags.has(Flags::SIGN_UNRESOLVED));
+    }
+
+    #[test]
+    fn a_settled_sign_wins_over_an_unsettled_one() {
+        let f = est([1.0, 0.5, 0.0], 0.1, 30.0, Flags::SIGN_UNRESOLVED);
+        let b = est([-1.0, -0.5, 0.0], 0.1, 20.0, 0);
+        let c = combine(&f, &b);
+        assert_eq!(c.omega, b.omega);
+        assert!(!c.flags.has(Flags::SIGN_UNRESOLVED));
     }
 
     #[test]

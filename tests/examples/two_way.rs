@@ -8,10 +8,17 @@
 //! output ("smoothed"), the plain passes picked by margin, the oracle of the two (per row the
 //! one nearer the truth: the bound of any per-row pick), and two rules tried and left out
 //! ("fused": the trackers' per-candidate costs summed; "by time": the pass further from its
-//! last crossing, `WTH` the crossing weight counted as a crossing). `WIN=SAMPLES` prints the Ω
+//! last crossing, `WTH` the crossing weight counted as a crossing; "by centre" / "hybrid
+//! centre": from the centre of the last crossing zone, `FB=1` zones with a fallback row only;
+//! "split": each stretch of disagreement split at its centre, `DTH` the disagreement in
+//! combined deviations; "bridge": a cubic Hermite bridge across each stretch from `NB` rows on
+//! either side). `WIN=SAMPLES` prints the Ω
 //! RMS of each per window, `RANGE=T0,T1` the rows where the plain passes differ, `DUMP=1` the
 //! silently wrong rows of the two-way output, `TRUTHSTART=1` starts the backward pass at the
 //! truth.
+
+// A probe indexes parallel per-row tables by row number.
+#![allow(clippy::needless_range_loop)]
 
 use e2e_tests::nine::{self, Params, Score};
 use estimator_core::smoother::StepRecord;
@@ -279,7 +286,245 @@ fn main() {
             }
         })
         .collect();
+    let hybrid: Vec<Estimate<f64>> = (0..n)
+        .map(|k| {
+            let (mf, mb) = (fwd[k].branch_margin, bwd[k].branch_margin);
+            if (mf - mb).abs() >= 16.0 || since[k] == until[k] {
+                if mf >= mb {
+                    fwd[k]
+                } else {
+                    bwd[k]
+                }
+            } else if since[k] > until[k] {
+                fwd[k]
+            } else {
+                bwd[k]
+            }
+        })
+        .collect();
+    if let Some((t0, t1)) = std::env::var("ZONE").ok().and_then(|v| {
+        let (a, b) = v.split_once(',')?;
+        Some((a.parse::<f64>().ok()?, b.parse::<f64>().ok()?))
+    }) {
+        for k in 0..n {
+            let tr = &case.truth[k];
+            if tr.t < t0 || tr.t > t1 || k % 5 != 0 {
+                continue;
+            }
+            println!(
+                "t {:.3} w {:.2} nc {} | fwd {:.3} m {:5.1} | bwd {:.3} m {:5.1} | ML {:.3}",
+                tr.t,
+                f_s[k].3,
+                f_s[k].0.len(),
+                dist(&fwd[k].omega, &tr.omega),
+                fwd[k].branch_margin,
+                dist(&bwd[k].omega, &tr.omega),
+                bwd[k].branch_margin,
+                ml[k][2].sqrt()
+            );
+        }
+    }
+    // Crossing centres: runs of w >= WTH merged across short gaps, w-weighted mean time.
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    let mut k = 0;
+    while k < n {
+        if crossing[k] {
+            let s0 = k;
+            while k < n && crossing[k] {
+                k += 1;
+            }
+            runs.push((s0, k));
+        } else {
+            k += 1;
+        }
+    }
+    let mut merged: Vec<(usize, usize)> = Vec::new();
+    for r in runs {
+        if let Some(last) = merged.last_mut() {
+            let gap = r.0 - last.1;
+            let shorter = (last.1 - last.0).min(r.1 - r.0);
+            if gap <= 3usize.max(shorter / 2) {
+                last.1 = r.1;
+                continue;
+            }
+        }
+        merged.push(r);
+    }
+    let need_fallback = std::env::var_os("FB").is_some();
+    let centres: Vec<f64> = merged
+        .iter()
+        .filter(|&&(a, b)| {
+            !need_fallback
+                || (a..b).any(|k| {
+                    f_s[k]
+                        .1
+                        .iter()
+                        .any(|c| c.flags.has(estimator_core::Flags::FALLBACK))
+                })
+        })
+        .map(|&(a, b)| {
+            let (mut sw, mut st) = (0.0, 0.0);
+            for k in a..b {
+                let w = f_s[k].3.min(1.0);
+                sw += w;
+                st += w * case.truth[k].t;
+            }
+            st / sw
+        })
+        .collect();
+    let mut since_c = vec![f64::INFINITY; n];
+    let mut until_c = vec![f64::INFINITY; n];
+    for k in 0..n {
+        let t = case.truth[k].t;
+        for &c in &centres {
+            if c <= t {
+                since_c[k] = since_c[k].min(t - c);
+            } else {
+                until_c[k] = until_c[k].min(c - t);
+            }
+        }
+    }
+    println!("{} crossing centres", centres.len());
+    let by_centre: Vec<Estimate<f64>> = (0..n)
+        .map(|k| {
+            if since_c[k] > until_c[k] {
+                fwd[k]
+            } else {
+                bwd[k]
+            }
+        })
+        .collect();
+    let hybrid_c: Vec<Estimate<f64>> = (0..n)
+        .map(|k| {
+            let (mf, mb) = (fwd[k].branch_margin, bwd[k].branch_margin);
+            if (mf - mb).abs() >= 16.0 {
+                if mf >= mb {
+                    fwd[k]
+                } else {
+                    bwd[k]
+                }
+            } else if since_c[k] > until_c[k] {
+                fwd[k]
+            } else {
+                bwd[k]
+            }
+        })
+        .collect();
+    // Disagreement stretches: maximal runs of rows that disagree or lie in a crossing zone,
+    // holding a disagreement; split at the w-weighted mean time: forward before, backward after.
+    let dth: f64 = std::env::var("DTH")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(5.0);
+    let sdd = |a: &Estimate<f64>, b: &Estimate<f64>| {
+        (0..3).any(|i| {
+            (a.omega[i] - b.omega[i]).abs()
+                > dth * (a.sd_omega[i].powi(2) + b.sd_omega[i].powi(2)).sqrt()
+        })
+    };
+    let disagree: Vec<bool> = (0..n).map(|k| sdd(&fwd[k], &bwd[k])).collect();
+    let mut split_pick: Vec<Estimate<f64>> = (0..n)
+        .map(|k| {
+            if fwd[k].branch_margin >= bwd[k].branch_margin {
+                fwd[k]
+            } else {
+                bwd[k]
+            }
+        })
+        .collect();
+    let mut k = 0;
+    let mut stretches = 0;
+    while k < n {
+        if disagree[k] || crossing[k] {
+            let a = k;
+            while k < n && (disagree[k] || crossing[k]) {
+                k += 1;
+            }
+            if (a..k).any(|j| disagree[j]) {
+                stretches += 1;
+                let (mut sw, mut st) = (0.0, 0.0);
+                for j in a..k {
+                    let w = f_s[j].3.min(1.0) + 1e-9;
+                    sw += w;
+                    st += w * case.truth[j].t;
+                }
+                let split = st / sw;
+                for j in a..k {
+                    split_pick[j] = if case.truth[j].t < split {
+                        fwd[j]
+                    } else {
+                        bwd[j]
+                    };
+                }
+            }
+        } else {
+            k += 1;
+        }
+    }
+    println!("{stretches} disagreement stretches");
+    // Hermite bridge across each run of disagreement, from the agreeing rows on both sides.
+    let nb: usize = std::env::var("NB")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(5);
+    let mut bridge_pick = by_margin.clone();
+    let mut k = 0;
+    let mut bridged = 0;
+    while k < n {
+        if !(disagree[k] || crossing[k]) {
+            k += 1;
+            continue;
+        }
+        let a = k;
+        while k < n && (disagree[k] || crossing[k]) {
+            k += 1;
+        }
+        let b = k; // run [a, b)
+        if a < nb || b + nb > n || !(a..b).any(|j| disagree[j]) {
+            continue;
+        }
+        let side = |r: std::ops::Range<usize>| {
+            let m = r.len() as f64;
+            let mut w = [0.0; 3];
+            let mut d = [0.0; 3];
+            let mut t = 0.0;
+            for j in r {
+                for i in 0..3 {
+                    w[i] += fwd[j].omega[i] / m;
+                    d[i] += fwd[j].domega[i] / m;
+                }
+                t += case.truth[j].t / m;
+            }
+            (t, w, d)
+        };
+        let (t0, w0, d0) = side(a - nb..a);
+        let (t1, w1, d1) = side(b..b + nb);
+        let h = t1 - t0;
+        bridged += 1;
+        for j in a..b {
+            let s = (case.truth[j].t - t0) / h;
+            let (h00, h10, h01, h11) = (
+                2.0 * s * s * s - 3.0 * s * s + 1.0,
+                s * s * s - 2.0 * s * s + s,
+                -2.0 * s * s * s + 3.0 * s * s,
+                s * s * s - s * s,
+            );
+            let pred: [f64; 3] = core::array::from_fn(|i| {
+                h00 * w0[i] + h10 * h * d0[i] + h01 * w1[i] + h11 * h * d1[i]
+            });
+            bridge_pick[j] = if dist(&fwd[j].omega, &pred) <= dist(&bwd[j].omega, &pred) {
+                fwd[j]
+            } else {
+                bwd[j]
+            };
+        }
+    }
+    println!("{bridged} runs bridged");
     for (name, rows) in [
+        ("bridge", &bridge_pick),
+        ("split", &split_pick),
+        ("by centre", &by_centre),
+        ("hybrid centre", &hybrid_c),
         ("forward", &fwd),
         ("backward", &bwd),
         ("smoothed", &smoothed),
@@ -287,6 +532,7 @@ fn main() {
         ("oracle of the two", &oracle),
         ("fused", &fused),
         ("by time", &by_time),
+        ("hybrid", &hybrid),
     ] {
         let s = Score::of(rows, &case.truth);
         let r = s.rms();
