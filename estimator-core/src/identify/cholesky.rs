@@ -3,14 +3,14 @@
 use super::result::PARAMS;
 use crate::real::Real;
 
-// A 7×7 Cholesky of our own, not nalgebra's: estimator-core has no nalgebra in its target
+// A 7×7 (and, for the tumble's search, 10×10) Cholesky of our own, not nalgebra's: estimator-core has no nalgebra in its target
 // build (its SVD is its own, `svd.rs`), and the flight image had 244 B of flash left when this
 // was written; these three functions are 40 lines.
 
 /// Cholesky factor (lower) of the leading `n × n` block of the symmetric `a`, in place;
 /// `false` unless positive definite with every pivot above 10⁻¹³ of the largest diagonal.
 #[inline]
-pub(super) fn cholesky(a: &mut [[f64; PARAMS]; PARAMS], n: usize) -> bool {
+pub(super) fn cholesky<const N: usize>(a: &mut [[f64; N]; N], n: usize) -> bool {
     let top = (0..n).map(|i| a[i][i]).fold(0.0f64, f64::max);
     if !(top > 0.0) || !top.is_finite() {
         return false;
@@ -38,17 +38,17 @@ pub(super) fn cholesky(a: &mut [[f64; PARAMS]; PARAMS], n: usize) -> bool {
 
 /// Solves `L Lᵀ x = b` with the factor [`cholesky`] left in `l`.
 #[inline]
-pub(super) fn cholesky_solve(
-    l: &[[f64; PARAMS]; PARAMS],
+pub(super) fn cholesky_solve<const N: usize>(
+    l: &[[f64; N]; N],
     n: usize,
-    b: &[f64; PARAMS],
-) -> [f64; PARAMS] {
-    let mut y = [0.0; PARAMS];
+    b: &[f64; N],
+) -> [f64; N] {
+    let mut y = [0.0; N];
     for i in 0..n {
         let s: f64 = (0..i).map(|k| l[i][k] * y[k]).sum();
         y[i] = (b[i] - s) / l[i][i];
     }
-    let mut x = [0.0; PARAMS];
+    let mut x = [0.0; N];
     for i in (0..n).rev() {
         let s: f64 = ((i + 1)..n).map(|k| l[k][i] * x[k]).sum();
         x[i] = (y[i] - s) / l[i][i];

@@ -31,6 +31,10 @@
 //! is held by convention (the mean mounting error is zero), and the centre of mass seen from
 //! the instrument origin ([`Identified::centre_of_mass`], paper §8) is what is left.
 //!
+//! Without a reference, in a torque-free tumble with the inertia given, the motion is fitted
+//! with the geometry ([`identify_tumble`]): Euler's equations carry the start rate to every
+//! sample, and the search is over that rate alone.
+//!
 //! A constant specific force at the centre of mass (drag, thrust) would be taken as bias: the
 //! identification is for free flight, where it is far below the parts' noise (1e-6 m/s²).
 
@@ -39,8 +43,10 @@ mod fit;
 mod result;
 mod solve;
 mod sums;
+mod tumble;
 
 pub use fit::ALWAYS_HELD;
 pub use result::{ChannelFit, Identified, IdentifyError, Param, Tolerance, PARAMS};
 pub use solve::identify;
 pub use sums::{field_terms, FieldSums, TERMS};
+pub use tumble::{identify_tumble, Body, Sets, TumbleError, TumbleFit, RESIDUAL_LIMIT};
