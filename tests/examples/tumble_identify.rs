@@ -17,7 +17,6 @@
 use estimator_core::identify::{field_terms, identify, FieldSums, Tolerance};
 use estimator_core::{Arrangement, Estimator, Model, Options, Sym3};
 use hal_sim::arrangement_file::HOST_CAP;
-use hal_sim::recorder::Recorder;
 use hal_sim::scenario::Scenario;
 
 fn main() {
@@ -34,25 +33,7 @@ fn main() {
         .load("truth_geometry.toml")
         .unwrap()
         .arrangement;
-    let mut rec = Recorder::new(&sc).unwrap();
-    let n = sc.samples();
-    let mut samples = Vec::with_capacity(n);
-    let mut truth = Vec::with_capacity(n);
-    for k in 0..n {
-        let (t, set) = rec.sample_set(k);
-        let mut p = vec![f64::NAN; loaded.names.len()];
-        for (part, reading) in sc.parts.iter().zip(set.iter()) {
-            if let Ok(a) = reading {
-                for (j, v) in a.iter().enumerate() {
-                    if let Some(c) = loaded.channel(&part.name, j) {
-                        p[c] = *v;
-                    }
-                }
-            }
-        }
-        samples.push((t, p));
-        truth.push(rec.truth(t));
-    }
+    let (samples, truth) = e2e_tests::recorded::record(&sc);
     // START=ground: start from a ground calibration (the truth) that launch has shifted:
     // bias 20 mg·0.1, 0.1 mm, 1 mrad, per channel, deterministic.
     let mut arr: Arrangement<HOST_CAP> = if std::env::var_os("START").is_some() {

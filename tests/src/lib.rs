@@ -1,7 +1,8 @@
 //! Shared pieces of the end-to-end tests: test cases (arrangement families × motions), a slow
-//! f64 multi-start maximum-likelihood reference, and error statistics.
+//! f64 multi-start maximum-likelihood reference, error statistics, and scenarios' records.
 
 pub mod cases;
 pub mod ml;
 pub mod nine;
+pub mod recorded;
 pub mod stats;

@@ -11,6 +11,7 @@ use ballisto_fw::config::Alignment;
 use ballisto_link::decode::{decode, Report};
 use ballisto_link::framing::Deframer;
 use ballisto_link::{subtype, CalibrationSource, EventId};
+use e2e_tests::recorded::ideal;
 use hal_sim::firmware_host::{firmware_config, run_firmware_with};
 use hal_sim::in_flight::{identify_and_reboot, uplink, Plan};
 use hal_sim::motion::Propagator;
@@ -88,19 +89,6 @@ fn silent_rows(sc: &Scenario, stream: &[u8], skip: f64) -> (usize, usize) {
         })
         .count();
     (silent, rows.len())
-}
-
-/// The scenario with ideal parts: every datasheet error removed.
-fn ideal(sc: &Scenario) -> Scenario {
-    let mut s = sc.clone();
-    for p in &mut s.parts {
-        p.bias = None;
-        p.scale = None;
-        p.cross = None;
-        p.position_error = None;
-        p.orientation_error = None;
-    }
-    s
 }
 
 #[test]

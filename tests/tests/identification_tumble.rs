@@ -6,10 +6,10 @@
 //! 1.2 × that of ideal parts (every datasheet error removed) over the whole record. A body that
 //! does not move as the given inertia says is refused, not returned.
 
+use e2e_tests::recorded;
 use estimator_core::identify::{identify_tumble, Body, Sets, Tolerance, TumbleError};
 use estimator_core::{Arrangement, Estimator, Model, Options, Sym3};
 use hal_sim::arrangement_file::HOST_CAP;
-use hal_sim::recorder::Recorder;
 use hal_sim::scenario::Scenario;
 
 /// A recorded scenario: readings per set and the true rate.
@@ -36,33 +36,16 @@ impl Sets for Window<'_> {
 }
 
 fn record(sc: &Scenario) -> Record {
-    let loaded = sc.arrangement().load("arrangement.toml").unwrap();
-    let mut rec = Recorder::new(sc).unwrap();
-    let mut out = Record {
-        sets: Vec::new(),
-        omega: Vec::new(),
-    };
-    for k in 0..sc.samples() {
-        let (t, set) = rec.sample_set(k);
-        let mut p = vec![f64::NAN; loaded.names.len()];
-        for (part, reading) in sc.parts.iter().zip(set.iter()) {
-            if let Ok(a) = reading {
-                for (j, v) in a.iter().enumerate() {
-                    if let Some(c) = loaded.channel(&part.name, j) {
-                        p[c] = *v;
-                    }
-                }
-            }
-        }
-        out.sets.push((t, p));
-        out.omega.push(rec.truth(t).omega);
+    let (sets, truth) = recorded::record(sc);
+    Record {
+        sets,
+        omega: truth.iter().map(|t| t.omega).collect(),
     }
-    out
 }
 
-/// The estimator's rates over a record with a geometry (model G, started at the true rate).
-fn rates(arr: &Arrangement<HOST_CAP>, rec: &Record) -> Vec<[f64; 3]> {
-    let mut est = Estimator::<f64, HOST_CAP>::new(
+/// The estimator on a geometry (model G, started at the record's true rate).
+fn estimator(arr: &Arrangement<HOST_CAP>, rec: &Record) -> Estimator<f64, HOST_CAP> {
+    Estimator::new(
         arr,
         Model::General,
         Options {
@@ -70,7 +53,12 @@ fn rates(arr: &Arrangement<HOST_CAP>, rec: &Record) -> Vec<[f64; 3]> {
             ..Options::default()
         },
     )
-    .unwrap();
+    .unwrap()
+}
+
+/// The estimator's rates over a record with a geometry.
+fn rates(arr: &Arrangement<HOST_CAP>, rec: &Record) -> Vec<[f64; 3]> {
+    let mut est = estimator(arr, rec);
     rec.sets
         .iter()
         .map(|(t, p)| est.update(*t, p).omega)
@@ -80,15 +68,7 @@ fn rates(arr: &Arrangement<HOST_CAP>, rec: &Record) -> Vec<[f64; 3]> {
 /// Rows of a record whose Ω is more than 5 reported deviations off in a component with no
 /// flag, with a geometry.
 fn silent(arr: &Arrangement<HOST_CAP>, rec: &Record) -> usize {
-    let mut est = Estimator::<f64, HOST_CAP>::new(
-        arr,
-        Model::General,
-        Options {
-            initial_omega: Some(rec.omega[0]),
-            ..Options::default()
-        },
-    )
-    .unwrap();
+    let mut est = estimator(arr, rec);
     rec.sets
         .iter()
         .zip(&rec.omega)
@@ -108,22 +88,13 @@ fn rms(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
     (s / (3 * a.len()) as f64).sqrt()
 }
 
-fn tumble() -> Scenario {
+/// `orbit-identify` with its torque removed, its nominal geometry and its record.
+fn setup() -> (Scenario, Arrangement<HOST_CAP>, Record) {
     let mut sc = Scenario::load("orbit-identify").unwrap();
     sc.body.torque = None;
-    sc
-}
-
-fn ideal(sc: &Scenario) -> Scenario {
-    let mut s = sc.clone();
-    for p in &mut s.parts {
-        p.bias = None;
-        p.scale = None;
-        p.cross = None;
-        p.position_error = None;
-        p.orientation_error = None;
-    }
-    s
+    let nominal = sc.arrangement().load("arrangement.toml").unwrap();
+    let rec = record(&sc);
+    (sc, nominal.arrangement, rec)
 }
 
 /// The window from `from`, `seconds` long, and the estimator's rates from the nominal geometry.
@@ -144,18 +115,12 @@ fn window(
 
 #[test]
 fn a_torque_free_tumble_identifies_the_geometry_without_a_reference() {
-    let sc = tumble();
+    let (sc, nominal, rec) = setup();
     let j = sc.body.inertia.unwrap();
     let body = Body {
         inertia: Sym3([j[0], j[1], j[2], 0.0, 0.0, 0.0]),
         gamma: Sym3([0.0; 6]),
     };
-    let nominal = sc
-        .arrangement()
-        .load("arrangement.toml")
-        .unwrap()
-        .arrangement;
-    let rec = record(&sc);
     let (k0, k1, est) = window(&rec, &nominal, 1.0, 20.0);
     let off = |w: &[f64; 3]| rms(&[*w], &[rec.omega[k0]]) * 3f64.sqrt();
     let fit = identify_tumble(
@@ -171,7 +136,7 @@ fn a_torque_free_tumble_identifies_the_geometry_without_a_reference() {
         rms(&rates(&nominal, &rec), &rec.omega),
         rms(&rates(&identified, &rec), &rec.omega),
     );
-    let ideal_sc = ideal(&sc);
+    let ideal_sc = recorded::ideal(&sc);
     let ideal_rec = record(&ideal_sc);
     let reference = rms(&rates(&nominal, &ideal_rec), &ideal_rec.omega);
     let held: Vec<u8> = fit.identified.channels().iter().map(|f| f.held).collect();
@@ -241,14 +206,8 @@ fn a_torque_free_tumble_identifies_the_geometry_without_a_reference() {
 
 #[test]
 fn a_wrong_inertia_is_refused_not_returned() {
-    let sc = tumble();
+    let (sc, nominal, rec) = setup();
     let j = sc.body.inertia.unwrap();
-    let nominal = sc
-        .arrangement()
-        .load("arrangement.toml")
-        .unwrap()
-        .arrangement;
-    let rec = record(&sc);
     let (k0, k1, est) = window(&rec, &nominal, 1.0, 20.0);
     // The principal moments given in the wrong order: no start rate fits the readings.
     let swapped = Body {
