@@ -3,7 +3,8 @@
 //! per variant, the start's and the result's Ω0 error, the Ω RMS over the record against ideal
 //! parts, and the silently wrong rows (or the refusal).
 //!
-//! `cargo run --release -p e2e-tests --example tumble_variants`
+//! `cargo run --release -p e2e-tests --example tumble_variants` (`END=41` for a window of 1–41 s
+//! instead of 1–21 s)
 
 use e2e_tests::recorded::{ideal, record};
 use estimator_core::identify::{identify_tumble, Body, Sets, Tolerance};
@@ -83,7 +84,15 @@ fn main() {
         let (reference, _, _) = run(&nominal, &ideal_sets, &ideal_omega);
         let (before, _, est) = run(&nominal, &sets, &omega);
         let k0 = sets.iter().position(|(t, _)| *t >= 1.0).unwrap();
-        let k1 = sets.iter().position(|(t, _)| *t >= 21.0).unwrap();
+        let k1 = sets
+            .iter()
+            .position(|(t, _)| {
+                *t >= std::env::var("END")
+                    .ok()
+                    .and_then(|v| v.parse().ok())
+                    .unwrap_or(21.0)
+            })
+            .unwrap();
         let off = |w: &[f64; 3]| {
             (0..3)
                 .map(|i| (w[i] - omega[k0][i]).powi(2))
