@@ -112,13 +112,6 @@ impl<T: Real> Pass<T> {
     }
 }
 
-/// A sample waiting for its backward decision.
-struct Held<T> {
-    t: f64,
-    /// Its forward output, once the forward pass has decided it.
-    forward: Option<Estimate<T>>,
-}
-
 /// The estimator as the host tools run it: the same per-sample code as the firmware, with
 /// fixed-lag smoothing ([`estimator_core::smoother`]), run forward and over the time-reversed
 /// record, each sample decided from the direction with more evidence
@@ -128,12 +121,12 @@ struct Held<T> {
 pub struct HostEstimator<T: Real> {
     forward: Pass<T>,
     backward: Pass<T>,
-    /// The held samples, oldest first, and their readings (`channels` each, in order).
-    held: std::collections::VecDeque<Held<T>>,
+    /// The held samples' times, oldest first, and their readings (`channels` each, in order).
+    times: std::collections::VecDeque<f64>,
     readings: std::collections::VecDeque<T>,
     channels: usize,
-    /// Held samples the forward pass has decided.
-    decided: usize,
+    /// The forward pass's outputs of the oldest held samples (it decides them in order).
+    decided: std::collections::VecDeque<Estimate<T>>,
     /// The backward pass's outputs of one block, latest sample first (reused).
     scratch: Vec<Estimate<T>>,
 }
@@ -148,10 +141,10 @@ impl<T: Real> HostEstimator<T> {
         Ok(HostEstimator {
             forward: Pass::new(loaded, model, options)?,
             backward: Pass::new(loaded, model, options)?,
-            held: Default::default(),
+            times: Default::default(),
             readings: Default::default(),
             channels: loaded.names.len(),
-            decided: 0,
+            decided: Default::default(),
             scratch: Vec::new(),
         })
     }
@@ -159,22 +152,21 @@ impl<T: Real> HostEstimator<T> {
     /// One sample; `emit` receives the decided outputs, oldest first (delayed by up to
     /// [`TWO_WAY_BLOCK_S`] + [`TWO_WAY_RUN_IN_S`] and [`HOST_LAG`] samples).
     pub fn push(&mut self, t: f64, p: &[T], mut emit: impl FnMut(f64, &Estimate<T>)) {
-        self.held.push_back(Held { t, forward: None });
+        self.times.push_back(t);
         self.readings.extend(p.iter().copied().take(self.channels));
-        let (held, decided) = (&mut self.held, &mut self.decided);
-        self.forward.push(t, p, |e| {
-            held[*decided].forward = Some(e);
-            *decided += 1;
-        });
-        let Some(first) = self.held.front().map(|h| h.t) else {
+        let decided = &mut self.decided;
+        self.forward.push(t, p, |e| decided.push_back(e));
+        let (Some(first), Some(last)) = (
+            self.times.front().copied(),
+            self.decided.len().checked_sub(1).map(|k| self.times[k]),
+        ) else {
             return;
         };
-        let last = self.held[self.decided.saturating_sub(1)].t;
-        if self.decided > 0 && last - first >= TWO_WAY_BLOCK_S + TWO_WAY_RUN_IN_S {
+        if last - first >= TWO_WAY_BLOCK_S + TWO_WAY_RUN_IN_S {
             let block = self
-                .held
+                .times
                 .iter()
-                .take_while(|h| h.t - first < TWO_WAY_BLOCK_S)
+                .take_while(|t| *t - first < TWO_WAY_BLOCK_S)
                 .count()
                 .max(1);
             self.decide(block, &mut emit);
@@ -183,12 +175,10 @@ impl<T: Real> HostEstimator<T> {
 
     /// End of the record: emits what is still held.
     pub fn finish(&mut self, mut emit: impl FnMut(f64, &Estimate<T>)) {
-        let (held, decided) = (&mut self.held, &mut self.decided);
-        self.forward.finish(|e| {
-            held[*decided].forward = Some(e);
-            *decided += 1;
-        });
-        let n = self.held.len();
+        let decided = &mut self.decided;
+        self.forward.finish(|e| decided.push_back(e));
+        debug_assert_eq!(self.decided.len(), self.times.len());
+        let n = self.decided.len();
         if n > 0 {
             self.decide(n, &mut emit);
         }
@@ -197,14 +187,13 @@ impl<T: Real> HostEstimator<T> {
     /// Runs the backward pass over the decided samples, latest first, and emits the oldest
     /// `block` of them.
     fn decide(&mut self, block: usize, emit: &mut impl FnMut(f64, &Estimate<T>)) {
-        let n = self.decided;
-        let t_end = self.held[n - 1].t;
+        let n = self.decided.len();
+        let t_end = self.times[n - 1];
         // Started at the forward pass's rate, reversed, where that pass's sign is settled:
         // started on its own, the backward pass settled the wrong sign of a low-SNR tumble for
         // seconds (1 kHz, 1e-2 m/s², 5 cm arm, seed 1: 346 silently wrong rows in 20 s), its
         // branch margin blind to it. A wrong branch at the start is left by its restarts.
-        let start = self.held[n - 1]
-            .forward
+        let start = Some(self.decided[n - 1])
             .filter(|e| !e.flags.has(Flags::SIGN_UNRESOLVED) && !e.flags.has(Flags::INPUT_INVALID));
         let hint = start.map(|e| e.omega.map(|v| -v.to_f64()));
         // A rate the estimator refuses (not finite) leaves the pass to settle on its own.
@@ -213,27 +202,25 @@ impl<T: Real> HostEstimator<T> {
         }
         self.backward.smoother.reset();
         self.scratch.clear();
-        let (readings, channels, scratch) = (&self.readings, self.channels, &mut self.scratch);
-        let mut p = vec![T::ZERO; channels];
-        for k in (0..n).rev() {
-            for (c, v) in p.iter_mut().enumerate() {
-                *v = readings[k * channels + c];
-            }
+        let scratch = &mut self.scratch;
+        let readings = self.readings.make_contiguous();
+        for (k, p) in readings
+            .chunks_exact(self.channels)
+            .take(n)
+            .enumerate()
+            .rev()
+        {
             self.backward
-                .push(t_end - self.held[k].t, &p, |e| scratch.push(e));
+                .push(t_end - self.times[k], p, |e| scratch.push(e));
         }
         self.backward.finish(|e| scratch.push(e));
-        for k in 0..block {
-            let h = &self.held[k];
-            let Some(fwd) = h.forward.as_ref() else {
-                continue;
-            };
+        for (k, (t, fwd)) in self.times.iter().zip(&self.decided).take(block).enumerate() {
             let bwd = two_way::reversed(&self.scratch[n - 1 - k]);
-            emit(h.t, &two_way::combine(fwd, &bwd));
+            emit(*t, &two_way::combine(fwd, &bwd));
         }
-        self.held.drain(..block);
-        self.readings.drain(..block * channels);
-        self.decided -= block;
+        self.times.drain(..block);
+        self.readings.drain(..block * self.channels);
+        self.decided.drain(..block);
     }
 }
 

@@ -66,7 +66,8 @@ pub fn combine<T: Real>(forward: &Estimate<T>, backward: &Estimate<T>) -> Estima
     if forward.flags.has(Flags::INPUT_INVALID) || backward.flags.has(Flags::INPUT_INVALID) {
         return *forward;
     }
-    if agree(forward, &reversed(backward)) && !agree(forward, backward) {
+    let agreed = agree(forward, backward);
+    if !agreed && agree(forward, &reversed(backward)) {
         // The passes hold opposite signs (the branch margins do not weigh the sign). A pass
         // whose sign is settled wins over one whose is not (the first samples of a record
         // without a rate hint); two settled ones keep the forward pass's, whose sign descends
@@ -81,19 +82,13 @@ pub fn combine<T: Real>(forward: &Estimate<T>, backward: &Estimate<T>) -> Estima
     }
     let (mf, mb) = (forward.branch_margin, backward.branch_margin);
     let mut out = if mb > mf { *backward } else { *forward };
-    let agreed = agree(forward, backward);
     let margin = if agreed && (inconsistent(forward) || inconsistent(backward)) {
         // A pass's lock monitor found the path through this sample kinematically
         // inconsistent: the other pass agreeing is no evidence against that (both may sit on
         // the same mirror root).
         T::ZERO
     } else if agreed {
-        let sum = mf + mb;
-        if sum > T::of(COST_CAP) {
-            T::of(COST_CAP)
-        } else {
-            sum
-        }
+        (mf + mb).min(T::of(COST_CAP))
     } else {
         (mf - mb).abs()
     };

@@ -184,8 +184,12 @@ impl<S: Sets, const CAP: usize> Problem<'_, S, CAP> {
 
     /// The geometry for a start rate, and its whitened cost.
     fn solve(&self, w0: &Vec3<f64>) -> Result<(f64, Identified<CAP>), IdentifyError> {
-        let sums = self.sums(w0);
-        let id = identify(&sums, self.nominal, self.tolerance)?;
+        self.geometry(&self.sums(w0))
+    }
+
+    /// The geometry from a start rate's sums, and its whitened cost.
+    fn geometry(&self, sums: &FieldSums<CAP>) -> Result<(f64, Identified<CAP>), IdentifyError> {
+        let id = identify(sums, self.nominal, self.tolerance)?;
         let cost = id
             .channels()
             .iter()
@@ -209,10 +213,10 @@ impl<S: Sets, const CAP: usize> Problem<'_, S, CAP> {
     /// along those directions, so the residual is unchanged.
     fn cost(&self, w0: &Vec3<f64>, evaluations: &mut u32) -> f64 {
         *evaluations += 1;
-        if let Ok((c, _)) = self.solve(w0) {
+        let sums = self.sums(w0);
+        if let Ok((c, _)) = self.geometry(&sums) {
             return c;
         }
-        let sums = self.sums(w0);
         let mut l = sums.gram();
         let top = (0..TERMS).map(|i| l[i][i]).fold(0.0f64, f64::max);
         for (i, row) in l.iter_mut().enumerate() {
