@@ -169,11 +169,13 @@ fn forward(case: &nine::Case, trace: Option<(f64, f64)>) -> Vec<Estimate<f64>> {
         }
         if silent && std::env::var_os("SILENT").is_some() {
             print!(
-                "silent t {:.3} off {:.3} sd {:.4} |Ω| {:.2} cands",
+                "silent t {:.3} off {:.3} sd {:.4} |Ω| {:.2} |Ω′| {:.2} Ω′ off {:.2} cands",
                 tr.t,
                 dist(&r.omega, &w),
                 r.sd_omega.iter().fold(0.0f64, |m, v| m.max(*v)),
-                dist(&w, &[0.0; 3])
+                dist(&w, &[0.0; 3]),
+                dist(&tr.domega, &[0.0; 3]),
+                dist(&r.domega, &tr.domega)
             );
             for c in rec.candidates.iter().take(rec.n_candidates as usize) {
                 let neg = [-c.omega[0], -c.omega[1], -c.omega[2]];

@@ -3,7 +3,7 @@
 //! 20 s records, four seeds — is never silently wrong: at most 0.1 % of the rows of a family
 //! have Ω more than 5 reported deviations off with no flag. Asserted on every family for the
 //! raw outputs (per-sample Ω) and the filtered ones (the rate filter's Ω, both tools' default),
-//! each on the forward path (the firmware's; but for the family of [`OPEN`]) and the smoothed
+//! each on the forward path (the firmware's) and the smoothed
 //! one (`ballisto estimate`'s: two-way, `estimator_core::two_way`). The branch margin agrees with the flag on every row of every path,
 //! and no number is non-finite.
 //!
@@ -17,15 +17,6 @@ use e2e_tests::nine::{self, Params, Score};
 /// Share of silently wrong rows allowed per family (issue 15).
 const SILENT_MAX: f64 = 0.001;
 
-/// Families where the requirement is not met yet on the forward paths (the firmware's, which
-/// cannot look ahead; issue 15 stays open on it; README, "Branch lock"): the shortest arm with
-/// the largest noise in a manoeuvre at 1 kHz (per-sample Ω deviation ≈ 0.2 rad/s). Seed 4
-/// alternates between a mirror branch and the sign-flipped true root at 7.6–7.83 s, and the
-/// lock monitor's slope over the mixed path stays under its threshold. Measured here (four
-/// seeds), silent raw / filtered forward: 0.37 / 0.12 %, all of it seed 4. The two-way paths
-/// (`ballisto estimate`) are asserted on this family too: 0.003 / 0 % (the passes hold
-/// opposite signs there, and that is flagged).
-const OPEN: [(f64, f64, f64, bool); 1] = [(1000.0, 1e-2, 0.05, true)];
 /// Seeds of every family.
 const SEEDS: [u64; 4] = [1, 2, 3, 4];
 /// Length of every record, s.
@@ -97,9 +88,7 @@ fn never_silently_wrong_across_the_family() {
                             "{rate_hz} Hz, {noise:e} m/s², {arm} m, {}, {path}",
                             motion(manoeuvre)
                         );
-                        let open = OPEN.contains(&(rate_hz, noise, arm, manoeuvre))
-                            && path.ends_with("forward");
-                        if !open && sc.silent as f64 > SILENT_MAX * sc.rows as f64 {
+                        if sc.silent as f64 > SILENT_MAX * sc.rows as f64 {
                             failures
                                 .push(format!("{what}: {} of {} rows silent", sc.silent, sc.rows));
                         }

@@ -39,6 +39,19 @@ pub const WINDOW_S: f64 = 0.1;
 pub const MIN_SAMPLES: f64 = 10.0;
 /// The test's threshold on `|b|² / Var(b)`: the 99.9 % point of χ²₃.
 pub const THRESHOLD: f64 = 16.27;
+/// How long, in windows, the chosen path must stay inconsistent without a break before the
+/// tracker re-opens its hypotheses (`Tracker::reopen`: both signs of every candidate). A jump of
+/// the chosen root — the tracker moving to the other root after a crossing, where the roots
+/// are close — trips the monitor for about a window; an inconsistency that outlasts two is
+/// mostly a tracker none of whose hypotheses is a consistent path. A far jump echoes longer
+/// (at 1 kHz one of 15 deviations lasts two windows) and may re-open the tracker too: that
+/// only adds hypotheses `STEP_CAP` behind, which the evidence drops again.
+/// Measured (README, "Branch lock"): at 1 kHz with 1e-2 m/s² on the 5 cm arm a manoeuvre's
+/// tracker held the wrong sign of every hypothesis from 7.6 s to the end of a 20 s record (no
+/// hypothesis of the other sign is restarted along a prediction of this sign), flagged by the
+/// monitor but for 293 rows where its slope dipped under the threshold; re-opened, it is back
+/// within a second and 0 rows are silent. The families at 1e-4 and 2e-3 m/s² never re-open.
+pub const REOPEN_WINDOWS: f64 = 2.0;
 /// The inconsistency a correct root may show, as a share of the motion's scale
 /// `s = (|Ω′|² + |Ω|⁴)^½` (rad/s²; `|Ω′|²` less its noise's `3σ²_Ω′`): 1 %, the parts' datasheet sensitivity error. Its square,
 /// `(κ s)²`, is added to `Var(b)`. Without it, at 1e-4 m/s² (deviation of `b` 1e-3 rad/s²)
@@ -63,6 +76,8 @@ pub(crate) struct LockMonitor<T> {
     n: u16,
     /// The last statistic `|b|² / Var(b)` (0 before a window is full).
     stat: T,
+    /// Time the statistic has been above the threshold without a break, s.
+    tripped_for: T,
 }
 
 impl<T: Real> LockMonitor<T> {
@@ -73,15 +88,17 @@ impl<T: Real> LockMonitor<T> {
 
     /// [`LockMonitor::update`] with the chosen signed root's Ω and its estimate before the
     /// rate filter (Ω′ and the deviations): where the path is inconsistent, flags the estimate
-    /// branch-ambiguous with margin 0. Out of line: the sample loop of the other layouts only
+    /// branch-ambiguous with margin 0. Returns whether the tracker's hypotheses should be
+    /// re-opened ([`REOPEN_WINDOWS`]). Out of line: the sample loop of the other layouts only
     /// tests whether to call it (inlined, it cost model F at N = 12 15–20 instructions per
     /// sample on the Cortex-M4F without running: `cargo qemu-bench`).
     #[inline(never)]
-    pub(crate) fn check(&mut self, omega: &Vec3<T>, est: &mut Estimate<T>, dt: T) {
+    pub(crate) fn check(&mut self, omega: &Vec3<T>, est: &mut Estimate<T>, dt: T) -> bool {
         let sd = (&est.sd_omega, &est.sd_domega);
         if self.update((omega, &est.domega), sd, dt) {
             mark_inconsistent(est);
         }
+        self.reopen_due(dt)
     }
 
     /// Takes the chosen signed root's Ω (`omega`), its Ω′ (`domega`), their deviations per
@@ -154,7 +171,25 @@ impl<T: Real> LockMonitor<T> {
         let var_model = T::of(MODEL_FLOOR * MODEL_FLOOR) * scale2;
         let var = (var_white + var_walk + var_model).max(T::of(1e-30));
         self.stat = norm2(&slope) / var;
-        self.stat > T::of(THRESHOLD)
+        let tripped = self.stat > T::of(THRESHOLD);
+        self.tripped_for = if tripped {
+            self.tripped_for + dt
+        } else {
+            T::ZERO
+        };
+        tripped
+    }
+
+    /// The path has been inconsistent without a break for [`REOPEN_WINDOWS`] windows: none of
+    /// the tracker's hypotheses is a consistent path (true once per such stretch; it counts
+    /// again from there).
+    fn reopen_due(&mut self, dt: T) -> bool {
+        let window = T::of(WINDOW_S).max(T::of(MIN_SAMPLES) * dt);
+        let due = self.tripped_for >= T::of(REOPEN_WINDOWS) * window;
+        if due {
+            self.tripped_for = T::ZERO;
+        }
+        due
     }
 }
 
@@ -200,6 +235,36 @@ mod tests {
                 } else {
                     let t = first_trip.expect("tripped");
                     assert!(t < 2.0 * WINDOW_S.max(MIN_SAMPLES * dt), "{rate} Hz: {t}");
+                }
+            }
+        }
+    }
+
+    /// A consistent path never asks for the hypotheses to be re-opened; one that stays
+    /// inconsistent does, within three windows, and again later while it goes on.
+    #[test]
+    fn only_a_lasting_inconsistency_reopens() {
+        for rate in [50.0, 1000.0, 4000.0] {
+            let dt = 1.0 / rate;
+            let window = WINDOW_S.max(MIN_SAMPLES * dt);
+            for drift in [0.0, 5.0] {
+                let mut m = LockMonitor::<f64>::default();
+                let mut reopened = Vec::new();
+                for k in 0..(rate as usize * 3) {
+                    let t = k as f64 * dt;
+                    let omega = [1.0 + drift * t, 0.5 - 0.7 * t, 2.0];
+                    let domega = [0.0, -0.7, 0.0];
+                    let sd = ([1e-2; 3], [0.1; 3]);
+                    m.update((&omega, &domega), (&sd.0, &sd.1), dt);
+                    if m.reopen_due(dt) {
+                        reopened.push(t);
+                    }
+                }
+                if drift == 0.0 {
+                    assert!(reopened.is_empty(), "{rate} Hz: {reopened:?}");
+                } else {
+                    assert!(reopened[0] < 3.0 * window, "{rate} Hz: {reopened:?}");
+                    assert!(reopened.len() > 1, "{rate} Hz: once only");
                 }
             }
         }

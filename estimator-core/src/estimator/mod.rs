@@ -480,8 +480,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         est.branch_margin = choice.branch_margin;
         // Where mirror branches cross (m = 3), the chosen root's own path is checked as well:
         // contradicted by it, the branch is in doubt whatever the tracker's margin.
-        if histories == 2 {
-            self.lock.check(&choice.omega, est, dt_t);
+        // Contradicted for two windows on end, none of the tracker's hypotheses is consistent:
+        // it re-opens both signs of every root (`lock_monitor::REOPEN_WINDOWS`).
+        if histories == 2 && self.lock.check(&choice.omega, est, dt_t) {
+            self.tracker.reopen(&cands[..nb]);
         }
         let sd = &est.sd_domega;
         self.domega_var = (sd[0].sq() + sd[1].sq() + sd[2].sq()) / T::of(3.0);

@@ -165,6 +165,67 @@ impl<T: Real> Tracker<T> {
         }
     }
 
+    /// Adds a hypothesis at both signs of every candidate of the last step (`cands`, as given
+    /// to it) that no hypothesis holds yet (the same output, Ω within their deviations), each
+    /// as a restart would start it (see [`restart`]): its own Ω and variance, [`STEP_CAP`]
+    /// behind the best (and its fit's excess over the best's), into a free slot or in place of
+    /// the costliest hypothesis if cheaper. For a tracker none of whose hypotheses is a
+    /// consistent path (the estimator's lock monitor says when): restarts are otherwise made
+    /// only along the best hypothesis' prediction, so a sign that every hypothesis lost would
+    /// never be tried again. Out of line, outside [`Tracker::step`]: the per-sample path pays
+    /// nothing for it.
+    #[inline(never)]
+    pub fn reopen(&mut self, cands: &[Candidate<T>]) {
+        let (next, mut nn, best) = (&mut self.buf[self.cur], self.n, self.best);
+        if nn == 0 {
+            return;
+        }
+        let best_fit = cands
+            .get(usize::from(next[best].candidate))
+            .map_or(T::ZERO, |c| c.fit);
+        for (ci, c) in cands.iter().enumerate().take(MAX_CANDIDATES) {
+            let r = c.omega_var.max(T::of(1e-30));
+            let cost = T::of(STEP_CAP) + (c.fit - best_fit).max(T::ZERO);
+            for sign in SIGNS {
+                let omega = scale(T::of(f64::from(sign)), &c.omega);
+                let held = next[..nn].iter().any(|s| {
+                    usize::from(s.candidate) == ci
+                        && s.sign == sign
+                        && norm2(&sub(&s.omega, &omega)) <= T::of(0.25) * (s.var + r)
+                });
+                if held {
+                    continue;
+                }
+                let slot = if nn < MAX_STATES {
+                    nn += 1;
+                    nn - 1
+                } else {
+                    let costliest =
+                        (0..nn)
+                            .filter(|&j| j != best)
+                            .fold(None, |w: Option<usize>, j| match w {
+                                Some(w) if next[w].cost >= next[j].cost => Some(w),
+                                _ => Some(j),
+                            });
+                    match costliest {
+                        Some(w) if cost < next[w].cost => w,
+                        _ => continue,
+                    }
+                };
+                next[slot].set(&State {
+                    omega,
+                    var: r,
+                    domega: c.domega,
+                    cost,
+                    candidate: ci as u8,
+                    sign,
+                    from: next[best].from,
+                });
+            }
+        }
+        self.n = nn;
+    }
+
     /// Forgets the history.
     pub fn reset(&mut self) {
         self.n = 0;
@@ -659,6 +720,44 @@ mod tests {
                 assert_eq!(c.candidate, 1, "t = {t}: on the mirror branch");
                 assert!(dist(&c.omega, &w) < 1e-9);
                 assert!(!c.sign_unresolved && !c.branch_ambiguous, "t = {t}");
+            }
+        }
+    }
+
+    /// A tracker whose every hypothesis holds the wrong sign (here: started by a wrong hint)
+    /// never starts the other sign by itself — restarts are made only along the prediction —
+    /// although the sign it holds does not integrate Ω′. Re-opened, it starts both signs of
+    /// every candidate and the evidence moves it to the consistent one within 0.5 s.
+    #[test]
+    fn reopened_it_finds_the_sign_no_hypothesis_held() {
+        for reopen in [false, true] {
+            let mut tr = Tracker::<f64>::new();
+            let wrong = scale(-1.0, &truth(0.0).0);
+            let mut on_truth_after = None;
+            for k in 0..300 {
+                let t = k as f64 * DT;
+                let (w, dw) = truth(t);
+                let h = (k == 0).then_some((wrong, 0.01));
+                let cands = [cand(w, dw)];
+                let c = tr.step(&cands, DT, 1e-6, h, 2).unwrap();
+                if reopen && k == 100 {
+                    tr.reopen(&cands);
+                }
+                let right = dist(&c.omega, &w) < 1e-9;
+                if k < 100 {
+                    assert!(!right, "step {k}: the wrong hint's sign is held");
+                }
+                if right && on_truth_after.is_none() {
+                    on_truth_after = Some(k);
+                }
+                if !right {
+                    on_truth_after = None;
+                }
+            }
+            match (reopen, on_truth_after) {
+                (false, found) => assert_eq!(found, None, "never re-opened"),
+                (true, Some(k)) => assert!(k < 150, "on the consistent sign from step {k}"),
+                (true, None) => panic!("re-opened, the consistent sign was not found"),
             }
         }
     }
