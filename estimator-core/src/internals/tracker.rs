@@ -189,9 +189,7 @@ impl<T: Real> Tracker<T> {
             for sign in SIGNS {
                 let omega = scale(T::of(f64::from(sign)), &c.omega);
                 let held = next[..nn].iter().any(|s| {
-                    usize::from(s.candidate) == ci
-                        && s.sign == sign
-                        && norm2(&sub(&s.omega, &omega)) <= T::of(0.25) * (s.var + r)
+                    usize::from(s.candidate) == ci && s.sign == sign && same_history(s, &omega, r)
                 });
                 if held {
                     continue;
@@ -398,10 +396,8 @@ impl<T: Real> Tracker<T> {
                     // not subtracted, so the running mean converges to it).
                     let entry = (st, nu2 / three - (sv - model_var));
                     // Same history as a kept one? Keep the cheaper.
-                    if let Some(j) = (0..*n).find(|&j| {
-                        norm2(&sub(&kept[j].0.omega, &st.omega))
-                            <= T::of(0.25) * (kept[j].0.var + st.var)
-                    }) {
+                    if let Some(j) = (0..*n).find(|&j| same_history(&kept[j].0, &st.omega, st.var))
+                    {
                         if cost < kept[j].0.cost {
                             kept[j] = entry;
                         }
@@ -565,7 +561,7 @@ fn restart<T: Real>(
     };
     let same = kept[..*n]
         .iter()
-        .position(|k| norm2(&sub(&k.0.omega, &st.omega)) <= T::of(0.25) * (k.0.var + st.var));
+        .position(|k| same_history(&k.0, &st.omega, st.var));
     match same {
         Some(j) if cost < kept[j].0.cost => kept[j] = (st, T::ZERO),
         Some(_) => {}
@@ -579,6 +575,13 @@ fn restart<T: Real>(
     if *n == 2 && kept[1].0.cost < kept[0].0.cost {
         kept.swap(0, 1);
     }
+}
+
+/// Whether a hypothesis at `omega` with variance `var` continues the same history as `s`:
+/// their filtered Ω agree to within half their combined deviation.
+#[inline(always)]
+fn same_history<T: Real>(s: &State<T>, omega: &Vec3<T>, var: T) -> bool {
+    norm2(&sub(&s.omega, omega)) <= T::of(0.25) * (s.var + var)
 }
 
 fn propagate<T: Real>(s: &State<T>, dt: T) -> Vec3<T> {
