@@ -22,6 +22,14 @@ pub fn cuc(t: u64) -> [u8; TIME_LEN] {
     [CUC_P_FIELD, c[0], c[1], c[2], c[3], f[1], f[2], f[3]]
 }
 
+/// The CUC 4+3 T-field of `t` (nanoseconds) as one number of 2⁻²⁴ s ticks (the coarse
+/// seconds · 2²⁴ + the fine part, rounded as [`cuc`] rounds): what the time correlation is
+/// reckoned in, so the unit subtracts and sends it without converting back.
+pub fn cuc_ticks(t: u64) -> u64 {
+    let [_, c0, c1, c2, c3, f0, f1, f2] = cuc(t);
+    u64::from_be_bytes([0, c0, c1, c2, c3, f0, f1, f2])
+}
+
 /// The coarse (s) and fine (2⁻²⁴ s) parts of a CUC time field, or `None` if it is not the
 /// unit's format.
 fn parts(field: &[u8]) -> Option<(u32, u32)> {

@@ -1,16 +1,18 @@
 //! The ground decoder (feature `ground`): one telemetry packet → its report, every check made
 //! (length, CRC, APID, time field, layout).
 
-use spacepackets::ecss::tm::PusTmReader;
+use spacepackets::ecss::tm::{GenericPusTmSecondaryHeader, PusTmReader};
 use spacepackets::CcsdsPacket;
 
 use crate::codec::Get;
 use crate::cuc::{cuc_seconds, TIME_LEN};
 use crate::event::{Event, EventId, EVENT_LEN};
-use crate::housekeeping::{Housekeeping, HOUSEKEEPING_LEN, HOUSEKEEPING_LEN_NO_CALIBRATION};
+use crate::housekeeping::{
+    Housekeeping, HOUSEKEEPING_LEN, HOUSEKEEPING_LEN_NO_BOOT, HOUSEKEEPING_LEN_NO_CALIBRATION,
+};
 use crate::identification::{IdentificationSummary, IdentifiedChannel};
 use crate::ids::{service, sid, subtype, APID};
-use crate::motion::{MotionReport, MOTION_LEN, MOTION_LEN_NO_MARGIN};
+use crate::motion::{MotionReport, MOTION_LEN, MOTION_LEN_NO_CONTEXT, MOTION_LEN_NO_MARGIN};
 use crate::verification::{FailureCode, RequestId, Verification};
 
 /// One decoded telemetry packet.
@@ -37,6 +39,9 @@ pub enum Report {
 pub struct Decoded {
     /// CCSDS sequence count (14 bits).
     pub sequence: u16,
+    /// PUS message type counter: packets of this service and subtype before it since boot
+    /// (telemetry format 2; always 0 in streams before it).
+    pub type_counter: u16,
     /// Time stamp, s since boot.
     pub t: f64,
     /// Service and subtype.
@@ -89,19 +94,24 @@ pub fn decode(raw: &[u8]) -> Result<Decoded, DecodeError> {
     let bad = DecodeError::Data(s, st);
     let report = match (s, st) {
         (service::HOUSEKEEPING, subtype::HK_REPORT) => match g.u16().ok_or(bad)? {
-            sid::MOTION if data.len() == MOTION_LEN || data.len() == MOTION_LEN_NO_MARGIN => {
+            sid::MOTION
+                if [MOTION_LEN, MOTION_LEN_NO_CONTEXT, MOTION_LEN_NO_MARGIN]
+                    .contains(&data.len()) =>
+            {
                 let k = g.u32().ok_or(bad)?;
-                let margin = data.len() == MOTION_LEN;
-                let mut m = MotionReport::decode(&mut g, margin).ok_or(bad)?;
+                let mut m = MotionReport::decode(&mut g, data.len()).ok_or(bad)?;
                 m.k = k;
                 Report::Motion(m)
             }
             sid::HOUSEKEEPING
-                if data.len() == HOUSEKEEPING_LEN
-                    || data.len() == HOUSEKEEPING_LEN_NO_CALIBRATION =>
+                if [
+                    HOUSEKEEPING_LEN,
+                    HOUSEKEEPING_LEN_NO_BOOT,
+                    HOUSEKEEPING_LEN_NO_CALIBRATION,
+                ]
+                .contains(&data.len()) =>
             {
-                let calibration = data.len() == HOUSEKEEPING_LEN;
-                Report::Housekeeping(Housekeeping::decode(&mut g, calibration).ok_or(bad)?)
+                Report::Housekeeping(Housekeeping::decode(&mut g, data.len()).ok_or(bad)?)
             }
             sid::MOTION | sid::HOUSEKEEPING => return Err(bad),
             _ => return Err(DecodeError::Unknown(s, st)),
@@ -149,6 +159,7 @@ pub fn decode(raw: &[u8]) -> Result<Decoded, DecodeError> {
     };
     Ok(Decoded {
         sequence: tm.seq_count().value(),
+        type_counter: tm.msg_type_counter(),
         t,
         service: (s, st),
         report,

@@ -7,7 +7,11 @@ use crate::codec::Put;
 #[repr(u16)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum EventId {
-    /// The unit started: `a` = version (major·2¹⁶ + minor·2⁸ + patch), `b` = channels.
+    /// The unit started: `a` = telemetry format·2²⁴ + version (major·2¹⁶ + minor·2⁸ + patch;
+    /// the format octet is 0 in streams before format 2, [`crate::ids::FORMAT_VERSION`]),
+    /// `b` = boot count·2¹⁶ (boots since power-on, at most 65 535; housekeeping has the whole
+    /// count) + reset cause·2⁸ (`housekeeping::ResetCause`) + channels (format 2; channels
+    /// alone before it).
     Boot = 1,
     /// Mode changed: `a` = old mode, `b` = new mode.
     ModeChanged = 2,
@@ -30,6 +34,9 @@ pub enum EventId {
     /// A calibration was committed to the store (TC[200,11]); it is used from the next boot:
     /// `a` = calibration id, `b` = its record's CRC-32.
     CalibrationStored = 10,
+    /// Channels were excluded or included by command (TC[200,4/5]; format 2): `a` = the
+    /// commanded exclusions before, `b` = after (bit per channel).
+    ChannelsCommanded = 11,
 }
 
 impl EventId {
@@ -47,6 +54,7 @@ impl EventId {
             FrameRejected,
             SetsLost,
             CalibrationStored,
+            ChannelsCommanded,
         ]
         .into_iter()
         .find(|e| *e as u16 == v)
@@ -74,6 +82,7 @@ impl EventId {
             EventId::FrameRejected => "frame-rejected",
             EventId::SetsLost => "sets-lost",
             EventId::CalibrationStored => "calibration-stored",
+            EventId::ChannelsCommanded => "channels-commanded",
         }
     }
 }

@@ -1,6 +1,7 @@
 //! The housekeeping report, TM[3,25] SID 2: mode, model, rates, the loop's and every part's
-//! counters, the link's counters, and the identity of the calibration in use (issue 16: added
-//! at the end; the decoder still reads the layout before it).
+//! counters, the link's counters, the identity of the calibration in use (issue 16), and the
+//! boot count, the reset cause and the time correlation (telemetry format 2). Each addition is
+//! at the end; the decoder still reads the layouts before it.
 
 use crate::codec::{Get, Put};
 use crate::ids::{sid, PART_SLOTS};
@@ -75,6 +76,83 @@ pub struct CalibrationId {
     pub crc: u32,
 }
 
+/// Why the unit last started (the board reads it from its reset controller).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(u8)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ResetCause {
+    /// The board cannot tell.
+    #[default]
+    Unknown = 0,
+    /// Power was applied (power-on or brown-out reset): nothing in RAM survived.
+    PowerOn = 1,
+    /// The reset pin.
+    Pin = 2,
+    /// Software: the unit reset itself (after a calibration commit, or a debugger).
+    Software = 3,
+    /// A watchdog expired.
+    Watchdog = 4,
+    /// Another cause (low-power management, lockup).
+    Other = 5,
+}
+
+impl TryFrom<u8> for ResetCause {
+    type Error = u8;
+
+    fn try_from(v: u8) -> Result<Self, u8> {
+        use ResetCause::*;
+        [Unknown, PowerOn, Pin, Software, Watchdog, Other]
+            .into_iter()
+            .find(|c| *c as u8 == v)
+            .ok_or(v)
+    }
+}
+
+/// The unit's boots: how many since power was applied, and why the last one happened.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BootInfo {
+    /// Boots since power was applied, this one included (1 after a power-on; kept in RAM that
+    /// survives a reset, not a power loss).
+    pub count: u32,
+    /// Why this boot happened.
+    pub cause: ResetCause,
+}
+
+/// What the time stamps of the unit's packets (CUC, seconds since its boot) are correlated to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TimeCorrelation {
+    /// `true` once TC[9,128] has set it; `false`: the unit's own scale only (`epoch` 0).
+    pub set: bool,
+    /// The spacecraft time of the unit's boot as a CUC 4+3 T-field (4 octets of seconds, 3 of
+    /// 2⁻²⁴ s, big-endian): a packet stamped `t` (since boot) was made at spacecraft time
+    /// [`Self::epoch_seconds`] + `t`. Kept as the octets sent (no conversion on board).
+    pub epoch: [u8; 7],
+}
+
+impl TimeCorrelation {
+    /// The correlation of a boot at spacecraft time `ticks` (2⁻²⁴ s; the low 56 bits).
+    pub fn at(ticks: u64) -> Self {
+        let [_, t @ ..] = ticks.to_be_bytes();
+        TimeCorrelation {
+            set: true,
+            epoch: t,
+        }
+    }
+
+    /// The spacecraft time of the unit's boot, 2⁻²⁴ s ticks.
+    pub fn epoch_ticks(&self) -> u64 {
+        let [e0, e1, e2, e3, e4, e5, e6] = self.epoch;
+        u64::from_be_bytes([0, e0, e1, e2, e3, e4, e5, e6])
+    }
+
+    /// The spacecraft time of the unit's boot, seconds.
+    pub fn epoch_seconds(&self) -> f64 {
+        self.epoch_ticks() as f64 / f64::from(1u32 << 24)
+    }
+}
+
 /// The sampling loop's counters (since boot).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LoopCounters {
@@ -146,10 +224,15 @@ pub struct Housekeeping {
     pub parts: [PartCounters; PART_SLOTS],
     /// The calibration in use (`None` when decoded from the layout before it).
     pub calibration: Option<CalibrationId>,
+    /// Boot count and reset cause, and the time correlation (`None` when decoded from a layout
+    /// before telemetry format 2).
+    pub boot: Option<(BootInfo, TimeCorrelation)>,
 }
 
 /// Application data length of the housekeeping report.
-pub const HOUSEKEEPING_LEN: usize = HOUSEKEEPING_LEN_NO_CALIBRATION + 9;
+pub const HOUSEKEEPING_LEN: usize = HOUSEKEEPING_LEN_NO_BOOT + 4 + 1 + 1 + 7;
+/// Application data length of the layout before the boot and time fields (format 1, issue 16).
+pub const HOUSEKEEPING_LEN_NO_BOOT: usize = HOUSEKEEPING_LEN_NO_CALIBRATION + 9;
 /// Application data length of the layout before the calibration identity (still decoded).
 pub const HOUSEKEEPING_LEN_NO_CALIBRATION: usize = 2 + 6 + 4 + 4 + 20 + 1 + 8 + 16 + 8 * 25;
 
@@ -188,13 +271,19 @@ impl Housekeeping {
         }
         let cal = self.calibration.unwrap_or_default();
         p.u8(cal.source as u8).u32(cal.id).u32(cal.crc);
+        let (boot, time) = self.boot.unwrap_or_default();
+        p.u32(boot.count)
+            .u8(boot.cause as u8)
+            .u8(u8::from(time.set))
+            .bytes(&time.epoch);
         p.finish()
     }
 
-    /// Decodes the application data after the SID; `calibration`: the layout with the
-    /// calibration identity ([`HOUSEKEEPING_LEN`]) or the one before it.
+    /// Decodes the application data after the SID, of length `len`: [`HOUSEKEEPING_LEN`] or
+    /// one of the layouts before it ([`HOUSEKEEPING_LEN_NO_BOOT`],
+    /// [`HOUSEKEEPING_LEN_NO_CALIBRATION`]), which lack the fields added at their end.
     #[cfg_attr(not(feature = "ground"), allow(dead_code))]
-    pub(crate) fn decode(g: &mut Get, calibration: bool) -> Option<Self> {
+    pub(crate) fn decode(g: &mut Get, len: usize) -> Option<Self> {
         let mut h = Housekeeping {
             version: g.array()?,
             mode: g.u8()?,
@@ -230,12 +319,25 @@ impl Housekeeping {
                 resyncs: g.u32()?,
             };
         }
-        if calibration {
+        if len >= HOUSEKEEPING_LEN_NO_BOOT {
             h.calibration = Some(CalibrationId {
                 source: CalibrationSource::try_from(g.u8()?).ok()?,
                 id: g.u32()?,
                 crc: g.u32()?,
             });
+        }
+        if len == HOUSEKEEPING_LEN {
+            let boot = BootInfo {
+                count: g.u32()?,
+                cause: ResetCause::try_from(g.u8()?).ok()?,
+            };
+            let set = match g.u8()? {
+                0 => false,
+                1 => true,
+                _ => return None,
+            };
+            let epoch = g.array::<7>()?;
+            h.boot = Some((boot, TimeCorrelation { set, epoch }));
         }
         Some(h)
     }

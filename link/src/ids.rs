@@ -21,6 +21,8 @@ pub mod service {
     pub const HOUSEKEEPING: u8 = 3;
     /// ST[05] event reporting.
     pub const EVENT: u8 = 5;
+    /// ST[09] time management.
+    pub const TIME: u8 = 9;
     /// ST[17] test.
     pub const TEST: u8 = 17;
     /// ST[200] ballistometer (mission-specific).
@@ -41,6 +43,9 @@ pub mod subtype {
     pub const HK_REPORT: u8 = 25;
     /// TC[3,27] generate a one-shot report of housekeeping structures.
     pub const HK_ONE_SHOT: u8 = 27;
+    /// TC[9,128] set the unit's time correlation: the spacecraft time now (mission-specific
+    /// subtype).
+    pub const SET_TIME: u8 = 128;
     /// TC[17,1] are-you-alive connection test.
     pub const ARE_YOU_ALIVE: u8 = 1;
     /// TM[17,2] are-you-alive connection report.
@@ -86,3 +91,33 @@ pub const PART_SLOTS: usize = 8;
 
 /// Most channels an arrangement on the link has (TC[200,6]; channel masks are 32 bits).
 pub const MAX_CHANNELS: usize = 24;
+
+/// The telemetry format: 2 since the ground segment's list of issue 16 (the message type
+/// counter, the boot count and reset cause, the time correlation, the mode and model in the
+/// motion report, the commanded-exclusion event); carried in the boot event. Streams before it
+/// are format 1 (their boot event has 0 in that octet).
+pub const FORMAT_VERSION: u8 = 2;
+
+/// Every telemetry message type the unit sends (service, subtype), in the order of its message
+/// type counters (PUS-C TM secondary header, octets 9–10: one counter per type, from 0 at
+/// boot, so the ground sees the loss of each kind of report).
+pub const TM_TYPES: [(u8, u8); 12] = [
+    (service::VERIFICATION, subtype::ACCEPTED),
+    (service::VERIFICATION, subtype::NOT_ACCEPTED),
+    (service::VERIFICATION, subtype::COMPLETED),
+    (service::VERIFICATION, subtype::NOT_COMPLETED),
+    (service::HOUSEKEEPING, subtype::HK_REPORT),
+    (service::EVENT, 1),
+    (service::EVENT, 2),
+    (service::EVENT, 3),
+    (service::EVENT, 4),
+    (service::TEST, subtype::ALIVE),
+    (service::BALLISTOMETER, subtype::IDENTIFICATION_SUMMARY),
+    (service::BALLISTOMETER, subtype::IDENTIFIED_CHANNEL),
+];
+
+/// The index of a telemetry message type in [`TM_TYPES`] (its message type counter), or
+/// `None` for a type the unit does not send.
+pub fn tm_type_index(service: u8, subtype: u8) -> Option<usize> {
+    TM_TYPES.iter().position(|&t| t == (service, subtype))
+}

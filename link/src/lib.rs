@@ -41,9 +41,10 @@ pub mod verification;
 
 pub use event::{Event, EventId};
 pub use housekeeping::{
-    CalibrationId, CalibrationSource, Housekeeping, LoopCounters, PartCounters, PartState,
+    BootInfo, CalibrationId, CalibrationSource, Housekeeping, LoopCounters, PartCounters,
+    PartState, ResetCause, TimeCorrelation,
 };
-pub use ids::{service, sid, subtype, APID};
+pub use ids::{service, sid, subtype, APID, FORMAT_VERSION};
 pub use masks::{ChannelSet, PartSet};
 pub use mode::{Mode, ModelCode};
 pub use motion::MotionReport;

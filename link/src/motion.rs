@@ -6,6 +6,7 @@ use estimator_core::{Estimate, Flags};
 use crate::codec::{Get, Put};
 use crate::ids::sid;
 use crate::masks::{ChannelSet, PartSet};
+use crate::mode::{Mode, ModelCode};
 
 /// The motion report (TM[3,25], SID 1): one estimate and what it was computed from.
 #[derive(Clone, Copy, Debug)]
@@ -20,10 +21,17 @@ pub struct MotionReport {
     pub excluded_parts: PartSet,
     /// Channels not in the solve, commanded or automatic.
     pub excluded_channels: ChannelSet,
+    /// The mode and the model the estimate was made in (`None` when decoded from a layout
+    /// before telemetry format 2).
+    pub context: Option<(Mode, ModelCode)>,
 }
 
 /// Application data length of the motion report.
-pub const MOTION_LEN: usize = 146;
+pub const MOTION_LEN: usize = 148;
+
+/// Application data length of the motion report before the mode and model were added
+/// (telemetry format 1, from issue 15): decoded with [`MotionReport::context`] `None`.
+pub const MOTION_LEN_NO_CONTEXT: usize = 146;
 
 /// Application data length of the motion report before the branch margin was added (firmware
 /// 0.x up to issue 15): decoded with the margin absent (NaN; an empty cell in the estimates
@@ -31,7 +39,8 @@ pub const MOTION_LEN: usize = 146;
 pub const MOTION_LEN_NO_MARGIN: usize = 142;
 
 impl MotionReport {
-    /// Encodes the application data; returns its length ([`MOTION_LEN`]).
+    /// Encodes the application data; returns its length ([`MOTION_LEN`]), or `None` if it does
+    /// not fit or the report has no context (mode and model).
     pub fn encode(&self, out: &mut [u8]) -> Option<usize> {
         let e = &self.estimate;
         let mut p = Put::new(out);
@@ -55,13 +64,17 @@ impl MotionReport {
             .u8(self.excluded_parts.0)
             .u32(self.excluded_channels.0)
             .f32(e.branch_margin);
+        // Only the decoder of an old layout leaves the context out; such a report is not sent.
+        let (mode, model) = self.context?;
+        p.u8(mode as u8).u8(model as u8);
         p.finish()
     }
 
-    /// Decodes the application data after the SID and `k`; `margin`: the layout carries the
-    /// branch margin ([`MOTION_LEN`], else [`MOTION_LEN_NO_MARGIN`]).
+    /// Decodes the application data after the SID and `k`, of length `len` (one of
+    /// [`MOTION_LEN`], [`MOTION_LEN_NO_CONTEXT`], [`MOTION_LEN_NO_MARGIN`]: the older layouts
+    /// lack the fields added at their end).
     #[cfg_attr(not(feature = "ground"), allow(dead_code))]
-    pub(crate) fn decode(g: &mut Get, margin: bool) -> Option<Self> {
+    pub(crate) fn decode(g: &mut Get, len: usize) -> Option<Self> {
         let mut e = Estimate::<f32> {
             sigma0: g.f32s()?,
             domega: g.f32s()?,
@@ -85,8 +98,18 @@ impl MotionReport {
             missing_parts: PartSet(g.u8()?),
             excluded_parts: PartSet(g.u8()?),
             excluded_channels: ChannelSet(g.u32()?),
+            context: None,
         };
-        m.estimate.branch_margin = if margin { g.f32()? } else { f32::NAN };
+        m.estimate.branch_margin = if len > MOTION_LEN_NO_MARGIN {
+            g.f32()?
+        } else {
+            f32::NAN
+        };
+        if len == MOTION_LEN {
+            let mode = Mode::try_from(g.u8()?).ok()?;
+            let model = ModelCode::try_from(g.u8()?).ok()?;
+            m.context = Some((mode, model));
+        }
         Some(m)
     }
 }

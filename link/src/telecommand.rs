@@ -80,6 +80,9 @@ pub enum Command<'a> {
     },
     /// TC[3,27] for the housekeeping structure (SID 2).
     ReportHousekeeping,
+    /// TC[9,128]: the spacecraft time at the command's reception, a CUC 4+3 T-field read as
+    /// one number of 2⁻²⁴ s ticks: the unit correlates its own time to it.
+    SetTime(u64),
     /// TC[17,1].
     AreYouAlive,
 }
@@ -320,6 +323,13 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
                 }
             }
             Ok(Command::ReportHousekeeping)
+        }
+        (service::TIME, subtype::SET_TIME) => {
+            // A CUC 4+3 T-field (the unit's P-field implied): every value is a time.
+            length(7)?;
+            let t: [u8; 7] = g.array().ok_or((FailureCode::DataLength, 7))?;
+            let [t0, t1, t2, t3, t4, t5, t6] = t;
+            Ok(Command::SetTime(u64::from_be_bytes([0, t0, t1, t2, t3, t4, t5, t6])))
         }
         (service::TEST, subtype::ARE_YOU_ALIVE) => {
             length(0)?;

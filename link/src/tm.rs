@@ -21,6 +21,7 @@ pub const CRC_LEN: usize = 2;
 fn write_headers(
     packet: &mut [u8; TM_MAX],
     sequence: u16,
+    counter: u16,
     len: usize,
     service: u8,
     subtype: u8,
@@ -35,21 +36,24 @@ fn write_headers(
     let [sc0, sc1] = header.psc().raw().to_be_bytes();
     let [dl0, dl1] = header.data_len().to_be_bytes();
     let [t0, t1, t2, t3, t4, t5, t6, t7] = *stamp;
-    // PUS version 2 (PUS-C), time reference status 0; message counter and destination 0.
+    let [c0, c1] = counter.to_be_bytes();
+    // PUS version 2 (PUS-C), time reference status 0; the message type counter; destination 0.
     let headers: [u8; HEADERS_LEN] = [
-        id0, id1, sc0, sc1, dl0, dl1, 0x20, service, subtype, 0, 0, 0, 0, t0, t1, t2, t3, t4, t5,
-        t6, t7,
+        id0, id1, sc0, sc1, dl0, dl1, 0x20, service, subtype, c0, c1, 0, 0, t0, t1, t2, t3, t4,
+        t5, t6, t7,
     ];
     packet[..HEADERS_LEN].copy_from_slice(&headers);
 }
 
-/// Builds packet TM[`service`,`subtype`] with sequence count `sequence`, stamped `t`
+/// Builds packet TM[`service`,`subtype`] with sequence count `sequence` and message type
+/// counter `counter` (the count of packets of this type before it since boot), stamped `t`
 /// (nanoseconds since boot), in `packet`: the application data is written in place by `encode`
 /// (given the room after the headers; it returns the length it wrote), then the headers and the
 /// CRC around it. Returns the packet length, or `None` if the data did not fit.
 pub fn build(
     packet: &mut [u8; TM_MAX],
     sequence: u16,
+    counter: u16,
     service: u8,
     subtype: u8,
     t: u64,
@@ -57,7 +61,7 @@ pub fn build(
 ) -> Option<usize> {
     let n = encode(packet.get_mut(HEADERS_LEN..TM_MAX - CRC_LEN)?)?;
     let len = HEADERS_LEN + n + CRC_LEN;
-    write_headers(packet, sequence, len, service, subtype, &cuc(t));
+    write_headers(packet, sequence, counter, len, service, subtype, &cuc(t));
     let crc = CRC_CCITT_FALSE.checksum(&packet[..len - CRC_LEN]);
     packet[len - CRC_LEN..len].copy_from_slice(&crc.to_be_bytes());
     Some(len)

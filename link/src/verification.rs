@@ -58,6 +58,9 @@ pub mod not_ready {
     /// The solution is not a valid arrangement (low 16 bits: the estimator's check, as
     /// [`super::config_error_code`]'s high half).
     pub const INVALID: u32 = 8 << 16;
+    /// TC[9,128]: the spacecraft time given is earlier than the unit's own time since boot
+    /// (the boot would precede the spacecraft's epoch).
+    pub const TIME_BEFORE_BOOT: u32 = 9;
 }
 
 /// The data of [`FailureCode::StoreFailed`].

@@ -11,7 +11,7 @@ use embedded_io_async::{ErrorType, Read};
 
 use core::ops::Range;
 
-use ballisto_link::CalibrationId;
+use ballisto_link::{BootInfo, CalibrationId, ResetCause};
 use embedded_storage_async::nor_flash::NorFlash;
 
 use crate::calstore::{select_at_boot, CalibrationRecord, CalibrationStore};
@@ -41,6 +41,9 @@ pub struct CalibrationBoots {
     pub first: CalibrationId,
     /// The second, after the commit and a reset: the stored record.
     pub second: CalibrationId,
+    /// The second boot's count and cause: the second since power-on, by a software reset (the
+    /// QEMU board's SYSRESETREQ), as [`crate::boot::count_boot`] counts them.
+    pub boot: BootInfo,
 }
 
 /// The scenario's first boot on `flash` (erased; `range` of it, whole sectors): the empty
@@ -80,9 +83,17 @@ pub async fn calibration_boots<F: NorFlash>(
     flash: F,
     range: Range<u32>,
 ) -> Result<(AppConfig, CalibrationBoots, F), &'static str> {
+    let mut retained = [0u32; 2];
+    crate::boot::count_boot(&mut retained, ResetCause::PowerOn);
     let (first, flash) = first_boot(flash, range.clone()).await?;
+    let boot_info = crate::boot::count_boot(&mut retained, ResetCause::Software);
     let (config, second, flash) = boot(flash, range).await?;
-    Ok((config, CalibrationBoots { first, second }, flash))
+    let boots = CalibrationBoots {
+        first,
+        second,
+        boot: boot_info,
+    };
+    Ok((config, boots, flash))
 }
 
 /// What arrives on the uplink.

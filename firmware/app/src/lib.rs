@@ -16,6 +16,7 @@
 //! - [`telemetry`] — the downlink writer: PUS packets (the layouts are `ballisto_link`'s, shared
 //!   with the ground), CCSDS sequence counts, COBS framing on the link. Telecommand acceptance
 //!   is `ballisto_link::telecommand`.
+//! - [`boot`] — the boot count the board keeps across resets (housekeeping, reset event).
 //! - [`config`] — what runs: parts, channels, rate, arrangement, model (built-in table or
 //!   command); [`time`] — the time base; [`calstore`] — calibration records in flash;
 //!   [`storage`] — the task that commits a calibration to them (app → storage).
@@ -35,6 +36,7 @@
 mod fmt;
 
 pub mod app;
+pub mod boot;
 /// Calibration records in flash (its own crate, compiled for size: `firmware/calstore`).
 pub use ballisto_calstore as calstore;
 pub mod config;

@@ -3,8 +3,8 @@
 //! failure nothing has changed.
 
 use ballisto_link::telecommand::{self, Command};
-use ballisto_link::verification::config_error_code;
-use ballisto_link::{service, subtype, EventId, FailureCode};
+use ballisto_link::verification::{config_error_code, not_ready};
+use ballisto_link::{service, subtype, EventId, FailureCode, TimeCorrelation};
 use embedded_io_async::Write;
 use estimator_core::ConfigError;
 
@@ -53,6 +53,10 @@ impl App {
                     _ => now.without(usize::from(c)),
                 };
                 self.estimation.set_commanded(commanded).map_err(refused)?;
+                if commanded != now {
+                    self.event(t, tm, EventId::ChannelsCommanded, now.0, commanded.0)
+                        .await;
+                }
             }
             Command::LoadArrangement(data) => {
                 self.load_arrangement(data)?;
@@ -74,6 +78,13 @@ impl App {
                 self.identification_command(command, t, tm).await?
             }
             Command::ReportHousekeeping => self.send_housekeeping(t, tm).await,
+            Command::SetTime(spacecraft) => {
+                // The command's time is the spacecraft's at its reception, `t` on the unit's.
+                let epoch = spacecraft
+                    .checked_sub(ballisto_link::cuc::cuc_ticks(t))
+                    .ok_or((FailureCode::NotReady, not_ready::TIME_BEFORE_BOOT))?;
+                self.time = TimeCorrelation::at(epoch);
+            }
             Command::AreYouAlive => tm.send(t, service::TEST, subtype::ALIVE, &[]).await,
         }
         Ok(())

@@ -20,7 +20,9 @@ mod task;
 mod uplink;
 
 use ballisto_link::telecommand::{self, Accepted, Context};
-use ballisto_link::{subtype, CalibrationId, EventId, PartState};
+use ballisto_link::{
+    subtype, BootInfo, CalibrationId, EventId, PartState, TimeCorrelation, FORMAT_VERSION,
+};
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embedded_io_async::Write;
 use estimator_core::ConfigError;
@@ -77,6 +79,10 @@ pub struct App {
     health: Health,
     /// The calibration the arrangement in use comes from (housekeeping reports it).
     calibration: CalibrationId,
+    /// This boot's count and cause (the board's; housekeeping and the reset event report it).
+    boot_info: BootInfo,
+    /// The spacecraft time of the boot, once TC[9,128] has given it.
+    time: TimeCorrelation,
     /// Identification in flight (TC[200,8–11]).
     identification: Identification,
     /// The storage task's state, and a commit waiting to be sent to it.
@@ -108,6 +114,8 @@ impl App {
             lost_seen: (0, 0),
             health: Health::default(),
             calibration: CalibrationId::default(),
+            boot_info: BootInfo::default(),
+            time: TimeCorrelation::default(),
             identification: Identification::new(),
             store: identify::Store::None,
             outbox: None,
@@ -125,6 +133,17 @@ impl App {
         self.calibration
     }
 
+    /// Says how many times the unit has booted since power was applied and why this boot
+    /// happened (the board reads its reset controller before the application starts).
+    pub fn set_boot_info(&mut self, boot: BootInfo) {
+        self.boot_info = boot;
+    }
+
+    /// The time correlation (TC[9,128]).
+    pub fn time_correlation(&self) -> TimeCorrelation {
+        self.time
+    }
+
     /// The estimation (model, mask, counters).
     pub fn estimation(&self) -> &Estimation {
         &self.estimation
@@ -135,20 +154,28 @@ impl App {
         self.mode
     }
 
-    /// Announces the start: the boot event and a first housekeeping report.
+    /// Announces the start: the boot event (the telemetry format, the version, the channels,
+    /// the reset cause and the boot count) and a first housekeeping report.
     pub async fn boot<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
         let [a, b, c] = VERSION;
-        let version = (u32::from(a) << 16) | (u32::from(b) << 8) | u32::from(c);
+        let version = (u32::from(FORMAT_VERSION) << 24)
+            | (u32::from(a) << 16)
+            | (u32::from(b) << 8)
+            | u32::from(c);
         let channels = self.estimation.channels() as u32;
+        let BootInfo { count, cause } = self.boot_info;
+        let boot = (count.min(0xFFFF) << 16) | ((cause as u32) << 8) | channels;
         info!(
-            "boot: version {}.{}.{}, {} channels, model {:?}",
+            "boot {} since power-on ({:?}): version {}.{}.{}, {} channels, model {:?}",
+            count,
+            cause,
             a,
             b,
             c,
             channels,
             self.estimation.estimator().model()
         );
-        self.event(t, tm, EventId::Boot, version, channels).await;
+        self.event(t, tm, EventId::Boot, version, boot).await;
         self.send_housekeeping(t, tm).await;
     }
 

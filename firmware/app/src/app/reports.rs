@@ -7,7 +7,7 @@ use ballisto_link::{
 };
 use embedded_io_async::Write;
 
-use super::{App, VERSION};
+use super::{App, Mode, VERSION};
 use crate::config::MAX_PARTS;
 use crate::estimation::SetEstimate;
 use crate::sampler::{LoopHealth, PartHealth};
@@ -33,7 +33,7 @@ impl App {
         Housekeeping {
             version: VERSION,
             mode: self.mode as u8,
-            model: ModelCode::from(self.estimation.estimator().model()) as u8,
+            model: self.model_code() as u8,
             channels: self.estimation.channels() as u8,
             rate_hz: self.rate_hz,
             motion_every: self.motion_every,
@@ -49,7 +49,13 @@ impl App {
             tm_lost,
             parts: self.health.parts.map(|p| part_counters(p.as_ref())),
             calibration: Some(self.calibration),
+            boot: Some((self.boot_info, self.time)),
         }
+    }
+
+    /// The model in use, as the link codes it.
+    fn model_code(&self) -> ModelCode {
+        ModelCode::from(self.estimation.estimator().model())
     }
 
     pub(super) async fn send_housekeeping<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
@@ -62,8 +68,9 @@ impl App {
 
     pub(super) async fn send_motion<W: Write>(&self, tm: &mut Telemetry<W>, motion: &SetEstimate) {
         let excluded = self.estimation.excluded_channels();
+        let context = (self.mode, self.model_code());
         let framed = tm.stage(motion.t, service::HOUSEKEEPING, subtype::HK_REPORT, |buf| {
-            motion_report(motion, excluded).encode(buf)
+            motion_report(motion, excluded, context).encode(buf)
         });
         tm.transmit(framed).await;
     }
@@ -105,7 +112,7 @@ impl App {
 
     pub(super) async fn reconfigured<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
         let channels = self.estimation.channels() as u32;
-        let model = ModelCode::from(self.estimation.estimator().model()) as u32;
+        let model = self.model_code() as u32;
         self.event(t, tm, EventId::Reconfigured, channels, model)
             .await;
     }
@@ -212,13 +219,18 @@ fn loop_counters(l: &LoopHealth) -> LoopCounters {
     }
 }
 
-/// The motion report of one output of the estimation.
-pub fn motion_report(motion: &SetEstimate, excluded_channels: ChannelSet) -> MotionReport {
+/// The motion report of one output of the estimation, made in `context` (mode, model).
+pub fn motion_report(
+    motion: &SetEstimate,
+    excluded_channels: ChannelSet,
+    context: (Mode, ModelCode),
+) -> MotionReport {
     MotionReport {
         k: motion.k,
         estimate: motion.estimate,
         missing_parts: motion.missing,
         excluded_parts: motion.excluded,
         excluded_channels,
+        context: Some(context),
     }
 }

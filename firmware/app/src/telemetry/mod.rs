@@ -1,12 +1,13 @@
 //! Telemetry on the spacecraft bus: PUS packets (`ballisto_link`'s layouts) framed for a serial
-//! link, written by [`Telemetry`] with one contiguous CCSDS sequence count.
+//! link, written by [`Telemetry`] with one contiguous CCSDS sequence count and a PUS message
+//! type counter per kind of report.
 //!
 //! Every packet carries the PUS packet error control (CRC-16-CCITT), a CUC time stamp (time
 //! since boot) and the next sequence count, so the ground sees corruption and loss. The
 //! layouts are described for ground segments in `docs/telemetry.md`.
 
 use ballisto_link::framing;
-use ballisto_link::ids::TM_MAX;
+use ballisto_link::ids::{tm_type_index, TM_MAX, TM_TYPES};
 use ballisto_link::tm;
 use embedded_io_async::Write;
 
@@ -16,6 +17,8 @@ use crate::time::Nanos;
 pub struct Telemetry<W> {
     link: W,
     sequence: u16,
+    /// Packets sent of each type in `ballisto_link::ids::TM_TYPES`.
+    counters: [u16; TM_TYPES.len()],
     packet: [u8; TM_MAX],
     frame: [u8; framing::max_encoded_len(TM_MAX)],
     sent: u32,
@@ -28,6 +31,7 @@ impl<W: Write> Telemetry<W> {
         Telemetry {
             link,
             sequence: 0,
+            counters: [0; TM_TYPES.len()],
             packet: [0; TM_MAX],
             frame: [0; framing::max_encoded_len(TM_MAX)],
             sent: 0,
@@ -64,7 +68,8 @@ impl<W: Write> Telemetry<W> {
     /// Builds and frames packet TM[`service`,`subtype`] stamped `t`, its application data
     /// written by `encode` into the writer's own buffer (nothing large is held by the
     /// caller's future); returns the frame length for [`Self::transmit`], or `None` if the
-    /// data did not fit. Takes the next sequence count either way.
+    /// data did not fit. Takes the next sequence count and the type's next message type
+    /// counter either way (a type outside `TM_TYPES`, which the unit does not send, counts 0).
     pub fn stage(
         &mut self,
         t: Nanos,
@@ -74,9 +79,17 @@ impl<W: Write> Telemetry<W> {
     ) -> Option<usize> {
         let sequence = self.sequence;
         self.sequence = (self.sequence + 1) & 0x3FFF;
+        let counter = match tm_type_index(service, subtype) {
+            Some(i) => {
+                let c = self.counters[i];
+                self.counters[i] = c.wrapping_add(1);
+                c
+            }
+            None => 0,
+        };
         // The application data is encoded in place, after the headers; the headers and the
         // CRC are then written around it.
-        let len = tm::build(&mut self.packet, sequence, service, subtype, t, encode)?;
+        let len = tm::build(&mut self.packet, sequence, counter, service, subtype, t, encode)?;
         framing::encode(&self.packet[..len], &mut self.frame)
     }
 

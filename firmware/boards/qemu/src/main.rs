@@ -22,6 +22,7 @@ mod board {
     use ballisto_fw::app::{
         app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
     };
+    use ballisto_fw::boot::{count_boot, ResetCause};
     use ballisto_fw::calstore::{Programming, RamFlash};
     use ballisto_fw::demo::{self, ScriptedUplink, SETS};
     use ballisto_fw::sampler::synthetic::{synthetic_task, Synthetic};
@@ -121,6 +122,8 @@ mod board {
     /// The stage marker, just below it: the first boot is done (survives the reset).
     const STAGE_ADDR: usize = CAL_ADDR - 16;
     const FIRST_BOOT_DONE: u32 = 0x5EED_CA11;
+    /// The boot count's two words (`ballisto_fw::boot`), after the stage marker.
+    const BOOTS_ADDR: usize = STAGE_ADDR + 4;
     static CAL_ERASES: StaticCell<[u32; 2]> = StaticCell::new();
     static OBSERVATIONS: Observations<Cs> = Observations::new();
 
@@ -211,8 +214,18 @@ mod board {
         let erases = CAL_ERASES.init([0u32; 2]);
         let mut flash = RamFlash::<CAL_SECTOR, 32>::new(mem, erases, Programming::WordOnce);
         let range = 0..(2 * CAL_SECTOR) as u32;
+        // QEMU has no reset-cause register: the stage marker is zero after power-on (QEMU
+        // starts with that memory zeroed), set after the board's own SYSRESETREQ.
         // SAFETY: as above.
-        if unsafe { stage.read_volatile() } != FIRST_BOOT_DONE {
+        let cause = if unsafe { stage.read_volatile() } == FIRST_BOOT_DONE {
+            ResetCause::Software
+        } else {
+            ResetCause::PowerOn
+        };
+        // SAFETY: `BOOTS_ADDR .. + 8` lies between the stage marker and `CAL_ADDR`, used by
+        // nothing else; aligned.
+        let boot_info = count_boot(unsafe { &mut *(BOOTS_ADDR as *mut [u32; 2]) }, cause);
+        if cause == ResetCause::PowerOn {
             // Power-on: an erased part; the first boot (built-in), the commit, a reset.
             flash.erase_all();
             let Ok((first, _)) = demo::first_boot(flash, range).await else {
@@ -246,6 +259,7 @@ mod board {
             finish(false)
         };
         app.set_calibration(calibration);
+        app.set_boot_info(boot_info);
         let app = APP.init(app);
         let source = SOURCE.init(Synthetic::new(&config, Some(demo::OUTAGE)));
         let tm = TELEMETRY.init(Telemetry::new(file));

@@ -22,6 +22,7 @@ mod board {
     use ballisto_fw::app::{
         app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
     };
+    use ballisto_fw::boot::{count_boot, BootInfo, ResetCause};
     use ballisto_fw::calstore::{
         select_at_boot, CalibrationId, CalibrationStore, NotUsed, ReadOnly,
     };
@@ -43,7 +44,7 @@ mod board {
     use embassy_stm32::spi::{self, Spi};
     use embassy_stm32::time::Hertz;
     use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartTx};
-    use embassy_stm32::{bind_interrupts, dma, rcc};
+    use embassy_stm32::{bind_interrupts, dma, pac, rcc};
     use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex as Cs;
     use embassy_sync::channel::Channel;
     use embassy_sync::mutex::Mutex;
@@ -97,6 +98,45 @@ mod board {
     /// The calibration store: bank 2's first two 128 KiB sectors (offsets from 0x0800_0000;
     /// `memory.x` keeps the image in bank 1).
     const CAL_RANGE: core::ops::Range<u32> = 0x10_0000..0x14_0000;
+
+    /// The boot count's two words (`ballisto_fw::boot`): in `.uninit`, which the start-up code
+    /// neither zeroes nor loads, so a reset leaves them as the last boot wrote them.
+    #[link_section = ".uninit.BOOTS"]
+    static mut BOOTS: core::mem::MaybeUninit<[u32; 2]> = core::mem::MaybeUninit::uninit();
+
+    /// Why the unit started (RCC_RSR, then cleared so the next reset's flags stand alone) and
+    /// which boot since power-on this is. After a power-on or brown-out the count's words are
+    /// not read: their RAM came up with no valid ECC.
+    #[inline(never)]
+    fn boot_info() -> BootInfo {
+        let rsr = pac::RCC.rsr().read();
+        pac::RCC.rsr().write(|w| w.set_rmvf(true));
+        // Every reset also drives NRST, so the pin flag comes last.
+        let cause = if rsr.porrstf() || rsr.borrstf() {
+            ResetCause::PowerOn
+        } else if rsr.iwdg1rstf() || rsr.wwdg1rstf() {
+            ResetCause::Watchdog
+        } else if rsr.sftrstf() {
+            ResetCause::Software
+        } else if rsr.lpwrrstf() {
+            ResetCause::Other
+        } else if rsr.pinrstf() {
+            ResetCause::Pin
+        } else {
+            ResetCause::Unknown
+        };
+        let words = core::ptr::addr_of_mut!(BOOTS).cast::<[u32; 2]>();
+        let mut retained = [0u32; 2];
+        if cause != ResetCause::PowerOn {
+            // SAFETY: `BOOTS` is this function's alone (called once, before the tasks), and
+            // aligned; after a reset other than power-on its RAM holds what the last boot wrote.
+            retained = unsafe { words.read_volatile() };
+        }
+        let boot = count_boot(&mut retained, cause);
+        // SAFETY: as above.
+        unsafe { words.write_volatile(retained) };
+        boot
+    }
 
     /// The calibration to run: the store's newest whole record for the configured channels,
     /// else the built-in arrangement (logged either way). Out of the main task and polled to
@@ -192,6 +232,7 @@ mod board {
 
     #[embassy_executor::main]
     async fn main(spawner: Spawner) {
+        let boot = boot_info();
         let p = embassy_stm32::init(clocks());
         info!("ballistometer {}", env!("CARGO_PKG_VERSION"));
         let Some(mut config) = builtin("tetra") else {
@@ -254,6 +295,7 @@ mod board {
         let app = match App::new(&config, Mode::Operate) {
             Ok(mut app) => {
                 app.set_calibration(calibration);
+                app.set_boot_info(boot);
                 app
             }
             Err(e) => {
