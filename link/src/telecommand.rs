@@ -329,7 +329,9 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
             length(7)?;
             let t: [u8; 7] = g.array().ok_or((FailureCode::DataLength, 7))?;
             let [t0, t1, t2, t3, t4, t5, t6] = t;
-            Ok(Command::SetTime(u64::from_be_bytes([0, t0, t1, t2, t3, t4, t5, t6])))
+            Ok(Command::SetTime(u64::from_be_bytes([
+                0, t0, t1, t2, t3, t4, t5, t6,
+            ])))
         }
         (service::TEST, subtype::ARE_YOU_ALIVE) => {
             length(0)?;

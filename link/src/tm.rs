@@ -39,8 +39,8 @@ fn write_headers(
     let [c0, c1] = counter.to_be_bytes();
     // PUS version 2 (PUS-C), time reference status 0; the message type counter; destination 0.
     let headers: [u8; HEADERS_LEN] = [
-        id0, id1, sc0, sc1, dl0, dl1, 0x20, service, subtype, c0, c1, 0, 0, t0, t1, t2, t3, t4,
-        t5, t6, t7,
+        id0, id1, sc0, sc1, dl0, dl1, 0x20, service, subtype, c0, c1, 0, 0, t0, t1, t2, t3, t4, t5,
+        t6, t7,
     ];
     packet[..HEADERS_LEN].copy_from_slice(&headers);
 }

@@ -26,8 +26,12 @@ fn layouts_have_their_documented_lengths() {
         missing_parts: ballisto_link::PartSet(0),
         excluded_parts: ballisto_link::PartSet(0),
         excluded_channels: ballisto_link::ChannelSet(0),
+        context: Some((Mode::Operate, ballisto_link::ModelCode::General)),
     };
     assert_eq!(m.encode(&mut buf), Some(MOTION_LEN));
+    // Without its context a report is not encoded (only an old layout's decoder leaves it out).
+    let bare = MotionReport { context: None, ..m };
+    assert_eq!(bare.encode(&mut buf), None);
     let e = Event {
         id: EventId::Boot,
         a: 0,

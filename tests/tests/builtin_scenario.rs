@@ -175,7 +175,10 @@ fn the_builtin_scenario_exercises_every_path_and_estimates_the_motion() {
             FrameRejected,
             PartDown,
             PartUp,
-            Reconfigured
+            Reconfigured,
+            // The script's exclusion and inclusion by command (telemetry format 2).
+            ChannelsCommanded,
+            ChannelsCommanded
         ]
     );
     let failures: Vec<(u8, Option<FailureCode>)> = stream

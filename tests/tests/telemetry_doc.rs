@@ -10,8 +10,9 @@ use ballisto_link::event::EVENT_LEN;
 use ballisto_link::housekeeping::HOUSEKEEPING_LEN;
 use ballisto_link::motion::MOTION_LEN;
 use ballisto_link::{
-    CalibrationId, CalibrationSource, ChannelSet, Housekeeping, LoopCounters, MotionReport,
-    PartCounters, PartSet, PartState, RequestId, Verification,
+    BootInfo, CalibrationId, CalibrationSource, ChannelSet, Housekeeping, LoopCounters, Mode,
+    ModelCode, MotionReport, PartCounters, PartSet, PartState, RequestId, ResetCause,
+    TimeCorrelation, Verification,
 };
 use estimator_core::linalg::Sym3;
 use estimator_core::{Estimate, Flags};
@@ -171,6 +172,7 @@ fn motion_report_table_matches_the_encoder() {
         missing_parts: PartSet(0x05),
         excluded_parts: PartSet(0x02),
         excluded_channels: ChannelSet(0x0F00),
+        context: Some((Mode::Operate, ModelCode::FreeFloat)),
     };
     let mut data = [0u8; MOTION_LEN];
     assert_eq!(report.encode(&mut data), Some(MOTION_LEN));
@@ -198,6 +200,8 @@ fn motion_report_table_matches_the_encoder() {
         ("parts excluded", vec![2.0]),
         ("channels not in the solve", vec![f64::from(0x0F00)]),
         ("branch margin", vec![42.5]),
+        ("mode", vec![1.0]),
+        ("model", vec![1.0]),
     ];
     check_rows(&data, &rows, &expected, "motion");
     let packet = format!("(packet {} octets)", 21 + MOTION_LEN + 2);
@@ -247,6 +251,16 @@ fn housekeeping_table_matches_the_encoder() {
             id: 11,
             crc: 12,
         }),
+        boot: Some((
+            BootInfo {
+                count: 13,
+                cause: ResetCause::Watchdog,
+            },
+            TimeCorrelation {
+                set: true,
+                epoch: [1, 2, 3, 4, 5, 6, 7],
+            },
+        )),
     };
     let mut data = [0u8; HOUSEKEEPING_LEN];
     assert_eq!(hk.encode(&mut data), Some(HOUSEKEEPING_LEN));
@@ -279,6 +293,13 @@ fn housekeeping_table_matches_the_encoder() {
         ("calibration source", vec![1.0]),
         ("calibration id", vec![11.0]),
         ("CRC-32 (ISO-HDLC) of the calibration record", vec![12.0]),
+        ("boot count", vec![13.0]),
+        ("reset cause", vec![4.0]),
+        ("time correlation", vec![1.0]),
+        (
+            "spacecraft time of the boot",
+            (1..=7).map(f64::from).collect(),
+        ),
     ];
     check_rows(&data, &rows, &expected, "housekeeping");
     // Slot 1 octet by octet: the state, then six u32 counters.

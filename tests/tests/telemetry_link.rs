@@ -202,15 +202,15 @@ fn a_dead_part_is_reported_down_and_up_again() {
     assert!(u3.missed >= 10 && u3.implausible >= 10, "{down:?}");
 }
 
-/// The decoder reads the motion report with the branch margin (146 octets) and the layout
-/// before it (142: the margin is absent, NaN, and the estimates file's cell empty); any other
-/// length is refused.
+/// The decoder reads the motion report of telemetry format 2 (148 octets: mode and model), the
+/// layout before it (146: no context) and the one before the branch margin (142: the margin is
+/// absent, NaN, and the estimates file's cell empty); any other length is refused.
 #[test]
 fn motion_reports_with_and_without_the_branch_margin_decode() {
     use ballisto_link::decode::{decode, DecodeError};
     use ballisto_link::ids::TM_MAX;
-    use ballisto_link::motion::{MOTION_LEN, MOTION_LEN_NO_MARGIN};
-    use ballisto_link::{tm, ChannelSet, MotionReport, PartSet};
+    use ballisto_link::motion::{MOTION_LEN, MOTION_LEN_NO_CONTEXT, MOTION_LEN_NO_MARGIN};
+    use ballisto_link::{tm, ChannelSet, Mode, ModelCode, MotionReport, PartSet};
     let m = MotionReport {
         k: 9,
         estimate: estimator_core::Estimate {
@@ -221,12 +221,14 @@ fn motion_reports_with_and_without_the_branch_margin_decode() {
         missing_parts: PartSet(0),
         excluded_parts: PartSet(0),
         excluded_channels: ChannelSet(5),
+        context: Some((Mode::Operate, ModelCode::FreeFloat)),
     };
     let packet = |len: usize| {
         let mut p = [0u8; TM_MAX];
         let n = tm::build(
             &mut p,
             1,
+            0,
             service::HOUSEKEEPING,
             subtype::HK_REPORT,
             0,
@@ -235,10 +237,19 @@ fn motion_reports_with_and_without_the_branch_margin_decode() {
         .unwrap();
         p[..n].to_vec()
     };
-    for (len, margin) in [(MOTION_LEN, Some(33.0)), (MOTION_LEN_NO_MARGIN, None)] {
+    for (len, margin, context) in [
+        (
+            MOTION_LEN,
+            Some(33.0),
+            Some((Mode::Operate, ModelCode::FreeFloat)),
+        ),
+        (MOTION_LEN_NO_CONTEXT, Some(33.0), None),
+        (MOTION_LEN_NO_MARGIN, None, None),
+    ] {
         let Report::Motion(r) = decode(&packet(len)).expect("decodes").report else {
             panic!("not a motion report");
         };
+        assert_eq!(r.context, context);
         assert_eq!((r.k, r.estimate.omega), (9, [1.0, 2.0, 3.0]));
         assert_eq!(r.excluded_channels.0, 5);
         match margin {
@@ -282,6 +293,7 @@ fn housekeeping_with_and_without_the_calibration_identity_decodes() {
         let n = tm::build(
             &mut p,
             1,
+            0,
             service::HOUSEKEEPING,
             subtype::HK_REPORT,
             0,

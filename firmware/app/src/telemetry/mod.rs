@@ -89,7 +89,15 @@ impl<W: Write> Telemetry<W> {
         };
         // The application data is encoded in place, after the headers; the headers and the
         // CRC are then written around it.
-        let len = tm::build(&mut self.packet, sequence, counter, service, subtype, t, encode)?;
+        let len = tm::build(
+            &mut self.packet,
+            sequence,
+            counter,
+            service,
+            subtype,
+            t,
+            encode,
+        )?;
         framing::encode(&self.packet[..len], &mut self.frame)
     }
 
