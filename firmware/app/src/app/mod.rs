@@ -268,14 +268,19 @@ impl App {
             }
             return;
         }
-        match self.execute(command, t, tm).await {
-            Ok(()) if ack_completion => self.verify(t, tm, subtype::COMPLETED, request, None).await,
-            Ok(()) => {}
-            Err(failure) => {
-                self.verify(t, tm, subtype::NOT_COMPLETED, request, Some(failure))
-                    .await
+        let (st, failure) = match self.execute(command, t, tm).await {
+            Ok(event) => {
+                if let Some((id, a, b)) = event {
+                    self.event(t, tm, id, a, b).await;
+                }
+                if !ack_completion {
+                    return;
+                }
+                (subtype::COMPLETED, None)
             }
-        }
+            Err(failure) => (subtype::NOT_COMPLETED, Some(failure)),
+        };
+        self.verify(t, tm, st, request, failure).await;
     }
 
     /// A command-link frame that was no packet (`reason` 1) or too short to answer (2):

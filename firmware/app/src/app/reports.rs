@@ -7,6 +7,7 @@ use ballisto_link::{
 };
 use embedded_io_async::Write;
 
+use super::commands::CommandEvent;
 use super::{App, Mode, VERSION};
 use crate::config::MAX_PARTS;
 use crate::estimation::SetEstimate;
@@ -110,11 +111,10 @@ impl App {
         }
     }
 
-    pub(super) async fn reconfigured<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
+    /// The event of a new configuration (channels, model).
+    pub(super) fn reconfigured(&self) -> CommandEvent {
         let channels = self.estimation.channels() as u32;
-        let model = self.model_code() as u32;
-        self.event(t, tm, EventId::Reconfigured, channels, model)
-            .await;
+        (EventId::Reconfigured, channels, self.model_code() as u32)
     }
 
     /// Parts marked down or answering again since the last set.
