@@ -25,12 +25,14 @@ pub struct Stream {
     pub problems: Vec<String>,
 }
 
-/// Splits `bytes` into frames and decodes them; damaged frames and gaps in the sequence count
+/// Splits `bytes` into frames and decodes them; damaged frames, gaps in the sequence count and
+/// gaps in each report kind's message type counter (telemetry format 2: which kinds were lost)
 /// are listed in [`Stream::problems`], never silently skipped.
 pub fn decode_stream(bytes: &[u8]) -> Stream {
     let mut deframer = Deframer::<{ max_encoded_len(TC_MAX) }>::new();
     let mut out = Stream::default();
     let mut next: Option<u16> = None;
+    let mut types = TypeCounters::default();
     let mut pending_start = 0usize;
     for (offset, &b) in bytes.iter().enumerate() {
         let frame = match deframer.push(b) {
@@ -52,6 +54,9 @@ pub fn decode_stream(bytes: &[u8]) -> Stream {
                     }
                 }
                 next = Some((p.sequence + 1) & 0x3FFF);
+                if let Some(problem) = types.follow(&p) {
+                    out.problems.push(format!("byte {at}: {problem}"));
+                }
                 out.packets.push(p);
             }
             Err(e) => out.problems.push(format!("byte {at}: {e}")),
@@ -64,6 +69,36 @@ pub fn decode_stream(bytes: &[u8]) -> Stream {
         ));
     }
     out
+}
+
+/// The message type counter of each kind of report (PUS-C TM secondary header), followed
+/// across a stream.
+#[derive(Default)]
+struct TypeCounters {
+    /// The last counter seen of each (service, subtype) since the last boot event.
+    last: std::collections::HashMap<(u8, u8), u16>,
+}
+
+impl TypeCounters {
+    /// Follows packet `p`; says how many reports of its kind were lost before it, if any.
+    /// A boot event starts the count again. Streams of format 1 carry 0 in every packet,
+    /// which reads as "no counter" (a count that stays 0 is never a gap).
+    fn follow(&mut self, p: &Decoded) -> Option<String> {
+        if matches!(&p.report, Report::Event(e) if e.id == EventId::Boot) {
+            self.last.clear();
+        }
+        let c = p.type_counter;
+        let last = self.last.insert(p.service, c)?;
+        let expected = last.wrapping_add(1);
+        if c == expected || (c == 0 && last == 0) {
+            return None;
+        }
+        let (s, st) = p.service;
+        Some(format!(
+            "TM[{s},{st}] message type counter {c} where {expected} was due ({} of that kind lost)",
+            c.wrapping_sub(expected)
+        ))
+    }
 }
 
 /// Writes the motion reports as an estimates file (interfaces.md columns, then

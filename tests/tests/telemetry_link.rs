@@ -328,3 +328,68 @@ fn housekeeping_with_and_without_the_calibration_identity_decodes() {
         Err(DecodeError::Data(..))
     ));
 }
+
+/// `ballisto decode` follows each report kind's message type counter (telemetry format 2): a
+/// lost packet is named by its kind as well as counted by the sequence count; a boot event
+/// starts the counters again; a format-1 stream (every counter 0) shows no gaps.
+#[test]
+fn the_decoder_names_the_kind_of_each_lost_report() {
+    use ballisto_link::ids::TM_MAX;
+    use ballisto_link::{tm, Event, Housekeeping};
+    // (sequence, type counter, the packet: an event `id` or, with `None`, housekeeping).
+    let packet = |seq: u16, counter: u16, event: Option<EventId>| {
+        let mut p = [0u8; TM_MAX];
+        let (s, st) = match event {
+            Some(id) => (service::EVENT, id.severity()),
+            None => (service::HOUSEKEEPING, subtype::HK_REPORT),
+        };
+        let n = tm::build(&mut p, seq, counter, s, st, 0, |d| match event {
+            Some(id) => Event { id, a: 1, b: 2 }.encode(d),
+            None => Housekeeping::default().encode(d),
+        })
+        .unwrap();
+        let mut out = vec![0u8; framing::max_encoded_len(n)];
+        let m = framing::encode(&p[..n], &mut out).unwrap();
+        out.truncate(m);
+        out
+    };
+    let mode = Some(EventId::ModeChanged);
+    let stream = |packets: &[(u16, u16, Option<EventId>)]| {
+        let bytes: Vec<u8> = packets
+            .iter()
+            .flat_map(|&(seq, c, e)| packet(seq, c, e))
+            .collect();
+        decode_stream(&bytes)
+    };
+    // The event of sequence count 3 (its kind's third, counter 2) is lost.
+    let lossy = stream(&[
+        (0, 0, mode),
+        (1, 0, None),
+        (2, 1, mode),
+        (4, 1, None),
+        (5, 3, mode),
+        (6, 2, None),
+    ]);
+    assert_eq!(lossy.packets.len(), 6);
+    assert_eq!(lossy.problems.len(), 2, "{:?}", lossy.problems);
+    assert!(lossy.problems[0].contains("sequence count 4 where 3 was due (1 packets lost)"));
+    let (s, st) = (service::EVENT, EventId::ModeChanged.severity());
+    assert!(
+        lossy.problems[1].contains(&format!(
+            "TM[{s},{st}] message type counter 3 where 2 was due (1 of that kind lost)"
+        )),
+        "{:?}",
+        lossy.problems
+    );
+    // A boot event starts every count again; format 1 carries 0 throughout.
+    let rebooted = stream(&[
+        (0, 0, mode),
+        (1, 1, mode),
+        (2, 0, Some(EventId::Boot)),
+        (3, 0, mode),
+        (4, 1, mode),
+    ]);
+    assert!(rebooted.problems.is_empty(), "{:?}", rebooted.problems);
+    let format1 = stream(&[(0, 0, mode), (1, 0, None), (2, 0, mode), (3, 0, mode)]);
+    assert!(format1.problems.is_empty(), "{:?}", format1.problems);
+}
