@@ -150,8 +150,13 @@ impl Unit {
 
     /// Sends a command; returns the packets it caused.
     fn command(&mut self, raw: &[u8]) -> Vec<Decoded> {
+        self.command_at(raw, 0)
+    }
+
+    /// Sends a command that arrives `t` ns after boot; returns the packets it caused.
+    fn command_at(&mut self, raw: &[u8], t: u64) -> Vec<Decoded> {
         let before = self.tm.link().0.len();
-        block_on(self.app.on_incoming(&incoming(raw), 0, &mut self.tm));
+        block_on(self.app.on_incoming(&incoming(raw), t, &mut self.tm));
         packets(&self.tm.link().0[before..])
     }
 
@@ -237,9 +242,21 @@ fn every_command_is_verified_and_takes_effect() {
     let r = u.command(&tc(b, subtype::EXCLUDE, &[3], 1));
     ok(&r);
     assert_eq!(u.app.estimation().excluded_channels(), ChannelSet(1 << 3));
+    assert!(
+        matches!(r[1].report, Report::Event(e) if e.id == EventId::ChannelsCommanded && e.a == 0 && e.b == 1 << 3),
+        "{:?}",
+        r[1]
+    );
     let r = u.command(&tc(b, subtype::INCLUDE, &[3], 2));
     ok(&r);
     assert_eq!(u.app.estimation().excluded_channels(), ChannelSet(0));
+    assert!(
+        matches!(r[1].report, Report::Event(e) if e.id == EventId::ChannelsCommanded && e.a == 1 << 3 && e.b == 0)
+    );
+    // Including a channel that is in: completed, no event.
+    let r = u.command(&tc(b, subtype::INCLUDE, &[3], 2));
+    ok(&r);
+    assert_eq!(r.len(), 2, "{r:?}");
 
     let r = u.command(&tc(b, subtype::SET_MODE, &[0], 3));
     ok(&r);
@@ -307,7 +324,7 @@ fn every_command_is_verified_and_takes_effect() {
         9,
     ));
     assert!(
-        matches!(&r[1].report, Report::Housekeeping(h) if h.tc_accepted == 9 && h.motion_every == 10)
+        matches!(&r[1].report, Report::Housekeeping(h) if h.tc_accepted == 10 && h.motion_every == 10)
     );
     let r = u.command(&tc(service::TEST, subtype::ARE_YOU_ALIVE, &[], 10));
     assert!(matches!(r[1].report, Report::Alive));
@@ -574,6 +591,7 @@ fn mutated_commands_never_panic() {
         &[0, 1, 0, 1],
         1,
     ));
+    seeds.push(tc(service::TIME, subtype::SET_TIME, &[0, 0, 3, 232, 0, 0, 0], 3));
     let mut x = 0x2545F4914F6CDD1Du64;
     let mut rnd = || {
         x ^= x << 13;
@@ -933,4 +951,59 @@ fn an_image_without_identification_does_not_know_its_commands() {
             )
         );
     }
+}
+
+/// TC[9,128] correlates the unit's time to the spacecraft's: the boot's spacecraft time
+/// (given minus the unit's time at reception) is in housekeeping from then on; a time before
+/// the unit's own time since boot is refused with its reason and changes nothing.
+#[test]
+fn the_spacecraft_time_sets_the_time_correlation() {
+    use ballisto_link::cuc::cuc_ticks;
+    use ballisto_link::verification::not_ready;
+    let mut u = Unit::new();
+    u.sets(10);
+    let boot = |u: &Unit| u.app.housekeeping(0).boot.expect("format 2 housekeeping").1;
+    assert!(!boot(&u).set, "not correlated before the command");
+    let cuc = |ticks: u64| ticks.to_be_bytes()[1..].to_vec();
+    let received = 2_500_000_000; // ns after boot
+    // 1000.5 s of spacecraft time at reception.
+    let spacecraft = (1000 << 24) + (1 << 23);
+    let refused = u.command_at(
+        &tc(service::TIME, subtype::SET_TIME, &cuc(cuc_ticks(received) - 1), 1),
+        received,
+    );
+    assert_eq!(verification(&refused[0]), (subtype::ACCEPTED, None));
+    assert_eq!(
+        verification(refused.last().unwrap()),
+        (
+            subtype::NOT_COMPLETED,
+            Some((FailureCode::NotReady, not_ready::TIME_BEFORE_BOOT))
+        )
+    );
+    assert!(!boot(&u).set, "a refused time changes nothing");
+    let r = u.command_at(
+        &tc(service::TIME, subtype::SET_TIME, &cuc(spacecraft), 2),
+        received,
+    );
+    assert_eq!(verification(r.last().unwrap()), (subtype::COMPLETED, None));
+    let time = boot(&u);
+    assert!(time.set);
+    assert!((time.epoch_seconds() - 998.0).abs() < 1e-6, "{time:?}");
+    // Housekeeping carries it on the link.
+    let r = u.command(&tc(
+        service::HOUSEKEEPING,
+        subtype::HK_ONE_SHOT,
+        &[1, 0, 2],
+        3,
+    ));
+    let Report::Housekeeping(h) = &r[1].report else {
+        panic!("no housekeeping: {:?}", r[1]);
+    };
+    assert_eq!(h.boot.map(|b| b.1), Some(time));
+    // A wrong length is refused at acceptance.
+    let short = u.command(&tc(service::TIME, subtype::SET_TIME, &[0; 6], 4));
+    assert_eq!(
+        verification(&short[0]),
+        (subtype::NOT_ACCEPTED, Some((FailureCode::DataLength, 7)))
+    );
 }
