@@ -15,7 +15,7 @@ use ballisto_fw::sampler::{HealthBoard, SampleSet};
 use ballisto_fw::telemetry::Telemetry;
 use ballisto_fw::time::{Nanos, TimeBase};
 use ballisto_link::decode::Report;
-use ballisto_link::{EventId, FailureCode, MotionReport};
+use ballisto_link::{BootInfo, EventId, FailureCode, MotionReport, ResetCause};
 use embassy_futures::join::join;
 use embassy_futures::select::select;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
@@ -58,6 +58,7 @@ fn host_run() -> Vec<u8> {
     let (config, boots) = calibration_boots();
     let mut app = App::new(&config, Mode::Operate).unwrap();
     app.set_calibration(boots.second);
+    app.set_boot_info(boots.boot);
     let mut source = Synthetic::new(&config, Some(demo::OUTAGE));
     let mut time = StepTime(Rc::new(Cell::new(0)));
     let app_time = time.clone();
@@ -259,6 +260,34 @@ fn qemu_stream_matches_the_host_run() {
     let q = calibration(&qemu).expect("QEMU housekeeping");
     assert_eq!(q, calibration(&host).unwrap());
     println!("QEMU: calibration in use {q:?}");
+    // And counted its boots as the host did: the second since power-on, by its own reset.
+    let boot = |s: &Stream| {
+        let event = s.packets.iter().find_map(|p| match &p.report {
+            Report::Event(e) if e.id == EventId::Boot => Some((e.a >> 24, e.b >> 8)),
+            _ => None,
+        });
+        let hk = s.packets.iter().find_map(|p| match &p.report {
+            Report::Housekeeping(h) => h.boot,
+            _ => None,
+        });
+        (event, hk)
+    };
+    let q = boot(&qemu);
+    assert_eq!(q, boot(&host));
+    assert_eq!(
+        q.0,
+        Some((
+            u32::from(ballisto_link::FORMAT_VERSION),
+            (2 << 8) | ResetCause::Software as u32
+        ))
+    );
+    if let Some((format, b)) = q.0 {
+        println!(
+            "QEMU: telemetry format {format}, boot {} since power-on, reset cause {}",
+            b >> 8,
+            b & 0xFF
+        );
+    }
 }
 
 /// The scenario's store → reset → boot: the first boot, on an erased store, runs the built-in
@@ -273,12 +302,20 @@ fn calibration_store_reset_boot() {
     assert_eq!(boots.second.source, CalibrationSource::Flash);
     assert_eq!(boots.second.id, 1);
     assert_ne!(boots.second.crc, 0);
+    assert_eq!(
+        boots.boot,
+        BootInfo {
+            count: 2,
+            cause: ResetCause::Software
+        }
+    );
     assert_eq!(config.arrangement.len(), demo::config().arrangement.len());
     let stream = decode_stream(&host_run());
     let mut seen = 0;
     for p in &stream.packets {
         if let Report::Housekeeping(h) = &p.report {
             assert_eq!(h.calibration, Some(boots.second));
+            assert_eq!(h.boot.map(|b| b.0), Some(boots.boot));
             seen += 1;
         }
     }

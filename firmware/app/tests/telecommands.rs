@@ -591,7 +591,12 @@ fn mutated_commands_never_panic() {
         &[0, 1, 0, 1],
         1,
     ));
-    seeds.push(tc(service::TIME, subtype::SET_TIME, &[0, 0, 3, 232, 0, 0, 0], 3));
+    seeds.push(tc(
+        service::TIME,
+        subtype::SET_TIME,
+        &[0, 0, 3, 232, 0, 0, 0],
+        3,
+    ));
     let mut x = 0x2545F4914F6CDD1Du64;
     let mut rnd = || {
         x ^= x << 13;
@@ -966,10 +971,15 @@ fn the_spacecraft_time_sets_the_time_correlation() {
     assert!(!boot(&u).set, "not correlated before the command");
     let cuc = |ticks: u64| ticks.to_be_bytes()[1..].to_vec();
     let received = 2_500_000_000; // ns after boot
-    // 1000.5 s of spacecraft time at reception.
+                                  // 1000.5 s of spacecraft time at reception.
     let spacecraft = (1000 << 24) + (1 << 23);
     let refused = u.command_at(
-        &tc(service::TIME, subtype::SET_TIME, &cuc(cuc_ticks(received) - 1), 1),
+        &tc(
+            service::TIME,
+            subtype::SET_TIME,
+            &cuc(cuc_ticks(received) - 1),
+            1,
+        ),
         received,
     );
     assert_eq!(verification(&refused[0]), (subtype::ACCEPTED, None));
