@@ -27,7 +27,7 @@ use ballisto_fw::sampler::{
 use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
 use ballisto_fw::telemetry::Telemetry;
 use ballisto_fw::time::{Nanos, TimeBase};
-use ballisto_link::CalibrationId;
+use ballisto_link::{BootInfo, CalibrationId, ResetCause};
 use embassy_futures::select::select;
 use embassy_futures::yield_now;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
@@ -301,6 +301,7 @@ pub fn run_firmware_with(
     let boot = Boot {
         store: None,
         calibration: CalibrationId::default(),
+        info: Boot::power_on(),
     };
     run_firmware_boot(sc, config, instants, uplink, downlink, emit, boot)
 }
@@ -321,6 +322,16 @@ pub struct Boot<'s, 'f> {
     pub store: Option<&'s mut HostStore<'f>>,
     /// The calibration the arrangement comes from.
     pub calibration: CalibrationId,
+    /// Which boot since power-on this is, and why (housekeeping and the boot event report it).
+    pub info: BootInfo,
+}
+
+impl Boot<'_, '_> {
+    /// A simulated power-on: the first boot, as the boards count it
+    /// (`ballisto_fw::boot::count_boot`).
+    pub fn power_on() -> BootInfo {
+        ballisto_fw::boot::count_boot(&mut [0; 2], ResetCause::PowerOn)
+    }
 }
 
 /// [`run_firmware_with`] for one boot ([`Boot`]).
@@ -349,6 +360,7 @@ pub fn run_firmware_boot(
     let mut app =
         App::new(config, Mode::Operate).map_err(|e| format!("firmware estimator: {e}"))?;
     app.set_calibration(boot.calibration);
+    app.set_boot_info(boot.info);
     let requests = CommitRequests::<NoopRawMutex>::new();
     let replies = CommitReplies::<NoopRawMutex>::new();
     let writable = boot.store.is_some();

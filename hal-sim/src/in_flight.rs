@@ -3,12 +3,13 @@
 //! committed by telecommand — and two boots of the firmware with the calibration store's flash
 //! handed from the first to the second (a reset: everything else is dropped).
 
+use ballisto_fw::boot::count_boot;
 use ballisto_fw::calstore::ram_flash::{Programming, RamFlash};
 use ballisto_fw::calstore::store::{select_at_boot, CalibrationStore};
 use ballisto_fw::config::AppConfig;
 use ballisto_link::identification::{MAX_POINTS, SOURCE_REFERENCE};
 use ballisto_link::telecommand::{build, ACK_ACCEPTANCE, ACK_COMPLETION};
-use ballisto_link::{cuc, framing, service, subtype, CalibrationId};
+use ballisto_link::{cuc, framing, service, subtype, CalibrationId, ResetCause};
 
 use crate::firmware_host::{run_firmware_boot, Boot, Emit, FirmwareReport, SimTime, HOST_SECTOR};
 use crate::motion::Propagator;
@@ -155,6 +156,9 @@ pub fn identify_and_reboot(
     let range = 0..STORE_LEN as u32;
     let mut store = CalibrationStore::new(flash, range.clone()).map_err(|e| format!("{e}"))?;
     let instants = sc.samples() as u32;
+    // The boot count in RAM that survives the reset (not a power loss), as on the boards.
+    let mut retained = [0u32; 2];
+    let info = count_boot(&mut retained, ResetCause::PowerOn);
     let first = run_firmware_boot(
         sc,
         config,
@@ -165,6 +169,7 @@ pub fn identify_and_reboot(
         Boot {
             store: Some(&mut store),
             calibration: CalibrationId::default(),
+            info,
         },
     )?;
     // The reset: only the flash survives.
@@ -189,6 +194,7 @@ pub fn identify_and_reboot(
         Boot {
             store: Some(&mut store),
             calibration: id,
+            info: count_boot(&mut retained, ResetCause::Software),
         },
     )?;
     Ok((first, second, id))
