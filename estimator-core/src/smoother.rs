@@ -7,7 +7,7 @@
 //! unsettled). Memory is `O(LAG)`, not proportional to the record.
 
 use crate::estimate::{Estimate, Flags};
-use crate::estimator::LockMonitor;
+use crate::estimator::{variance, LockMonitor};
 use crate::frame_uncertainty::FrameUncertainty;
 use crate::real::Real;
 use crate::tracker::{State, COST_CAP, MAX_CANDIDATES, MAX_STATES, SIGN_MARGIN};
@@ -225,10 +225,12 @@ impl<T: Real, const LAG: usize> Smoother<T, LAG> {
         let (domega, sd_omega, sd_domega) = (root.domega, root.sd_omega, root.sd_domega);
         let dt = T::of(self.lock_t.map_or(0.0, |t0| t - t0));
         self.lock_t = Some(t);
-        if self
-            .lock
-            .update((&omega, &domega), (&sd_omega, &sd_domega), dt)
-        {
+        if self.lock.update(
+            (&omega, &domega),
+            (variance(&sd_omega), variance(&sd_domega)),
+            dt,
+            false,
+        ) {
             crate::estimator::mark_inconsistent(&mut est);
         }
         (t, est)

@@ -359,7 +359,13 @@ pub fn estimator_rates(
         model: Some(model),
         noise_given: true,
     };
-    let mut est = HostEstimator::<f64>::new(&loaded, model, Options::default())
+    // The geometry is what is being fitted: its error makes every path inconsistent with
+    // its own Ω′, so the path check (model G) would leave nothing to fit with.
+    let options = Options {
+        path_check: false,
+        ..Options::default()
+    };
+    let mut est = HostEstimator::<f64>::new(&loaded, model, options)
         .map_err(|e| format!("the estimator on the geometry being identified: {e}"))?;
     let mut out = Vec::with_capacity(rows.len());
     let undecided =

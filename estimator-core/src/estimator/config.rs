@@ -2,7 +2,7 @@
 //! on error the configuration in force stays untouched.
 
 use super::frames::{FRAME_QUATERNIONS, NUM_FRAMES};
-use super::Config;
+use super::{Config, PathCheck};
 use crate::arrangement::{Arrangement, ChannelMask, Model};
 use crate::design::check_structural;
 use crate::error::ConfigError;
@@ -18,6 +18,12 @@ pub struct Options {
     pub initial_omega: Option<[f64; 3]>,
     /// Gravity-gradient tensor Γ (body frame), known; default 0.
     pub gamma: Sym3<f64>,
+    /// Model G: check the chosen root's path against its own Ω′ (`lock_monitor`) and flag
+    /// it branch-ambiguous where it is not kinematically consistent — after a fault, for
+    /// one (issue 17). Default on. Off only where the geometry is itself being fitted and its
+    /// error makes every path inconsistent (`ballisto calibrate`'s self-calibration). Model F
+    /// with m = 3 always checks (its tracker re-opens on it); model F with m > 3 does not.
+    pub path_check: bool,
 }
 
 impl Default for Options {
@@ -26,6 +32,7 @@ impl Default for Options {
             raw: false,
             initial_omega: None,
             gamma: Sym3::zero(),
+            path_check: true,
         }
     }
 }
@@ -83,6 +90,11 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         self.mask = mask;
         self.frames = frames;
         self.options = options;
+        self.path_check = match model {
+            Model::FreeFloat if self.proj[0].m == 3 => PathCheck::Full,
+            Model::General if options.path_check => PathCheck::Thinned,
+            _ => PathCheck::Off,
+        };
         self.set_gamma(&options.gamma);
         Ok(())
     }

@@ -41,7 +41,7 @@ use crate::tracker::{Candidate, Tracker, MAX_CANDIDATES};
 use crate::quadratic::MAX_ROOTS;
 use deviations::{omega_variances, KELVIN_MIN_SCORE};
 use frames::frame_score;
-pub(crate) use lock_monitor::{mark_inconsistent, LockMonitor};
+pub(crate) use lock_monitor::{mark_inconsistent, variance, LockMonitor, PathCheck};
 use output::CommonFlags;
 use solve::{readings_usable, MAX_STARTS};
 
@@ -108,6 +108,13 @@ struct Config<T: Real, const CAP: usize> {
     frame_uncertainty: FrameUncertainty<T>,
     /// Whether the frame uncertainty is other than zero.
     widen: bool,
+    /// Where the chosen root's path is checked against its own Ω′ ([`lock_monitor`]): in
+    /// full where mirror branches cross (model F, m = 3; the tracker re-opens on it),
+    /// thinned in model G (issue 17: a fault the residual cannot see, or one that has
+    /// ended, can leave the estimate on the wrong sign for seconds; `Options::path_check`),
+    /// not in model F with m > 3 (the check costs ≈ 200 instructions per sample on the M4F,
+    /// more than model F's estimate has left of its budget).
+    path_check: PathCheck,
     options: Options,
 }
 
@@ -185,6 +192,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 gamma_offset_nonzero: false,
                 frame_uncertainty: FrameUncertainty::default(),
                 widen: false,
+                path_check: PathCheck::Off,
                 options: Options::default(),
             },
             frame: 0,
@@ -450,12 +458,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             }
         }
         let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
-        // Several histories per output only where mirror branches exist and can merge.
-        let histories = if cfg.model == Model::FreeFloat && cfg.proj[0].m == 3 {
-            2
-        } else {
-            1
-        };
+        // Several histories per output only where mirror branches exist and can merge (model
+        // F, m = 3: the path check in full).
+        let check = cfg.path_check;
+        let histories = if check == PathCheck::Full { 2 } else { 1 };
         let Some(choice) =
             self.tracker
                 .step(&cands[..nb], dt_t, self.domega_var, hint_var, histories)
@@ -478,15 +484,23 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         cfg.finish(frame, eps, b, &choice.omega, !cfg.options.raw, prev, est);
         common.apply(est, choice.sign_unresolved, choice.branch_ambiguous);
         est.branch_margin = choice.branch_margin;
-        // Where mirror branches cross (m = 3), the chosen root's own path is checked as well:
-        // contradicted by it, the branch is in doubt whatever the tracker's margin.
-        // Contradicted for two windows on end, none of the tracker's hypotheses is consistent:
-        // it re-opens both signs of every root (`lock_monitor::REOPEN_WINDOWS`).
-        if histories == 2 && self.lock.check(&choice.omega, est, dt_t) {
+        // Where mirror branches cross (m = 3), and in model G, the chosen root's own path is
+        // checked as well (`Config::path_check`): contradicted by it, the branch is in doubt
+        // whatever the tracker's margin. Contradicted for two windows on end where mirror
+        // branches cross, none of the tracker's hypotheses is consistent: it re-opens both
+        // signs of every root (`lock_monitor::REOPEN_WINDOWS`).
+        self.domega_var = lock_monitor::variance(&est.sd_domega);
+        if check != PathCheck::Off
+            && self.lock.check(
+                &choice.omega,
+                est,
+                self.domega_var,
+                dt_t,
+                check == PathCheck::Thinned,
+            )
+        {
             self.tracker.reopen(&cands[..nb]);
         }
-        let sd = &est.sd_domega;
-        self.domega_var = (sd[0].sq() + sd[1].sq() + sd[2].sq()) / T::of(3.0);
         if !cfg.options.raw {
             cfg.apply_filtered(est, choice.filtered);
             if self.crossing_active {
@@ -501,7 +515,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             rec.raw = cfg.options.raw;
             rec.n_candidates = nb as u8;
             rec.crossing_bias = self.crossing_bias;
-            rec.monitored = histories == 2;
+            rec.monitored = check != PathCheck::Off;
             for (ci, b) in branches.iter().enumerate().take(nb) {
                 rec.widening[ci] = b.widening;
                 let e = &mut rec.candidates[ci];
