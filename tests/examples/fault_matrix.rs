@@ -14,37 +14,16 @@
 //!
 //! `cargo run --release -p e2e-tests --example fault_matrix -- [RUNS]` (default 20).
 
-use ballisto_fw::config::Alignment;
-use estimator_core::Flags;
-use hal_sim::firmware_host::{firmware_config, run_firmware};
+use e2e_tests::faults::{fault_run, redundant_layout};
 use hal_sim::scenario::{FaultSpec, Scenario};
 
-/// Flags that warn (everything but the informational "channels excluded", 8).
-const WARNING: u16 = !Flags::CHANNELS_EXCLUDED;
 /// Seconds of each run.
 const DURATION: f64 = 12.0;
 /// Each fault lasts this long (s), starting uniformly in 3–7 s.
 const FAULT_S: f64 = 3.0;
 
-/// The redundant layout: `tetra-orbit` plus two parts, N = 18.
 fn layout(seed: u64) -> Scenario {
-    let mut sc = Scenario::load("tetra-orbit").unwrap();
-    sc.duration = DURATION;
-    sc.seed = seed;
-    sc.faults.clear();
-    let template = sc.parts[0].clone();
-    for (i, (position, cs)) in [([0.12, 0.0, -0.05], 4), ([-0.05, 0.11, 0.08], 5)]
-        .into_iter()
-        .enumerate()
-    {
-        let mut p = template.clone();
-        p.name = format!("u{}", 4 + i);
-        p.position = position;
-        p.cs = Some(cs);
-        p.orientation = None;
-        sc.parts.push(p);
-    }
-    sc
+    redundant_layout(seed, DURATION)
 }
 
 /// The fault kinds of hal-sim, as scenario faults on `part` from `start`.
@@ -94,71 +73,6 @@ fn kinds(sigma: f64) -> Vec<(&'static str, FaultSpec)> {
     ]
 }
 
-/// What one run showed.
-#[derive(Default)]
-struct Run {
-    latency: Option<f64>,
-    active_rows: usize,
-    flagged_active: usize,
-    silent_active: usize,
-    after_rows: usize,
-    silent_after: usize,
-    flagged_clean: usize,
-    clean_rows: usize,
-    nan: usize,
-    lost: u32,
-}
-
-fn run(sc: &Scenario, fault: Option<(usize, f64)>) -> Run {
-    let loaded = sc.arrangement().load("arrangement.toml").unwrap();
-    let config = firmware_config(sc, &loaded, Alignment::Interpolate).unwrap();
-    let mut r = Run::default();
-    let part_bit = fault.map_or(0, |(p, _)| 1u8 << p);
-    let start = fault.map_or(f64::INFINITY, |f| f.1);
-    let report = run_firmware(sc, &config, sc.samples() as u32, &mut |_, m, tr| {
-        let t = m.t as f64 * 1e-9;
-        let e = &m.estimate;
-        let vals = e.omega.iter().chain(&e.sigma0).chain(&e.domega);
-        if vals.clone().any(|v| !v.is_finite()) {
-            r.nan += 1;
-        }
-        let err: f64 = (0..3)
-            .map(|k| (f64::from(e.omega[k]) - tr.omega[k]).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let sd: f64 = e
-            .sd_omega
-            .iter()
-            .map(|s| f64::from(*s).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let warned = e.flags.0 & WARNING != 0;
-        let silent = err > 5.0 * sd && !warned;
-        let residual = e.flags.has(Flags::RESIDUAL_HIGH);
-        let seen = residual || (m.missing.0 | m.excluded.0) & part_bit != 0;
-        if t < 1.0 {
-            return;
-        }
-        if t < start {
-            r.clean_rows += 1;
-            r.flagged_clean += usize::from(residual);
-        } else if t < start + FAULT_S {
-            r.active_rows += 1;
-            r.flagged_active += usize::from(residual);
-            r.silent_active += usize::from(silent);
-            if seen && r.latency.is_none() {
-                r.latency = Some(t - start);
-            }
-        } else {
-            r.after_rows += 1;
-            r.silent_after += usize::from(silent);
-        }
-    })
-    .expect("the firmware ran");
-    r.lost = report.housekeeping.tm_lost;
-    r
-}
-
 fn main() {
     let runs: u64 = std::env::args()
         .nth(1)
@@ -181,7 +95,7 @@ fn main() {
     };
     let mut clean = (0usize, 0usize, 0usize, 0u32);
     for seed in 0..runs {
-        let r = run(&layout(1000 + seed), None);
+        let r = fault_run(&layout(1000 + seed), None);
         clean.0 += r.flagged_clean;
         clean.1 += r.clean_rows;
         clean.2 += r.nan;
@@ -206,7 +120,7 @@ fn main() {
             f.start = start;
             f.end = Some(start + FAULT_S);
             sc.faults.push(f);
-            let r = run(&sc, Some((part, start)));
+            let r = fault_run(&sc, Some((part, start, start + FAULT_S)));
             if let Some(l) = r.latency.filter(|l| *l <= 1.0) {
                 detected += 1;
                 lat.push(l);
