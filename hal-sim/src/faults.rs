@@ -12,6 +12,12 @@ pub enum FaultKind {
         /// The added bias per axis.
         bias: [f64; 3],
     },
+    /// A bias that grows from zero at the fault's start at this rate (m/s² per s, part
+    /// axes): a part that drifts (temperature, ageing), too slow for one sample to show.
+    Drift {
+        /// The bias's growth per axis, m/s² per s.
+        rate: [f64; 3],
+    },
     /// Extra white noise of this density (m/s²/√Hz).
     NoiseBurst {
         /// Noise density.
@@ -47,6 +53,7 @@ impl FaultKind {
         match self {
             FaultKind::Stuck => "stuck",
             FaultKind::BiasJump { .. } => "bias-jump",
+            FaultKind::Drift { .. } => "drift",
             FaultKind::NoiseBurst { .. } => "noise-burst",
             FaultKind::Saturation => "saturation",
             FaultKind::Dead => "dead",

@@ -117,6 +117,41 @@ fn bias_jump_shifts_the_mean_by_the_configured_step() {
 }
 
 #[test]
+fn drift_grows_the_bias_at_the_configured_rate() {
+    let rate = [0.5, -1.0, 2.0];
+    let (clock, mut dev) = adxl(ND, FaultKind::Drift { rate });
+    let before = adxl_series(&clock, &mut dev, 0.3, 0.45);
+    let (t0, t1) = (START + 0.005, END - 0.005);
+    let during = adxl_series(&clock, &mut dev, t0, t1);
+    let after = adxl_series(&clock, &mut dev, END + 0.005, END + 0.15);
+    // The slope of the readings against their times while it drifts (a constant output delay
+    // does not change it), within 5 standard errors of a least-squares slope.
+    let times: Vec<f64> = (0..during.len()).map(|k| t0 + 0.002 * k as f64).collect();
+    let t_mean = times.iter().sum::<f64>() / times.len() as f64;
+    let stt: f64 = times.iter().map(|t| (t - t_mean).powi(2)).sum();
+    for axis in 0..3 {
+        let (m0, sd) = mean_sd(&before, axis);
+        let (m2, _) = mean_sd(&after, axis);
+        let (m1, _) = mean_sd(&during, axis);
+        let slope = times
+            .iter()
+            .zip(&during)
+            .map(|(t, v)| (t - t_mean) * (v[axis] - m1))
+            .sum::<f64>()
+            / stt;
+        assert!(
+            (slope - rate[axis]).abs() < 5.0 * sd / stt.sqrt(),
+            "axis {axis}: slope {slope} against {}",
+            rate[axis]
+        );
+        // Before and after: no bias.
+        let tol = 5.0 * sd / (before.len() as f64).sqrt() * 2f64.sqrt();
+        assert!((m0 - F[axis]).abs() < tol, "axis {axis} before");
+        assert!((m2 - m0).abs() < tol, "axis {axis} after");
+    }
+}
+
+#[test]
 fn noise_burst_raises_the_spread_to_the_configured_density() {
     let burst = 10.0 * ND;
     let (clock, mut dev) = adxl(ND, FaultKind::NoiseBurst { density: burst });

@@ -34,6 +34,7 @@ fn kinds(sigma: f64) -> Vec<(&'static str, FaultSpec)> {
         start: 0.0,
         end: None,
         bias: None,
+        rate: None,
         density: None,
         probability: None,
         stall: None,
@@ -47,6 +48,13 @@ fn kinds(sigma: f64) -> Vec<(&'static str, FaultSpec)> {
         ("bias jump 0.1 m/s²", bias(0.1)),
         ("bias jump 10 σ", bias(10.0 * sigma)),
         ("bias jump 3 σ", bias(3.0 * sigma)),
+        (
+            "drift 3 σ per s",
+            FaultSpec {
+                rate: Some([3.0 * sigma, -3.0 * sigma, 1.5 * sigma]),
+                ..f("drift")
+            },
+        ),
         (
             "noise burst ×30",
             FaultSpec {

@@ -278,6 +278,7 @@ fn after_a_stuck_part_the_estimate_is_never_silently_wrong() {
             start,
             end: Some(start + 3.0),
             bias: None,
+            rate: None,
             density: None,
             probability: None,
             stall: None,

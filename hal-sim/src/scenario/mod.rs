@@ -391,7 +391,8 @@ pub fn rotate_by_vector(r: &[f64; 3], v: &[f64; 3]) -> [f64; 3] {
 pub struct FaultSpec {
     /// The part.
     pub part: String,
-    /// "stuck", "bias-jump", "noise-burst", "saturation", "dead", "corrupt" or "timeout".
+    /// "stuck", "bias-jump", "drift", "noise-burst", "saturation", "dead", "corrupt" or
+    /// "timeout".
     pub kind: String,
     /// Start (s).
     pub start: f64,
@@ -401,6 +402,9 @@ pub struct FaultSpec {
     /// bias-jump: m/s² per part axis.
     #[serde(default)]
     pub bias: Option<[f64; 3]>,
+    /// drift: the bias's growth, m/s² per s per part axis.
+    #[serde(default)]
+    pub rate: Option<[f64; 3]>,
     /// noise-burst: m/s²/√Hz.
     #[serde(default)]
     pub density: Option<f64>,
@@ -916,6 +920,7 @@ impl Scenario {
         };
         let given = [
             ("bias", f.bias.is_some()),
+            ("rate", f.rate.is_some()),
             ("density", f.density.is_some()),
             ("probability", f.probability.is_some()),
             ("stall", f.stall.is_some()),
@@ -927,6 +932,10 @@ impl Scenario {
             "bias-jump" => match f.bias {
                 Some(b) if finite(&b) => FaultKind::BiasJump { bias: b },
                 _ => return Err("kind = \"bias-jump\" needs a finite bias = [x, y, z]".into()),
+            },
+            "drift" => match f.rate {
+                Some(r) if finite(&r) => FaultKind::Drift { rate: r },
+                _ => return Err("kind = \"drift\" needs a finite rate = [x, y, z] (m/s² per s)".into()),
             },
             "noise-burst" => FaultKind::NoiseBurst {
                 density: need(f.density, "density")?,
@@ -943,12 +952,13 @@ impl Scenario {
             },
             k => {
                 return Err(format!(
-                "kind = \"{k}\": expected stuck, bias-jump, noise-burst, saturation, dead, corrupt or timeout"
+                "kind = \"{k}\": expected stuck, bias-jump, drift, noise-burst, saturation, dead, corrupt or timeout"
             ))
             }
         };
         let wanted = match kind {
             FaultKind::BiasJump { .. } => Some("bias"),
+            FaultKind::Drift { .. } => Some("rate"),
             FaultKind::NoiseBurst { .. } => Some("density"),
             FaultKind::Corrupt { .. } => Some("probability"),
             FaultKind::Timeout { .. } => Some("stall"),

@@ -7,7 +7,7 @@ use rand_chacha::ChaCha8Rng;
 use super::errors::SensorErrors;
 use super::sample_clock::SampleClock;
 use super::ForceSource;
-use crate::faults::{active_at, Fault, FaultKind};
+use crate::faults::{Fault, FaultKind};
 
 /// The analogue front end of one part.
 pub struct Frontend {
@@ -56,12 +56,17 @@ impl Frontend {
         let mut density2 = self.errors.noise_density * self.errors.noise_density;
         let mut bias = [0.0; 3];
         let (mut stuck, mut saturated) = (false, false);
-        for kind in active_at(&self.faults, t) {
-            match kind {
+        for fault in self.faults.iter().filter(|f| f.active(t)) {
+            match &fault.kind {
                 FaultKind::Stuck => stuck = true,
                 FaultKind::BiasJump { bias: b } => {
                     for (o, v) in bias.iter_mut().zip(b.iter()) {
                         *o += v;
+                    }
+                }
+                FaultKind::Drift { rate } => {
+                    for (o, v) in bias.iter_mut().zip(rate.iter()) {
+                        *o += v * (t - fault.start);
                     }
                 }
                 FaultKind::NoiseBurst { density } => density2 += density * density,
