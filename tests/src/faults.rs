@@ -38,7 +38,7 @@ pub struct FaultRun {
     /// Time from the fault's start to the first row that shows it (flag 64, or the part
     /// missing or excluded), if any while it is active.
     pub latency: Option<f64>,
-    /// Rows before the fault: all of them, and those flagged 64.
+    /// Rows before the fault (all rows of a run without one).
     pub clean_rows: usize,
     /// Of [`Self::clean_rows`], those flagged 64 (false alarms).
     pub flagged_clean: usize,
