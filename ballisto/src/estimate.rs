@@ -6,6 +6,7 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
 
+use estimator_core::path_choice::{Links, PathChoice, PathState};
 use estimator_core::smoother::Smoother;
 use estimator_core::two_way;
 use estimator_core::{Estimate, Estimator, Flags, Model, Options, Real};
@@ -129,6 +130,11 @@ pub struct HostEstimator<T: Real> {
     decided: std::collections::VecDeque<Estimate<T>>,
     /// The backward pass's outputs of one block, latest sample first (reused).
     scratch: Vec<Estimate<T>>,
+    /// The path's state after the last emitted sample ([`estimator_core::path_choice`]).
+    path: Option<(f64, PathState)>,
+    /// The path's links per sample of a block, and its decisions (reused).
+    links: Vec<Links>,
+    takes: Vec<bool>,
 }
 
 impl<T: Real> HostEstimator<T> {
@@ -146,6 +152,9 @@ impl<T: Real> HostEstimator<T> {
             channels: loaded.names.len(),
             decided: Default::default(),
             scratch: Vec::new(),
+            path: None,
+            links: Vec::new(),
+            takes: Vec::new(),
         })
     }
 
@@ -214,13 +223,69 @@ impl<T: Real> HostEstimator<T> {
                 .push(t_end - self.times[k], p, |e| scratch.push(e));
         }
         self.backward.finish(|e| scratch.push(e));
+        self.choose_path(n, block);
         for (k, (t, fwd)) in self.times.iter().zip(&self.decided).take(block).enumerate() {
             let bwd = two_way::reversed(&self.scratch[n - 1 - k]);
-            emit(*t, &two_way::combine(fwd, &bwd));
+            emit(*t, &two_way::combine_taking(fwd, &bwd, Some(self.takes[k])));
         }
         self.times.drain(..block);
         self.readings.drain(..block * self.channels);
         self.decided.drain(..block);
+    }
+}
+
+impl<T: Real> HostEstimator<T> {
+    /// Decides which pass each of the `n` held samples takes ([`estimator_core::path_choice`],
+    /// over the block and its run-in) into `takes`, and carries the path's state past the
+    /// first `block` of them.
+    fn choose_path(&mut self, n: usize, block: usize) {
+        let times = self.times.make_contiguous();
+        let span = times[n - 1] - times[0];
+        let rate = if n > 1 && span > 0.0 {
+            (n - 1) as f64 / span
+        } else {
+            0.0
+        };
+        let backward = |k: usize| two_way::reversed(&self.scratch[n - 1 - k]);
+        self.takes.clear();
+        self.takes.resize(n, false);
+        if !(0..n).any(|k| two_way::offers_choice(&self.decided[k], &backward(k))) {
+            // Nothing to choose (model G, or no crossing in the block): every sample takes
+            // [`two_way::combine`]'s pass, and the next block's path starts afresh.
+            self.path = None;
+            return;
+        }
+        let mut beam = PathChoice::new(rate, self.path.map(|(_, s)| s));
+        self.links.clear();
+        self.links.resize(n, Links::default());
+        let mut last = self.path.map(|(t, _)| t);
+        for (k, (t, fwd)) in times.iter().zip(&self.decided).take(n).enumerate() {
+            let bwd = backward(k);
+            let dt = last.map_or(0.0, |l| t - l);
+            if two_way::offers_choice(fwd, &bwd) {
+                beam.step(dt, fwd, Some(&bwd), &mut self.links[k]);
+            } else {
+                beam.step(dt, two_way::by_margin(fwd, &bwd), None, &mut self.links[k]);
+            }
+            last = Some(*t);
+        }
+        PathChoice::decide(&self.links, &mut self.takes);
+        let taken: Vec<(f64, Estimate<T>)> = (0..block)
+            .map(|k| {
+                let (fwd, bwd) = (&self.decided[k], backward(k));
+                let e = if two_way::offers_choice(fwd, &bwd) {
+                    if self.takes[k] {
+                        bwd
+                    } else {
+                        *fwd
+                    }
+                } else {
+                    *two_way::by_margin(fwd, &bwd)
+                };
+                (times[k], e)
+            })
+            .collect();
+        self.path = PathChoice::follow(rate, self.path, taken.iter().map(|(t, e)| (*t, e)));
     }
 }
 

@@ -12,7 +12,12 @@
 //! centre": from the centre of the last crossing zone, `FB=1` zones with a fallback row only;
 //! "split": each stretch of disagreement split at its centre, `DTH` the disagreement in
 //! combined deviations; "bridge": a cubic Hermite bridge across each stretch from `NB` rows on
-//! either side). `WIN=SAMPLES` prints the Ω
+//! either side; "beam": a beam of (Ω, Ω′) filters over the plain passes' choices, decided over
+//! the whole record — `estimator_core::path_choice` applied to the plain passes, `SJRATE` its
+//! jerk density per sample rate, `NOUSED=1` without the Ω′ update; "beam all": the same over
+//! every signed candidate of every sample, `SJ` its jerk density (default: a grid, the cheapest
+//! path's), `PASSSIGN=1` only the signs the passes hold, `BWIN=SAMPLES` its Ω RMS per window).
+//! `WIN=SAMPLES` prints the Ω
 //! RMS of each per window, `RANGE=T0,T1` the rows where the plain passes differ, `DUMP=1` the
 //! silently wrong rows of the two-way output, `TRUTHSTART=1` starts the backward pass at the
 //! truth.
@@ -520,7 +525,110 @@ fn main() {
         }
     }
     println!("{bridged} runs bridged");
+    let times: Vec<f64> = case.truth.iter().map(|r| r.t).collect();
+    let picks = beam(&fwd, &bwd, &times);
+    let beam_pick: Vec<Estimate<f64>> = (0..n)
+        .map(|k| if picks[k] { bwd[k] } else { fwd[k] })
+        .collect();
+    let all: Vec<Vec<(Estimate<f64>, [f64; 3])>> = {
+        let opts = Options {
+            raw: true,
+            ..case.options
+        };
+        let mut e =
+            Estimator::<f64, HOST_CAP>::new(&case.loaded.arrangement, Model::FreeFloat, opts)
+                .unwrap();
+        let mut rec = Box::new(StepRecord::<f64>::default());
+        (0..n)
+            .map(|k| {
+                e.update_with(case.truth[k].t, &case.outputs[k], Some(&mut rec));
+                (0..rec.n_candidates as usize)
+                    .map(|c| (rec.candidates[c], rec.widening[c]))
+                    .collect()
+            })
+            .collect()
+    };
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+    let rate = 1.0 / (times[1] - times[0]);
+    let rd = {
+        let v: Vec<f64> = fwd
+            .iter()
+            .map(|e| e.sd_domega.iter().map(|s| s * s).sum::<f64>() / 3.0)
+            .collect();
+        let mut v = v;
+        v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        v[v.len() / 2]
+    };
+    let grid: Vec<f64> = if let Some(v) = env("SJ") {
+        vec![v]
+    } else if let Some(c) = env("SJRATE") {
+        vec![c * rate]
+    } else if let Some(m) = env("SJN") {
+        vec![rd * rate / (m * m)]
+    } else {
+        vec![10.0, 30.0, 100.0, 300.0, 1000.0]
+    };
+    // (per row the candidate and sign, the path's cost, the jerk density)
+    type Run = (Vec<(usize, f64)>, f64, f64);
+    let mut best_run: Option<Run> = None;
+    for &sj in &grid {
+        let (p, c) = beam_all(
+            &all,
+            &times,
+            case.options.initial_omega.unwrap(),
+            sj,
+            (&fwd, &bwd),
+        );
+        println!("SJ {sj}: path cost {c:.1}");
+        if best_run.as_ref().is_none_or(|b| c < b.1) {
+            best_run = Some((p, c, sj));
+        }
+    }
+    let (picks_all, _, sj_best) = best_run.unwrap();
+    println!("SJ chosen {sj_best}");
+    let beam_all_pick: Vec<Estimate<f64>> = (0..n)
+        .map(|k| {
+            let (c, sg) = picks_all[k];
+            match all[k].get(c) {
+                Some((e, _)) => {
+                    let mut e = *e;
+                    e.omega = e.omega.map(|v| sg * v);
+                    e
+                }
+                None => fwd[k],
+            }
+        })
+        .collect();
+    if let Some(w) = std::env::var("BWIN")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+    {
+        for k0 in (0..n).step_by(w) {
+            let k1 = (k0 + w).min(n);
+            let m = (k1 - k0) as f64;
+            let e = |rows: &[Estimate<f64>]| {
+                ((k0..k1)
+                    .map(|k| dist(&rows[k].omega, &case.truth[k].omega).powi(2))
+                    .sum::<f64>()
+                    / m)
+                    .sqrt()
+            };
+            let mlw = ((k0..k1).map(|k| ml[k][2]).sum::<f64>() / m).sqrt();
+            println!(
+                "t {:.2}: beam all {:.4} smoothed {:.4} fwd {:.4} bwd {:.4} ML {:.4} cands {}",
+                case.truth[k0].t,
+                e(&beam_all_pick),
+                e(&smoothed),
+                e(&fwd),
+                e(&bwd),
+                mlw,
+                all[k0].len()
+            );
+        }
+    }
     for (name, rows) in [
+        ("beam", &beam_pick),
+        ("beam all", &beam_all_pick),
         ("bridge", &bridge_pick),
         ("split", &split_pick),
         ("by centre", &by_centre),
@@ -547,4 +655,282 @@ fn main() {
             s.silent
         );
     }
+}
+
+/// Probe: a beam of two-state (Ω, Ω′) hypotheses over the two passes' choices per row, with
+/// full backtracking. Returns per row which pass (false: forward, true: backward) the best
+/// path takes.
+fn beam(fwd: &[Estimate<f64>], bwd: &[Estimate<f64>], t: &[f64]) -> Vec<bool> {
+    let rate = 1.0 / (t[1] - t[0]);
+    let sj: f64 = std::env::var("SJRATE")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .unwrap_or(estimator_core::path_choice::JERK_PER_SAMPLE)
+        * rate;
+    let use_d = std::env::var_os("NOUSED").is_none();
+    let width: usize = std::env::var("BEAM")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(8);
+    let dth: f64 = std::env::var("DTH")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0.0);
+    #[derive(Clone, Copy)]
+    struct H {
+        w: [f64; 3],
+        d: [f64; 3],
+        pww: f64,
+        pwd: f64,
+        pdd: f64,
+        cost: f64,
+        from: usize,
+        pick: bool,
+    }
+    let n = fwd.len();
+    let var = |e: &Estimate<f64>| e.sd_omega.iter().map(|s| s * s).sum::<f64>() / 3.0;
+    let dvar = |e: &Estimate<f64>| e.sd_domega.iter().map(|s| s * s).sum::<f64>() / 3.0;
+    let mut back: Vec<Vec<(usize, bool)>> = Vec::with_capacity(n);
+    let mut hs = vec![H {
+        w: fwd[0].omega,
+        d: fwd[0].domega,
+        pww: var(&fwd[0]),
+        pwd: 0.0,
+        pdd: dvar(&fwd[0]).max(1.0),
+        cost: 0.0,
+        from: 0,
+        pick: false,
+    }];
+    back.push(vec![(0, false)]);
+    for k in 1..n {
+        let dt = t[k] - t[k - 1];
+        let differ = (0..3).any(|i| {
+            (fwd[k].omega[i] - bwd[k].omega[i]).abs()
+                > dth * (fwd[k].sd_omega[i].powi(2) + bwd[k].sd_omega[i].powi(2)).sqrt()
+        });
+        let cands: Vec<(bool, &Estimate<f64>)> = if differ {
+            vec![(false, &fwd[k]), (true, &bwd[k])]
+        } else {
+            vec![(false, &fwd[k])]
+        };
+        let mut next: Vec<H> = Vec::new();
+        for (hi, h) in hs.iter().enumerate() {
+            // predict
+            let w: [f64; 3] = core::array::from_fn(|i| h.w[i] + h.d[i] * dt);
+            let pww = h.pww + 2.0 * dt * h.pwd + dt * dt * h.pdd + sj * dt * dt * dt / 3.0;
+            let pwd = h.pwd + dt * h.pdd + sj * dt * dt / 2.0;
+            let pdd = h.pdd + sj * dt;
+            for &(pick, e) in &cands {
+                let r = var(e);
+                let s = pww + r;
+                let nu: [f64; 3] = core::array::from_fn(|i| e.omega[i] - w[i]);
+                let nu2: f64 = nu.iter().map(|v| v * v).sum();
+                let mut cost = h.cost + nu2 / s + 3.0 * s.ln();
+                let (kw, kd) = (pww / s, pwd / s);
+                let mut nw: [f64; 3] = core::array::from_fn(|i| w[i] + kw * nu[i]);
+                let mut nd: [f64; 3] = core::array::from_fn(|i| h.d[i] + kd * nu[i]);
+                let mut qww = (1.0 - kw) * pww;
+                let mut qwd = (1.0 - kw) * pwd;
+                let mut qdd = pdd - kd * pwd;
+                if use_d {
+                    // second update by the pass's Ω′
+                    let rd = dvar(e);
+                    let s2 = qdd + rd;
+                    let nu_d: [f64; 3] = core::array::from_fn(|i| e.domega[i] - nd[i]);
+                    cost += nu_d.iter().map(|v| v * v).sum::<f64>() / s2 + 3.0 * s2.ln();
+                    let (gw, gd) = (qwd / s2, qdd / s2);
+                    nw = core::array::from_fn(|i| nw[i] + gw * nu_d[i]);
+                    nd = core::array::from_fn(|i| nd[i] + gd * nu_d[i]);
+                    let (a, b, c) = (qww - gw * qwd, qwd - gw * qdd, qdd - gd * qdd);
+                    qww = a;
+                    qwd = b;
+                    qdd = c;
+                }
+                next.push(H {
+                    w: nw,
+                    d: nd,
+                    pww: qww,
+                    pwd: qwd,
+                    pdd: qdd,
+                    cost,
+                    from: hi,
+                    pick,
+                });
+            }
+        }
+        next.sort_by(|a, b| a.cost.partial_cmp(&b.cost).unwrap());
+        // keep the cheapest `width`, at most width/2 per pick
+        let mut kept: Vec<H> = Vec::new();
+        let mut per = [0usize; 2];
+        for h in next {
+            let p = usize::from(h.pick);
+            if per[p] < width / 2 || (!differ && kept.len() < width) {
+                per[p] += 1;
+                kept.push(h);
+            }
+            if kept.len() >= width {
+                break;
+            }
+        }
+        let base = kept[0].cost;
+        for h in kept.iter_mut() {
+            h.cost -= base;
+        }
+        back.push(kept.iter().map(|h| (h.from, h.pick)).collect());
+        hs = kept;
+    }
+    let mut out = vec![false; n];
+    let mut j = 0;
+    for k in (0..n).rev() {
+        let (from, pick) = back[k][j];
+        out[k] = pick;
+        j = from;
+    }
+    out
+}
+
+/// Probe: the beam over every signed candidate of every row (not only the passes' choices).
+/// `cands[k]`: the candidates of row k with their crossing widening. Returns the chosen
+/// (candidate index, sign) per row and the margin (cost of the best path through another
+/// branch at that row is not computed here).
+fn beam_all(
+    cands: &[Vec<(Estimate<f64>, [f64; 3])>],
+    t: &[f64],
+    hint: [f64; 3],
+    sj: f64,
+    passes: (&[Estimate<f64>], &[Estimate<f64>]),
+) -> (Vec<(usize, f64)>, f64) {
+    let signs_from_passes = std::env::var_os("PASSSIGN").is_some();
+    let mut total = 0.0;
+    let width: usize = std::env::var("BEAM")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(16);
+    let per_out: usize = std::env::var("PER")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(2);
+    let widen = std::env::var_os("NOWIDEN").is_none();
+    #[derive(Clone, Copy)]
+    struct H {
+        w: [f64; 3],
+        d: [f64; 3],
+        pww: f64,
+        pwd: f64,
+        pdd: f64,
+        cost: f64,
+        from: usize,
+        pick: (usize, f64),
+    }
+    let n = cands.len();
+    let var = |e: &Estimate<f64>, wd: &[f64; 3]| {
+        e.sd_omega.iter().map(|s| s * s).sum::<f64>() / 3.0
+            + if widen {
+                wd.iter().sum::<f64>() / 3.0
+            } else {
+                0.0
+            }
+    };
+    let dvar = |e: &Estimate<f64>| e.sd_domega.iter().map(|s| s * s).sum::<f64>() / 3.0;
+    let mut back: Vec<Vec<(usize, (usize, f64))>> = Vec::with_capacity(n);
+    let mut hs: Vec<H> = Vec::new();
+    for (k, cs) in cands.iter().enumerate() {
+        let dt = if k == 0 { 0.0 } else { t[k] - t[k - 1] };
+        let mut next: Vec<H> = Vec::new();
+        if hs.is_empty() {
+            for (ci, (e, wd)) in cs.iter().enumerate() {
+                for sg in [1.0, -1.0] {
+                    let w = e.omega.map(|v| sg * v);
+                    let nu2: f64 = (0..3).map(|i| (w[i] - hint[i]).powi(2)).sum();
+                    next.push(H {
+                        w,
+                        d: e.domega,
+                        pww: var(e, wd),
+                        pwd: 0.0,
+                        pdd: dvar(e).max(1.0),
+                        cost: nu2 / (1e-4 + var(e, wd)),
+                        from: 0,
+                        pick: (ci, sg),
+                    });
+                }
+            }
+        }
+        for (hi, h) in hs.iter().enumerate() {
+            let w: [f64; 3] = core::array::from_fn(|i| h.w[i] + h.d[i] * dt);
+            let pww = h.pww + 2.0 * dt * h.pwd + dt * dt * h.pdd + sj * dt * dt * dt / 3.0;
+            let pwd = h.pwd + dt * h.pdd + sj * dt * dt / 2.0;
+            let pdd = h.pdd + sj * dt;
+            for (ci, (e, wd)) in cs.iter().enumerate() {
+                for sg in [1.0, -1.0] {
+                    let z = e.omega.map(|v| sg * v);
+                    if signs_from_passes {
+                        let dotf: f64 = (0..3).map(|i| z[i] * passes.0[k].omega[i]).sum();
+                        let dotb: f64 = (0..3).map(|i| z[i] * passes.1[k].omega[i]).sum();
+                        if dotf < 0.0 && dotb < 0.0 {
+                            continue;
+                        }
+                    }
+                    let r = var(e, wd);
+                    let s = pww + r;
+                    let nu: [f64; 3] = core::array::from_fn(|i| z[i] - w[i]);
+                    let nu2: f64 = nu.iter().map(|v| v * v).sum();
+                    let mut cost = h.cost + nu2 / s + 3.0 * s.ln();
+                    let (kw, kd) = (pww / s, pwd / s);
+                    let mut nw: [f64; 3] = core::array::from_fn(|i| w[i] + kw * nu[i]);
+                    let mut nd: [f64; 3] = core::array::from_fn(|i| h.d[i] + kd * nu[i]);
+                    let qww = (1.0 - kw) * pww;
+                    let qwd = (1.0 - kw) * pwd;
+                    let qdd = pdd - kd * pwd;
+                    let rd = dvar(e);
+                    let s2 = qdd + rd;
+                    let nu_d: [f64; 3] = core::array::from_fn(|i| e.domega[i] - nd[i]);
+                    cost += nu_d.iter().map(|v| v * v).sum::<f64>() / s2 + 3.0 * s2.ln();
+                    let (gw, gd) = (qwd / s2, qdd / s2);
+                    nw = core::array::from_fn(|i| nw[i] + gw * nu_d[i]);
+                    nd = core::array::from_fn(|i| nd[i] + gd * nu_d[i]);
+                    next.push(H {
+                        w: nw,
+                        d: nd,
+                        pww: qww - gw * qwd,
+                        pwd: qwd - gw * qdd,
+                        pdd: qdd - gd * qdd,
+                        cost,
+                        from: hi,
+                        pick: (ci, sg),
+                    });
+                }
+            }
+        }
+        next.sort_by(|a, b| a.cost.partial_cmp(&b.cost).unwrap());
+        let mut kept: Vec<H> = Vec::new();
+        for h in next {
+            let same = kept.iter().filter(|k| k.pick == h.pick).count();
+            if same < per_out {
+                kept.push(h);
+            }
+            if kept.len() >= width {
+                break;
+            }
+        }
+        if kept.is_empty() {
+            // no candidate: carry every hypothesis by prediction
+            back.push(hs.iter().enumerate().map(|(i, h)| (i, h.pick)).collect());
+            continue;
+        }
+        let base = kept[0].cost;
+        total += base;
+        for h in kept.iter_mut() {
+            h.cost -= base;
+        }
+        back.push(kept.iter().map(|h| (h.from, h.pick)).collect());
+        hs = kept;
+    }
+    let mut out = vec![(0, 1.0); n];
+    let mut j = 0;
+    for k in (0..n).rev() {
+        let (from, pick) = back[k][j];
+        out[k] = pick;
+        j = from;
+    }
+    (out, total)
 }
