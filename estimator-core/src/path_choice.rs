@@ -19,13 +19,15 @@
 //! them per pass taken at the sample; at the end of the block the cheapest one's history gives
 //! each sample's pass (a Viterbi decision over the whole block, not a per-sample one).
 //!
-//! **The jerk density** is `JERK_PER_SAMPLE × rate` (Ω′ may wander by one rad/s² per sample):
-//! measured on the nine-channel family (`tests/examples/two_way.rs`, raw Ω against the
+//! **The jerk density** is `JERK_PER_SAMPLE × rate` (Ω′ may wander by √0.3 rad/s² per
+//! sample): measured on the nine-channel family (`tests/examples/two_way.rs`, raw Ω against the
 //! maximum likelihood), a rate-independent density lost lock at one end or the other (1 000
-//! rad²/s⁵: 16× at 100 Hz; 10: 1.7× at 4 kHz, 1 kHz manoeuvre), while 0.3–1 × rate held 50 Hz
-//! to 4 kHz.
+//! rad²/s⁵: 16× at 100 Hz; 10: 1.7× at 4 kHz, 1 kHz manoeuvre); per sample, 0.1–0.3 × rate
+//! held every case tried from 50 Hz to 4 kHz, while 1 × rate took the 1 kHz tumble to 1.38×.
 //!
-//! Offered only where the passes differ: where they agree there is nothing to choose.
+//! The caller offers a choice only where the passes hold different roots and their margins do
+//! not decide ([`crate::two_way::offers_choice`]); elsewhere the beam follows the pass the
+//! margins take.
 //! Allocation-free: the caller keeps one [`Links`] per sample of the block.
 
 use crate::estimate::Estimate;
@@ -51,6 +53,16 @@ pub struct PathState {
 }
 
 impl PathState {
+    /// The cumulative cost (negative log-likelihood of the innovations).
+    pub fn cost(&self) -> f64 {
+        self.cost
+    }
+
+    /// The filtered Ω.
+    pub fn omega(&self) -> [f64; 3] {
+        self.omega
+    }
+
     /// A state at an estimate (its Ω and Ω′ with their variances), at cost 0.
     pub fn at<T: Real>(e: &Estimate<T>) -> Self {
         PathState {
@@ -63,9 +75,9 @@ impl PathState {
         }
     }
 
-    /// Predicted by `dt` (constant Ω′, white jerk of density `jerk`) and updated by `e`'s Ω
-    /// and then its Ω′; the innovations' negative log-likelihood is added to the cost.
-    fn step<T: Real>(&self, dt: f64, jerk: f64, e: &Estimate<T>) -> Self {
+    /// Predicted by `dt` (constant Ω′, white jerk of density `jerk`, rad²/s⁵) and updated by
+    /// `e`'s Ω and then its Ω′; the innovations' negative log-likelihood is added to the cost.
+    pub fn step<T: Real>(&self, dt: f64, jerk: f64, e: &Estimate<T>) -> Self {
         let mut w = [0.0; 3];
         for (k, v) in w.iter_mut().enumerate() {
             *v = self.omega[k] + self.domega[k] * dt;
@@ -152,6 +164,11 @@ impl PathChoice {
     /// the sample before the block, [`PathChoice::follow`]) or, without one, from the first
     /// sample's estimates.
     pub fn new(rate_hz: f64, start: Option<PathState>) -> Self {
+        Self::with_jerk(JERK_PER_SAMPLE * rate_hz.max(0.0), start)
+    }
+
+    /// [`PathChoice::new`] with a jerk density (rad²/s⁵) of the caller's (probes).
+    pub fn with_jerk(jerk: f64, start: Option<PathState>) -> Self {
         let mut states = [PathState::default(); PATH_WIDTH];
         let n = match start {
             Some(s) => {
@@ -160,11 +177,7 @@ impl PathChoice {
             }
             None => 0,
         };
-        PathChoice {
-            states,
-            n,
-            jerk: JERK_PER_SAMPLE * rate_hz.max(0.0),
-        }
+        PathChoice { states, n, jerk }
     }
 
     /// One sample: `dt` since the previous one, the forward pass's estimate and the backward

@@ -26,6 +26,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use e2e_tests::nine::{self, Params, Score};
+use estimator_core::path_choice::{self, Links, PathChoice, PathState};
 use estimator_core::smoother::StepRecord;
 use estimator_core::{Estimate, Estimator, Model, Options};
 use hal_sim::arrangement_file::HOST_CAP;
@@ -657,142 +658,42 @@ fn main() {
     }
 }
 
-/// Probe: a beam of two-state (Ω, Ω′) hypotheses over the two passes' choices per row, with
-/// full backtracking. Returns per row which pass (false: forward, true: backward) the best
-/// path takes.
+/// Probe: `estimator_core::path_choice` over the two plain passes, offering the backward pass
+/// wherever the two differ by more than `DTH` combined deviations (default 0: wherever they
+/// differ), with a jerk density of `SJRATE` × rate. Returns per row whether the backward pass
+/// is taken.
 fn beam(fwd: &[Estimate<f64>], bwd: &[Estimate<f64>], t: &[f64]) -> Vec<bool> {
     let rate = 1.0 / (t[1] - t[0]);
     let sj: f64 = std::env::var("SJRATE")
         .ok()
         .and_then(|v| v.parse::<f64>().ok())
-        .unwrap_or(estimator_core::path_choice::JERK_PER_SAMPLE)
+        .unwrap_or(path_choice::JERK_PER_SAMPLE)
         * rate;
-    let use_d = std::env::var_os("NOUSED").is_none();
-    let width: usize = std::env::var("BEAM")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(8);
     let dth: f64 = std::env::var("DTH")
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(0.0);
-    #[derive(Clone, Copy)]
-    struct H {
-        w: [f64; 3],
-        d: [f64; 3],
-        pww: f64,
-        pwd: f64,
-        pdd: f64,
-        cost: f64,
-        from: usize,
-        pick: bool,
-    }
     let n = fwd.len();
-    let var = |e: &Estimate<f64>| e.sd_omega.iter().map(|s| s * s).sum::<f64>() / 3.0;
-    let dvar = |e: &Estimate<f64>| e.sd_domega.iter().map(|s| s * s).sum::<f64>() / 3.0;
-    let mut back: Vec<Vec<(usize, bool)>> = Vec::with_capacity(n);
-    let mut hs = vec![H {
-        w: fwd[0].omega,
-        d: fwd[0].domega,
-        pww: var(&fwd[0]),
-        pwd: 0.0,
-        pdd: dvar(&fwd[0]).max(1.0),
-        cost: 0.0,
-        from: 0,
-        pick: false,
-    }];
-    back.push(vec![(0, false)]);
-    for k in 1..n {
-        let dt = t[k] - t[k - 1];
+    let mut path = PathChoice::with_jerk(sj, None);
+    let mut links = vec![Links::default(); n];
+    for k in 0..n {
+        let dt = if k == 0 { 0.0 } else { t[k] - t[k - 1] };
         let differ = (0..3).any(|i| {
             (fwd[k].omega[i] - bwd[k].omega[i]).abs()
                 > dth * (fwd[k].sd_omega[i].powi(2) + bwd[k].sd_omega[i].powi(2)).sqrt()
         });
-        let cands: Vec<(bool, &Estimate<f64>)> = if differ {
-            vec![(false, &fwd[k]), (true, &bwd[k])]
-        } else {
-            vec![(false, &fwd[k])]
-        };
-        let mut next: Vec<H> = Vec::new();
-        for (hi, h) in hs.iter().enumerate() {
-            // predict
-            let w: [f64; 3] = core::array::from_fn(|i| h.w[i] + h.d[i] * dt);
-            let pww = h.pww + 2.0 * dt * h.pwd + dt * dt * h.pdd + sj * dt * dt * dt / 3.0;
-            let pwd = h.pwd + dt * h.pdd + sj * dt * dt / 2.0;
-            let pdd = h.pdd + sj * dt;
-            for &(pick, e) in &cands {
-                let r = var(e);
-                let s = pww + r;
-                let nu: [f64; 3] = core::array::from_fn(|i| e.omega[i] - w[i]);
-                let nu2: f64 = nu.iter().map(|v| v * v).sum();
-                let mut cost = h.cost + nu2 / s + 3.0 * s.ln();
-                let (kw, kd) = (pww / s, pwd / s);
-                let mut nw: [f64; 3] = core::array::from_fn(|i| w[i] + kw * nu[i]);
-                let mut nd: [f64; 3] = core::array::from_fn(|i| h.d[i] + kd * nu[i]);
-                let mut qww = (1.0 - kw) * pww;
-                let mut qwd = (1.0 - kw) * pwd;
-                let mut qdd = pdd - kd * pwd;
-                if use_d {
-                    // second update by the pass's Ω′
-                    let rd = dvar(e);
-                    let s2 = qdd + rd;
-                    let nu_d: [f64; 3] = core::array::from_fn(|i| e.domega[i] - nd[i]);
-                    cost += nu_d.iter().map(|v| v * v).sum::<f64>() / s2 + 3.0 * s2.ln();
-                    let (gw, gd) = (qwd / s2, qdd / s2);
-                    nw = core::array::from_fn(|i| nw[i] + gw * nu_d[i]);
-                    nd = core::array::from_fn(|i| nd[i] + gd * nu_d[i]);
-                    let (a, b, c) = (qww - gw * qwd, qwd - gw * qdd, qdd - gd * qdd);
-                    qww = a;
-                    qwd = b;
-                    qdd = c;
-                }
-                next.push(H {
-                    w: nw,
-                    d: nd,
-                    pww: qww,
-                    pwd: qwd,
-                    pdd: qdd,
-                    cost,
-                    from: hi,
-                    pick,
-                });
-            }
-        }
-        next.sort_by(|a, b| a.cost.partial_cmp(&b.cost).unwrap());
-        // keep the cheapest `width`, at most width/2 per pick
-        let mut kept: Vec<H> = Vec::new();
-        let mut per = [0usize; 2];
-        for h in next {
-            let p = usize::from(h.pick);
-            if per[p] < width / 2 || (!differ && kept.len() < width) {
-                per[p] += 1;
-                kept.push(h);
-            }
-            if kept.len() >= width {
-                break;
-            }
-        }
-        let base = kept[0].cost;
-        for h in kept.iter_mut() {
-            h.cost -= base;
-        }
-        back.push(kept.iter().map(|h| (h.from, h.pick)).collect());
-        hs = kept;
+        path.step(dt, &fwd[k], differ.then_some(&bwd[k]), &mut links[k]);
     }
     let mut out = vec![false; n];
-    let mut j = 0;
-    for k in (0..n).rev() {
-        let (from, pick) = back[k][j];
-        out[k] = pick;
-        j = from;
-    }
+    PathChoice::decide(&links, &mut out);
     out
 }
 
-/// Probe: the beam over every signed candidate of every row (not only the passes' choices).
-/// `cands[k]`: the candidates of row k with their crossing widening. Returns the chosen
-/// (candidate index, sign) per row and the margin (cost of the best path through another
-/// branch at that row is not computed here).
+/// Probe: the beam over every signed candidate of every row (not only the passes' choices),
+/// each hypothesis a `path_choice::PathState` with jerk density `sj`. `cands[k]`: the
+/// candidates of row k with their crossing widening (added to Ω's variance unless `NOWIDEN`);
+/// `PER` hypotheses per signed candidate, `BEAM` in all; `PASSSIGN=1` only the signs the passes
+/// hold. Returns the chosen (candidate index, sign) per row and the path's total cost.
 fn beam_all(
     cands: &[Vec<(Estimate<f64>, [f64; 3])>],
     t: &[f64],
@@ -800,112 +701,65 @@ fn beam_all(
     sj: f64,
     passes: (&[Estimate<f64>], &[Estimate<f64>]),
 ) -> (Vec<(usize, f64)>, f64) {
-    let signs_from_passes = std::env::var_os("PASSSIGN").is_some();
-    let mut total = 0.0;
-    let width: usize = std::env::var("BEAM")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(16);
-    let per_out: usize = std::env::var("PER")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(2);
-    let widen = std::env::var_os("NOWIDEN").is_none();
-    #[derive(Clone, Copy)]
-    struct H {
-        w: [f64; 3],
-        d: [f64; 3],
-        pww: f64,
-        pwd: f64,
-        pdd: f64,
-        cost: f64,
-        from: usize,
-        pick: (usize, f64),
-    }
-    let n = cands.len();
-    let var = |e: &Estimate<f64>, wd: &[f64; 3]| {
-        e.sd_omega.iter().map(|s| s * s).sum::<f64>() / 3.0
-            + if widen {
-                wd.iter().sum::<f64>() / 3.0
-            } else {
-                0.0
-            }
+    let env = |k: &str, d: usize| {
+        std::env::var(k)
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(d)
     };
-    let dvar = |e: &Estimate<f64>| e.sd_domega.iter().map(|s| s * s).sum::<f64>() / 3.0;
+    let (width, per_out) = (env("BEAM", 16), env("PER", 2));
+    let widen = std::env::var_os("NOWIDEN").is_none();
+    let signs_from_passes = std::env::var_os("PASSSIGN").is_some();
+    // (state, predecessor, candidate and sign)
+    type H = (PathState, usize, (usize, f64));
+    let n = cands.len();
+    let mut total = f64::NAN;
     let mut back: Vec<Vec<(usize, (usize, f64))>> = Vec::with_capacity(n);
     let mut hs: Vec<H> = Vec::new();
     for (k, cs) in cands.iter().enumerate() {
         let dt = if k == 0 { 0.0 } else { t[k] - t[k - 1] };
+        // The signed candidates of this row as estimates (sd widened).
+        let mut signed = Vec::new();
+        for (ci, (e, wd)) in cs.iter().enumerate() {
+            for sg in [1.0, -1.0] {
+                let mut z = *e;
+                z.omega = e.omega.map(|v| sg * v);
+                if widen {
+                    z.sd_omega = core::array::from_fn(|i| (e.sd_omega[i].powi(2) + wd[i]).sqrt());
+                }
+                let along =
+                    |p: &Estimate<f64>| (0..3).map(|i| z.omega[i] * p.omega[i]).sum::<f64>();
+                if signs_from_passes && along(&passes.0[k]) < 0.0 && along(&passes.1[k]) < 0.0 {
+                    continue;
+                }
+                signed.push(((ci, sg), z));
+            }
+        }
         let mut next: Vec<H> = Vec::new();
         if hs.is_empty() {
-            for (ci, (e, wd)) in cs.iter().enumerate() {
-                for sg in [1.0, -1.0] {
-                    let w = e.omega.map(|v| sg * v);
-                    let nu2: f64 = (0..3).map(|i| (w[i] - hint[i]).powi(2)).sum();
-                    next.push(H {
-                        w,
-                        d: e.domega,
-                        pww: var(e, wd),
-                        pwd: 0.0,
-                        pdd: dvar(e).max(1.0),
-                        cost: nu2 / (1e-4 + var(e, wd)),
-                        from: 0,
-                        pick: (ci, sg),
-                    });
-                }
+            for &(pick, z) in &signed {
+                let mut s = PathState::at(&z);
+                // The hint (the record's initial rate) as one more measurement of Ω at the
+                // start, to 0.01 rad/s.
+                let hinted = Estimate {
+                    omega: hint,
+                    sd_omega: [1e-2; 3],
+                    sd_domega: [1e3; 3],
+                    ..z
+                };
+                s = s.step(0.0, 0.0, &hinted);
+                next.push((s, 0, pick));
             }
         }
         for (hi, h) in hs.iter().enumerate() {
-            let w: [f64; 3] = core::array::from_fn(|i| h.w[i] + h.d[i] * dt);
-            let pww = h.pww + 2.0 * dt * h.pwd + dt * dt * h.pdd + sj * dt * dt * dt / 3.0;
-            let pwd = h.pwd + dt * h.pdd + sj * dt * dt / 2.0;
-            let pdd = h.pdd + sj * dt;
-            for (ci, (e, wd)) in cs.iter().enumerate() {
-                for sg in [1.0, -1.0] {
-                    let z = e.omega.map(|v| sg * v);
-                    if signs_from_passes {
-                        let dotf: f64 = (0..3).map(|i| z[i] * passes.0[k].omega[i]).sum();
-                        let dotb: f64 = (0..3).map(|i| z[i] * passes.1[k].omega[i]).sum();
-                        if dotf < 0.0 && dotb < 0.0 {
-                            continue;
-                        }
-                    }
-                    let r = var(e, wd);
-                    let s = pww + r;
-                    let nu: [f64; 3] = core::array::from_fn(|i| z[i] - w[i]);
-                    let nu2: f64 = nu.iter().map(|v| v * v).sum();
-                    let mut cost = h.cost + nu2 / s + 3.0 * s.ln();
-                    let (kw, kd) = (pww / s, pwd / s);
-                    let mut nw: [f64; 3] = core::array::from_fn(|i| w[i] + kw * nu[i]);
-                    let mut nd: [f64; 3] = core::array::from_fn(|i| h.d[i] + kd * nu[i]);
-                    let qww = (1.0 - kw) * pww;
-                    let qwd = (1.0 - kw) * pwd;
-                    let qdd = pdd - kd * pwd;
-                    let rd = dvar(e);
-                    let s2 = qdd + rd;
-                    let nu_d: [f64; 3] = core::array::from_fn(|i| e.domega[i] - nd[i]);
-                    cost += nu_d.iter().map(|v| v * v).sum::<f64>() / s2 + 3.0 * s2.ln();
-                    let (gw, gd) = (qwd / s2, qdd / s2);
-                    nw = core::array::from_fn(|i| nw[i] + gw * nu_d[i]);
-                    nd = core::array::from_fn(|i| nd[i] + gd * nu_d[i]);
-                    next.push(H {
-                        w: nw,
-                        d: nd,
-                        pww: qww - gw * qwd,
-                        pwd: qwd - gw * qdd,
-                        pdd: qdd - gd * qdd,
-                        cost,
-                        from: hi,
-                        pick: (ci, sg),
-                    });
-                }
+            for &(pick, z) in &signed {
+                next.push((h.0.step(dt, sj, &z), hi, pick));
             }
         }
-        next.sort_by(|a, b| a.cost.partial_cmp(&b.cost).unwrap());
+        next.sort_by(|a, b| a.0.cost().total_cmp(&b.0.cost()));
         let mut kept: Vec<H> = Vec::new();
         for h in next {
-            let same = kept.iter().filter(|k| k.pick == h.pick).count();
-            if same < per_out {
+            if kept.iter().filter(|k| k.2 == h.2).count() < per_out {
                 kept.push(h);
             }
             if kept.len() >= width {
@@ -913,16 +767,11 @@ fn beam_all(
             }
         }
         if kept.is_empty() {
-            // no candidate: carry every hypothesis by prediction
-            back.push(hs.iter().enumerate().map(|(i, h)| (i, h.pick)).collect());
+            back.push(hs.iter().enumerate().map(|(i, h)| (i, h.2)).collect());
             continue;
         }
-        let base = kept[0].cost;
-        total += base;
-        for h in kept.iter_mut() {
-            h.cost -= base;
-        }
-        back.push(kept.iter().map(|h| (h.from, h.pick)).collect());
+        total = kept[0].0.cost();
+        back.push(kept.iter().map(|h| (h.1, h.2)).collect());
         hs = kept;
     }
     let mut out = vec![(0, 1.0); n];
