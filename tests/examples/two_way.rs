@@ -14,10 +14,11 @@
 //! combined deviations; "bridge": a cubic Hermite bridge across each stretch from `NB` rows on
 //! either side; "beam": a beam of (Ω, Ω′) filters over the plain passes' choices, decided over
 //! the whole record — `estimator_core::path_choice` applied to the plain passes, `SJRATE` its
-//! jerk density per sample rate, `NOUSED=1` without the Ω′ update; "beam all": the same over
+//! jerk density per sample rate, `DTH` as for "split" (default 0); "beam all": the same over
 //! every signed candidate of every sample, `SJ` its jerk density (default: a grid, the cheapest
-//! path's), `PASSSIGN=1` only the signs the passes hold, `BWIN=SAMPLES` its Ω RMS per window).
-//! `WIN=SAMPLES` prints the Ω
+//! path's), `PASSSIGN=1` only the signs the passes hold, `HYBRID=1` every candidate only where
+//! the passes offer `path_choice` a choice and the margin rule's pass elsewhere, `BWIN=SAMPLES`
+//! its Ω RMS per window). `WIN=SAMPLES` prints the Ω
 //! RMS of each per window, `RANGE=T0,T1` the rows where the plain passes differ, `DUMP=1` the
 //! silently wrong rows of the two-way output, `TRUTHSTART=1` starts the backward pass at the
 //! truth.
@@ -28,6 +29,7 @@
 use e2e_tests::nine::{self, Params, Score};
 use estimator_core::path_choice::{self, Links, PathChoice, PathState};
 use estimator_core::smoother::StepRecord;
+use estimator_core::two_way;
 use estimator_core::{Estimate, Estimator, Model, Options};
 use hal_sim::arrangement_file::HOST_CAP;
 
@@ -590,6 +592,9 @@ fn main() {
     let beam_all_pick: Vec<Estimate<f64>> = (0..n)
         .map(|k| {
             let (c, sg) = picks_all[k];
+            if c == usize::MAX {
+                return *two_way::by_margin(&fwd[k], &bwd[k]);
+            }
             match all[k].get(c) {
                 Some((e, _)) => {
                     let mut e = *e;
@@ -710,6 +715,7 @@ fn beam_all(
     let (width, per_out) = (env("BEAM", 16), env("PER", 2));
     let widen = std::env::var_os("NOWIDEN").is_none();
     let signs_from_passes = std::env::var_os("PASSSIGN").is_some();
+    let hybrid = std::env::var_os("HYBRID").is_some();
     // (state, predecessor, candidate and sign)
     type H = (PathState, usize, (usize, f64));
     let n = cands.len();
@@ -720,7 +726,14 @@ fn beam_all(
         let dt = if k == 0 { 0.0 } else { t[k] - t[k - 1] };
         // The signed candidates of this row as estimates (sd widened).
         let mut signed = Vec::new();
+        let (pf, pb) = (&passes.0[k], &passes.1[k]);
+        if hybrid && !two_way::offers_choice(pf, pb) {
+            signed.push(((usize::MAX, 1.0), *two_way::by_margin(pf, pb)));
+        }
         for (ci, (e, wd)) in cs.iter().enumerate() {
+            if hybrid && !signed.is_empty() {
+                break;
+            }
             for sg in [1.0, -1.0] {
                 let mut z = *e;
                 z.omega = e.omega.map(|v| sg * v);
