@@ -223,11 +223,20 @@ impl<T: Real> HostEstimator<T> {
                 .push(t_end - self.times[k], p, |e| scratch.push(e));
         }
         self.backward.finish(|e| scratch.push(e));
-        self.choose_path(n, block);
+        let rate = self.choose_path(n);
+        let mut taken = Vec::with_capacity(if rate.is_some() { block } else { 0 });
         for (k, (t, fwd)) in self.times.iter().zip(&self.decided).take(block).enumerate() {
             let bwd = two_way::reversed(&self.scratch[n - 1 - k]);
-            emit(*t, &two_way::combine_taking(fwd, &bwd, Some(self.takes[k])));
+            let out = two_way::combine_taking(fwd, &bwd, Some(self.takes[k]));
+            emit(*t, &out);
+            if rate.is_some() {
+                taken.push((*t, out));
+            }
         }
+        // The path's state after the emitted samples, for the next block's beam; without a
+        // choice in this block the next starts afresh.
+        self.path =
+            rate.and_then(|r| PathChoice::follow(r, self.path, taken.iter().map(|(t, e)| (*t, e))));
         self.times.drain(..block);
         self.readings.drain(..block * self.channels);
         self.decided.drain(..block);
@@ -236,25 +245,23 @@ impl<T: Real> HostEstimator<T> {
 
 impl<T: Real> HostEstimator<T> {
     /// Decides which pass each of the `n` held samples takes ([`estimator_core::path_choice`],
-    /// over the block and its run-in) into `takes`, and carries the path's state past the
-    /// first `block` of them.
-    fn choose_path(&mut self, n: usize, block: usize) {
+    /// over the block and its run-in) into `takes`; the sample rate it assumed, or `None` if no
+    /// sample offered a choice (model G, or no crossing in the block: every sample then takes
+    /// [`two_way::combine`]'s pass).
+    fn choose_path(&mut self, n: usize) -> Option<f64> {
         let times = self.times.make_contiguous();
+        let backward = |k: usize| two_way::reversed(&self.scratch[n - 1 - k]);
+        self.takes.clear();
+        self.takes.resize(n, false);
+        if !(0..n).any(|k| two_way::offers_choice(&self.decided[k], &backward(k))) {
+            return None;
+        }
         let span = times[n - 1] - times[0];
         let rate = if n > 1 && span > 0.0 {
             (n - 1) as f64 / span
         } else {
             0.0
         };
-        let backward = |k: usize| two_way::reversed(&self.scratch[n - 1 - k]);
-        self.takes.clear();
-        self.takes.resize(n, false);
-        if !(0..n).any(|k| two_way::offers_choice(&self.decided[k], &backward(k))) {
-            // Nothing to choose (model G, or no crossing in the block): every sample takes
-            // [`two_way::combine`]'s pass, and the next block's path starts afresh.
-            self.path = None;
-            return;
-        }
         let mut beam = PathChoice::new(rate, self.path.map(|(_, s)| s));
         self.links.clear();
         self.links.resize(n, Links::default());
@@ -265,27 +272,12 @@ impl<T: Real> HostEstimator<T> {
             if two_way::offers_choice(fwd, &bwd) {
                 beam.step(dt, fwd, Some(&bwd), &mut self.links[k]);
             } else {
-                beam.step(dt, two_way::by_margin(fwd, &bwd), None, &mut self.links[k]);
+                beam.step(dt, &two_way::combine(fwd, &bwd), None, &mut self.links[k]);
             }
             last = Some(*t);
         }
         PathChoice::decide(&self.links, &mut self.takes);
-        let taken: Vec<(f64, Estimate<T>)> = (0..block)
-            .map(|k| {
-                let (fwd, bwd) = (&self.decided[k], backward(k));
-                let e = if two_way::offers_choice(fwd, &bwd) {
-                    if self.takes[k] {
-                        bwd
-                    } else {
-                        *fwd
-                    }
-                } else {
-                    *two_way::by_margin(fwd, &bwd)
-                };
-                (times[k], e)
-            })
-            .collect();
-        self.path = PathChoice::follow(rate, self.path, taken.iter().map(|(t, e)| (*t, e)));
+        Some(rate)
     }
 }
 

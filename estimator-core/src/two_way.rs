@@ -86,24 +86,6 @@ pub fn offers_choice<T: Real>(forward: &Estimate<T>, backward: &Estimate<T>) -> 
         && (forward.branch_margin - backward.branch_margin).abs() < T::of(SIGN_MARGIN)
 }
 
-/// The estimate [`combine`] takes where the sample offers no choice: the pass with the larger
-/// branch margin (the forward one if a pass cannot be used or the margins are equal).
-pub fn by_margin<'a, T: Real>(
-    forward: &'a Estimate<T>,
-    backward: &'a Estimate<T>,
-) -> &'a Estimate<T> {
-    let usable =
-        !forward.flags.has(Flags::INPUT_INVALID) && !backward.flags.has(Flags::INPUT_INVALID);
-    if usable
-        && !opposite_signs(forward, backward)
-        && backward.branch_margin > forward.branch_margin
-    {
-        backward
-    } else {
-        forward
-    }
-}
-
 /// One sample's decision from its forward estimate and its backward one (already
 /// [`reversed`]): the estimate of the direction with the larger branch margin, with the
 /// combined margin and [`Flags::BRANCH_AMBIGUOUS`] set exactly when it is below the sign
@@ -209,7 +191,6 @@ mod tests {
         b.branch_margin = 80.0;
         assert!(!offers_choice(&f, &b));
         assert_eq!(combine_taking(&f, &b, Some(false)).omega, b.omega);
-        assert_eq!(by_margin(&f, &b).omega, b.omega);
         // Opposite signs are the sign rule's, not the path's.
         b.branch_margin = 60.0;
         b.omega = [-1.0, 0.0, 0.0];

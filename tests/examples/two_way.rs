@@ -593,7 +593,7 @@ fn main() {
         .map(|k| {
             let (c, sg) = picks_all[k];
             if c == usize::MAX {
-                return *two_way::by_margin(&fwd[k], &bwd[k]);
+                return two_way::combine(&fwd[k], &bwd[k]);
             }
             match all[k].get(c) {
                 Some((e, _)) => {
@@ -728,7 +728,7 @@ fn beam_all(
         let mut signed = Vec::new();
         let (pf, pb) = (&passes.0[k], &passes.1[k]);
         if hybrid && !two_way::offers_choice(pf, pb) {
-            signed.push(((usize::MAX, 1.0), *two_way::by_margin(pf, pb)));
+            signed.push(((usize::MAX, 1.0), two_way::combine(pf, pb)));
         }
         for (ci, (e, wd)) in cs.iter().enumerate() {
             if hybrid && !signed.is_empty() {
