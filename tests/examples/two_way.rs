@@ -17,7 +17,8 @@
 //! jerk density per sample rate, `DTH` as for "split" (default 0); "beam all": the same over
 //! every signed candidate of every sample, `SJ` its jerk density (default: a grid, the cheapest
 //! path's), `PASSSIGN=1` only the signs the passes hold, `HYBRID=1` every candidate only where
-//! the passes offer `path_choice` a choice and the margin rule's pass elsewhere, `BWIN=SAMPLES`
+//! the passes offer `path_choice` a choice and the margin rule's pass elsewhere, `HINTSD` the
+//! start hint's deviation (default 0.01 rad/s), `BWIN=SAMPLES`
 //! its Ω RMS per window). `WIN=SAMPLES` prints the Ω
 //! RMS of each per window, `RANGE=T0,T1` the rows where the plain passes differ, `DUMP=1` the
 //! silently wrong rows of the two-way output, `TRUTHSTART=1` starts the backward pass at the
@@ -753,10 +754,13 @@ fn beam_all(
             for &(pick, z) in &signed {
                 let mut s = PathState::at(&z);
                 // The hint (the record's initial rate) as one more measurement of Ω at the
-                // start, to 0.01 rad/s.
+                // start, to `HINTSD` rad/s.
                 let hinted = Estimate {
                     omega: hint,
-                    sd_omega: [1e-2; 3],
+                    sd_omega: [std::env::var("HINTSD")
+                        .ok()
+                        .and_then(|v| v.parse().ok())
+                        .unwrap_or(1e-2); 3],
                     sd_domega: [1e3; 3],
                     ..z
                 };
