@@ -10,7 +10,7 @@ use ballisto_link::decode::{decode, Decoded, Report};
 use ballisto_link::framing::{max_encoded_len, Deframed, Deframer};
 use ballisto_link::ids::TC_MAX;
 use ballisto_link::{
-    subtype, CalibrationSource, EventId, Housekeeping, Mode, ModelCode, PartState, ResetCause,
+    subtype, BootEvent, CalibrationSource, EventId, Housekeeping, Mode, ModelCode, PartState,
 };
 
 /// Extra columns of the decoded estimates file, after the estimates-file columns.
@@ -180,19 +180,16 @@ pub fn log_line(p: &Decoded, time_offset: f64) -> Option<String> {
                     format!("parts={:#04x} channels_out={:#08x}", e.a, e.b)
                 }
                 EventId::Boot => {
-                    let format = e.a >> 24;
-                    let version = format!(
-                        "version={}.{}.{}",
-                        (e.a >> 16) & 0xFF,
-                        (e.a >> 8) & 0xFF,
-                        e.a & 0xFF
-                    );
-                    if format >= 2 {
+                    let boot = BootEvent::from_words(e.a, e.b);
+                    let [major, minor, patch] = boot.version;
+                    let version = format!("version={major}.{minor}.{patch}");
+                    if boot.format >= 2 {
                         format!(
-                            "{version} channels={} format={format} boot={} reset={}",
-                            e.b & 0xFF,
-                            e.b >> 16,
-                            reset_cause_name((e.b >> 8) & 0xFF)
+                            "{version} channels={} format={} boot={} reset={}",
+                            boot.channels,
+                            boot.format,
+                            boot.count,
+                            boot.cause.name()
                         )
                     } else {
                         format!("{version} channels={}", e.b)
@@ -286,12 +283,7 @@ fn housekeeping_text(h: &Housekeeping) -> String {
         None => s.push_str(" | calibration unknown (layout before issue 16)"),
     }
     if let Some((boot, time)) = h.boot {
-        let _ = write!(
-            s,
-            " | boot {} reset={}",
-            boot.count,
-            reset_cause_name(u32::from(boot.cause as u8))
-        );
+        let _ = write!(s, " | boot {} reset={}", boot.count, boot.cause.name());
         if time.set {
             let _ = write!(s, " | time boot_at={:.6}", time.epoch_seconds());
         } else {
@@ -299,21 +291,6 @@ fn housekeeping_text(h: &Housekeeping) -> String {
         }
     }
     s
-}
-
-/// The name of a reset cause code (housekeeping, boot event).
-fn reset_cause_name(code: u32) -> &'static str {
-    match u8::try_from(code)
-        .ok()
-        .and_then(|c| ResetCause::try_from(c).ok())
-    {
-        Some(ResetCause::PowerOn) => "power-on",
-        Some(ResetCause::Pin) => "pin",
-        Some(ResetCause::Software) => "software",
-        Some(ResetCause::Watchdog) => "watchdog",
-        Some(ResetCause::Other) => "other",
-        Some(ResetCause::Unknown) | None => "unknown",
-    }
 }
 
 /// `ballisto decode`: reads `input`, writes the estimates to `out` and the log to `log` (or

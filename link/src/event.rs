@@ -1,6 +1,7 @@
 //! Event reports, TM[5,x]: the subtype is the severity.
 
 use crate::codec::Put;
+use crate::housekeeping::ResetCause;
 
 /// Event identifiers (TM[5,x]); the subtype is the severity.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -87,6 +88,60 @@ impl EventId {
     }
 }
 
+/// The boot event's two words ([`EventId::Boot`]), packed by the firmware and unpacked by the
+/// ground segment with the same code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BootEvent {
+    /// Telemetry format ([`crate::ids::FORMAT_VERSION`]; 0 in streams before format 2).
+    pub format: u8,
+    /// Software version: major, minor, patch.
+    pub version: [u8; 3],
+    /// Channels of the arrangement in use.
+    pub channels: u8,
+    /// Why the unit reset (format 2; [`ResetCause::Unknown`] before it).
+    pub cause: ResetCause,
+    /// Boots since power-on, this one included, at most 65 535 (format 2; 0 before it;
+    /// housekeeping carries the whole count).
+    pub count: u16,
+}
+
+impl BootEvent {
+    /// The event's words `a` and `b`: `a` = format·2²⁴ + major·2¹⁶ + minor·2⁸ + patch, `b` =
+    /// count·2¹⁶ + cause·2⁸ + channels.
+    pub fn words(&self) -> (u32, u32) {
+        let [major, minor, patch] = self.version;
+        (
+            u32::from_be_bytes([self.format, major, minor, patch]),
+            (u32::from(self.count) << 16) | ((self.cause as u32) << 8) | u32::from(self.channels),
+        )
+    }
+
+    /// The boot event of words `a` and `b`, in the layout of the format `a` names (before
+    /// format 2, `b` is the channels alone). An unknown reset cause decodes as
+    /// [`ResetCause::Unknown`].
+    pub fn from_words(a: u32, b: u32) -> Self {
+        let [format, major, minor, patch] = a.to_be_bytes();
+        let [count_hi, count_lo, cause, channels] = b.to_be_bytes();
+        if format >= 2 {
+            BootEvent {
+                format,
+                version: [major, minor, patch],
+                channels,
+                cause: ResetCause::try_from(cause).unwrap_or_default(),
+                count: u16::from_be_bytes([count_hi, count_lo]),
+            }
+        } else {
+            BootEvent {
+                format,
+                version: [major, minor, patch],
+                channels: u8::try_from(b).unwrap_or(u8::MAX),
+                cause: ResetCause::Unknown,
+                count: 0,
+            }
+        }
+    }
+}
+
 /// An event report (TM[5,x]): identifier and two auxiliary words.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Event {
@@ -107,5 +162,33 @@ impl Event {
         let mut p = Put::new(out);
         p.u16(self.id as u16).u32(self.a).u32(self.b);
         p.finish()
+    }
+}
+
+#[cfg(test)]
+mod boot_event_tests {
+    use super::*;
+
+    #[test]
+    fn the_boot_event_round_trips_and_reads_the_older_layout() {
+        let e = BootEvent {
+            format: 2,
+            version: [1, 4, 7],
+            channels: 12,
+            cause: ResetCause::Software,
+            count: 2,
+        };
+        let (a, b) = e.words();
+        assert_eq!((a, b), (0x0201_0407, 0x0002_030C));
+        assert_eq!(BootEvent::from_words(a, b), e);
+        // Format 1: `b` is the channels alone, no count or cause.
+        let old = BootEvent::from_words(0x0001_0407, 24);
+        assert_eq!((old.format, old.channels, old.count), (0, 24, 0));
+        assert_eq!(old.cause, ResetCause::Unknown);
+        // A cause this decoder does not know.
+        assert_eq!(
+            BootEvent::from_words(a, 0x0002_FF0C).cause,
+            ResetCause::Unknown
+        );
     }
 }

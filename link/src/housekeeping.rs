@@ -96,6 +96,20 @@ pub enum ResetCause {
     Other = 5,
 }
 
+impl ResetCause {
+    /// The name used in decoded logs.
+    pub fn name(self) -> &'static str {
+        match self {
+            ResetCause::Unknown => "unknown",
+            ResetCause::PowerOn => "power-on",
+            ResetCause::Pin => "pin",
+            ResetCause::Software => "software",
+            ResetCause::Watchdog => "watchdog",
+            ResetCause::Other => "other",
+        }
+    }
+}
+
 impl TryFrom<u8> for ResetCause {
     type Error = u8;
 

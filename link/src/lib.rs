@@ -39,7 +39,7 @@ pub mod telecommand;
 pub mod tm;
 pub mod verification;
 
-pub use event::{Event, EventId};
+pub use event::{BootEvent, Event, EventId};
 pub use housekeeping::{
     BootInfo, CalibrationId, CalibrationSource, Housekeeping, LoopCounters, PartCounters,
     PartState, ResetCause, TimeCorrelation,

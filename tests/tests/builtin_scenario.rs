@@ -15,7 +15,7 @@ use ballisto_fw::sampler::{HealthBoard, SampleSet};
 use ballisto_fw::telemetry::Telemetry;
 use ballisto_fw::time::{Nanos, TimeBase};
 use ballisto_link::decode::Report;
-use ballisto_link::{BootInfo, EventId, FailureCode, MotionReport, ResetCause};
+use ballisto_link::{BootEvent, BootInfo, EventId, FailureCode, MotionReport, ResetCause};
 use embassy_futures::join::join;
 use embassy_futures::select::select;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
@@ -263,7 +263,7 @@ fn qemu_stream_matches_the_host_run() {
     // And counted its boots as the host did: the second since power-on, by its own reset.
     let boot = |s: &Stream| {
         let event = s.packets.iter().find_map(|p| match &p.report {
-            Report::Event(e) if e.id == EventId::Boot => Some((e.a >> 24, e.b >> 8)),
+            Report::Event(e) if e.id == EventId::Boot => Some(BootEvent::from_words(e.a, e.b)),
             _ => None,
         });
         let hk = s.packets.iter().find_map(|p| match &p.report {
@@ -274,20 +274,15 @@ fn qemu_stream_matches_the_host_run() {
     };
     let q = boot(&qemu);
     assert_eq!(q, boot(&host));
+    let event = q.0.expect("QEMU boot event");
     assert_eq!(
-        q.0,
-        Some((
-            u32::from(ballisto_link::FORMAT_VERSION),
-            (2 << 8) | ResetCause::Software as u32
-        ))
+        (event.format, event.count, event.cause),
+        (ballisto_link::FORMAT_VERSION, 2, ResetCause::Software)
     );
-    if let Some((format, b)) = q.0 {
-        println!(
-            "QEMU: telemetry format {format}, boot {} since power-on, reset cause {}",
-            b >> 8,
-            b & 0xFF
-        );
-    }
+    println!(
+        "QEMU: telemetry format {}, boot {} since power-on, reset cause {}",
+        event.format, event.count, event.cause as u8
+    );
 }
 
 /// The scenario's store → reset → boot: the first boot, on an erased store, runs the built-in

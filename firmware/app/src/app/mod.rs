@@ -21,7 +21,8 @@ mod uplink;
 
 use ballisto_link::telecommand::{self, Accepted, Context};
 use ballisto_link::{
-    subtype, BootInfo, CalibrationId, EventId, PartState, TimeCorrelation, FORMAT_VERSION,
+    subtype, BootEvent, BootInfo, CalibrationId, EventId, PartState, TimeCorrelation,
+    FORMAT_VERSION,
 };
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embedded_io_async::Write;
@@ -158,13 +159,16 @@ impl App {
     /// the reset cause and the boot count) and a first housekeeping report.
     pub async fn boot<W: Write>(&mut self, t: Nanos, tm: &mut Telemetry<W>) {
         let [a, b, c] = VERSION;
-        let version = (u32::from(FORMAT_VERSION) << 24)
-            | (u32::from(a) << 16)
-            | (u32::from(b) << 8)
-            | u32::from(c);
-        let channels = self.estimation.channels() as u32;
+        let channels = self.estimation.channels();
         let BootInfo { count, cause } = self.boot_info;
-        let boot = (count.min(0xFFFF) << 16) | ((cause as u32) << 8) | channels;
+        let (version, boot) = BootEvent {
+            format: FORMAT_VERSION,
+            version: VERSION,
+            channels: u8::try_from(channels).unwrap_or(u8::MAX),
+            cause,
+            count: u16::try_from(count).unwrap_or(u16::MAX),
+        }
+        .words();
         info!(
             "boot {} since power-on ({:?}): version {}.{}.{}, {} channels, model {:?}",
             count,
