@@ -126,20 +126,17 @@ fn innovation_cost(nu: &[f64; 3], s: f64) -> f64 {
 
 /// Mean per-axis variance of an estimate's Ω.
 fn omega_var<T: Real>(e: &Estimate<T>) -> f64 {
-    e.sd_omega
-        .iter()
-        .map(|s| s.to_f64() * s.to_f64())
-        .sum::<f64>()
-        / 3.0
+    mean_square(&e.sd_omega)
 }
 
 /// Mean per-axis variance of an estimate's Ω′.
 fn domega_var<T: Real>(e: &Estimate<T>) -> f64 {
-    e.sd_domega
-        .iter()
-        .map(|s| s.to_f64() * s.to_f64())
-        .sum::<f64>()
-        / 3.0
+    mean_square(&e.sd_domega)
+}
+
+/// The mean of the squares of three deviations.
+fn mean_square<T: Real>(sd: &[T; 3]) -> f64 {
+    sd.iter().map(|s| s.to_f64() * s.to_f64()).sum::<f64>() / 3.0
 }
 
 /// One sample's links of the beam: per kept hypothesis, its predecessor at the previous sample
