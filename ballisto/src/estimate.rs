@@ -132,7 +132,9 @@ pub struct HostEstimator<T: Real> {
     scratch: Vec<Estimate<T>>,
     /// The path's state after the last emitted sample ([`estimator_core::path_choice`]).
     path: Option<(f64, PathState)>,
-    /// The path's links per sample of a block, and its decisions (reused).
+    /// Per sample of a block: whether it offers the path a choice, the path's links and its
+    /// decisions (reused).
+    offers: Vec<bool>,
     links: Vec<Links>,
     takes: Vec<bool>,
 }
@@ -153,6 +155,7 @@ impl<T: Real> HostEstimator<T> {
             decided: Default::default(),
             scratch: Vec::new(),
             path: None,
+            offers: Vec::new(),
             links: Vec::new(),
             takes: Vec::new(),
         })
@@ -241,9 +244,7 @@ impl<T: Real> HostEstimator<T> {
         self.readings.drain(..block * self.channels);
         self.decided.drain(..block);
     }
-}
 
-impl<T: Real> HostEstimator<T> {
     /// Decides which pass each of the `n` held samples takes ([`estimator_core::path_choice`],
     /// over the block and its run-in) into `takes`; the sample rate it assumed, or `None` if no
     /// sample offered a choice (model G, or no crossing in the block: every sample then takes
@@ -253,7 +254,10 @@ impl<T: Real> HostEstimator<T> {
         let backward = |k: usize| two_way::reversed(&self.scratch[n - 1 - k]);
         self.takes.clear();
         self.takes.resize(n, false);
-        if !(0..n).any(|k| two_way::offers_choice(&self.decided[k], &backward(k))) {
+        self.offers.clear();
+        self.offers
+            .extend((0..n).map(|k| two_way::offers_choice(&self.decided[k], &backward(k))));
+        if !self.offers.contains(&true) {
             return None;
         }
         let span = times[n - 1] - times[0];
@@ -269,7 +273,7 @@ impl<T: Real> HostEstimator<T> {
         for (k, (t, fwd)) in times.iter().zip(&self.decided).take(n).enumerate() {
             let bwd = backward(k);
             let dt = last.map_or(0.0, |l| t - l);
-            if two_way::offers_choice(fwd, &bwd) {
+            if self.offers[k] {
                 beam.step(dt, fwd, Some(&bwd), &mut self.links[k]);
             } else {
                 beam.step(dt, &two_way::combine(fwd, &bwd), None, &mut self.links[k]);

@@ -58,11 +58,6 @@ impl PathState {
         self.cost
     }
 
-    /// The filtered Ω.
-    pub fn omega(&self) -> [f64; 3] {
-        self.omega
-    }
-
     /// A state at an estimate (its Ω and Ω′ with their variances), at cost 0.
     pub fn at<T: Real>(e: &Estimate<T>) -> Self {
         PathState {

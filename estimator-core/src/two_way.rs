@@ -70,8 +70,8 @@ fn opposite_signs<T: Real>(forward: &Estimate<T>, backward: &Estimate<T>) -> boo
 /// usable, the sample solved to more than one real branch (model F with m = 3 near a crossing:
 /// elsewhere, model G for one, there is no root to choose), the passes on different roots (their
 /// `a` differ: the passes solve the same sample alike, so one root gives both the same `a`), not
-/// of opposite signs (the sign is
-/// [`combine`]'s to decide), and their branch margins within [`SIGN_MARGIN`] of each other:
+/// of opposite signs (the sign is [`combine`]'s to decide), and their branch margins within
+/// [`SIGN_MARGIN`] of each other:
 /// where one pass has that much more evidence, [`combine`] follows it (and the sample is not
 /// flagged); where neither has, the margins are no guide (after a crossing both sit at the
 /// tracker's step cap, whichever root they hold) and the sample is flagged whichever pass it
