@@ -42,6 +42,7 @@ pub mod estimator;
 pub mod frame_uncertainty;
 pub mod identify;
 pub mod linalg;
+pub mod parity;
 pub mod path_choice;
 pub mod real;
 pub mod smoother;

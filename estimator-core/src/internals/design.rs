@@ -490,7 +490,7 @@ fn sandwich<const R: usize, const C: usize>(k: &[[f64; C]; R], c: &[[f64; C]; C]
 
 /// Row of paper eq. (11) for a channel with axis `s` and position `r` (same frame):
 /// `[s; R × s; s∘R]` (σ0, Ω′, d).
-fn design_row(s: &[f64; 3], r: &[f64; 3]) -> [f64; MAX_COLS] {
+pub(crate) fn design_row(s: &[f64; 3], r: &[f64; 3]) -> [f64; MAX_COLS] {
     let rxs = cross(r, s);
     [
         s[0],
