@@ -39,6 +39,7 @@ pub mod arrangement;
 pub mod error;
 pub mod estimate;
 pub mod estimator;
+pub mod fault_monitor;
 pub mod frame_uncertainty;
 pub mod identify;
 pub mod linalg;

@@ -1,0 +1,427 @@
+//! Fault detection, isolation and re-admission over a window (issue 17), on the parity space of
+//! [`crate::parity`].
+//!
+//! Per sample set the parity space gives `χ²` (`ν = N − 12` degrees of freedom) and, per part,
+//! the residual without it (`ν_p = ν − |S_p|`). The monitor sums each over an exponential
+//! window of `τ` samples (`λ = 1 − 1/τ`): a bias too small to see in one sample (3 σ of one
+//! reading) or a slow drift adds up over the window. The sum of `χ²_ν` weighted by `λᵏ` is
+//! taken as `g χ²_h` with `g = 1/(1+λ)`, `h = ν (1+λ)/(1−λ)` (Satterthwaite: same mean and
+//! variance), and its limit is the `1 − α` point of that, by Wilson–Hilferty, for the chosen
+//! false-alarm probability `α` per sample ([`Settings::false_alarm`]).
+//!
+//! - **Detected**: the window's `χ²` above its limit.
+//! - **Isolated**: then exactly one part whose removal leaves the window's residual below its
+//!   own limit, for `τ/10` sets in a row (early in a fault the window cannot yet tell some
+//!   parts apart: the first part to look alone is not always the one) (a fault the layout cannot attribute — two parts that can stand in for each
+//!   other, two faults at once, a part whose removal leaves no redundancy — is reported as
+//!   [`Verdict::NotIsolated`]). The part stays isolated while the window stays high.
+//! - **Re-admitted**: after the window's `χ²` has been below its limit for `τ` samples in a
+//!   row (the monitor tests every channel, the isolated part's included, whatever the estimator
+//!   uses). Each window sum is capped at twice its limit `L`, so that a gross fault is
+//!   forgotten `τ ln((2L − μ)/(L − μ))` samples after its end (μ = `ντ`, the clean mean: 1.9 τ
+//!   at ν = 6, α = 10⁻⁶), and re-admission follows `τ` later.
+//!
+//! Cost per sample: [`crate::parity::Parity::evaluate`] plus two multiply–adds per part.
+
+use crate::parity::Parity;
+use crate::real::Real;
+
+/// How the monitor decides.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// The window's time constant, s.
+    pub window_s: f64,
+    /// The probability per sample that the fault-free window exceeds its limit.
+    pub false_alarm: f64,
+}
+
+impl Default for Settings {
+    /// A 1 s window (a 3 σ bias of one reading is seen within it at N = 18) and `α = 10⁻⁶`.
+    fn default() -> Self {
+        Settings {
+            window_s: 1.0,
+            false_alarm: 1e-6,
+        }
+    }
+}
+
+/// What the monitor says after a sample set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Verdict {
+    /// No test is possible: no parity space (model F, or too few channels for a residual).
+    NoTest,
+    /// The window is consistent.
+    Clean,
+    /// The window is inconsistent and no single part explains it (or several could).
+    NotIsolated,
+    /// This part is isolated: without it the window is consistent, without any other it is not.
+    Isolated(u8),
+}
+
+/// Window sums are capped at this multiple of their limit (bounds the memory of a gross
+/// fault: see the module's doc).
+const CAP_FACTOR: f64 = 2.0;
+
+/// The detection, isolation and re-admission state.
+#[derive(Clone)]
+pub struct FaultMonitor<T, const CAP: usize> {
+    settings: Settings,
+    rate_hz: f64,
+    parity: Option<Parity<T, CAP>>,
+    lambda: T,
+    window: u32,
+    total: T,
+    without: [T; CAP],
+    limit: T,
+    part_limit: [T; CAP],
+    isolated: Option<u8>,
+    clean: u32,
+    /// A part that alone explains the window, and for how many sets in a row.
+    candidate: Option<u8>,
+    run: u32,
+    confirm: u32,
+    verdict: Verdict,
+}
+
+impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
+    /// A monitor for sample sets at `rate_hz`, with no parity space yet ([`Verdict::NoTest`]).
+    pub fn new(settings: Settings, rate_hz: f64) -> Self {
+        FaultMonitor {
+            settings,
+            rate_hz,
+            parity: None,
+            lambda: T::ZERO,
+            window: 1,
+            total: T::ZERO,
+            without: [T::ZERO; CAP],
+            limit: T::ZERO,
+            part_limit: [T::ZERO; CAP],
+            isolated: None,
+            clean: 0,
+            candidate: None,
+            run: 0,
+            confirm: 1,
+            verdict: Verdict::NoTest,
+        }
+    }
+
+    /// Uses `parity` (or none: no test) from the next sample set on; the window starts empty.
+    /// A part isolated before stays isolated until the window is clean for `τ` samples.
+    pub fn set_parity(&mut self, parity: Option<Parity<T, CAP>>) {
+        let tau = (self.settings.window_s * self.rate_hz).clamp(2.0, 1e7);
+        let lambda = 1.0 - 1.0 / tau;
+        let z = upper_normal_quantile(self.settings.false_alarm);
+        let limit = |dof: usize| {
+            let g = 1.0 / (1.0 + lambda);
+            let h = dof as f64 * (1.0 + lambda) / (1.0 - lambda);
+            T::of(g * chi2_quantile(h, z))
+        };
+        self.lambda = T::of(lambda);
+        self.window = tau as u32;
+        self.confirm = (self.window / 10).max(1);
+        self.candidate = None;
+        self.run = 0;
+        self.total = T::ZERO;
+        self.without = [T::ZERO; CAP];
+        self.clean = 0;
+        self.part_limit = [T::ZERO; CAP];
+        match &parity {
+            Some(par) => {
+                self.limit = limit(par.dof());
+                for (p, l) in self.part_limit.iter_mut().enumerate().take(par.parts()) {
+                    if let Some(dof) = par.part_dof(p) {
+                        *l = limit(dof);
+                    }
+                }
+                self.verdict = self.isolated.map_or(Verdict::Clean, Verdict::Isolated);
+            }
+            None => self.verdict = Verdict::NoTest,
+        }
+        self.parity = parity;
+    }
+
+    /// The parity space in use.
+    pub fn parity(&self) -> Option<&Parity<T, CAP>> {
+        self.parity.as_ref()
+    }
+
+    /// The part currently isolated (held until re-admitted).
+    pub fn isolated(&self) -> Option<u8> {
+        self.isolated
+    }
+
+    /// The last verdict.
+    pub fn verdict(&self) -> Verdict {
+        self.verdict
+    }
+
+    /// The window's `χ²` over its limit (above 1: detected); 0 without a test.
+    pub fn level(&self) -> T {
+        if self.limit > T::ZERO {
+            self.total / self.limit
+        } else {
+            T::ZERO
+        }
+    }
+
+    /// The window's time constant in samples.
+    pub fn window(&self) -> u32 {
+        self.window
+    }
+
+    /// One sample set (`p[i]`: channel `i`'s reading). A set with a non-finite reading in the
+    /// parity space leaves the window as it was.
+    pub fn step(&mut self, p: &[T]) -> Verdict {
+        let Some(par) = &self.parity else {
+            self.verdict = Verdict::NoTest;
+            return self.verdict;
+        };
+        let Some(s) = par.evaluate(p) else {
+            return self.verdict;
+        };
+        let cap = T::of(CAP_FACTOR);
+        self.total = (self.lambda * self.total + s.chi2).min(cap * self.limit);
+        let parts = par.parts();
+        let mut restoring = 0usize;
+        let mut found = None;
+        let mut held_restores = false;
+        for q in 0..parts {
+            let w = &mut self.without[q];
+            *w = (self.lambda * *w + s.without[q]).min(cap * self.part_limit[q]);
+            if par.part_dof(q).is_some() && *w <= self.part_limit[q] {
+                restoring += 1;
+                found = Some(q as u8);
+                if self.isolated == Some(q as u8) {
+                    held_restores = true;
+                }
+            }
+        }
+        self.verdict = if self.total <= self.limit {
+            self.clean = self.clean.saturating_add(1);
+            if self.clean >= self.window {
+                self.isolated = None;
+            }
+            self.isolated.map_or(Verdict::Clean, Verdict::Isolated)
+        } else {
+            self.clean = 0;
+            if restoring == 1 && found != self.isolated {
+                // A new part: isolated once it alone explains the window for `confirm` sets.
+                if self.candidate == found {
+                    self.run = self.run.saturating_add(1);
+                } else {
+                    self.candidate = found;
+                    self.run = 1;
+                }
+                if self.run >= self.confirm {
+                    self.isolated = found;
+                    held_restores = true;
+                }
+            } else {
+                self.candidate = None;
+                self.run = 0;
+            }
+            // The part isolated is reported while it still explains the window (others may
+            // too); otherwise the window is not explained, whatever stays excluded.
+            match self.isolated {
+                Some(p) if held_restores => Verdict::Isolated(p),
+                _ => Verdict::NotIsolated,
+            }
+        };
+        self.verdict
+    }
+}
+
+/// The upper-tail standard normal quantile `z` with `P(Z > z) = alpha` (Abramowitz & Stegun
+/// 26.2.23, error below 4.5·10⁻⁴), for `0 < alpha ≤ 0.5`; clamped outside.
+pub fn upper_normal_quantile(alpha: f64) -> f64 {
+    let p = if alpha.is_finite() {
+        alpha.clamp(1e-300, 0.5)
+    } else {
+        0.5
+    };
+    let t = Real::sqrt(-2.0 * libm::log(p));
+    let (c0, c1, c2) = (2.515517, 0.802853, 0.010328);
+    let (d1, d2, d3) = (1.432788, 0.189269, 0.001308);
+    t - (c0 + c1 * t + c2 * t * t) / (1.0 + d1 * t + d2 * t * t + d3 * t * t * t)
+}
+
+/// The point of χ² with `dof` degrees of freedom (not necessarily whole) exceeded with the
+/// upper-tail normal quantile `z` (Wilson–Hilferty).
+pub fn chi2_quantile(dof: f64, z: f64) -> f64 {
+    let h = 2.0 / (9.0 * dof);
+    let c = 1.0 - h + z * Real::sqrt(h);
+    dof * c * c * c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::arrangement::{Arrangement, ChannelMask};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn quantiles_match_published_points() {
+        // A&S table 26.1: z(1e-3) = 3.0902, z(1e-6) = 4.7534.
+        assert!((upper_normal_quantile(1e-3) - 3.0902).abs() < 1e-3);
+        assert!((upper_normal_quantile(1e-6) - 4.7534).abs() < 1e-3);
+        // χ²₁₀₀ 99.9 % = 149.449; the estimator's table for 30: 59.70.
+        assert!((chi2_quantile(100.0, upper_normal_quantile(1e-3)) - 149.449).abs() < 0.2);
+        assert!((chi2_quantile(30.0, upper_normal_quantile(1e-3)) - 59.70).abs() < 0.3);
+    }
+
+    fn layout() -> (Arrangement<24>, [u8; 18]) {
+        let corners = [
+            [0.1, 0.1, 0.1],
+            [-0.1, -0.1, 0.1],
+            [-0.1, 0.1, -0.1],
+            [0.1, -0.1, -0.1],
+            [0.05, 0.0, -0.12],
+            [-0.03, 0.11, 0.02],
+        ];
+        let mut arr = Arrangement::new();
+        let mut part = [0u8; 18];
+        for (p, r) in corners.iter().enumerate() {
+            for a in 0..3 {
+                let mut s = [0.0; 3];
+                s[a] = 1.0;
+                let c = arr.push(*r, s, 1e-3).unwrap();
+                part[c] = p as u8;
+            }
+        }
+        (arr, part)
+    }
+
+    /// Static readings (gravity along z, no rotation) with white noise of 1 mg.
+    fn reading(arr: &Arrangement<24>, rng: &mut ChaCha8Rng) -> [f32; 18] {
+        core::array::from_fn(|i| {
+            let ch = &arr.channels()[i];
+            let (u1, u2): (f64, f64) = (rng.gen_range(1e-12..1.0), rng.gen());
+            let z = (-2.0 * u1.ln()).sqrt() * (2.0 * core::f64::consts::PI * u2).cos();
+            (ch.axis[2] * 9.80665 + 1e-3 * z) as f32
+        })
+    }
+
+    fn monitor() -> (FaultMonitor<f32, 24>, Arrangement<24>) {
+        let (arr, part) = layout();
+        let mut m = FaultMonitor::new(Settings::default(), 100.0);
+        m.set_parity(Some(
+            Parity::build(&arr, ChannelMask::all(18), &part).unwrap(),
+        ));
+        (m, arr)
+    }
+
+    #[test]
+    fn a_clean_record_raises_nothing() {
+        let (mut m, arr) = monitor();
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        for k in 0..6000 {
+            assert_eq!(m.step(&reading(&arr, &mut rng)), Verdict::Clean, "set {k}");
+        }
+        assert!(m.level() < 1.0);
+    }
+
+    #[test]
+    fn a_small_bias_is_detected_and_never_blamed_on_another_part() {
+        let (mut m, arr) = monitor();
+        let mut rng = ChaCha8Rng::seed_from_u64(2);
+        for _ in 0..300 {
+            m.step(&reading(&arr, &mut rng));
+        }
+        // 3 σ of one reading on part 4's y channel for 4 s. In this layout part 3 hides most of
+        // it (without part 3 it shows at 0.028 of its χ²; see the parity test's table), so
+        // the window sees it but cannot say whose it is.
+        let mut first = None;
+        for k in 0..400 {
+            let mut p = reading(&arr, &mut rng);
+            p[13] += 3e-3;
+            let v = m.step(&p);
+            if first.is_none() && v != Verdict::Clean {
+                first = Some(k);
+            }
+            assert!(
+                matches!(
+                    v,
+                    Verdict::Clean | Verdict::NotIsolated | Verdict::Isolated(4)
+                ),
+                "{v:?}"
+            );
+        }
+        let latency = first.expect("detected");
+        assert!(latency < 150, "latency {latency} sets");
+        assert_ne!(m.verdict(), Verdict::Clean);
+    }
+
+    #[test]
+    fn a_bias_is_isolated_held_and_readmitted_after_it_ends() {
+        let (mut m, arr) = monitor();
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        for _ in 0..300 {
+            m.step(&reading(&arr, &mut rng));
+        }
+        // 10 σ on part 4's y channel for 2 s.
+        let mut isolated_at = None;
+        for k in 0..200 {
+            let mut p = reading(&arr, &mut rng);
+            p[13] += 1e-2;
+            let v = m.step(&p);
+            assert!(
+                matches!(
+                    v,
+                    Verdict::Clean | Verdict::NotIsolated | Verdict::Isolated(4)
+                ),
+                "{v:?}"
+            );
+            if isolated_at.is_none() && v == Verdict::Isolated(4) {
+                isolated_at = Some(k);
+            }
+        }
+        let at = isolated_at.expect("isolated");
+        assert!(at < 100, "isolated after {at} sets");
+        assert_eq!(m.verdict(), Verdict::Isolated(4));
+        // Fault over: the window decays from its cap (2 L = 1 448) to its limit (L = 724, clean
+        // mean 600) in τ ln(848 / 124) = 192 sets, and the part is re-admitted τ = 100 later.
+        let mut back = None;
+        for k in 0..1000 {
+            if m.step(&reading(&arr, &mut rng)) == Verdict::Clean {
+                back = Some(k);
+                break;
+            }
+        }
+        let back = back.expect("re-admitted");
+        assert!((250..350).contains(&back), "re-admitted after {back} sets");
+        assert_eq!(m.isolated(), None);
+    }
+
+    #[test]
+    fn two_faulty_parts_are_detected_and_not_isolated() {
+        let (mut m, arr) = monitor();
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut seen = false;
+        for _ in 0..300 {
+            let mut p = reading(&arr, &mut rng);
+            p[1] += 0.02;
+            p[8] -= 0.02;
+            let v = m.step(&p);
+            assert!(!matches!(v, Verdict::Isolated(_)), "{v:?}");
+            seen |= v == Verdict::NotIsolated;
+        }
+        assert!(seen);
+        // A stuck reading (NaN-free) or a missing one: a NaN leaves the verdict as it was.
+        let mut p = reading(&arr, &mut rng);
+        p[0] = f32::NAN;
+        assert_eq!(m.step(&p), Verdict::NotIsolated);
+    }
+
+    #[test]
+    fn without_a_parity_space_there_is_no_test() {
+        let mut m = FaultMonitor::<f32, 24>::new(Settings::default(), 100.0);
+        assert_eq!(m.step(&[0.0; 18]), Verdict::NoTest);
+        let (arr, part) = layout();
+        // Twelve channels: no residual.
+        assert!(Parity::<f32, 24>::build(&arr, ChannelMask::all(12), &part).is_err());
+        m.set_parity(None);
+        assert_eq!(m.step(&[0.0; 18]), Verdict::NoTest);
+    }
+}
