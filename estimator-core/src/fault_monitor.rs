@@ -23,6 +23,7 @@
 //!
 //! Cost per sample: [`crate::parity::Parity::evaluate`] plus two multiply–adds per part.
 
+use crate::estimate::{Estimate, Flags};
 use crate::parity::Parity;
 use crate::real::Real;
 
@@ -229,6 +230,39 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
             }
         };
         self.verdict
+    }
+}
+
+/// The rate hint across an exclusion or a re-admission: the last estimate with no warning flag
+/// from readings the monitor found consistent, carried forward by its Ω′. (The estimates
+/// between a fault's onset and its isolation may have taken the wrong sign, and the estimator
+/// restarts its branch and sign tracking on the new channel set from this hint; a fault is
+/// isolated 0.1–2 s after its onset, and in a slew Ω moves by rad/s meanwhile.)
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TrustedRate {
+    last: Option<(f64, [f64; 3], [f64; 3])>,
+}
+
+impl TrustedRate {
+    /// Takes `e` (at `t`, s) if the monitor's `verdict` and its flags say it can be trusted.
+    pub fn observe<T: Real>(&mut self, t: f64, e: &Estimate<T>, verdict: Verdict) {
+        if verdict != Verdict::NotIsolated
+            && e.is_finite()
+            && e.flags.0 & !Flags::CHANNELS_EXCLUDED == 0
+        {
+            self.last = Some((
+                t,
+                e.omega.map(|v| v.to_f64()),
+                e.domega.map(|v| v.to_f64()),
+            ));
+        }
+    }
+
+    /// The trusted Ω carried forward to `t` (s), if there is one.
+    pub fn hint_at(&self, t: f64) -> Option<[f64; 3]> {
+        let (t0, omega, domega) = self.last?;
+        let age = (t - t0).max(0.0);
+        Some(core::array::from_fn(|k| omega[k] + domega[k] * age))
     }
 }
 

@@ -14,7 +14,7 @@
 //!
 //! So a fault in part `p` leaves the residual without `p` consistent and every other one
 //! high. Everything is precomputed per channel set ([`Parity::build`], outside the sample
-//! loop); [`Parity::evaluate`] costs `N² + N` multiply–adds and a few per part. Model F's
+//! loop); [`Parity::evaluate`] costs `N²` multiply–adds and `4 N` per part. Model F's
 //! residual is not linear in its unknowns (`a ≡ Ω` enters quadratically), so there is no
 //! motion-independent parity space there; [`crate::fault_monitor`] says so.
 
@@ -291,6 +291,10 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
             r[i] = acc;
             chi2 += acc * acc;
         }
+        // Without part S: `r − P_{·S} (P_SS)⁻¹ r_S`, component by component, then its square.
+        // (`χ² − r_Sᵀ (P_SS)⁻¹ r_S` is the same in exact arithmetic, but under a gross fault
+        // both terms are ≈ |w|² ≈ 10⁸ and f32 leaves their difference at ±10: a part whose
+        // removal did not explain the fault then looked as if it did.)
         let mut without = [chi2; CAP];
         for (out, t) in without.iter_mut().zip(self.parts.iter()).take(self.n_parts) {
             if !t.isolable {
@@ -304,7 +308,19 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
             {
                 *x = r[usize::from(c)];
             }
-            *out = (chi2 - t.inverse.quad(&rs)).max(T::ZERO);
+            let g = t.inverse.mul_vec(&rs);
+            let mut acc = T::ZERO;
+            for (i, ri) in r.iter().enumerate().take(n) {
+                if !self.mask.contains(i) {
+                    continue;
+                }
+                let mut d = *ri;
+                for (ga, &c) in g.iter().zip(t.channels.iter()).take(usize::from(t.count)) {
+                    d -= self.projector[i][usize::from(c)] * *ga;
+                }
+                acc += d * d;
+            }
+            *out = acc;
         }
         Some(ParitySample { chi2, without })
     }

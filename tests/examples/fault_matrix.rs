@@ -4,17 +4,22 @@
 //! tetrahedron (ideal ADXL355s: noise and clock offsets only) with two more ADXL355s on its
 //! SPI bus, N = 18, model G: 6 degrees of freedom in the whitened residual.
 //!
-//! Today the firmware has no isolation and no exclusion from the measurements: a fault is
-//! "seen" when a row carries flag 64 (residual high: χ² of the whitened residual above its
-//! 99.9 % point) or the faulty part is missing or excluded (the bus-level checks). Per kind:
-//! runs, detection rate within 1 s of the onset, median and worst latency, rows flagged 64
-//! while the fault is active, rows silently wrong (Ω error above 5 reported deviations, no
-//! warning flag) while it is active and after it, NaN in any estimate, telemetry packets lost.
-//! The fault-free runs give the false-alarm rate of flag 64.
+//! A fault is "seen" when a row carries flag 64 (residual high: the per-sample χ² above its
+//! 99.9 % point, or the fault monitor's window high with no part isolated) or the faulty part
+//! is missing or out of the solve (bus-level checks, or isolated by the fault monitor,
+//! `estimator_core::fault_monitor`). Per kind: runs, detection rate within 1 s of the onset,
+//! median and worst latency; isolation (the faulty part out of the solve while the fault is
+//! active: runs, median and worst latency); rows with a healthy part out; rows flagged 64 while
+//! the fault is active; rows silently wrong (Ω error above 5 reported deviations, no warning
+//! flag) while it is active and after it; the Ω error while the faulty part is out against the
+//! same run without the fault and without that part (RMS ratio over the runs); NaN in any
+//! estimate, telemetry packets lost. The fault-free runs give the false-alarm rates.
 //!
-//! `cargo run --release -p e2e-tests --example fault_matrix -- [RUNS]` (default 20).
+//! `cargo run --release -p e2e-tests --example fault_matrix -- [RUNS]` (default 20; about 2 s).
+//! `SHOW=KIND` (a kind's name as in the table) prints each run of that kind: the part, the
+//! onset, when the part went out, its worst Ω error while out, rows with a healthy part out.
 
-use e2e_tests::faults::{fault_run, redundant_layout};
+use e2e_tests::faults::{errors_without_part, fault_run, redundant_layout};
 use hal_sim::scenario::{FaultSpec, Scenario};
 
 /// Seconds of each run.
@@ -92,8 +97,8 @@ fn main() {
     println!(
         "layout: tetra-orbit + 2 ADXL355 (N = 18, model G, 6 dof), ideal parts (noise and clock offsets only), {DURATION} s at 100 Hz, faults of {FAULT_S} s from 3–7 s, one part chosen at random; one sample's σ ≈ {sigma:.1e} m/s²"
     );
-    println!("| fault | runs | detected ≤ 1 s | latency median / worst (s) | rows flagged 64 while active | silent while active | silent after | NaN | TM lost |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("| fault | runs | detected ≤ 1 s | latency median / worst (s) | isolated (runs) | isolation latency median / worst (s) | rows with a healthy part out | rows flagged 64 while active | silent while active | silent after | Ω error while out / without the part | NaN | TM lost |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut rng = 0x9E37_79B9_7F4A_7C15u64;
     let mut next = move || {
         rng ^= rng << 13;
@@ -101,16 +106,18 @@ fn main() {
         rng ^= rng << 17;
         (rng >> 11) as f64 / (1u64 << 53) as f64
     };
-    let mut clean = (0usize, 0usize, 0usize, 0u32);
+    let mut clean = (0usize, 0usize, 0usize, 0u32, 0usize);
     for seed in 0..runs {
         let r = fault_run(&layout(1000 + seed), None);
         clean.0 += r.flagged_clean;
         clean.1 += r.clean_rows;
         clean.2 += r.nan;
         clean.3 += r.lost;
+        clean.4 += r.wrong_excluded;
     }
     println!(
-        "| none (false alarms) | {runs} | — | — | {:.3} % of {} rows | — | — | {} | {} |",
+        "| none (false alarms) | {runs} | — | — | — | — | {:.3} % | {:.3} % of {} rows | — | — | — | {} | {} |",
+        100.0 * clean.4 as f64 / clean.1 as f64,
         100.0 * clean.0 as f64 / clean.1 as f64,
         clean.1,
         clean.2,
@@ -119,6 +126,8 @@ fn main() {
     for (name, spec) in kinds(sigma) {
         let (mut detected, mut lat, mut flagged, mut active) = (0, Vec::new(), 0, 0);
         let (mut silent_a, mut silent_b, mut after, mut nan, mut lost) = (0, 0, 0, 0, 0);
+        let (mut isolated, mut iso_lat, mut wrong, mut rows) = (0, Vec::new(), 0, 0);
+        let (mut err_out, mut err_ref) = (0.0, 0.0);
         for seed in 0..runs {
             let mut sc = layout(2000 + seed);
             let part = (next() * sc.parts.len() as f64) as usize % sc.parts.len();
@@ -129,6 +138,27 @@ fn main() {
             f.end = Some(start + FAULT_S);
             sc.faults.push(f);
             let r = fault_run(&sc, Some((part, start, start + FAULT_S)));
+            if let Some(l) = r.excluded_after {
+                isolated += 1;
+                iso_lat.push(l);
+                err_out += r.excluded_errors.iter().map(|(_, e)| e).sum::<f64>();
+                err_ref += errors_without_part(&sc, part, &r.excluded_errors)
+                    .iter()
+                    .sum::<f64>();
+            }
+            if std::env::var("SHOW").is_ok_and(|k| k == name) {
+                let worst = r
+                    .excluded_errors
+                    .iter()
+                    .copied()
+                    .max_by(|a, b| a.1.total_cmp(&b.1));
+                eprintln!(
+                    "{name}: part {part} from {start:.2} s: out after {:?} s, {} rows out, worst {:?}, wrong {}",
+                    r.excluded_after, r.excluded_active, worst, r.wrong_excluded
+                );
+            }
+            wrong += r.wrong_excluded;
+            rows += r.clean_rows + r.active_rows + r.after_rows;
             if let Some(l) = r.latency.filter(|l| *l <= 1.0) {
                 detected += 1;
                 lat.push(l);
@@ -141,16 +171,28 @@ fn main() {
             nan += r.nan;
             lost += r.lost;
         }
-        lat.sort_by(f64::total_cmp);
-        let latency = match (lat.get(lat.len() / 2), lat.last()) {
-            (Some(m), Some(w)) => format!("{m:.2} / {w:.2}"),
-            _ => "—".to_string(),
+        let latency = median_worst(&mut lat);
+        let iso_latency = median_worst(&mut iso_lat);
+        let ratio = if err_ref > 0.0 {
+            format!("{:.2}", (err_out / err_ref).sqrt())
+        } else {
+            "—".to_string()
         };
         println!(
-            "| {name} | {runs} | {detected} | {latency} | {:.1} % | {:.1} % | {:.1} % | {nan} | {lost} |",
+            "| {name} | {runs} | {detected} | {latency} | {isolated} | {iso_latency} | {:.2} % | {:.1} % | {:.1} % | {:.1} % | {ratio} | {nan} | {lost} |",
+            100.0 * wrong as f64 / rows.max(1) as f64,
             100.0 * flagged as f64 / active.max(1) as f64,
             100.0 * silent_a as f64 / active.max(1) as f64,
             100.0 * silent_b as f64 / after.max(1) as f64,
         );
+    }
+}
+
+/// "median / worst" of `v` (sorted in place), or "—".
+fn median_worst(v: &mut [f64]) -> String {
+    v.sort_by(f64::total_cmp);
+    match (v.get(v.len() / 2), v.last()) {
+        (Some(m), Some(w)) => format!("{m:.2} / {w:.2}"),
+        _ => "—".to_string(),
     }
 }

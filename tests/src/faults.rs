@@ -57,6 +57,18 @@ pub struct FaultRun {
     pub nan: usize,
     /// Telemetry packets the firmware could not send.
     pub lost: u32,
+    /// Time from the fault's start to the first row with the faulty part out of the solve
+    /// (isolated from the measurements, or missing on the bus), if any while it is active.
+    pub excluded_after: Option<f64>,
+    /// Rows (from 1 s on) with a healthy part out of the solve (and answering on its bus).
+    pub wrong_excluded: usize,
+    /// Of [`Self::active_rows`], those with the faulty part out of the solve.
+    pub excluded_active: usize,
+    /// Rows after the fault with the faulty part still out of the solve.
+    pub excluded_after_end: usize,
+    /// The rows while the fault is active with the faulty part out of the solve: their times
+    /// (s) and squared Ω errors (rad²/s²).
+    pub excluded_errors: Vec<(f64, f64)>,
 }
 
 /// Runs `sc` through the firmware; `fault`: the faulty part's index, and the fault's start
@@ -87,9 +99,11 @@ pub fn fault_run(sc: &Scenario, fault: Option<(usize, f64, f64)>) -> FaultRun {
         let silent = err > 5.0 * sd && e.flags.0 & WARNING == 0;
         let residual = e.flags.has(Flags::RESIDUAL_HIGH);
         let seen = residual || (m.missing.0 | m.excluded.0) & part_bit != 0;
+        let out = m.excluded.0 & part_bit != 0;
         if t < 1.0 {
             return;
         }
+        r.wrong_excluded += usize::from(m.excluded.0 & !part_bit & !m.missing.0 != 0);
         if t < start {
             r.clean_rows += 1;
             r.flagged_clean += usize::from(residual);
@@ -100,12 +114,56 @@ pub fn fault_run(sc: &Scenario, fault: Option<(usize, f64, f64)>) -> FaultRun {
             if seen && r.latency.is_none() {
                 r.latency = Some(t - start);
             }
+            if out {
+                r.excluded_active += 1;
+                r.excluded_errors.push((t, err * err));
+                if r.excluded_after.is_none() {
+                    r.excluded_after = Some(t - start);
+                }
+            }
         } else {
             r.after_rows += 1;
             r.silent_after += usize::from(silent);
+            r.excluded_after_end += usize::from(out);
         }
     })
     .expect("the firmware ran");
     r.lost = report.housekeeping.tm_lost;
     r
+}
+
+/// The squared Ω errors of `sc` run without faults and without part `part` at all (the
+/// reference for the estimate after an exclusion: the same motion and seed, one part fewer),
+/// at the rows whose times are `at` (s; matched to the nearest set).
+pub fn errors_without_part(sc: &Scenario, part: usize, at: &[(f64, f64)]) -> Vec<f64> {
+    let mut reference = sc.clone();
+    reference.faults.clear();
+    reference.parts.remove(part);
+    let loaded = reference.arrangement().load("arrangement.toml").unwrap();
+    let config = firmware_config(&reference, &loaded, Alignment::Interpolate).unwrap();
+    let mut by_time = Vec::new();
+    run_firmware(
+        &reference,
+        &config,
+        reference.samples() as u32,
+        &mut |_, m, tr| {
+            let e = &m.estimate;
+            let err2: f64 = (0..3)
+                .map(|k| (f64::from(e.omega[k]) - tr.omega[k]).powi(2))
+                .sum();
+            by_time.push((m.t as f64 * 1e-9, err2));
+        },
+    )
+    .expect("the firmware ran");
+    at.iter()
+        .filter_map(|(t, _)| {
+            let k = by_time.partition_point(|(u, _)| u < t);
+            [k.checked_sub(1), Some(k)]
+                .into_iter()
+                .flatten()
+                .filter_map(|i| by_time.get(i))
+                .min_by(|a, b| (a.0 - t).abs().total_cmp(&(b.0 - t).abs()))
+                .map(|(_, e)| *e)
+        })
+        .collect()
 }

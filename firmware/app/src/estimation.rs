@@ -8,11 +8,20 @@
 //! branch and sign are kept. Channels can also be taken out by command
 //! ([`Estimation::set_commanded`]); the solve uses every channel neither excluded automatically
 //! nor by command.
+//!
+//! With the feature `fault-isolation` the measurements themselves are tested as well
+//! ([`crate::isolation`], issue 17): a part that the parity space isolates is kept out of the
+//! solve until the readings are consistent again, and while a fault is seen but not isolated
+//! the estimate carries [`Flags::RESIDUAL_HIGH`].
 
 use ballisto_link::{ChannelSet, PartSet};
-use estimator_core::{Arrangement, ChannelMask, ConfigError, Estimate, Estimator, Model, Options};
+use estimator_core::fault_monitor::{TrustedRate, Verdict};
+use estimator_core::{
+    Arrangement, ChannelMask, ConfigError, Estimate, Estimator, Flags, Model, Options,
+};
 
 use crate::config::{AppConfig, MAX_CHANNELS, MAX_PARTS};
+use crate::isolation::Isolation;
 use crate::sampler::SampleSet;
 use crate::time::{seconds, Nanos};
 
@@ -32,8 +41,10 @@ pub struct SetEstimate {
     pub estimate: Estimate<f32>,
     /// Parts without a value in this set.
     pub missing: PartSet,
-    /// Parts excluded from the estimate.
+    /// Parts excluded from the estimate (missing on the bus, or isolated).
     pub excluded: PartSet,
+    /// What the fault monitor said of this set's readings.
+    pub verdict: Verdict,
 }
 
 /// The estimator and the channel bookkeeping.
@@ -44,10 +55,18 @@ pub struct Estimation {
     p: [f32; MAX_CHANNELS],
     missing_run: [u16; MAX_PARTS],
     good_run: [u16; MAX_PARTS],
+    /// Parts out because they stopped answering.
     excluded: PartSet,
+    /// Parts out because the fault monitor isolated them.
+    isolated: PartSet,
+    /// An isolation the solve could not take (too few channels left): not retried per set.
+    refused: Option<PartSet>,
+    isolation: Isolation,
     commanded: ChannelSet,
     options: Options,
     last_omega: Option<[f64; 3]>,
+    /// The rate hint when an isolated part leaves or re-enters the solve.
+    trusted: TrustedRate,
 }
 
 impl Estimation {
@@ -62,7 +81,7 @@ impl Estimation {
         for (i, p) in config.sampling.parts() {
             channels[i] = p.channels;
         }
-        Ok(Estimation {
+        let mut e = Estimation {
             estimator,
             channels,
             n: config.arrangement.len(),
@@ -70,10 +89,23 @@ impl Estimation {
             missing_run: [0; MAX_PARTS],
             good_run: [0; MAX_PARTS],
             excluded: PartSet::EMPTY,
+            isolated: PartSet::EMPTY,
+            refused: None,
+            isolation: Isolation::new(config),
             commanded: ChannelSet::EMPTY,
             options,
             last_omega: None,
-        })
+            trusted: TrustedRate::default(),
+        };
+        e.rebuild_monitor();
+        Ok(e)
+    }
+
+    /// The fault monitor's parity space over the channels neither missing nor commanded out.
+    fn rebuild_monitor(&mut self) {
+        let tested = self.mask(self.excluded, self.commanded);
+        let (arrangement, model) = (self.estimator.arrangement(), self.estimator.model());
+        self.isolation.rebuild(arrangement, model, tested);
     }
 
     /// Channels in the arrangement.
@@ -91,18 +123,19 @@ impl Estimation {
         self.commanded
     }
 
-    /// Parts out automatically.
+    /// Parts out automatically (missing on the bus, or isolated).
     pub fn excluded_parts(&self) -> PartSet {
-        self.excluded
+        PartSet(self.excluded.0 | self.isolated.0)
     }
 
     /// Takes the channels of `commanded` out of the solve and puts the others back. On error
     /// (too few channels left, or a degenerate geometry) nothing changes.
     pub fn set_commanded(&mut self, commanded: ChannelSet) -> Result<(), ConfigError> {
-        let mask = self.mask(self.excluded, commanded);
+        let mask = self.mask(self.excluded_parts(), commanded);
         ballisto_fw_precompute::set_mask(&mut self.estimator, mask)?;
         self.commanded = commanded;
         let _ = self.estimator.set_hint(self.last_omega);
+        self.rebuild_monitor();
         Ok(())
     }
 
@@ -117,12 +150,14 @@ impl Estimation {
                 channel: arrangement.len().min(self.n),
             });
         }
-        let mask = self.mask(self.excluded, self.commanded);
+        let mask = self.mask(self.excluded_parts(), self.commanded);
         let options = Options {
             initial_omega: self.last_omega,
             ..self.options
         };
-        ballisto_fw_precompute::configure(&mut self.estimator, arrangement, model, mask, options)
+        ballisto_fw_precompute::configure(&mut self.estimator, arrangement, model, mask, options)?;
+        self.rebuild_monitor();
+        Ok(())
     }
 
     /// A rate hint (settles sign and branch from the next set on).
@@ -188,24 +223,33 @@ impl Estimation {
                 None => {}
             }
         }
-        self.update_exclusions();
+        let verdict = self.isolation.step(&self.p[..self.n]);
+        self.update_exclusions(set.t);
         // Through the speed-built crate: this crate is built for size.
-        let estimate =
+        let mut estimate =
             *ballisto_fw_estimate::update(&mut self.estimator, seconds(set.t), &self.p[..self.n]);
-        if estimate.is_finite() && !estimate.flags.has(estimator_core::Flags::INPUT_INVALID) {
+        if estimate.is_finite() && !estimate.flags.has(Flags::INPUT_INVALID) {
             self.last_omega = Some(estimate.omega.map(f64::from));
+        }
+        if verdict == Verdict::NotIsolated {
+            // A fault the solve may still be using: the estimate is in doubt.
+            estimate.flags.0 |= Flags::RESIDUAL_HIGH;
+        }
+        if self.isolation.enabled() {
+            self.trusted.observe(seconds(set.t), &estimate, verdict);
         }
         SetEstimate {
             k: set.k,
             t: set.t,
             estimate,
             missing,
-            excluded: self.excluded,
+            excluded: self.excluded_parts(),
+            verdict,
         }
     }
 
-    /// Excludes parts missing too long and includes recovered ones.
-    fn update_exclusions(&mut self) {
+    /// Excludes parts missing too long or isolated, and includes recovered ones.
+    fn update_exclusions(&mut self, now: Nanos) {
         let mut wanted = self.excluded;
         for i in 0..MAX_PARTS {
             if self.missing_run[i] >= EXCLUDE_AFTER {
@@ -214,14 +258,28 @@ impl Estimation {
                 wanted = wanted.without(i);
             }
         }
-        if wanted == self.excluded {
+        let isolated = self.isolation.isolated();
+        if wanted == self.excluded && (isolated == self.isolated || Some(isolated) == self.refused)
+        {
             return;
         }
-        let mask = self.mask(wanted, self.commanded);
+        let mask = self.mask(PartSet(wanted.0 | isolated.0), self.commanded);
         // Too few channels left for the model: keep the mask (the sets stay flagged).
         if ballisto_fw_precompute::set_mask(&mut self.estimator, mask).is_ok() {
+            let missing_changed = wanted != self.excluded;
+            let hint = if isolated != self.isolated {
+                self.trusted.hint_at(seconds(now)).or(self.last_omega)
+            } else {
+                self.last_omega
+            };
             self.excluded = wanted;
-            let _ = self.estimator.set_hint(self.last_omega);
+            self.isolated = isolated;
+            let _ = self.estimator.set_hint(hint);
+            if missing_changed {
+                self.rebuild_monitor();
+            }
+        } else {
+            self.refused = Some(isolated);
         }
     }
 }

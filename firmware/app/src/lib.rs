@@ -45,6 +45,7 @@ pub mod demo;
 pub mod drivers;
 pub mod estimation;
 pub mod identification;
+pub mod isolation;
 pub mod sampler;
 pub mod storage;
 pub mod telemetry;

@@ -1,0 +1,118 @@
+//! Fault isolation from the measurements (issue 17): estimator-core's
+//! [`FaultMonitor`](estimator_core::fault_monitor::FaultMonitor) over the parts that answer,
+//! in model G with redundancy (N ≥ 13; isolating a tri-axial part needs N ≥ 16).
+//!
+//! The monitor tests every channel that is neither missing on the bus nor taken out by
+//! command — the isolated part's included, so that it is re-admitted when it is consistent
+//! again — whatever channels the estimate uses. Its parity space is rebuilt (one SVD, outside
+//! the per-sample solve, as the estimator's own mask change) when that set changes.
+//!
+//! Built with the feature `fault-isolation` (the QEMU board and the host simulator). The
+//! STM32H743 flight image leaves it out: it does not fit issue 13's 128 KiB with the rest
+//! (244 B free before it); without the feature this module is an empty stand-in.
+
+use ballisto_link::PartSet;
+use estimator_core::fault_monitor::Verdict;
+use estimator_core::{Arrangement, ChannelMask, Model};
+
+use crate::config::{AppConfig, MAX_CHANNELS};
+
+#[cfg(feature = "fault-isolation")]
+mod enabled {
+    use super::*;
+    use estimator_core::fault_monitor::{FaultMonitor, Settings};
+    use estimator_core::parity::{Parity, NO_PART};
+
+    /// The monitor and each channel's part.
+    pub struct Isolation {
+        monitor: FaultMonitor<f32, MAX_CHANNELS>,
+        part: [u8; MAX_CHANNELS],
+    }
+
+    impl Isolation {
+        /// A monitor for `config`'s parts and rate (no parity space until [`Isolation::rebuild`]).
+        pub fn new(config: &AppConfig) -> Self {
+            let mut part = [NO_PART; MAX_CHANNELS];
+            for (i, p) in config.sampling.parts() {
+                for c in p.channels.iter().flatten() {
+                    if let Some(slot) = part.get_mut(usize::from(*c)) {
+                        *slot = i as u8;
+                    }
+                }
+            }
+            Isolation {
+                monitor: FaultMonitor::new(Settings::default(), f64::from(config.sampling.rate_hz)),
+                part,
+            }
+        }
+
+        /// The parity space of the channels of `tested` (model G only; otherwise, or with too
+        /// few channels, no test).
+        pub fn rebuild(
+            &mut self,
+            arrangement: &Arrangement<MAX_CHANNELS>,
+            model: Model,
+            tested: ChannelMask,
+        ) {
+            let parity = (model == Model::General)
+                .then(|| Parity::build(arrangement, tested, &self.part).ok())
+                .flatten();
+            self.monitor.set_parity(parity);
+        }
+
+        /// One set's readings (NaN where a part had no value).
+        pub fn step(&mut self, p: &[f32]) -> Verdict {
+            self.monitor.step(p)
+        }
+
+        /// Whether the monitor is built in.
+        pub fn enabled(&self) -> bool {
+            true
+        }
+
+        /// The part isolated (to be kept out of the solve).
+        pub fn isolated(&self) -> PartSet {
+            match self.monitor.isolated() {
+                Some(p) if usize::from(p) < crate::config::MAX_PARTS => {
+                    PartSet::EMPTY.with(usize::from(p))
+                }
+                _ => PartSet::EMPTY,
+            }
+        }
+    }
+}
+
+#[cfg(not(feature = "fault-isolation"))]
+mod enabled {
+    use super::*;
+
+    /// Without the feature: no test.
+    pub struct Isolation;
+
+    impl Isolation {
+        /// No monitor.
+        pub fn new(_config: &AppConfig) -> Self {
+            Isolation
+        }
+
+        /// Nothing to build.
+        pub fn rebuild(&mut self, _: &Arrangement<MAX_CHANNELS>, _: Model, _: ChannelMask) {}
+
+        /// No test.
+        pub fn step(&mut self, _: &[f32]) -> Verdict {
+            Verdict::NoTest
+        }
+
+        /// Not built in.
+        pub fn enabled(&self) -> bool {
+            false
+        }
+
+        /// Nothing isolated.
+        pub fn isolated(&self) -> PartSet {
+            PartSet::EMPTY
+        }
+    }
+}
+
+pub use enabled::Isolation;
