@@ -250,11 +250,7 @@ impl TrustedRate {
             && e.is_finite()
             && e.flags.0 & !Flags::CHANNELS_EXCLUDED == 0
         {
-            self.last = Some((
-                t,
-                e.omega.map(|v| v.to_f64()),
-                e.domega.map(|v| v.to_f64()),
-            ));
+            self.last = Some((t, e.omega.map(|v| v.to_f64()), e.domega.map(|v| v.to_f64())));
         }
     }
 

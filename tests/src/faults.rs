@@ -4,7 +4,7 @@
 use ballisto_fw::config::Alignment;
 use estimator_core::Flags;
 use hal_sim::firmware_host::{firmware_config, run_firmware};
-use hal_sim::scenario::Scenario;
+use hal_sim::scenario::{FaultSpec, Scenario};
 
 /// Flags that warn (everything but the informational "channels excluded", 8).
 pub const WARNING: u16 = !Flags::CHANNELS_EXCLUDED;
@@ -166,4 +166,188 @@ pub fn errors_without_part(sc: &Scenario, part: usize, at: &[(f64, f64)]) -> Vec
                 .map(|(_, e)| *e)
         })
         .collect()
+}
+
+/// Seconds of each run.
+pub const DURATION: f64 = 12.0;
+/// Each fault lasts this long (s), starting uniformly in 3–7 s.
+pub const FAULT_S: f64 = 3.0;
+
+/// The matrix's layout for `seed`.
+pub fn layout(seed: u64) -> Scenario {
+    redundant_layout(seed, DURATION)
+}
+
+/// The fault kinds of hal-sim, as scenario faults on `part` from `start`.
+pub fn kinds(sigma: f64) -> Vec<(&'static str, FaultSpec)> {
+    let f = |kind: &str| FaultSpec {
+        part: String::new(),
+        kind: kind.to_string(),
+        start: 0.0,
+        end: None,
+        bias: None,
+        rate: None,
+        density: None,
+        probability: None,
+        stall: None,
+    };
+    let bias = |b: f64| FaultSpec {
+        bias: Some([b, -b, 0.5 * b]),
+        ..f("bias-jump")
+    };
+    vec![
+        ("stuck", f("stuck")),
+        ("bias jump 0.1 m/s²", bias(0.1)),
+        ("bias jump 10 σ", bias(10.0 * sigma)),
+        ("bias jump 3 σ", bias(3.0 * sigma)),
+        (
+            "drift 3 σ per s",
+            FaultSpec {
+                rate: Some([3.0 * sigma, -3.0 * sigma, 1.5 * sigma]),
+                ..f("drift")
+            },
+        ),
+        (
+            "noise burst ×30",
+            FaultSpec {
+                density: Some(30.0 * 2.2e-4),
+                ..f("noise-burst")
+            },
+        ),
+        ("saturation", f("saturation")),
+        ("dead", f("dead")),
+        (
+            "corrupt 5 %",
+            FaultSpec {
+                probability: Some(0.05),
+                ..f("corrupt")
+            },
+        ),
+        (
+            "timeout",
+            FaultSpec {
+                stall: Some(1e-3),
+                ..f("timeout")
+            },
+        ),
+    ]
+}
+
+/// One row of the fault matrix: what the runs of one fault kind (or of none) showed.
+#[derive(Debug, Default)]
+pub struct Tally {
+    /// Runs.
+    pub runs: usize,
+    /// Runs whose fault was seen within 1 s of its onset, and those latencies (s).
+    pub detected: Vec<f64>,
+    /// Runs whose faulty part went out of the solve while the fault was active, and when (s
+    /// after the onset).
+    pub isolated: Vec<f64>,
+    /// Rows with a healthy part out of the solve, of `rows`.
+    pub wrong_excluded: usize,
+    /// Rows from 1 s on.
+    pub rows: usize,
+    /// Rows before any fault, and those flagged 64 (false alarms).
+    pub clean_rows: usize,
+    /// Of `clean_rows`, flagged 64.
+    pub flagged_clean: usize,
+    /// Rows while the fault was active; flagged 64; silently wrong.
+    pub active: usize,
+    /// Of `active`, flagged 64.
+    pub flagged_active: usize,
+    /// Of `active`, silently wrong.
+    pub silent_active: usize,
+    /// Rows after the fault, and of them silently wrong.
+    pub after: usize,
+    /// Of `after`, silently wrong.
+    pub silent_after: usize,
+    /// Squared Ω errors summed over the rows with the faulty part out, and over the same
+    /// rows of the run without the fault and without the part.
+    pub err_out: f64,
+    /// See `err_out`.
+    pub err_ref: f64,
+    /// Estimates not finite.
+    pub nan: usize,
+    /// Telemetry packets lost.
+    pub lost: u32,
+}
+
+impl Tally {
+    fn add(&mut self, r: &FaultRun) {
+        self.runs += 1;
+        self.wrong_excluded += r.wrong_excluded;
+        self.rows += r.clean_rows + r.active_rows + r.after_rows;
+        self.clean_rows += r.clean_rows;
+        self.flagged_clean += r.flagged_clean;
+        if let Some(l) = r.latency.filter(|l| *l <= 1.0) {
+            self.detected.push(l);
+        }
+        self.active += r.active_rows;
+        self.flagged_active += r.flagged_active;
+        self.silent_active += r.silent_active;
+        self.after += r.after_rows;
+        self.silent_after += r.silent_after;
+        self.nan += r.nan;
+        self.lost += r.lost;
+    }
+
+    /// The RMS Ω error while the faulty part was out over that of the run without the part.
+    pub fn error_ratio(&self) -> Option<f64> {
+        (self.err_ref > 0.0).then(|| (self.err_out / self.err_ref).sqrt())
+    }
+}
+
+/// The fault matrix: `runs` fault-free runs, then `runs` of every kind of [`kinds`], each in
+/// one part drawn at random for [`FAULT_S`] from a time drawn in 3–7 s (the draws are the
+/// same for the same `runs`). `SHOW=KIND` prints each run of that kind to stderr.
+pub fn fault_matrix(runs: u64) -> (Tally, Vec<(&'static str, Tally)>) {
+    let loaded = layout(0).arrangement().load("arrangement.toml").unwrap();
+    let sigma = loaded.arrangement.channels()[0].noise;
+    let mut rng = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = move || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut clean = Tally::default();
+    for seed in 0..runs {
+        clean.add(&fault_run(&layout(1000 + seed), None));
+    }
+    let mut rows = Vec::new();
+    for (name, spec) in kinds(sigma) {
+        let mut tally = Tally::default();
+        for seed in 0..runs {
+            let mut sc = layout(2000 + seed);
+            let part = (next() * sc.parts.len() as f64) as usize % sc.parts.len();
+            let start = 3.0 + 4.0 * next();
+            let mut f = spec.clone();
+            f.part = sc.parts[part].name.clone();
+            f.start = start;
+            f.end = Some(start + FAULT_S);
+            sc.faults.push(f);
+            let r = fault_run(&sc, Some((part, start, start + FAULT_S)));
+            if let Some(l) = r.excluded_after {
+                tally.isolated.push(l);
+                tally.err_out += r.excluded_errors.iter().map(|(_, e)| e).sum::<f64>();
+                tally.err_ref += errors_without_part(&sc, part, &r.excluded_errors)
+                    .iter()
+                    .sum::<f64>();
+            }
+            if std::env::var("SHOW").is_ok_and(|k| k == name) {
+                let worst = r
+                    .excluded_errors
+                    .iter()
+                    .copied()
+                    .max_by(|a, b| a.1.total_cmp(&b.1));
+                eprintln!(
+                    "{name}: part {part} from {start:.2} s: out after {:?} s, {} rows out, worst {:?}, wrong {}",
+                    r.excluded_after, r.excluded_active, worst, r.wrong_excluded
+                );
+            }
+            tally.add(&r);
+        }
+        rows.push((name, tally));
+    }
+    (clean, rows)
 }
