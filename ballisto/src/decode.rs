@@ -134,7 +134,8 @@ pub fn write_estimates<W: Write>(
         line.clear();
         let t = ((p.t + time_offset) * 1e7).round() / 1e7;
         let gamma = model == Some(ModelCode::General);
-        crate::estimates_csv::write_row(&mut line, t, &m.estimate, gamma)?;
+        let excluded = u64::from(m.excluded_channels.0);
+        crate::estimates_csv::write_row(&mut line, t, &m.estimate, gamma, excluded)?;
         line.pop();
         w.write_all(&line)?;
         writeln!(

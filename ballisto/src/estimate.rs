@@ -6,10 +6,12 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
 
+use estimator_core::fault_monitor::{FaultMonitor, Settings, TrustedRate, Verdict};
+use estimator_core::parity::{Parity, NO_PART};
 use estimator_core::path_choice::{Links, PathChoice, PathState};
 use estimator_core::smoother::Smoother;
 use estimator_core::two_way;
-use estimator_core::{Estimate, Estimator, Flags, Model, Options, Real};
+use estimator_core::{ChannelMask, Estimate, Estimator, Flags, Model, Options, Real};
 use hal_sim::arrangement_file::{load_arrangement, LoadedArrangement, HOST_CAP};
 
 use crate::estimates_csv::ThreadedWriter;
@@ -100,12 +102,29 @@ impl<T: Real> Pass<T> {
         Ok(Pass { est, smoother })
     }
 
-    fn push(&mut self, t: f64, p: &[T], mut emit: impl FnMut(Estimate<T>)) {
+    /// One sample; returns the estimator's own (unsmoothed) estimate of it.
+    fn push(&mut self, t: f64, p: &[T], mut emit: impl FnMut(Estimate<T>)) -> Estimate<T> {
         if let Some((_, e)) = self.smoother.make_room() {
             emit(e);
         }
-        self.est.update_with(t, p, Some(self.smoother.slot()));
+        let e = *self.est.update_with(t, p, Some(self.smoother.slot()));
         self.smoother.commit();
+        e
+    }
+
+    /// Takes `mask` (if it is not the one in force) and restarts branch and sign tracking
+    /// from `hint`; false if the estimator refuses the mask (too few channels left).
+    fn set_mask(&mut self, mask: ChannelMask, hint: Option<[f64; 3]>) -> bool {
+        if self.est.mask() == mask {
+            return true;
+        }
+        if self.est.set_mask(mask).is_err() {
+            return false;
+        }
+        if self.est.set_hint(hint).is_err() {
+            let _ = self.est.set_hint(None);
+        }
+        true
     }
 
     fn finish(&mut self, mut emit: impl FnMut(Estimate<T>)) {
@@ -137,6 +156,93 @@ pub struct HostEstimator<T: Real> {
     offers: Vec<bool>,
     links: Vec<Links>,
     takes: Vec<bool>,
+    /// Fault isolation from the measurements (issue 17), run with the forward pass as the
+    /// firmware runs it; `None` when off.
+    faults: Option<Faults<T>>,
+    /// Per held sample: the channels the forward pass used, and whether the monitor saw a
+    /// fault it could not isolate (flag 64 on that row).
+    masks: std::collections::VecDeque<(ChannelMask, bool)>,
+}
+
+/// The fault monitor of a host run and what it decided.
+struct Faults<T: Real> {
+    /// Built at the second sample, when the rate is known.
+    monitor: Option<FaultMonitor<T, HOST_CAP>>,
+    /// Each channel's part (sensors of the arrangement file, `name.x/y/z`).
+    part: Vec<u8>,
+    arrangement: estimator_core::Arrangement<HOST_CAP>,
+    /// Every channel of the arrangement.
+    all: ChannelMask,
+    first_t: Option<f64>,
+    isolated: Option<u8>,
+    refused: Option<Option<u8>>,
+    trusted: TrustedRate,
+    last_omega: Option<[f64; 3]>,
+}
+
+impl<T: Real> Faults<T> {
+    /// Model G's monitor over the parts of `loaded` (`None` for model F: no parity space).
+    fn new(loaded: &LoadedArrangement, model: Model) -> Option<Self> {
+        if model != Model::General {
+            return None;
+        }
+        let mut parts: Vec<&str> = Vec::new();
+        let part = loaded
+            .names
+            .iter()
+            .map(|n| {
+                let sensor = n.rsplit_once('.').map_or(n.as_str(), |(s, _)| s);
+                let i = parts.iter().position(|p| *p == sensor).unwrap_or_else(|| {
+                    parts.push(sensor);
+                    parts.len() - 1
+                });
+                u8::try_from(i).unwrap_or(NO_PART)
+            })
+            .collect();
+        Some(Faults {
+            monitor: None,
+            part,
+            arrangement: loaded.arrangement.clone(),
+            all: ChannelMask::all(loaded.names.len()),
+            first_t: None,
+            isolated: None,
+            refused: None,
+            trusted: TrustedRate::default(),
+            last_omega: None,
+        })
+    }
+
+    /// One sample's readings: the monitor's verdict and the channel mask the estimate should
+    /// use from this sample on.
+    fn step(&mut self, t: f64, p: &[T]) -> (Verdict, ChannelMask) {
+        if self.monitor.is_none() {
+            match self.first_t {
+                Some(t0) if t > t0 => {
+                    let mut m = FaultMonitor::new(Settings::default(), 1.0 / (t - t0));
+                    m.set_parity(Parity::build(&self.arrangement, self.all, &self.part).ok());
+                    self.monitor = Some(m);
+                }
+                _ => self.first_t = Some(t),
+            }
+        }
+        let Some(m) = &mut self.monitor else {
+            return (Verdict::NoTest, self.mask(self.isolated));
+        };
+        let verdict = m.step(p);
+        let isolated = m.isolated();
+        (verdict, self.mask(isolated))
+    }
+
+    /// Every channel but those of `part`.
+    fn mask(&self, part: Option<u8>) -> ChannelMask {
+        let mut mask = self.all;
+        for (c, p) in self.part.iter().enumerate() {
+            if Some(*p) == part {
+                mask = mask.without(c);
+            }
+        }
+        mask
+    }
 }
 
 impl<T: Real> HostEstimator<T> {
@@ -158,16 +264,54 @@ impl<T: Real> HostEstimator<T> {
             offers: Vec::new(),
             links: Vec::new(),
             takes: Vec::new(),
+            faults: Faults::new(loaded, model),
+            masks: Default::default(),
         })
+    }
+
+    /// Switches fault isolation off (on by default in model G): for a record whose geometry is
+    /// being identified (`ballisto calibrate`), every sample is inconsistent with the nominal
+    /// one.
+    pub fn without_fault_isolation(mut self) -> Self {
+        self.faults = None;
+        self
     }
 
     /// One sample; `emit` receives the decided outputs, oldest first (delayed by up to
     /// [`TWO_WAY_BLOCK_S`] + [`TWO_WAY_RUN_IN_S`] and [`HOST_LAG`] samples).
     pub fn push(&mut self, t: f64, p: &[T], mut emit: impl FnMut(f64, &Estimate<T>)) {
+        self.push_masked(t, p, |t, e, _| emit(t, e));
+    }
+
+    /// End of the record: emits what is still held.
+    pub fn finish(&mut self, mut emit: impl FnMut(f64, &Estimate<T>)) {
+        self.finish_masked(|t, e, _| emit(t, e));
+    }
+
+    /// As [`Self::push`]; `emit` also receives the channels the row's estimate used.
+    pub fn push_masked(
+        &mut self,
+        t: f64,
+        p: &[T],
+        mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask),
+    ) {
         self.times.push_back(t);
         self.readings.extend(p.iter().copied().take(self.channels));
+        let (mask, residual_high) = self.isolate(t, p);
+        self.masks.push_back((mask, residual_high));
         let decided = &mut self.decided;
-        self.forward.push(t, p, |e| decided.push_back(e));
+        let raw = self.forward.push(t, p, |e| decided.push_back(e));
+        if let Some(f) = &mut self.faults {
+            let verdict = if residual_high {
+                Verdict::NotIsolated
+            } else {
+                Verdict::Clean
+            };
+            f.trusted.observe(t, &raw, verdict);
+            if raw.is_finite() && !raw.flags.has(Flags::INPUT_INVALID) {
+                f.last_omega = Some(raw.omega.map(|v| v.to_f64()));
+            }
+        }
         let (Some(first), Some(last)) = (
             self.times.front().copied(),
             self.decided.len().checked_sub(1).map(|k| self.times[k]),
@@ -185,8 +329,28 @@ impl<T: Real> HostEstimator<T> {
         }
     }
 
-    /// End of the record: emits what is still held.
-    pub fn finish(&mut self, mut emit: impl FnMut(f64, &Estimate<T>)) {
+    /// The fault monitor's step (as the firmware's `Estimation::process`): the forward pass
+    /// takes the channel mask it decides, restarting from the trusted rate when an isolated
+    /// part leaves or re-enters; returns the mask and whether the row gets flag 64.
+    fn isolate(&mut self, t: f64, p: &[T]) -> (ChannelMask, bool) {
+        let Some(f) = &mut self.faults else {
+            return (self.forward.est.mask(), false);
+        };
+        let (verdict, mask) = f.step(t, p);
+        let isolated = f.monitor.as_ref().and_then(|m| m.isolated());
+        if isolated != f.isolated && f.refused != Some(isolated) {
+            let hint = f.trusted.hint_at(t).or(f.last_omega);
+            if self.forward.set_mask(mask, hint) {
+                f.isolated = isolated;
+            } else {
+                f.refused = Some(isolated);
+            }
+        }
+        (self.forward.est.mask(), verdict == Verdict::NotIsolated)
+    }
+
+    /// As [`Self::finish`]; `emit` also receives the channels the row's estimate used.
+    pub fn finish_masked(&mut self, mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask)) {
         let decided = &mut self.decided;
         self.forward.finish(|e| decided.push_back(e));
         debug_assert_eq!(self.decided.len(), self.times.len());
@@ -198,7 +362,7 @@ impl<T: Real> HostEstimator<T> {
 
     /// Runs the backward pass over the decided samples, latest first, and emits the oldest
     /// `block` of them.
-    fn decide(&mut self, block: usize, emit: &mut impl FnMut(f64, &Estimate<T>)) {
+    fn decide(&mut self, block: usize, emit: &mut impl FnMut(f64, &Estimate<T>, ChannelMask)) {
         let n = self.decided.len();
         let t_end = self.times[n - 1];
         // Started at the forward pass's rate, reversed, where that pass's sign is settled:
@@ -208,6 +372,9 @@ impl<T: Real> HostEstimator<T> {
         let start = Some(self.decided[n - 1])
             .filter(|e| !e.flags.has(Flags::SIGN_UNRESOLVED) && !e.flags.has(Flags::INPUT_INVALID));
         let hint = start.map(|e| e.omega.map(|v| -v.to_f64()));
+        // The channels the forward pass used at the block's end (the backward pass follows the
+        // forward pass's exclusions sample by sample, restarting from its own last rate).
+        let _ = self.backward.set_mask(self.masks[n - 1].0, hint);
         // A rate the estimator refuses (not finite) leaves the pass to settle on its own.
         if self.backward.est.set_hint(hint).is_err() {
             let _ = self.backward.est.set_hint(None);
@@ -216,22 +383,35 @@ impl<T: Real> HostEstimator<T> {
         self.scratch.clear();
         let scratch = &mut self.scratch;
         let readings = self.readings.make_contiguous();
+        let mut last = None;
         for (k, p) in readings
             .chunks_exact(self.channels)
             .take(n)
             .enumerate()
             .rev()
         {
-            self.backward
+            let mask = self.masks[k].0;
+            if mask != self.backward.est.mask() {
+                let _ = self.backward.set_mask(mask, last);
+            }
+            let e = self
+                .backward
                 .push(t_end - self.times[k], p, |e| scratch.push(e));
+            if e.is_finite() && !e.flags.has(Flags::INPUT_INVALID) {
+                last = Some(e.omega.map(|v| v.to_f64()));
+            }
         }
         self.backward.finish(|e| scratch.push(e));
         let rate = self.choose_path(n);
         let mut taken = Vec::with_capacity(if rate.is_some() { block } else { 0 });
         for (k, (t, fwd)) in self.times.iter().zip(&self.decided).take(block).enumerate() {
             let bwd = two_way::reversed(&self.scratch[n - 1 - k]);
-            let out = two_way::combine_taking(fwd, &bwd, Some(self.takes[k]));
-            emit(*t, &out);
+            let mut out = two_way::combine_taking(fwd, &bwd, Some(self.takes[k]));
+            let (mask, residual_high) = self.masks[k];
+            if residual_high {
+                out.flags.0 |= Flags::RESIDUAL_HIGH;
+            }
+            emit(*t, &out, mask);
             if rate.is_some() {
                 taken.push((*t, out));
             }
@@ -243,6 +423,7 @@ impl<T: Real> HostEstimator<T> {
         self.times.drain(..block);
         self.readings.drain(..block * self.channels);
         self.decided.drain(..block);
+        self.masks.drain(..block);
     }
 
     /// Decides which pass each of the `n` held samples takes ([`estimator_core::path_choice`],
@@ -307,11 +488,12 @@ fn run_typed<T: Real + Send + 'static>(
         ..Default::default()
     };
     let mut io_err: Option<std::io::Error> = None;
-    let mut emit = |t: f64, e: &Estimate<T>| {
+    let all = ChannelMask::all(loaded.names.len());
+    let mut emit = |t: f64, e: &Estimate<T>, mask: ChannelMask| {
         if io_err.is_some() {
             return;
         }
-        if let Err(err) = w.push(t, e) {
+        if let Err(err) = w.push(t, e, all.0 & !mask.0) {
             io_err = Some(err);
         }
         summary.rows += 1;
@@ -323,14 +505,14 @@ fn run_typed<T: Real + Send + 'static>(
                 for (pi, ri) in p.iter_mut().zip(row.iter()) {
                     *pi = T::of(*ri);
                 }
-                est.push(t, &p, &mut emit);
+                est.push_masked(t, &p, &mut emit);
             }
             Ok(None) => break Ok(()),
             Err(e) => break Err(e),
         }
     };
     // Rows accepted before an error are still estimated and written.
-    est.finish(&mut emit);
+    est.finish_masked(&mut emit);
     let written = w.finish();
     if let Some(e) = io_err.or(written.err()) {
         return Err(format!("{}: write failed: {e}", job.out.display()).into());

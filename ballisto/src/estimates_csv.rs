@@ -58,33 +58,41 @@ pub const GAMMA_COLUMNS: [&str; 12] = [
 /// 142-octet layout).
 pub const MARGIN_COLUMNS: [&str; 1] = ["branch_margin"];
 
+/// interfaces.md: bit i set when the i-th channel of the arrangement file is out of the
+/// estimate at that row (by fault isolation, a part missing, or by command); after
+/// [`MARGIN_COLUMNS`].
+pub const EXCLUDED_COLUMNS: [&str; 1] = ["excluded"];
+
 /// Writes the header line.
 pub fn write_header<W: Write>(w: &mut W) -> std::io::Result<()> {
     writeln!(
         w,
-        "{},{},{},{}",
+        "{},{},{},{},{}",
         COLUMNS.join(","),
         EXTRA_COLUMNS.join(","),
         GAMMA_COLUMNS.join(","),
-        MARGIN_COLUMNS.join(",")
+        MARGIN_COLUMNS.join(","),
+        EXCLUDED_COLUMNS.join(",")
     )
 }
 
 /// Writes one row (the text `Display` gives each number; see [`crate::decimal`]); `gamma`:
-/// the estimate is model G's, whose gravity gradient fills [`GAMMA_COLUMNS`] (else empty).
+/// the estimate is model G's, whose gravity gradient fills [`GAMMA_COLUMNS`] (else empty);
+/// `excluded`: the channels out of it ([`EXCLUDED_COLUMNS`]).
 pub fn write_row<W: Write, T: Real>(
     w: &mut W,
     t: f64,
     e: &Estimate<T>,
     gamma: bool,
+    excluded: u64,
 ) -> std::io::Result<()> {
     let mut line = Vec::with_capacity(768);
-    format_row(&mut line, t, e, gamma);
+    format_row(&mut line, t, e, gamma, excluded);
     w.write_all(&line)
 }
 
 /// Appends one row, its line end included, to `line`.
-fn format_row<T: Real>(line: &mut Vec<u8>, t: f64, e: &Estimate<T>, gamma: bool) {
+fn format_row<T: Real>(line: &mut Vec<u8>, t: f64, e: &Estimate<T>, gamma: bool, excluded: u64) {
     let real = |line: &mut Vec<u8>, v: f64| {
         line.push(b',');
         push_f64(line, v);
@@ -130,6 +138,8 @@ fn format_row<T: Real>(line: &mut Vec<u8>, t: f64, e: &Estimate<T>, gamma: bool)
     } else {
         line.push(b',');
     }
+    line.push(b',');
+    push_int(line, excluded);
     line.push(b'\n');
 }
 
@@ -138,7 +148,7 @@ fn format_row<T: Real>(line: &mut Vec<u8>, t: f64, e: &Estimate<T>, gamma: bool)
 const BATCH: usize = 512;
 
 /// A batch of rows on its way to the writing thread.
-type Batch<T> = Vec<(f64, Estimate<T>)>;
+type Batch<T> = Vec<(f64, Estimate<T>, u64)>;
 
 /// An estimates file written on a thread of its own: the caller estimates while the rows
 /// before are formatted and written (on two cores `ballisto estimate` then runs at the speed
@@ -160,8 +170,8 @@ impl<T: Real + Send + 'static> ThreadedWriter<T> {
             let mut text = Vec::with_capacity(768 * BATCH);
             for batch in rx {
                 text.clear();
-                for (t, e) in &batch {
-                    format_row(&mut text, *t, e, gamma);
+                for (t, e, excluded) in &batch {
+                    format_row(&mut text, *t, e, gamma, *excluded);
                 }
                 w.write_all(&text)?;
             }
@@ -174,9 +184,9 @@ impl<T: Real + Send + 'static> ThreadedWriter<T> {
         }
     }
 
-    /// Queues one row.
-    pub fn push(&mut self, t: f64, e: &Estimate<T>) -> std::io::Result<()> {
-        self.batch.push((t, *e));
+    /// Queues one row (`excluded`: the channels out of it, bit per channel).
+    pub fn push(&mut self, t: f64, e: &Estimate<T>, excluded: u64) -> std::io::Result<()> {
+        self.batch.push((t, *e, excluded));
         if self.batch.len() >= BATCH {
             self.send()?;
         }

@@ -212,6 +212,22 @@ fn record_bench(
 }
 
 /// The firmware's record: its sample sets, the truth at their instants, its estimates.
+/// The channels of the parts in `parts` (the simulator commands no exclusion).
+fn excluded_channels(
+    config: &ballisto_fw::config::AppConfig,
+    parts: ballisto_link::PartSet,
+) -> u64 {
+    let mut bits = 0u64;
+    for (i, p) in config.sampling.parts() {
+        if parts.contains(i) {
+            for c in p.channels.iter().flatten() {
+                bits |= 1 << c;
+            }
+        }
+    }
+    bits
+}
+
 fn record_firmware(
     job: &SimJob,
     loaded: &LoadedArrangement,
@@ -248,7 +264,15 @@ fn record_firmware(
         crate::estimate::count_flags(&mut flag_counts, m.estimate.flags);
         let r = samples_csv::write_row(samples, t, row.iter().copied())
             .and_then(|_| truth.row(set.k as usize, tr))
-            .and_then(|_| crate::estimates_csv::write_row(&mut estimates, t, &m.estimate, model_g));
+            .and_then(|_| {
+                crate::estimates_csv::write_row(
+                    &mut estimates,
+                    t,
+                    &m.estimate,
+                    model_g,
+                    excluded_channels(&config, m.excluded),
+                )
+            });
         if let Err(e) = r {
             failure.get_or_insert(e);
         }

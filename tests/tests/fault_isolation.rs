@@ -74,3 +74,115 @@ fn faults_are_isolated_and_the_estimate_without_the_part_is_as_good_as_never_hav
         );
     }
 }
+
+/// The named columns of a CSV file, every row.
+fn columns(path: &std::path::Path, names: &[&str]) -> Vec<Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let idx: Vec<usize> = names
+        .iter()
+        .map(|n| {
+            header
+                .iter()
+                .position(|h| h == n)
+                .unwrap_or_else(|| panic!("no column {n}"))
+        })
+        .collect();
+    lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            idx.iter()
+                .map(|&i| f[i].parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect()
+}
+
+/// One estimator (issue 17): `ballisto estimate` on the samples the firmware read runs the
+/// same monitor and takes the same parts out at the same rows (the `excluded` column of both
+/// estimates files), and writes no silently wrong row.
+#[test]
+fn ballisto_estimate_takes_out_the_part_the_firmware_takes_out_at_the_same_rows() {
+    use ballisto::estimate::{estimate_files, EstimateJob, Precision};
+    use ballisto::sim::{run_sim, SimJob};
+    use hal_sim::scenario::FaultSpec;
+    let mut sc = e2e_tests::faults::layout(4000);
+    let part = 2;
+    sc.faults.push(FaultSpec {
+        part: sc.parts[part].name.clone(),
+        kind: "stuck".to_string(),
+        start: 4.0,
+        end: Some(7.0),
+        bias: None,
+        rate: None,
+        density: None,
+        probability: None,
+        stall: None,
+    });
+    let dir = std::env::temp_dir().join(format!("ballisto-faults-{}", std::process::id()));
+    run_sim(&SimJob {
+        scenario: &sc,
+        out: &dir,
+        estimate: false,
+        progress: false,
+        firmware: Some(ballisto_fw::config::Alignment::Interpolate),
+        identify: false,
+    })
+    .unwrap();
+    let out = dir.join("host.csv");
+    estimate_files(&EstimateJob {
+        arrangement: &dir.join("arrangement.toml"),
+        samples: &dir.join("samples.csv"),
+        out: &out,
+        model: None,
+        options: estimator_core::Options {
+            initial_omega: sc.initial_omega,
+            ..Default::default()
+        },
+        precision: Precision::F32,
+    })
+    .unwrap();
+    let names = ["t", "excluded", "flags", "omega_x", "omega_y", "omega_z"];
+    let sd = ["sd_omega_x", "sd_omega_y", "sd_omega_z"];
+    let host = columns(&out, &[&names[..], &sd[..]].concat());
+    let firmware = columns(&dir.join("estimates.csv"), &names);
+    let truth = columns(
+        &dir.join("truth.csv"),
+        &["t", "omega_x", "omega_y", "omega_z"],
+    );
+    assert_eq!(host.len(), firmware.len());
+    // The part's three channels (`u2.x/y/z` are channels 6–8 of the arrangement file).
+    let bits = 0b111u64 << (3 * part);
+    let (mut out_rows, mut differ, mut silent) = (0, 0, 0);
+    for ((h, f), tr) in host.iter().zip(&firmware).zip(&truth) {
+        assert_eq!(h[0], tr[0]);
+        let excluded = h[1] as u64;
+        differ += usize::from(excluded != f[1] as u64);
+        assert_eq!(excluded & !bits, 0, "t {}: a healthy part out", h[0]);
+        if excluded == bits {
+            out_rows += 1;
+            assert!(h[2] as u16 & estimator_core::Flags::CHANNELS_EXCLUDED != 0);
+            assert!(h[0] > 4.0, "out before the fault, t {}", h[0]);
+        }
+        let err = (0..3)
+            .map(|k| (h[3 + k] - tr[1 + k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let s = (0..3).map(|k| h[6 + k].powi(2)).sum::<f64>().sqrt();
+        if h[0] > 1.0 && err > 5.0 * s && (h[2] as u16) & e2e_tests::faults::WARNING == 0 {
+            silent += 1;
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    println!(
+        "rows out: {out_rows}, rows where host and firmware differ: {differ}, silent: {silent}"
+    );
+    // Isolated within a second of the onset and held to its end (3 s at 100 Hz).
+    assert!(out_rows >= 200, "rows with the part out: {out_rows}");
+    assert_eq!(
+        differ, 0,
+        "the host's exclusions differ from the firmware's"
+    );
+    assert_eq!(silent, 0);
+}

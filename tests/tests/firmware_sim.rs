@@ -3,6 +3,7 @@
 //! same samples.
 
 use ballisto_fw::config::Alignment;
+use estimator_core::ChannelMask;
 use hal_sim::firmware_host::{firmware_config, run_firmware};
 use hal_sim::scenario::{PartType, Scenario};
 
@@ -82,9 +83,16 @@ fn reference_estimates<T: estimator_core::Real>(
     let mut pt = vec![T::ZERO; loaded.names.len()];
     while let Some(t) = rd.next_row(&mut p).unwrap() {
         pt.iter_mut().zip(&p).for_each(|(a, b)| *a = T::of(*b));
+        let excluded = ChannelMask::all(loaded.names.len()).0 & !est.mask().0;
         let e = est.update(t, &pt);
-        ballisto::estimates_csv::write_row(&mut w, t, e, model == estimator_core::Model::General)
-            .unwrap();
+        ballisto::estimates_csv::write_row(
+            &mut w,
+            t,
+            e,
+            model == estimator_core::Model::General,
+            excluded,
+        )
+        .unwrap();
     }
     w.flush().unwrap();
     out

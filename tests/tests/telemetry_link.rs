@@ -257,10 +257,16 @@ fn motion_reports_with_and_without_the_branch_margin_decode() {
             None => assert!(r.estimate.branch_margin.is_nan()),
         }
         let mut row = Vec::new();
-        ballisto::estimates_csv::write_row(&mut row, 0.0, &r.estimate, false).unwrap();
+        let excluded = u64::from(r.excluded_channels.0);
+        ballisto::estimates_csv::write_row(&mut row, 0.0, &r.estimate, false, excluded).unwrap();
         let row = String::from_utf8(row).unwrap();
-        let last = row.trim_end().rsplit(',').next().unwrap().to_string();
-        assert_eq!(last, margin.map_or(String::new(), |v| format!("{v}")));
+        let mut fields = row.trim_end().rsplit(',');
+        assert_eq!(fields.next(), Some("5"), "the excluded column");
+        let margin_field = fields.next().unwrap().to_string();
+        assert_eq!(
+            margin_field,
+            margin.map_or(String::new(), |v| format!("{v}"))
+        );
     }
     assert!(matches!(
         decode(&packet(MOTION_LEN - 1)),

@@ -360,13 +360,15 @@ pub fn estimator_rates(
         noise_given: true,
     };
     // The geometry is what is being fitted: its error makes every path inconsistent with
-    // its own Ω′, so the path check (model G) would leave nothing to fit with.
+    // its own Ω′, so the path check (model G) would leave nothing to fit with, and every
+    // sample inconsistent with the nominal geometry, so fault isolation would take parts out.
     let options = Options {
         path_check: false,
         ..Options::default()
     };
     let mut est = HostEstimator::<f64>::new(&loaded, model, options)
-        .map_err(|e| format!("the estimator on the geometry being identified: {e}"))?;
+        .map_err(|e| format!("the estimator on the geometry being identified: {e}"))?
+        .without_fault_isolation();
     let mut out = Vec::with_capacity(rows.len());
     let undecided =
         Flags::FALLBACK | Flags::ILL_CONDITIONED | Flags::BRANCH_AMBIGUOUS | Flags::INPUT_INVALID;
