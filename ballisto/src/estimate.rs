@@ -6,7 +6,7 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
 
-use estimator_core::fault_monitor::{FaultMonitor, Settings, TrustedRate, Verdict};
+use estimator_core::fault_monitor::{FaultMonitor, FieldCheck, Settings, TrustedRate, Verdict};
 use estimator_core::parity::{Parity, NO_PART};
 use estimator_core::path_choice::{Links, PathChoice, PathState};
 use estimator_core::smoother::Smoother;
@@ -178,11 +178,16 @@ struct Faults<T: Real> {
     refused: Option<Option<u8>>,
     trusted: TrustedRate,
     last_omega: Option<[f64; 3]>,
+    /// Model G's covariance of A and the known Γ, for the known-field test where there is no
+    /// parity space; the test, once the rate is known.
+    field_cov: Option<([[T; 6]; 6], estimator_core::Sym3<f64>)>,
+    field: Option<FieldCheck<T>>,
 }
 
 impl<T: Real> Faults<T> {
-    /// Model G's monitor over the parts of `loaded` (`None` for model F: no parity space).
-    fn new(loaded: &LoadedArrangement, model: Model) -> Option<Self> {
+    /// Model G's monitor over the parts of `loaded` (`None` for model F: no parity space);
+    /// `est` the forward pass's estimator (its covariance of A and known Γ).
+    fn new(loaded: &LoadedArrangement, model: Model, est: &Estimator<T, HOST_CAP>) -> Option<Self> {
         if model != Model::General {
             return None;
         }
@@ -209,6 +214,8 @@ impl<T: Real> Faults<T> {
             refused: None,
             trusted: TrustedRate::default(),
             last_omega: None,
+            field_cov: est.field_covariance().map(|c| (c, est.known_gamma())),
+            field: None,
         })
     }
 
@@ -218,8 +225,15 @@ impl<T: Real> Faults<T> {
         if self.monitor.is_none() {
             match self.first_t {
                 Some(t0) if t > t0 => {
-                    let mut m = FaultMonitor::new(Settings::default(), 1.0 / (t - t0));
-                    m.set_parity(Parity::build(&self.arrangement, self.all, &self.part).ok());
+                    let rate = 1.0 / (t - t0);
+                    let mut m = FaultMonitor::new(Settings::default(), rate);
+                    let parity = Parity::build(&self.arrangement, self.all, &self.part).ok();
+                    if parity.is_none() {
+                        self.field = self
+                            .field_cov
+                            .and_then(|(c, g)| FieldCheck::new(&c, &g, Settings::default(), rate));
+                    }
+                    m.set_parity(parity);
                     self.monitor = Some(m);
                 }
                 _ => self.first_t = Some(t),
@@ -252,7 +266,7 @@ impl<T: Real> HostEstimator<T> {
         model: Model,
         options: Options,
     ) -> Result<Self, estimator_core::ConfigError> {
-        Ok(HostEstimator {
+        let est = HostEstimator {
             forward: Pass::new(loaded, model, options)?,
             backward: Pass::new(loaded, model, options)?,
             times: Default::default(),
@@ -264,9 +278,11 @@ impl<T: Real> HostEstimator<T> {
             offers: Vec::new(),
             links: Vec::new(),
             takes: Vec::new(),
-            faults: Faults::new(loaded, model),
+            faults: None,
             masks: Default::default(),
-        })
+        };
+        let faults = Faults::new(loaded, model, &est.forward.est);
+        Ok(HostEstimator { faults, ..est })
     }
 
     /// Switches fault isolation off (on by default in model G): for a record whose geometry is
@@ -302,6 +318,16 @@ impl<T: Real> HostEstimator<T> {
         let decided = &mut self.decided;
         let raw = self.forward.push(t, p, |e| decided.push_back(e));
         if let Some(f) = &mut self.faults {
+            // With no parity space, model G's known-field test on the forward estimate flags
+            // the row (as the firmware does).
+            let field_bad = match &mut f.field {
+                Some(check) if raw.is_finite() => check.step(&raw),
+                _ => false,
+            };
+            let residual_high = residual_high || field_bad;
+            if let Some(m) = self.masks.back_mut() {
+                m.1 = residual_high;
+            }
             let verdict = if residual_high {
                 Verdict::NotIsolated
             } else {

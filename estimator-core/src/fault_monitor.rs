@@ -112,12 +112,8 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
     pub fn set_parity(&mut self, parity: Option<Parity<T, CAP>>) {
         let tau = (self.settings.window_s * self.rate_hz).clamp(2.0, 1e7);
         let lambda = 1.0 - 1.0 / tau;
-        let z = upper_normal_quantile(self.settings.false_alarm);
-        let limit = |dof: usize| {
-            let g = 1.0 / (1.0 + lambda);
-            let h = dof as f64 * (1.0 + lambda) / (1.0 - lambda);
-            T::of(g * chi2_quantile(h, z))
-        };
+        let alpha = self.settings.false_alarm;
+        let limit = |dof: usize| T::of(window_limit(dof, tau, alpha));
         self.lambda = T::of(lambda);
         self.window = tau as u32;
         self.confirm = (self.window / 10).max(1);
@@ -231,6 +227,159 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         };
         self.verdict
     }
+}
+
+/// The limit of a window sum of `χ²_dof` over `tau` samples, exceeded with probability `alpha`
+/// per sample when the data are consistent (module doc: Satterthwaite, Wilson–Hilferty).
+pub fn window_limit(dof: usize, tau: f64, alpha: f64) -> f64 {
+    let lambda = 1.0 - 1.0 / tau;
+    let g = 1.0 / (1.0 + lambda);
+    let h = dof as f64 * (1.0 + lambda) / (1.0 - lambda);
+    g * chi2_quantile(h, upper_normal_quantile(alpha))
+}
+
+/// Model G's consistency with a known gravity gradient (issue 17, "redundancy is found where it
+/// exists"): in orbit or on the ground Γ is known to far below the noise, so `A − Γ` must be
+/// `{Ω}² = Ω Ωᵀ − |Ω|² I` — six components, three unknowns. With twelve channels model G has
+/// no parity space, but this test has three degrees of freedom: the weighted least-squares fit
+/// of Ω to `A − Γ` (Gauss–Newton from the estimate's Ω, weights `cov(A)⁻¹`, model G's constant
+/// covariance) leaves `χ²₃` when the readings are consistent. It tests, it does not isolate.
+#[derive(Clone, Debug)]
+pub struct FieldCheck<T> {
+    gamma: [T; 6],
+    /// `cov(A)⁻¹`.
+    weight: [[T; 6]; 6],
+    lambda: T,
+    total: T,
+    limit: T,
+}
+
+impl<T: Real> FieldCheck<T> {
+    /// The test for `cov(A)` (`Estimator::field_covariance`) and the known `gamma`, windowed as
+    /// the fault monitor's; `None` if `cov(A)` is not positive definite.
+    pub fn new(
+        cov: &[[T; 6]; 6],
+        gamma: &crate::linalg::Sym3<f64>,
+        settings: Settings,
+        rate_hz: f64,
+    ) -> Option<Self> {
+        let mut a = [[0.0f64; 6]; 6];
+        for (ar, cr) in a.iter_mut().zip(cov.iter()) {
+            for (x, c) in ar.iter_mut().zip(cr.iter()) {
+                *x = c.to_f64();
+            }
+        }
+        let inv = invert_spd6(&a)?;
+        let mut weight = [[T::ZERO; 6]; 6];
+        for (wr, ir) in weight.iter_mut().zip(inv.iter()) {
+            for (w, x) in wr.iter_mut().zip(ir.iter()) {
+                *w = T::of(*x);
+            }
+        }
+        let tau = (settings.window_s * rate_hz).clamp(2.0, 1e7);
+        Some(FieldCheck {
+            gamma: gamma.0.map(T::of),
+            weight,
+            lambda: T::of(1.0 - 1.0 / tau),
+            total: T::ZERO,
+            limit: T::of(window_limit(3, tau, settings.false_alarm)),
+        })
+    }
+
+    /// This estimate's `χ²₃` (0 if it has no finite field).
+    pub fn chi2(&self, e: &Estimate<T>) -> T {
+        let s: [T; 6] = core::array::from_fn(|i| e.field.0[i] - self.gamma[i]);
+        let mut w = e.omega;
+        let mut chi2 = T::ZERO;
+        for it in 0..4 {
+            let (r, j) = residual_and_jacobian(&s, &w);
+            let wr: [T; 6] = core::array::from_fn(|a| {
+                (0..6).fold(T::ZERO, |acc, b| acc + self.weight[a][b] * r[b])
+            });
+            chi2 = (0..6).fold(T::ZERO, |acc, a| acc + r[a] * wr[a]);
+            if it == 3 {
+                break;
+            }
+            // Normal equations Jᵀ W J δ = Jᵀ W r.
+            let mut n = [T::ZERO; 6];
+            let mut g = [T::ZERO; 3];
+            let wj: [[T; 3]; 6] = core::array::from_fn(|a| {
+                core::array::from_fn(|k| {
+                    (0..6).fold(T::ZERO, |acc, b| acc + self.weight[a][b] * j[b][k])
+                })
+            });
+            for (k, gk) in g.iter_mut().enumerate() {
+                *gk = (0..6).fold(T::ZERO, |acc, a| acc + j[a][k] * wr[a]);
+            }
+            let idx = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+            for (slot, (p, q)) in n.iter_mut().zip(idx) {
+                *slot = (0..6).fold(T::ZERO, |acc, a| acc + j[a][p] * wj[a][q]);
+            }
+            let Some(d) = crate::linalg::Sym3(n).solve(&g) else {
+                break;
+            };
+            for k in 0..3 {
+                w[k] += d[k];
+            }
+        }
+        if chi2.is_finite() {
+            chi2.max(T::ZERO)
+        } else {
+            T::ZERO
+        }
+    }
+
+    /// One estimate: whether the window's `χ²` is above its limit (the readings inconsistent
+    /// with the known field: a fault, or a Γ that is not the one given).
+    pub fn step(&mut self, e: &Estimate<T>) -> bool {
+        let x = self.chi2(e);
+        self.total = (self.lambda * self.total + x).min(T::of(CAP_FACTOR) * self.limit);
+        self.total > self.limit
+    }
+}
+
+/// `r = S − ({Ω}²)` and `∂{Ω}²/∂Ω` (components `[xx, yy, zz, xy, xz, yz]`).
+fn residual_and_jacobian<T: Real>(s: &[T; 6], w: &[T; 3]) -> ([T; 6], [[T; 3]; 6]) {
+    let [x, y, z] = *w;
+    let two = T::of(2.0);
+    let f = [
+        -(y * y + z * z),
+        -(x * x + z * z),
+        -(x * x + y * y),
+        x * y,
+        x * z,
+        y * z,
+    ];
+    let zero = T::ZERO;
+    let j = [
+        [zero, -two * y, -two * z],
+        [-two * x, zero, -two * z],
+        [-two * x, -two * y, zero],
+        [y, x, zero],
+        [z, zero, x],
+        [zero, z, y],
+    ];
+    (core::array::from_fn(|i| s[i] - f[i]), j)
+}
+
+/// The inverse of a symmetric positive definite 6 × 6 matrix (configuration time), by the
+/// Cholesky factor of `identify`'s fits.
+fn invert_spd6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
+    use crate::identify::cholesky::{cholesky, cholesky_solve};
+    let mut l = *a;
+    if !cholesky(&mut l, 6) {
+        return None;
+    }
+    let mut inv = [[0.0f64; 6]; 6];
+    for c in 0..6 {
+        let mut e = [0.0f64; 6];
+        e[c] = 1.0;
+        let x = cholesky_solve(&l, 6, &e);
+        for (row, v) in inv.iter_mut().zip(x) {
+            row[c] = v;
+        }
+    }
+    Some(inv)
 }
 
 /// The rate hint across an exclusion or a re-admission: the last estimate with no warning flag
@@ -442,6 +591,51 @@ mod tests {
         let mut p = reading(&arr, &mut rng);
         p[0] = f32::NAN;
         assert_eq!(m.step(&p), Verdict::NotIsolated);
+    }
+
+    /// Twelve channels (no parity space): model G's known-field test stays quiet on consistent
+    /// readings and sees a 10 σ bias of one channel within its window.
+    #[test]
+    fn the_known_field_test_sees_a_bias_that_twelve_channels_cannot_isolate() {
+        let (full, _) = layout();
+        let mut arr = Arrangement::<24>::new();
+        for ch in full.channels().iter().take(12) {
+            arr.push(ch.position, ch.axis, ch.noise).unwrap();
+        }
+        let mut est =
+            crate::Estimator::<f32, 24>::new(&arr, crate::Model::General, Default::default())
+                .unwrap();
+        let cov = est.field_covariance().unwrap();
+        let mut check =
+            FieldCheck::new(&cov, &est.known_gamma(), Settings::default(), 100.0).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        // A slow spin about z (Ω = 0.5 rad/s): centripetal terms in the readings.
+        let reading = |rng: &mut ChaCha8Rng, bias: f32| -> [f32; 12] {
+            let full = reading(&full, rng);
+            core::array::from_fn(|i| {
+                let ch = &arr.channels()[i];
+                let w2 = 0.25;
+                let f = -w2 * (ch.axis[0] * ch.position[0] + ch.axis[1] * ch.position[1]);
+                full[i] + f as f32 + if i == 4 { bias } else { 0.0 }
+            })
+        };
+        let mut sum = 0.0;
+        for k in 0..600 {
+            let e = *est.update(k as f64 * 0.01, &reading(&mut rng, 0.0));
+            sum += check.chi2(&e);
+            assert!(!check.step(&e), "false alarm at set {k}");
+        }
+        // χ²₃ per set.
+        let mean = sum / 600.0;
+        assert!((2.0..4.5).contains(&mean), "mean χ² {mean}");
+        let mut seen = None;
+        for k in 600..800 {
+            let e = *est.update(k as f64 * 0.01, &reading(&mut rng, 1e-2));
+            if check.step(&e) && seen.is_none() {
+                seen = Some(k - 600);
+            }
+        }
+        assert!(seen.is_some_and(|k| k < 100), "seen after {seen:?} sets");
     }
 
     #[test]

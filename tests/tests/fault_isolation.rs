@@ -186,3 +186,88 @@ fn ballisto_estimate_takes_out_the_part_the_firmware_takes_out_at_the_same_rows(
     );
     assert_eq!(silent, 0);
 }
+
+/// Rows from 1 s on of an estimates file against its truth: (silently wrong, flagged 64, rows).
+fn silent_and_flagged(
+    estimates: &std::path::Path,
+    truth: &std::path::Path,
+) -> (usize, usize, usize) {
+    let e = columns(
+        estimates,
+        &[
+            "t",
+            "flags",
+            "omega_x",
+            "omega_y",
+            "omega_z",
+            "sd_omega_x",
+            "sd_omega_y",
+            "sd_omega_z",
+        ],
+    );
+    let tr = columns(truth, &["t", "omega_x", "omega_y", "omega_z"]);
+    let (mut silent, mut flagged, mut rows) = (0, 0, 0);
+    for (a, b) in e.iter().zip(&tr) {
+        if a[0] < 1.0 {
+            continue;
+        }
+        rows += 1;
+        let flags = a[1] as u16;
+        let err = (0..3)
+            .map(|k| (a[2 + k] - b[1 + k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let sd = (0..3).map(|k| a[5 + k].powi(2)).sum::<f64>().sqrt();
+        silent += usize::from(err > 5.0 * sd && flags & e2e_tests::faults::WARNING == 0);
+        flagged += usize::from(flags & estimator_core::Flags::RESIDUAL_HIGH != 0);
+    }
+    (silent, flagged, rows)
+}
+
+/// Twelve channels in model G have no parity space; model G's known-field test (Γ known in
+/// orbit: three degrees of freedom) flags what the faults of `tetra-orbit-faults` do to the
+/// estimate, through the firmware and through `ballisto estimate` on its samples, and nothing
+/// on the clean `tetra-orbit`.
+#[test]
+fn twelve_channels_are_never_silently_wrong_under_the_named_faults() {
+    use ballisto::estimate::{estimate_files, EstimateJob, Precision};
+    use ballisto::sim::{run_sim, SimJob};
+    for (name, faulty) in [("tetra-orbit-faults", true), ("tetra-orbit", false)] {
+        let sc = hal_sim::scenario::Scenario::load(name).unwrap();
+        let dir =
+            std::env::temp_dir().join(format!("ballisto-field-{}-{name}", std::process::id()));
+        run_sim(&SimJob {
+            scenario: &sc,
+            out: &dir,
+            estimate: false,
+            progress: false,
+            firmware: Some(ballisto_fw::config::Alignment::Interpolate),
+            identify: false,
+        })
+        .unwrap();
+        let host = dir.join("host.csv");
+        estimate_files(&EstimateJob {
+            arrangement: &dir.join("arrangement.toml"),
+            samples: &dir.join("samples.csv"),
+            out: &host,
+            model: None,
+            options: estimator_core::Options {
+                initial_omega: sc.initial_omega,
+                ..Default::default()
+            },
+            precision: Precision::F32,
+        })
+        .unwrap();
+        let truth = dir.join("truth.csv");
+        let fw = silent_and_flagged(&dir.join("estimates.csv"), &truth);
+        let h = silent_and_flagged(&host, &truth);
+        let _ = std::fs::remove_dir_all(&dir);
+        println!("{name}: (silent, flagged 64, rows) firmware {fw:?}, ballisto estimate {h:?}");
+        assert_eq!((fw.0, h.0), (0, 0), "{name}: silently wrong rows");
+        if faulty {
+            assert!(fw.1 > 500 && h.1 > 500, "{name}: the faults are flagged");
+        } else {
+            assert_eq!((fw.1, h.1), (0, 0), "{name}: false alarms");
+        }
+    }
+}

@@ -293,6 +293,17 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         (f < self.cfg.frames && self.cfg.usable[f]).then(|| self.cfg.proj[f].condition)
     }
 
+    /// Model G: the covariance of A's components (body frame, `[xx, yy, zz, xy, xz, yz]`, s⁻⁴;
+    /// a constant of the arrangement and mask); `None` in model F.
+    pub fn field_covariance(&self) -> Option<[[T; 6]; 6]> {
+        self.cfg.proj[0].general_cov.as_ref().map(|g| g.field)
+    }
+
+    /// The gravity-gradient tensor Γ the options give (body frame; model F's known field).
+    pub fn known_gamma(&self) -> Sym3<f64> {
+        self.cfg.options.gamma
+    }
+
     /// Variance per step of the rate model error learnt by the tracker (trapezoidal integration
     /// of Ω′: jerk, sampling), rad²/s² — a health figure for telemetry.
     pub fn rate_model_variance(&self) -> T {

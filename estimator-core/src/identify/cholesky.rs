@@ -10,7 +10,7 @@ use crate::real::Real;
 /// Cholesky factor (lower) of the leading `n × n` block of the symmetric `a`, in place;
 /// `false` unless positive definite with every pivot above 10⁻¹³ of the largest diagonal.
 #[inline]
-pub(super) fn cholesky<const N: usize>(a: &mut [[f64; N]; N], n: usize) -> bool {
+pub(crate) fn cholesky<const N: usize>(a: &mut [[f64; N]; N], n: usize) -> bool {
     let top = (0..n).map(|i| a[i][i]).fold(0.0f64, f64::max);
     if !(top > 0.0) || !top.is_finite() {
         return false;
@@ -38,7 +38,7 @@ pub(super) fn cholesky<const N: usize>(a: &mut [[f64; N]; N], n: usize) -> bool 
 
 /// Solves `L Lᵀ x = b` with the factor [`cholesky`] left in `l`.
 #[inline]
-pub(super) fn cholesky_solve<const N: usize>(
+pub(crate) fn cholesky_solve<const N: usize>(
     l: &[[f64; N]; N],
     n: usize,
     b: &[f64; N],

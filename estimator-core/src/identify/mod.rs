@@ -38,7 +38,7 @@
 //! A constant specific force at the centre of mass (drag, thrust) would be taken as bias: the
 //! identification is for free flight, where it is far below the parts' noise (1e-6 m/s²).
 
-mod cholesky;
+pub(crate) mod cholesky;
 mod fit;
 mod result;
 mod solve;

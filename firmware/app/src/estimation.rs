@@ -104,8 +104,7 @@ impl Estimation {
     /// The fault monitor's parity space over the channels neither missing nor commanded out.
     fn rebuild_monitor(&mut self) {
         let tested = self.mask(self.excluded, self.commanded);
-        let (arrangement, model) = (self.estimator.arrangement(), self.estimator.model());
-        self.isolation.rebuild(arrangement, model, tested);
+        self.isolation.rebuild(&self.estimator, tested);
     }
 
     /// Channels in the arrangement.
@@ -231,8 +230,15 @@ impl Estimation {
         if estimate.is_finite() && !estimate.flags.has(Flags::INPUT_INVALID) {
             self.last_omega = Some(estimate.omega.map(f64::from));
         }
+        // A fault the solve may still be using (seen but not isolated, or, with no parity
+        // space, the readings inconsistent with the known field): the estimate is in doubt.
+        let field_bad = self.isolation.field_inconsistent(&estimate);
+        let verdict = if field_bad {
+            Verdict::NotIsolated
+        } else {
+            verdict
+        };
         if verdict == Verdict::NotIsolated {
-            // A fault the solve may still be using: the estimate is in doubt.
             estimate.flags.0 |= Flags::RESIDUAL_HIGH;
         }
         if self.isolation.enabled() {

@@ -13,20 +13,24 @@
 
 use ballisto_link::PartSet;
 use estimator_core::fault_monitor::Verdict;
-use estimator_core::{Arrangement, ChannelMask, Model};
+use estimator_core::{ChannelMask, Estimate, Estimator};
 
 use crate::config::{AppConfig, MAX_CHANNELS};
 
 #[cfg(feature = "fault-isolation")]
 mod enabled {
     use super::*;
-    use estimator_core::fault_monitor::{FaultMonitor, Settings};
+    use estimator_core::fault_monitor::{FaultMonitor, FieldCheck, Settings};
     use estimator_core::parity::{Parity, NO_PART};
+    use estimator_core::Model;
 
-    /// The monitor and each channel's part.
+    /// The monitor, each channel's part, and model G's known-field test where there is no
+    /// parity space.
     pub struct Isolation {
         monitor: FaultMonitor<f32, MAX_CHANNELS>,
         part: [u8; MAX_CHANNELS],
+        field: Option<FieldCheck<f32>>,
+        rate_hz: f64,
     }
 
     impl Isolation {
@@ -40,24 +44,42 @@ mod enabled {
                     }
                 }
             }
+            let rate_hz = f64::from(config.sampling.rate_hz);
             Isolation {
-                monitor: FaultMonitor::new(Settings::default(), f64::from(config.sampling.rate_hz)),
+                monitor: FaultMonitor::new(Settings::default(), rate_hz),
                 part,
+                field: None,
+                rate_hz,
             }
         }
 
         /// The parity space of the channels of `tested` (model G only; otherwise, or with too
-        /// few channels, no test).
-        pub fn rebuild(
-            &mut self,
-            arrangement: &Arrangement<MAX_CHANNELS>,
-            model: Model,
-            tested: ChannelMask,
-        ) {
-            let parity = (model == Model::General)
-                .then(|| Parity::build(arrangement, tested, &self.part).ok())
+        /// few channels, no test); without one, model G's known-field test on the estimator's
+        /// channels.
+        pub fn rebuild(&mut self, estimator: &Estimator<f32, MAX_CHANNELS>, tested: ChannelMask) {
+            let general = estimator.model() == Model::General;
+            let parity = general
+                .then(|| Parity::build(estimator.arrangement(), tested, &self.part).ok())
                 .flatten();
+            self.field = match (&parity, estimator.field_covariance()) {
+                (None, Some(cov)) => FieldCheck::new(
+                    &cov,
+                    &estimator.known_gamma(),
+                    Settings::default(),
+                    self.rate_hz,
+                ),
+                _ => None,
+            };
             self.monitor.set_parity(parity);
+        }
+
+        /// After the estimate: whether model G's known-field test finds its window
+        /// inconsistent (always false where there is a parity space, or in model F).
+        pub fn field_inconsistent(&mut self, e: &Estimate<f32>) -> bool {
+            match &mut self.field {
+                Some(f) if e.is_finite() => f.step(e),
+                _ => false,
+            }
         }
 
         /// One set's readings (NaN where a part had no value).
@@ -96,7 +118,12 @@ mod enabled {
         }
 
         /// Nothing to build.
-        pub fn rebuild(&mut self, _: &Arrangement<MAX_CHANNELS>, _: Model, _: ChannelMask) {}
+        pub fn rebuild(&mut self, _: &Estimator<f32, MAX_CHANNELS>, _: ChannelMask) {}
+
+        /// No test.
+        pub fn field_inconsistent(&mut self, _: &Estimate<f32>) -> bool {
+            false
+        }
 
         /// No test.
         pub fn step(&mut self, _: &[f32]) -> Verdict {
