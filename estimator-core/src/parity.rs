@@ -37,8 +37,9 @@ pub const NO_PART: u8 = u8::MAX;
 /// The leave-one-part-out test of one part.
 #[derive(Clone, Copy, Debug)]
 struct PartTest<T> {
-    /// Its included channels (`count` of them).
+    /// Its included channels (`count` of them), and their rows of the channel set.
     channels: [u8; PART_CHANNELS],
+    rows: [u8; PART_CHANNELS],
     count: u8,
     /// `(P_SS)⁻¹`, padded with the identity beyond `count`.
     inverse: Sym3<T>,
@@ -53,11 +54,14 @@ pub struct Parity<T, const CAP: usize> {
     n: usize,
     mask: ChannelMask,
     dof: usize,
-    /// `P` (whitened channel space), indexed by channel; zero outside the mask.
+    /// The channel set's channels, in order (`rows` of them): row `a` is channel `index[a]`.
+    index: [u8; CAP],
+    rows: usize,
+    /// `P` (whitened channel space), by row of the channel set.
     projector: [[T; CAP]; CAP],
-    /// `1 / (scale σ)` per channel.
+    /// `1 / (scale σ)` per row.
     weight: [T; CAP],
-    /// Calibrated bias per channel.
+    /// Calibrated bias per row.
     bias: [T; CAP],
     parts: [PartTest<T>; CAP],
     n_parts: usize,
@@ -156,20 +160,23 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
                 let x = (0..m).map(|e| null[e][a] * null[e][b]).sum::<f64>()
                     - (0..3).map(|c| v[c][a] * v[c][b]).sum::<f64>();
                 p64[a][b] = x;
-                projector[idx[a]][idx[b]] = T::of(x);
+                projector[a][b] = T::of(x);
             }
         }
         let dof = m - 3;
         let mut weight = [T::ZERO; CAP];
         let mut bias = [T::ZERO; CAP];
-        for &i in idx.iter().take(rows) {
+        let mut index = [0u8; CAP];
+        for (row, &i) in idx.iter().enumerate().take(rows) {
             let ch = &arr.channels()[i];
-            weight[i] = T::of(1.0 / (ch.scale * ch.noise));
-            bias[i] = T::of(ch.bias);
+            weight[row] = T::of(1.0 / (ch.scale * ch.noise));
+            bias[row] = T::of(ch.bias);
+            index[row] = i as u8;
         }
         // The parts: their included channels and P_SS⁻¹.
         let empty = PartTest {
             channels: [0; PART_CHANNELS],
+            rows: [0; PART_CHANNELS],
             count: 0,
             inverse: Sym3([T::ONE, T::ONE, T::ONE, T::ZERO, T::ZERO, T::ZERO]),
             isolable: false,
@@ -193,6 +200,7 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
                 continue;
             }
             t.channels[usize::from(t.count)] = i as u8;
+            t.rows[usize::from(t.count)] = row_of[i] as u8;
             t.count += 1;
         }
         for (t, over) in parts.iter_mut().zip(overfull).take(n_parts) {
@@ -204,7 +212,7 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
             for (a, pa) in pss.iter_mut().enumerate() {
                 for (b, pab) in pa.iter_mut().enumerate() {
                     *pab = if a < c && b < c {
-                        p64[row_of[usize::from(t.channels[a])]][row_of[usize::from(t.channels[b])]]
+                        p64[usize::from(t.rows[a])][usize::from(t.rows[b])]
                     } else if a == b {
                         1.0
                     } else {
@@ -223,6 +231,8 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
             n,
             mask,
             dof,
+            index,
+            rows,
             projector,
             weight,
             bias,
@@ -263,61 +273,60 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
     /// The residual of one sample set (`p[i]`: channel `i`'s reading, m/s²), or `None` if a
     /// reading of the channel set is not finite.
     pub fn evaluate(&self, p: &[T]) -> Option<ParitySample<T, CAP>> {
-        let n = self.n.min(p.len());
-        let mut w = [T::ZERO; CAP];
-        let mut finite = T::ZERO;
-        for i in 0..n {
-            if self.mask.contains(i) {
-                w[i] = (p[i] - self.bias[i]) * self.weight[i];
-                finite += w[i] * T::ZERO;
-            }
-        }
-        if !(finite == T::ZERO) || n < self.n {
+        if p.len() < self.n {
             return None;
         }
+        let rows = self.rows;
+        let mut w = [T::ZERO; CAP];
+        let mut finite = T::ZERO;
+        for (((wa, &i), b), k) in w
+            .iter_mut()
+            .zip(self.index.iter())
+            .zip(self.bias.iter())
+            .zip(self.weight.iter())
+            .take(rows)
+        {
+            *wa = (p[usize::from(i)] - *b) * *k;
+            finite += *wa * T::ZERO;
+        }
+        if !(finite == T::ZERO) {
+            return None;
+        }
+        let w = &w[..rows];
         // χ² as `|P w|²`, not `wᵀ P w`: the readings' rigid-body part (`|w|` ≈ 10⁴ for
         // gravity at σ = 1 mg) is what `P` removes, and `wᵀ (P w)` would multiply the round-off
         // of `P w` by it (in f32: 886.8 against 893.4 in f64 for one sample of the test below).
         let mut r = [T::ZERO; CAP];
         let mut chi2 = T::ZERO;
-        for i in 0..n {
-            if !self.mask.contains(i) {
-                continue;
-            }
-            let mut acc = T::ZERO;
-            for (pij, wj) in self.projector[i].iter().zip(w.iter()).take(n) {
-                acc += *pij * *wj;
-            }
-            r[i] = acc;
+        for (ra, pa) in r.iter_mut().zip(self.projector.iter()).take(rows) {
+            let acc = pa[..rows]
+                .iter()
+                .zip(w)
+                .fold(T::ZERO, |acc, (x, y)| acc + *x * *y);
+            *ra = acc;
             chi2 += acc * acc;
         }
+        let r = &r[..rows];
         // Without part S: `r − P_{·S} (P_SS)⁻¹ r_S`, component by component, then its square.
         // (`χ² − r_Sᵀ (P_SS)⁻¹ r_S` is the same in exact arithmetic, but under a gross fault
         // both terms are ≈ |w|² ≈ 10⁸ and f32 leaves their difference at ±10: a part whose
-        // removal did not explain the fault then looked as if it did.)
+        // removal did not explain the fault then looked as if it did.) `P` is symmetric: its
+        // column `s` is its row `s`.
         let mut without = [chi2; CAP];
         for (out, t) in without.iter_mut().zip(self.parts.iter()).take(self.n_parts) {
             if !t.isolable {
                 continue;
             }
             let mut rs = [T::ZERO; 3];
-            for (x, &c) in rs
-                .iter_mut()
-                .zip(t.channels.iter())
-                .take(usize::from(t.count))
-            {
-                *x = r[usize::from(c)];
+            for (x, &row) in rs.iter_mut().zip(t.rows.iter()).take(usize::from(t.count)) {
+                *x = r[usize::from(row)];
             }
             let g = t.inverse.mul_vec(&rs);
+            // Padded rows have g = 0 (identity inverse, zero residual).
+            let [c0, c1, c2] = t.rows.map(|row| &self.projector[usize::from(row)][..rows]);
             let mut acc = T::ZERO;
-            for (i, ri) in r.iter().enumerate().take(n) {
-                if !self.mask.contains(i) {
-                    continue;
-                }
-                let mut d = *ri;
-                for (ga, &c) in g.iter().zip(t.channels.iter()).take(usize::from(t.count)) {
-                    d -= self.projector[i][usize::from(c)] * *ga;
-                }
+            for (((ra, x0), x1), x2) in r.iter().zip(c0).zip(c1).zip(c2) {
+                let d = *ra - *x0 * g[0] - *x1 * g[1] - *x2 * g[2];
                 acc += d * d;
             }
             *out = acc;
