@@ -199,6 +199,12 @@ pub fn log_line(p: &Decoded, time_offset: f64) -> Option<String> {
                 EventId::ChannelsCommanded => {
                     format!("commanded_out={:#08x} -> {:#08x}", e.a, e.b)
                 }
+                EventId::PartIsolated => format!("part={} channels={:#08x}", e.a, e.b),
+                EventId::FaultSuspected => format!(
+                    "{} level={:.3}",
+                    if e.a == 1 { "start" } else { "end" },
+                    f64::from(e.b) / 1000.0
+                ),
                 _ => format!("a={} b={}", e.a, e.b),
             };
             format!("EVENT {} ({severity}) {detail}", e.id.name())

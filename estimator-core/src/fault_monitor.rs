@@ -329,6 +329,11 @@ impl<T: Real> FieldCheck<T> {
         }
     }
 
+    /// The window's `χ²` over its limit (above 1: inconsistent).
+    pub fn level(&self) -> T {
+        self.total / self.limit
+    }
+
     /// One estimate: whether the window's `χ²` is above its limit (the readings inconsistent
     /// with the known field: a fault, or a Γ that is not the one given).
     pub fn step(&mut self, e: &Estimate<T>) -> bool {

@@ -38,6 +38,13 @@ pub enum EventId {
     /// Channels were excluded or included by command (TC[200,4/5]; format 2): `a` = the
     /// commanded exclusions before, `b` = after (bit per channel).
     ChannelsCommanded = 11,
+    /// The fault monitor isolated a part from the measurements (issue 17; it is taken out of
+    /// the solve: a `parts-excluded` event follows): `a` = part slot, `b` = its channels (bits).
+    PartIsolated = 12,
+    /// The readings are inconsistent and no part is isolated (flag 64 on the estimates from
+    /// here): `a` = 1 when it starts, 0 when it ends; `b` = the window's χ² over its limit, in
+    /// thousandths.
+    FaultSuspected = 13,
 }
 
 impl EventId {
@@ -56,6 +63,8 @@ impl EventId {
             SetsLost,
             CalibrationStored,
             ChannelsCommanded,
+            PartIsolated,
+            FaultSuspected,
         ]
         .into_iter()
         .find(|e| *e as u16 == v)
@@ -64,8 +73,11 @@ impl EventId {
     /// Severity = the TM[5,x] subtype: 1 informative, 2 low, 3 medium, 4 high.
     pub fn severity(self) -> u8 {
         match self {
-            EventId::PartDown | EventId::FrameRejected | EventId::SetsLost => 2,
-            EventId::PartsExcluded => 3,
+            EventId::PartDown
+            | EventId::FrameRejected
+            | EventId::SetsLost
+            | EventId::FaultSuspected => 2,
+            EventId::PartsExcluded | EventId::PartIsolated => 3,
             _ => 1,
         }
     }
@@ -84,6 +96,8 @@ impl EventId {
             EventId::SetsLost => "sets-lost",
             EventId::CalibrationStored => "calibration-stored",
             EventId::ChannelsCommanded => "channels-commanded",
+            EventId::PartIsolated => "part-isolated",
+            EventId::FaultSuspected => "fault-suspected",
         }
     }
 }

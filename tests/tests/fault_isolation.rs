@@ -2,6 +2,8 @@
 //! redundancy (N = 18, model G, ideal parts), 20 runs each, through the firmware on the
 //! simulated buses with its fault monitor (`tests/examples/fault_matrix.rs` prints the table).
 
+use ballisto_link::decode::Report;
+use ballisto_link::EventId;
 use e2e_tests::faults::fault_matrix;
 
 /// Kinds the parity space must isolate in every run or all but one (a 10 σ bias in a part
@@ -152,6 +154,36 @@ fn ballisto_estimate_takes_out_the_part_the_firmware_takes_out_at_the_same_rows(
         &["t", "omega_x", "omega_y", "omega_z"],
     );
     assert_eq!(host.len(), firmware.len());
+    // The telemetry says what was isolated and excluded, and when: the part isolated once,
+    // excluded, included again after the fault; a suspicion may open and close around it.
+    let stream =
+        ballisto::decode::decode_stream(&std::fs::read(dir.join("telemetry.bin")).unwrap());
+    assert!(stream.problems.is_empty(), "{:?}", stream.problems);
+    let events: Vec<(EventId, u32, u32)> = stream
+        .packets
+        .iter()
+        .filter_map(|p| match &p.report {
+            Report::Event(e) if e.id != EventId::Boot => Some((e.id, e.a, e.b)),
+            _ => None,
+        })
+        .collect();
+    println!("events: {events:?}");
+    let kinds: Vec<EventId> = events
+        .iter()
+        .map(|e| e.0)
+        .filter(|k| *k != EventId::FaultSuspected)
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            EventId::PartIsolated,
+            EventId::PartsExcluded,
+            EventId::PartsIncluded
+        ]
+    );
+    let isolated = events.iter().find(|e| e.0 == EventId::PartIsolated);
+    assert_eq!(isolated.map(|e| (e.1, e.2)), Some((2, 0b111 << 6)));
+    assert!(events.len() <= 5, "{} events", events.len());
     // The part's three channels (`u2.x/y/z` are channels 6–8 of the arrangement file).
     let bits = 0b111u64 << (3 * part);
     let (mut out_rows, mut differ, mut silent) = (0, 0, 0);

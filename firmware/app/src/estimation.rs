@@ -194,6 +194,15 @@ impl Estimation {
         &self.p[..self.n]
     }
 
+    /// The events the fault monitor's `verdict` of the last set calls for (part isolated,
+    /// fault suspected or no longer; none without the feature `fault-isolation`).
+    pub fn fault_events(
+        &mut self,
+        verdict: Verdict,
+    ) -> [Option<(ballisto_link::EventId, u32, u32)>; 2] {
+        self.isolation.events(verdict)
+    }
+
     /// The estimator (model, mask, condition).
     pub fn estimator(&self) -> &Estimator<f32, MAX_CHANNELS> {
         &self.estimator

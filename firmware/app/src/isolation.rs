@@ -11,7 +11,7 @@
 //! STM32H743 flight image leaves it out: it does not fit issue 13's 128 KiB with the rest
 //! (244 B free before it); without the feature this module is an empty stand-in.
 
-use ballisto_link::PartSet;
+use ballisto_link::{EventId, PartSet};
 use estimator_core::fault_monitor::Verdict;
 use estimator_core::{ChannelMask, Estimate, Estimator};
 
@@ -31,6 +31,8 @@ mod enabled {
         part: [u8; MAX_CHANNELS],
         field: Option<FieldCheck<f32>>,
         rate_hz: f64,
+        /// The verdict the events have told the ground.
+        reported: Verdict,
     }
 
     impl Isolation {
@@ -50,6 +52,7 @@ mod enabled {
                 part,
                 field: None,
                 rate_hz,
+                reported: Verdict::NoTest,
             }
         }
 
@@ -85,6 +88,40 @@ mod enabled {
         /// One set's readings (NaN where a part had no value).
         pub fn step(&mut self, p: &[f32]) -> Verdict {
             self.monitor.step(p)
+        }
+
+        /// The events a set's `verdict` calls for (the set's final one: with the known-field
+        /// test): a part newly isolated, a suspicion started or ended.
+        pub fn events(&mut self, verdict: Verdict) -> [Option<(EventId, u32, u32)>; 2] {
+            let before = core::mem::replace(&mut self.reported, verdict);
+            if before == verdict {
+                return [None, None];
+            }
+            let level = (self.level() * 1000.0) as u32;
+            let ended =
+                (before == Verdict::NotIsolated).then_some((EventId::FaultSuspected, 0, level));
+            let started = match verdict {
+                Verdict::NotIsolated => Some((EventId::FaultSuspected, 1, level)),
+                Verdict::Isolated(p) => {
+                    let mut bits = 0u32;
+                    for (c, q) in self.part.iter().enumerate() {
+                        if *q == p {
+                            bits |= 1 << c;
+                        }
+                    }
+                    Some((EventId::PartIsolated, u32::from(p), bits))
+                }
+                _ => None,
+            };
+            [ended, started]
+        }
+
+        /// The window's χ² over its limit: the monitor's, or the known-field test's.
+        fn level(&self) -> f32 {
+            match &self.field {
+                Some(f) => f.level(),
+                None => self.monitor.level(),
+            }
         }
 
         /// Whether the monitor is built in.
@@ -133,6 +170,11 @@ mod enabled {
         /// Not built in.
         pub fn enabled(&self) -> bool {
             false
+        }
+
+        /// No events.
+        pub fn events(&mut self, _: Verdict) -> [Option<(EventId, u32, u32)>; 2] {
+            [None, None]
         }
 
         /// Nothing isolated.

@@ -201,6 +201,16 @@ impl App {
             // After the estimate: the identification only reads the channel vector.
             self.identification
                 .on_set(set.t, self.estimation.readings());
+            // Only with the monitor: in the STM32H743 image even the empty loop costs flash.
+            #[cfg(feature = "fault-isolation")]
+            for (id, a, b) in self
+                .estimation
+                .fault_events(m.verdict)
+                .into_iter()
+                .flatten()
+            {
+                self.event(set.t, tm, id, a, b).await;
+            }
             self.exclusion_events(set.t, tm, excluded_before, &m).await;
             self.since_motion += 1;
             if self.since_motion >= self.motion_every {
