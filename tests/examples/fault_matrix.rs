@@ -15,26 +15,35 @@
 //! same run without the fault and without that part (RMS ratio over the runs); NaN in any
 //! estimate, telemetry packets lost. The fault-free runs give the false-alarm rates.
 //!
-//! `cargo run --release -p e2e-tests --example fault_matrix -- [RUNS]` (default 20; about 2 s).
+//! `cargo run --release -p e2e-tests --example fault_matrix -- [RUNS]` (default 20; about 2 s);
+//! `MIXED=1` the 24-channel mixed layout (`e2e_tests::faults::mixed_layout`).
 //! `SHOW=KIND` (a kind's name as in the table) prints each run of that kind: the part, the
 //! onset, when the part went out, its worst Ω error while out, rows with a healthy part out.
 
-use e2e_tests::faults::{fault_matrix, layout, DURATION, FAULT_S};
+use e2e_tests::faults::{fault_matrix, layout, mixed, DURATION, FAULT_S};
 
 fn main() {
     let runs: u64 = std::env::args()
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(20);
+    // `MIXED=1`: the 24-channel mixed layout.
+    let mixed_layout = std::env::var_os("MIXED").is_some();
+    let layout = if mixed_layout { mixed } else { layout };
     // One sample's noise: the arrangement's declared channel noise.
     let loaded = layout(0).arrangement().load("arrangement.toml").unwrap();
     let sigma = loaded.arrangement.channels()[0].noise;
+    let name = if mixed_layout {
+        "ground-spin-mixed doubled: 4 ADXL355 on SPI, 4 LIS3DH on two I²C buses (N = 24, model G, 12 dof)"
+    } else {
+        "tetra-orbit + 2 ADXL355 (N = 18, model G, 6 dof)"
+    };
     println!(
-        "layout: tetra-orbit + 2 ADXL355 (N = 18, model G, 6 dof), ideal parts (noise and clock offsets only), {DURATION} s at 100 Hz, faults of {FAULT_S} s from 3–7 s, one part chosen at random; one sample's σ ≈ {sigma:.1e} m/s²"
+        "layout: {name}, ideal parts (noise and clock offsets only), {DURATION} s at 100 Hz, faults of {FAULT_S} s from 3–7 s, one part chosen at random; σ of one ADXL355 sample ≈ {sigma:.1e} m/s²"
     );
     println!("| fault | runs | detected ≤ 1 s | latency median / worst (s) | isolated (runs) | isolation latency median / worst (s) | rows with a healthy part out | rows flagged 64 while active | silent while active | silent after | Ω error while out / without the part | NaN | TM lost |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
-    let (clean, rows) = fault_matrix(runs);
+    let (clean, rows) = fault_matrix(runs, layout);
     println!(
         "| none (false alarms) | {runs} | — | — | — | — | {:.3} % | {:.3} % of {} rows | — | — | — | {} | {} |",
         pct(clean.wrong_excluded, clean.rows),

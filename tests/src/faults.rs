@@ -32,6 +32,45 @@ pub fn redundant_layout(seed: u64, duration: f64) -> Scenario {
     sc
 }
 
+/// `ground-spin-mixed` (two ADXL355 on SPI, two LIS3DH on I²C with their own clocks, a
+/// turntable spin-up on the ground) doubled: two more ADXL355 on the SPI bus and two more
+/// LIS3DH on a second I²C bus, N = 24, model G: 12 degrees of freedom, parts of two noise
+/// levels (the LIS3DH's is ten times the ADXL355's) and free-running clocks; `duration` s at
+/// 100 Hz, no faults yet.
+pub fn mixed_layout(seed: u64, duration: f64) -> Scenario {
+    let mut sc = Scenario::load("ground-spin-mixed").unwrap();
+    sc.duration = duration;
+    sc.seed = seed;
+    sc.faults.clear();
+    let mut bus = sc.buses[1].clone();
+    bus.name = "i2c2".to_string();
+    sc.buses.push(bus);
+    let (a, l) = (sc.parts[0].clone(), sc.parts[2].clone());
+    for (i, position) in [[0.02, 0.13, -0.09], [-0.12, -0.03, 0.02]]
+        .into_iter()
+        .enumerate()
+    {
+        let mut p = a.clone();
+        p.name = format!("a{}", 2 + i);
+        p.position = position;
+        p.cs = Some(2 + i);
+        p.orientation = None;
+        sc.parts.push(p);
+    }
+    for (i, position) in [[0.1, 0.08, 0.11], [-0.03, 0.12, -0.11]]
+        .into_iter()
+        .enumerate()
+    {
+        let mut p = l.clone();
+        p.name = format!("l{}", 2 + i);
+        p.position = position;
+        p.bus = "i2c2".to_string();
+        p.address = Some(0x18 + i as u8);
+        sc.parts.push(p);
+    }
+    sc
+}
+
 /// What one run showed, from 1 s on (the start-up excluded).
 #[derive(Debug, Default)]
 pub struct FaultRun {
@@ -173,9 +212,14 @@ pub const DURATION: f64 = 12.0;
 /// Each fault lasts this long (s), starting uniformly in 3–7 s.
 pub const FAULT_S: f64 = 3.0;
 
-/// The matrix's layout for `seed`.
+/// The matrix's layout for `seed` (the tetrahedron and two more ADXL355, N = 18).
 pub fn layout(seed: u64) -> Scenario {
     redundant_layout(seed, DURATION)
+}
+
+/// The mixed layout for `seed` (N = 24, [`mixed_layout`]).
+pub fn mixed(seed: u64) -> Scenario {
+    mixed_layout(seed, DURATION)
 }
 
 /// The fault kinds of hal-sim, as scenario faults on `part` from `start`.
@@ -300,7 +344,7 @@ impl Tally {
 /// The fault matrix: `runs` fault-free runs, then `runs` of every kind of [`kinds`], each in
 /// one part drawn at random for [`FAULT_S`] from a time drawn in 3–7 s (the draws are the
 /// same for the same `runs`). `SHOW=KIND` prints each run of that kind to stderr.
-pub fn fault_matrix(runs: u64) -> (Tally, Vec<(&'static str, Tally)>) {
+pub fn fault_matrix(runs: u64, layout: fn(u64) -> Scenario) -> (Tally, Vec<(&'static str, Tally)>) {
     let loaded = layout(0).arrangement().load("arrangement.toml").unwrap();
     let sigma = loaded.arrangement.channels()[0].noise;
     let mut rng = 0x9E37_79B9_7F4A_7C15u64;

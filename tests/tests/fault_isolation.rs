@@ -22,7 +22,7 @@ const ISOLATED: [&str; 8] = [
 #[test]
 fn faults_are_isolated_and_the_estimate_without_the_part_is_as_good_as_never_having_it() {
     let runs = 20;
-    let (clean, rows) = fault_matrix(runs);
+    let (clean, rows) = fault_matrix(runs, e2e_tests::faults::layout);
     // Fault-free: no part ever taken out, no NaN, nothing lost.
     assert_eq!(
         clean.wrong_excluded, 0,
@@ -301,5 +301,20 @@ fn twelve_channels_are_never_silently_wrong_under_the_named_faults() {
         } else {
             assert_eq!((fw.1, h.1), (0, 0), "{name}: false alarms");
         }
+    }
+}
+
+/// The 24-channel mixed layout (`e2e_tests::faults::mixed_layout`: LIS3DH on their own clocks,
+/// a spin-up from rest on the ground) is where the monitor is not yet good enough (README,
+/// "Fault detection"): healthy LIS3DH are taken out in fault-free runs and rows are silently
+/// wrong after several kinds of fault, as they were without the monitor. Asserted here only
+/// what must hold whatever the layout: no NaN, no telemetry lost, every fault seen.
+#[test]
+fn the_mixed_layout_never_gives_nan_or_loses_telemetry() {
+    let (clean, rows) = fault_matrix(10, e2e_tests::faults::mixed);
+    assert_eq!((clean.nan, clean.lost), (0, 0));
+    for (name, t) in &rows {
+        assert_eq!((t.nan, t.lost), (0, 0), "{name}");
+        assert!(!t.detected.is_empty(), "{name}: never seen");
     }
 }
