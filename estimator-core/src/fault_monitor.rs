@@ -455,26 +455,9 @@ mod tests {
         assert!((chi2_quantile(30.0, upper_normal_quantile(1e-3)) - 59.70).abs() < 0.3);
     }
 
+    /// The parity tests' six tri-axial parts (N = 18).
     fn layout() -> (Arrangement<24>, [u8; 18]) {
-        let corners = [
-            [0.1, 0.1, 0.1],
-            [-0.1, -0.1, 0.1],
-            [-0.1, 0.1, -0.1],
-            [0.1, -0.1, -0.1],
-            [0.05, 0.0, -0.12],
-            [-0.03, 0.11, 0.02],
-        ];
-        let mut arr = Arrangement::new();
-        let mut part = [0u8; 18];
-        for (p, r) in corners.iter().enumerate() {
-            for a in 0..3 {
-                let mut s = [0.0; 3];
-                s[a] = 1.0;
-                let c = arr.push(*r, s, 1e-3).unwrap();
-                part[c] = p as u8;
-            }
-        }
-        (arr, part)
+        crate::parity::tests::six_parts()
     }
 
     /// Static readings (gravity along z, no rotation) with white noise of 1 mg.

@@ -336,7 +336,7 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -344,7 +344,7 @@ mod tests {
     /// Six tri-axial parts (N = 18): a tetrahedron and two more, none opposite another (two
     /// parts mirrored through the origin can stand in for each other's faults along some
     /// axes: a layout property that the monitor reports as "not isolated").
-    fn six_parts() -> (Arrangement<24>, [u8; 18]) {
+    pub(crate) fn six_parts() -> (Arrangement<24>, [u8; 18]) {
         let corners = [
             [0.1, 0.1, 0.1],
             [-0.1, -0.1, 0.1],

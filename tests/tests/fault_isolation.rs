@@ -106,8 +106,6 @@ fn columns(path: &std::path::Path, names: &[&str]) -> Vec<Vec<f64>> {
 /// estimates files), and writes no silently wrong row.
 #[test]
 fn ballisto_estimate_takes_out_the_part_the_firmware_takes_out_at_the_same_rows() {
-    use ballisto::estimate::{estimate_files, EstimateJob, Precision};
-    use ballisto::sim::{run_sim, SimJob};
     use hal_sim::scenario::FaultSpec;
     let mut sc = e2e_tests::faults::layout(4000);
     let part = 2;
@@ -123,28 +121,7 @@ fn ballisto_estimate_takes_out_the_part_the_firmware_takes_out_at_the_same_rows(
         stall: None,
     });
     let dir = std::env::temp_dir().join(format!("ballisto-faults-{}", std::process::id()));
-    run_sim(&SimJob {
-        scenario: &sc,
-        out: &dir,
-        estimate: false,
-        progress: false,
-        firmware: Some(ballisto_fw::config::Alignment::Interpolate),
-        identify: false,
-    })
-    .unwrap();
-    let out = dir.join("host.csv");
-    estimate_files(&EstimateJob {
-        arrangement: &dir.join("arrangement.toml"),
-        samples: &dir.join("samples.csv"),
-        out: &out,
-        model: None,
-        options: estimator_core::Options {
-            initial_omega: sc.initial_omega,
-            ..Default::default()
-        },
-        precision: Precision::F32,
-    })
-    .unwrap();
+    let out = firmware_then_host(&sc, &dir);
     let names = ["t", "excluded", "flags", "omega_x", "omega_y", "omega_z"];
     let sd = ["sd_omega_x", "sd_omega_y", "sd_omega_z"];
     let host = columns(&out, &[&names[..], &sd[..]].concat());
@@ -262,34 +239,11 @@ fn silent_and_flagged(
 /// on the clean `tetra-orbit`.
 #[test]
 fn twelve_channels_are_never_silently_wrong_under_the_named_faults() {
-    use ballisto::estimate::{estimate_files, EstimateJob, Precision};
-    use ballisto::sim::{run_sim, SimJob};
     for (name, faulty) in [("tetra-orbit-faults", true), ("tetra-orbit", false)] {
         let sc = hal_sim::scenario::Scenario::load(name).unwrap();
         let dir =
             std::env::temp_dir().join(format!("ballisto-field-{}-{name}", std::process::id()));
-        run_sim(&SimJob {
-            scenario: &sc,
-            out: &dir,
-            estimate: false,
-            progress: false,
-            firmware: Some(ballisto_fw::config::Alignment::Interpolate),
-            identify: false,
-        })
-        .unwrap();
-        let host = dir.join("host.csv");
-        estimate_files(&EstimateJob {
-            arrangement: &dir.join("arrangement.toml"),
-            samples: &dir.join("samples.csv"),
-            out: &host,
-            model: None,
-            options: estimator_core::Options {
-                initial_omega: sc.initial_omega,
-                ..Default::default()
-            },
-            precision: Precision::F32,
-        })
-        .unwrap();
+        let host = firmware_then_host(&sc, &dir);
         let truth = dir.join("truth.csv");
         let fw = silent_and_flagged(&dir.join("estimates.csv"), &truth);
         let h = silent_and_flagged(&host, &truth);
@@ -317,4 +271,38 @@ fn the_mixed_layout_never_gives_nan_or_loses_telemetry() {
         assert_eq!((t.nan, t.lost), (0, 0), "{name}");
         assert!(!t.detected.is_empty(), "{name}: never seen");
     }
+}
+
+/// `sc` through the firmware on the simulated buses (`ballisto sim --firmware` into `dir`), then
+/// `ballisto estimate` (f32, as on board) on the samples the firmware read; returns the path of
+/// the host's estimates file (the firmware's is `dir/estimates.csv`).
+fn firmware_then_host(
+    sc: &hal_sim::scenario::Scenario,
+    dir: &std::path::Path,
+) -> std::path::PathBuf {
+    use ballisto::estimate::{estimate_files, EstimateJob, Precision};
+    use ballisto::sim::{run_sim, SimJob};
+    run_sim(&SimJob {
+        scenario: sc,
+        out: dir,
+        estimate: false,
+        progress: false,
+        firmware: Some(ballisto_fw::config::Alignment::Interpolate),
+        identify: false,
+    })
+    .unwrap();
+    let host = dir.join("host.csv");
+    estimate_files(&EstimateJob {
+        arrangement: &dir.join("arrangement.toml"),
+        samples: &dir.join("samples.csv"),
+        out: &host,
+        model: None,
+        options: estimator_core::Options {
+            initial_omega: sc.initial_omega,
+            ..Default::default()
+        },
+        precision: Precision::F32,
+    })
+    .unwrap();
+    host
 }
