@@ -78,6 +78,9 @@ pub struct FaultMonitor<T, const CAP: usize> {
     part_limit: [T; CAP],
     isolated: Option<u8>,
     clean: u32,
+    /// `Σ λᵏ` over the sets in the window (the fault-free mean of the window's χ² is `ν` times
+    /// it).
+    fill: T,
     /// A part that alone explains the window, and for how many sets in a row.
     candidate: Option<u8>,
     run: u32,
@@ -100,6 +103,7 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
             part_limit: [T::ZERO; CAP],
             isolated: None,
             clean: 0,
+            fill: T::ZERO,
             candidate: None,
             run: 0,
             confirm: 1,
@@ -121,6 +125,7 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         self.run = 0;
         self.total = T::ZERO;
         self.without = [T::ZERO; CAP];
+        self.fill = T::ZERO;
         self.clean = 0;
         self.part_limit = [T::ZERO; CAP];
         match &parity {
@@ -179,6 +184,10 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         };
         let cap = T::of(CAP_FACTOR);
         self.total = (self.lambda * self.total + s.chi2).min(cap * self.limit);
+        self.fill = self.lambda * self.fill + T::ONE;
+        // The window's excess over its fault-free mean (ν per set).
+        let dof = par.dof();
+        let excess = self.total - T::of(dof as f64) * self.fill;
         let parts = par.parts();
         let mut restoring = 0usize;
         let mut found = None;
@@ -186,7 +195,17 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         for q in 0..parts {
             let w = &mut self.without[q];
             *w = (self.lambda * *w + s.without[q]).min(cap * self.part_limit[q]);
-            if par.part_dof(q).is_some() && *w <= self.part_limit[q] {
+            let Some(dof_q) = par.part_dof(q) else {
+                continue;
+            };
+            // A part restores consistency if the window without it is under its limit and its
+            // removal takes away most of the excess: where the noise is somewhat above the
+            // declared one on every channel (the mixed layout's start-up: 2–3 × χ²) each
+            // part's removal takes away its share of the excess, `(ν − ν_q)/ν` (3 of 12 there,
+            // 3 of 6 at N = 18); a faulty part's, nearly all of it. The bar is midway.
+            let share = (dof - dof_q) as f64 / dof as f64;
+            let removed = self.total - *w - T::of((dof - dof_q) as f64) * self.fill;
+            if *w <= self.part_limit[q] && removed >= T::of(0.5 * (1.0 + share)) * excess {
                 restoring += 1;
                 found = Some(q as u8);
                 if self.isolated == Some(q as u8) {
@@ -462,12 +481,31 @@ mod tests {
 
     /// Static readings (gravity along z, no rotation) with white noise of 1 mg.
     fn reading(arr: &Arrangement<24>, rng: &mut ChaCha8Rng) -> [f32; 18] {
+        noisy_reading(arr, rng, 1e-3)
+    }
+
+    /// As [`reading`] with white noise of `sigma` on every channel (declared: 1 mg).
+    fn noisy_reading(arr: &Arrangement<24>, rng: &mut ChaCha8Rng, sigma: f64) -> [f32; 18] {
         core::array::from_fn(|i| {
             let ch = &arr.channels()[i];
             let (u1, u2): (f64, f64) = (rng.gen_range(1e-12..1.0), rng.gen());
             let z = (-2.0 * u1.ln()).sqrt() * (2.0 * core::f64::consts::PI * u2).cos();
-            (ch.axis[2] * 9.80665 + 1e-3 * z) as f32
+            (ch.axis[2] * 9.80665 + sigma * z) as f32
         })
+    }
+
+    /// Noise above the declared one on every channel is seen, and no part is blamed for it.
+    #[test]
+    fn noise_above_the_declared_everywhere_is_detected_and_blamed_on_no_part() {
+        let (mut m, arr) = monitor();
+        let mut rng = ChaCha8Rng::seed_from_u64(6);
+        let mut detected = false;
+        for k in 0..1000 {
+            let v = m.step(&noisy_reading(&arr, &mut rng, 1.15e-3));
+            assert!(!matches!(v, Verdict::Isolated(_)), "set {k}: {v:?}");
+            detected |= v == Verdict::NotIsolated;
+        }
+        assert!(detected);
     }
 
     fn monitor() -> (FaultMonitor<f32, 24>, Arrangement<24>) {
