@@ -54,7 +54,12 @@ fn parity_over_time(seed: u64) {
             part[usize::from(*c)] = i as u8;
         }
     }
-    let par = Parity::<f64, { hal_sim::arrangement_file::HOST_CAP }>::build(&loaded.arrangement, ChannelMask::all(n), &part).unwrap();
+    let par = Parity::<f64, { hal_sim::arrangement_file::HOST_CAP }>::build(
+        &loaded.arrangement,
+        ChannelMask::all(n),
+        &part,
+    )
+    .unwrap();
     let mut acc = (0.0, [0.0; 8], 0usize);
     let mut p = vec![f64::NAN; n];
     run_firmware(&sc, &config, sc.samples() as u32, &mut |set, m, _| {
@@ -78,7 +83,11 @@ fn parity_over_time(seed: u64) {
         if (t * 100.0).round() as u64 % 20 == 19 && acc.2 > 0 {
             let k = acc.2 as f64;
             let parts: Vec<String> = acc.1.iter().map(|x| format!("{:.1}", x / k)).collect();
-            println!("t {t:5.2}: χ² {:6.1} (dof {}), explained by each part {parts:?}", acc.0 / k, par.dof());
+            println!(
+                "t {t:5.2}: χ² {:6.1} (dof {}), explained by each part {parts:?}",
+                acc.0 / k,
+                par.dof()
+            );
             acc = (0.0, [0.0; 8], 0);
         }
     })

@@ -185,6 +185,25 @@ fn a_dead_part_is_reported_down_and_up_again() {
             _ => None,
         })
         .collect();
+    // The stuck part (5–6 s) and the bias jump (from 10 s) are seen by model G's known-field
+    // test (issue 17): a suspicion opens within 0.1 s of each and the first closes after it.
+    let suspicions: Vec<(f64, u32)> = events
+        .iter()
+        .filter(|e| e.1 == EventId::FaultSuspected)
+        .map(|e| (e.0, e.2))
+        .collect();
+    assert_eq!(suspicions.len(), 3, "{suspicions:?}");
+    assert_eq!(
+        (suspicions[0].1, suspicions[1].1, suspicions[2].1),
+        (1, 0, 1)
+    );
+    assert!((5.0..5.1).contains(&suspicions[0].0), "{suspicions:?}");
+    assert!((6.0..9.0).contains(&suspicions[1].0), "{suspicions:?}");
+    assert!((10.0..10.1).contains(&suspicions[2].0), "{suspicions:?}");
+    let events: Vec<(f64, EventId, u32)> = events
+        .into_iter()
+        .filter(|e| e.1 != EventId::FaultSuspected)
+        .collect();
     // u3 is dead from 14 s to 15 s: marked down after 10 failed reads, up when it answers.
     assert_eq!(events.len(), 2, "{events:?}");
     assert_eq!((events[0].1, events[0].2), (EventId::PartDown, 3));
