@@ -12,10 +12,15 @@ const FLAGS_HELP: &str = "The flags column of estimates.csv is a bit set:
   1   sign unresolved: Ω may be −Ω (steady spin, no hint yet)
   2   no real solution for a: least-squares fallback used
   4   ill-conditioned: the a solve is nearly singular (rate near zero or at a frame plane)
-  8   channel(s) excluded
+  8   channel(s) excluded (which: the excluded column, bit i = the file's i-th channel)
   16  branch ambiguous: another branch is nearly as consistent
   32  input invalid: a reading was missing (empty field); the row is the prediction
-  64  residual high: χ² above its 99.9 % point (fault suspected)";
+  64  residual high: χ² above its 99.9 % point, or (model G) the fault monitor's window
+      inconsistent with no part isolated (fault suspected)
+Model G: with redundancy to spare (16 or more channels for tri-axial parts) a part the fault
+monitor isolates from the measurements is left out of the estimate (flag 8, the excluded
+column) until its readings fit again; with 12 channels, the readings are tested against the
+known gravity gradient (flag 64). Model F: no such test.";
 
 const SIM_HELP: &str = "Named scenarios:
   tetra-orbit         4 x ADXL355 on a tetrahedron (SPI, external sync), torque-free tumble in orbit
