@@ -81,6 +81,10 @@ pub struct FaultMonitor<T, const CAP: usize> {
     /// `Σ λᵏ` over the sets in the window (the fault-free mean of the window's χ² is `ν` times
     /// it).
     fill: T,
+    /// `ν`, and per part the degrees of freedom its removal takes away and the share of the
+    /// window's excess it must take away to be isolated.
+    dof: T,
+    part_bar: [(T, T); CAP],
     /// A part that alone explains the window, and for how many sets in a row.
     candidate: Option<u8>,
     run: u32,
@@ -104,6 +108,8 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
             isolated: None,
             clean: 0,
             fill: T::ZERO,
+            dof: T::ZERO,
+            part_bar: [(T::ZERO, T::ONE); CAP],
             candidate: None,
             run: 0,
             confirm: 1,
@@ -131,9 +137,19 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         match &parity {
             Some(par) => {
                 self.limit = limit(par.dof());
-                for (p, l) in self.part_limit.iter_mut().enumerate().take(par.parts()) {
+                self.dof = T::of(par.dof() as f64);
+                for p in 0..par.parts() {
                     if let Some(dof) = par.part_dof(p) {
-                        *l = limit(dof);
+                        self.part_limit[p] = limit(dof);
+                        // Where the noise is somewhat above the declared one on every channel
+                        // (the mixed layout's start-up: 2–3 × χ²) each part's removal takes
+                        // away its share of the window's excess, `(ν − ν_q)/ν` (3 of 12 there,
+                        // 3 of 6 at N = 18); a faulty part's removal nearly all of it. The bar
+                        // is midway. (Precomputed: in f64 per set it cost the M4F 3 400
+                        // instructions at N = 24.)
+                        let out = (par.dof() - dof) as f64;
+                        let share = out / par.dof() as f64;
+                        self.part_bar[p] = (T::of(out), T::of(0.5 * (1.0 + share)));
                     }
                 }
                 self.verdict = self.isolated.map_or(Verdict::Clean, Verdict::Isolated);
@@ -186,8 +202,7 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         self.total = (self.lambda * self.total + s.chi2).min(cap * self.limit);
         self.fill = self.lambda * self.fill + T::ONE;
         // The window's excess over its fault-free mean (ν per set).
-        let dof = par.dof();
-        let excess = self.total - T::of(dof as f64) * self.fill;
+        let excess = self.total - self.dof * self.fill;
         let parts = par.parts();
         let mut restoring = 0usize;
         let mut found = None;
@@ -195,17 +210,14 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         for q in 0..parts {
             let w = &mut self.without[q];
             *w = (self.lambda * *w + s.without[q]).min(cap * self.part_limit[q]);
-            let Some(dof_q) = par.part_dof(q) else {
+            if par.part_dof(q).is_none() {
                 continue;
-            };
+            }
             // A part restores consistency if the window without it is under its limit and its
-            // removal takes away most of the excess: where the noise is somewhat above the
-            // declared one on every channel (the mixed layout's start-up: 2–3 × χ²) each
-            // part's removal takes away its share of the excess, `(ν − ν_q)/ν` (3 of 12 there,
-            // 3 of 6 at N = 18); a faulty part's, nearly all of it. The bar is midway.
-            let share = (dof - dof_q) as f64 / dof as f64;
-            let removed = self.total - *w - T::of((dof - dof_q) as f64) * self.fill;
-            if *w <= self.part_limit[q] && removed >= T::of(0.5 * (1.0 + share)) * excess {
+            // removal takes away most of the excess (`part_bar`).
+            let (dof_out, bar) = self.part_bar[q];
+            let removed = self.total - *w - dof_out * self.fill;
+            if *w <= self.part_limit[q] && removed >= bar * excess {
                 restoring += 1;
                 found = Some(q as u8);
                 if self.isolated == Some(q as u8) {
