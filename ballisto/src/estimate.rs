@@ -6,7 +6,9 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
 
-use estimator_core::fault_monitor::{FaultMonitor, FieldCheck, Settings, TrustedRate, Verdict};
+use estimator_core::fault_monitor::{
+    FaultMonitor, FieldCheck, Settings, StuckCheck, TrustedRate, Verdict,
+};
 use estimator_core::parity::{Parity, NO_PART};
 use estimator_core::path_choice::{Links, PathChoice, PathState};
 use estimator_core::smoother::Smoother;
@@ -174,8 +176,12 @@ struct Faults<T: Real> {
     /// Every channel of the arrangement.
     all: ChannelMask,
     first_t: Option<f64>,
-    isolated: Option<u8>,
-    refused: Option<Option<u8>>,
+    /// Model G (the parity space and the known-field test); every model has the stuck check.
+    general: bool,
+    stuck: StuckCheck<T, HOST_CAP>,
+    /// The parts out of the forward pass's solve (bit per part), and a set it refused.
+    isolated: u32,
+    refused: Option<u32>,
     trusted: TrustedRate,
     last_omega: Option<[f64; 3]>,
     /// Model G's covariance of A and the known Γ, for the known-field test where there is no
@@ -185,12 +191,9 @@ struct Faults<T: Real> {
 }
 
 impl<T: Real> Faults<T> {
-    /// Model G's monitor over the parts of `loaded` (`None` for model F: no parity space);
-    /// `est` the forward pass's estimator (its covariance of A and known Γ).
+    /// The monitor over the parts of `loaded` (the parity space in model G only); `est` the
+    /// forward pass's estimator (its covariance of A and known Γ).
     fn new(loaded: &LoadedArrangement, model: Model, est: &Estimator<T, HOST_CAP>) -> Option<Self> {
-        if model != Model::General {
-            return None;
-        }
         let mut parts: Vec<&str> = Vec::new();
         let part = loaded
             .names
@@ -203,14 +206,16 @@ impl<T: Real> Faults<T> {
                 });
                 u8::try_from(i).unwrap_or(NO_PART)
             })
-            .collect();
+            .collect::<Vec<u8>>();
         Some(Faults {
             monitor: None,
+            stuck: StuckCheck::new(&part),
             part,
             arrangement: loaded.arrangement.clone(),
             all: ChannelMask::all(loaded.names.len()),
             first_t: None,
-            isolated: None,
+            general: model == Model::General,
+            isolated: 0,
             refused: None,
             trusted: TrustedRate::default(),
             last_omega: None,
@@ -219,15 +224,19 @@ impl<T: Real> Faults<T> {
         })
     }
 
-    /// One sample's readings: the monitor's verdict and the channel mask the estimate should
-    /// use from this sample on.
-    fn step(&mut self, t: f64, p: &[T]) -> (Verdict, ChannelMask) {
+    /// One sample's readings: the monitor's verdict and the parts to keep out of the solve
+    /// from this sample on (bit per part: isolated by the parity space, or stuck).
+    fn step(&mut self, t: f64, p: &[T]) -> (Verdict, u32) {
+        let stuck = self.stuck.step(p);
         if self.monitor.is_none() {
             match self.first_t {
                 Some(t0) if t > t0 => {
                     let rate = 1.0 / (t - t0);
                     let mut m = FaultMonitor::new(Settings::default(), rate);
-                    let parity = Parity::build(&self.arrangement, self.all, &self.part).ok();
+                    let parity = self
+                        .general
+                        .then(|| Parity::build(&self.arrangement, self.all, &self.part).ok())
+                        .flatten();
                     if parity.is_none() {
                         self.field = self
                             .field_cov
@@ -240,18 +249,18 @@ impl<T: Real> Faults<T> {
             }
         }
         let Some(m) = &mut self.monitor else {
-            return (Verdict::NoTest, self.mask(self.isolated));
+            return (Verdict::NoTest, stuck);
         };
         let verdict = m.step(p);
-        let isolated = m.isolated();
-        (verdict, self.mask(isolated))
+        let isolated = m.isolated().filter(|p| *p < 32).map_or(0, |p| 1u32 << p);
+        (verdict, isolated | stuck)
     }
 
-    /// Every channel but those of `part`.
-    fn mask(&self, part: Option<u8>) -> ChannelMask {
+    /// Every channel but those of the parts in `parts` (bit per part).
+    fn mask(&self, parts: u32) -> ChannelMask {
         let mut mask = self.all;
         for (c, p) in self.part.iter().enumerate() {
-            if Some(*p) == part {
+            if *p < 32 && parts & (1 << p) != 0 {
                 mask = mask.without(c);
             }
         }
@@ -362,17 +371,21 @@ impl<T: Real> HostEstimator<T> {
         let Some(f) = &mut self.faults else {
             return (self.forward.est.mask(), false);
         };
-        let (verdict, mask) = f.step(t, p);
-        let isolated = f.monitor.as_ref().and_then(|m| m.isolated());
+        let (verdict, isolated) = f.step(t, p);
         if isolated != f.isolated && f.refused != Some(isolated) {
             let hint = f.trusted.hint_at(t).or(f.last_omega);
-            if self.forward.set_mask(mask, hint) {
+            if self.forward.set_mask(f.mask(isolated), hint) {
                 f.isolated = isolated;
             } else {
                 f.refused = Some(isolated);
             }
         }
-        (self.forward.est.mask(), verdict == Verdict::NotIsolated)
+        // A part isolated that the solve could not leave out (too few channels): flag 64.
+        let kept = isolated & !f.isolated != 0;
+        (
+            self.forward.est.mask(),
+            verdict == Verdict::NotIsolated || kept,
+        )
     }
 
     /// As [`Self::finish`]; `emit` also receives the channels the row's estimate used.

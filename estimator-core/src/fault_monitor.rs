@@ -418,6 +418,80 @@ fn invert_spd6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
     Some(inv)
 }
 
+/// Sets in a row with every channel of a part unchanged, bit for bit, after which the part is
+/// taken as stuck. A healthy MEMS part's noise spans many codes (ADXL355: about 300 LSB at
+/// 1.2 mg; LIS3DH: about 2 LSB), so ten identical sets on all its axes are a stuck output or
+/// a saturated one (hal-sim's saturation pins every axis at full scale).
+pub const STUCK_SETS: u16 = 10;
+
+/// The check of each part from its own signal (issue 17: "where the residual has no
+/// redundancy"): a part whose every channel repeats the same value for [`STUCK_SETS`] sets is
+/// stuck. It needs no parity space, so it runs in every model and at any N.
+#[derive(Clone, Debug)]
+pub struct StuckCheck<T, const CAP: usize> {
+    part: [u8; CAP],
+    n: usize,
+    last: [T; CAP],
+    run: [u16; CAP],
+}
+
+impl<T: Real, const CAP: usize> StuckCheck<T, CAP> {
+    /// The check for channels whose parts are `part[i]` ([`crate::parity::NO_PART`] for none).
+    pub fn new(part: &[u8]) -> Self {
+        let mut p = [crate::parity::NO_PART; CAP];
+        for (d, s) in p.iter_mut().zip(part) {
+            *d = *s;
+        }
+        StuckCheck {
+            part: p,
+            n: part.len().min(CAP),
+            last: [T::ZERO; CAP],
+            run: [0; CAP],
+        }
+    }
+
+    /// One set's readings; returns the parts stuck now (bit per part number, below 32). A
+    /// reading that is not finite (a part without a value) is not a repeat.
+    pub fn step(&mut self, p: &[T]) -> u32 {
+        let mut moved = [false; CAP];
+        let mut present = [false; CAP];
+        for (i, (&q, last)) in self
+            .part
+            .iter()
+            .zip(self.last.iter_mut())
+            .enumerate()
+            .take(self.n)
+        {
+            let q = usize::from(q);
+            if q >= CAP {
+                continue;
+            }
+            present[q] = true;
+            match p.get(i) {
+                // NaN ≠ NaN: a part without a value is never a repeat.
+                Some(v) if *v == *last => {}
+                Some(v) => {
+                    moved[q] = true;
+                    *last = *v;
+                }
+                None => moved[q] = true,
+            }
+        }
+        let mut stuck = 0u32;
+        for (q, run) in self.run.iter_mut().enumerate() {
+            if !present[q] || moved[q] {
+                *run = 0;
+                continue;
+            }
+            *run = run.saturating_add(1);
+            if *run >= STUCK_SETS && q < 32 {
+                stuck |= 1 << q;
+            }
+        }
+        stuck
+    }
+}
+
 /// The rate hint across an exclusion or a re-admission: the last estimate with no warning flag
 /// from readings the monitor found consistent, carried forward by its Ω′. (The estimates
 /// between a fault's onset and its isolation may have taken the wrong sign, and the estimator
@@ -674,6 +748,38 @@ mod tests {
             }
         }
         assert!(seen.is_some_and(|k| k < 100), "seen after {seen:?} sets");
+    }
+
+    #[test]
+    fn a_part_whose_every_channel_repeats_is_stuck_and_one_that_moves_again_is_not() {
+        let (arr, part) = layout();
+        let mut check = StuckCheck::<f32, 24>::new(&part);
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for _ in 0..1000 {
+            assert_eq!(check.step(&reading(&arr, &mut rng)), 0);
+        }
+        // Part 2 stuck (channels 6–8 hold their values); one channel of part 4 stuck alone
+        // (not a stuck part).
+        let held = reading(&arr, &mut rng);
+        let mut first = None;
+        for k in 0..30 {
+            let mut p = reading(&arr, &mut rng);
+            p[6..9].copy_from_slice(&held[6..9]);
+            p[12] = held[12];
+            let s = check.step(&p);
+            if s != 0 && first.is_none() {
+                first = Some((k, s));
+            }
+        }
+        // The first held set is a change from the set before it; ten repeats follow.
+        assert_eq!(first, Some((usize::from(STUCK_SETS), 1 << 2)));
+        assert_eq!(check.step(&reading(&arr, &mut rng)), 0);
+        // A part without a value (NaN) is not stuck.
+        for _ in 0..20 {
+            let mut p = reading(&arr, &mut rng);
+            p[6..9].fill(f32::NAN);
+            assert_eq!(check.step(&p), 0);
+        }
     }
 
     #[test]

@@ -200,9 +200,19 @@ fn a_dead_part_is_reported_down_and_up_again() {
     assert!((5.0..5.1).contains(&suspicions[0].0), "{suspicions:?}");
     assert!((6.0..9.0).contains(&suspicions[1].0), "{suspicions:?}");
     assert!((10.0..10.1).contains(&suspicions[2].0), "{suspicions:?}");
+    // The stuck part (u1) is named from its own signal within 0.1 s of the 10 sets it takes
+    // (twelve channels in model G cannot leave it out: its rows are flagged 64 instead).
+    let named: Vec<&(f64, EventId, u32)> = events
+        .iter()
+        .filter(|e| e.1 == EventId::PartIsolated)
+        .collect();
+    assert_eq!(named.len(), 1, "{events:?}");
+    assert_eq!(named[0].2, 1);
+    assert!((5.09..5.2).contains(&named[0].0), "{named:?}");
+    assert!(!events.iter().any(|e| e.1 == EventId::PartsExcluded));
     let events: Vec<(f64, EventId, u32)> = events
         .into_iter()
-        .filter(|e| e.1 != EventId::FaultSuspected)
+        .filter(|e| e.1 != EventId::FaultSuspected && e.1 != EventId::PartIsolated)
         .collect();
     // u3 is dead from 14 s to 15 s: marked down after 10 failed reads, up when it answers.
     assert_eq!(events.len(), 2, "{events:?}");

@@ -306,7 +306,10 @@ mod tests {
     use estimator_core::{Flags, Model};
 
     fn set(k: u32, part0: bool) -> SampleSet {
-        let mut parts = [Some([0.1, 0.2, 9.8]); MAX_PARTS];
+        // The same small change in every part's reading each set (a uniform σ0: consistent),
+        // so that no part repeats its values (the stuck check of `fault-isolation`).
+        let d = 1e-4 * (k % 7) as f32;
+        let mut parts = [Some([0.1 + d, 0.2 - d, 9.8 + d]); MAX_PARTS];
         if !part0 {
             parts[0] = None;
         }

@@ -20,19 +20,23 @@ use crate::config::{AppConfig, MAX_CHANNELS};
 #[cfg(feature = "fault-isolation")]
 mod enabled {
     use super::*;
-    use estimator_core::fault_monitor::{FaultMonitor, FieldCheck, Settings};
+    use estimator_core::fault_monitor::{FaultMonitor, FieldCheck, Settings, StuckCheck};
     use estimator_core::parity::{Parity, NO_PART};
     use estimator_core::Model;
 
-    /// The monitor, each channel's part, and model G's known-field test where there is no
-    /// parity space.
+    /// The monitor, each channel's part, model G's known-field test where there is no parity
+    /// space, and every part's stuck check from its own signal.
     pub struct Isolation {
         monitor: FaultMonitor<f32, MAX_CHANNELS>,
         part: [u8; MAX_CHANNELS],
         field: Option<FieldCheck<f32>>,
+        stuck: StuckCheck<f32, MAX_CHANNELS>,
+        /// The parts stuck at the last set (bit per part).
+        stuck_parts: u32,
         rate_hz: f64,
-        /// The verdict the events have told the ground.
+        /// The verdict and the isolated parts the events have told the ground.
         reported: Verdict,
+        reported_isolated: PartSet,
     }
 
     impl Isolation {
@@ -51,8 +55,11 @@ mod enabled {
                 monitor: FaultMonitor::new(Settings::default(), rate_hz),
                 part,
                 field: None,
+                stuck: StuckCheck::new(&part),
+                stuck_parts: 0,
                 rate_hz,
                 reported: Verdict::NoTest,
+                reported_isolated: PartSet::EMPTY,
             }
         }
 
@@ -87,33 +94,38 @@ mod enabled {
 
         /// One set's readings (NaN where a part had no value).
         pub fn step(&mut self, p: &[f32]) -> Verdict {
+            self.stuck_parts = self.stuck.step(p);
             self.monitor.step(p)
         }
 
-        /// The events a set's `verdict` calls for (the set's final one: with the known-field
-        /// test): a part newly isolated, a suspicion started or ended.
+        /// The events a set calls for, from its `verdict` (the final one: with the known-field
+        /// test and any isolation the solve could not take) and the parts isolated: a
+        /// suspicion started or ended, a part newly isolated (by the parity space or as stuck).
         pub fn events(&mut self, verdict: Verdict) -> [Option<(EventId, u32, u32)>; 2] {
             let before = core::mem::replace(&mut self.reported, verdict);
-            if before == verdict {
-                return [None, None];
-            }
             let level = (self.level() * 1000.0) as u32;
-            let ended =
-                (before == Verdict::NotIsolated).then_some((EventId::FaultSuspected, 0, level));
-            let started = match verdict {
-                Verdict::NotIsolated => Some((EventId::FaultSuspected, 1, level)),
-                Verdict::Isolated(p) => {
-                    let mut bits = 0u32;
-                    for (c, q) in self.part.iter().enumerate() {
-                        if *q == p {
-                            bits |= 1 << c;
-                        }
-                    }
-                    Some((EventId::PartIsolated, u32::from(p), bits))
-                }
+            let suspicion = match (
+                before == Verdict::NotIsolated,
+                verdict == Verdict::NotIsolated,
+            ) {
+                (false, true) => Some((EventId::FaultSuspected, 1, level)),
+                (true, false) => Some((EventId::FaultSuspected, 0, level)),
                 _ => None,
             };
-            [ended, started]
+            let isolated = self.isolated();
+            let new = isolated.minus(self.reported_isolated);
+            self.reported_isolated = isolated;
+            let part = (0..crate::config::MAX_PARTS).find(|p| new.contains(*p));
+            let named = part.map(|p| {
+                let mut bits = 0u32;
+                for (c, q) in self.part.iter().enumerate() {
+                    if usize::from(*q) == p {
+                        bits |= 1 << c;
+                    }
+                }
+                (EventId::PartIsolated, p as u32, bits)
+            });
+            [suspicion, named]
         }
 
         /// The window's χ² over its limit: the monitor's, or the known-field test's.
@@ -129,13 +141,12 @@ mod enabled {
             true
         }
 
-        /// The part isolated (to be kept out of the solve).
+        /// The parts isolated (to be kept out of the solve): by the parity space, or stuck.
         pub fn isolated(&self) -> PartSet {
+            let stuck = PartSet((self.stuck_parts & 0xff) as u8);
             match self.monitor.isolated() {
-                Some(p) if usize::from(p) < crate::config::MAX_PARTS => {
-                    PartSet::EMPTY.with(usize::from(p))
-                }
-                _ => PartSet::EMPTY,
+                Some(p) => stuck.with(usize::from(p)),
+                None => stuck,
             }
         }
     }
