@@ -251,7 +251,7 @@ impl<T: Real> Faults<T> {
         let Some(m) = &mut self.monitor else {
             return (Verdict::NoTest, stuck);
         };
-        let verdict = m.step(p);
+        let verdict = m.step_with(p, stuck);
         let isolated = m.isolated().filter(|p| *p < 32).map_or(0, |p| 1u32 << p);
         (verdict, isolated | stuck)
     }

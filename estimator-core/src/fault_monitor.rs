@@ -191,6 +191,13 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
     /// One sample set (`p[i]`: channel `i`'s reading). A set with a non-finite reading in the
     /// parity space leaves the window as it was.
     pub fn step(&mut self, p: &[T]) -> Verdict {
+        self.step_with(p, 0)
+    }
+
+    /// As [`Self::step`], with the parts already isolated by other evidence (bit per part:
+    /// [`StuckCheck`]): one of them that explains the window is isolated at once, with no
+    /// confirmation, and the window is then not "unexplained".
+    pub fn step_with(&mut self, p: &[T], known: u32) -> Verdict {
         let Some(par) = &self.parity else {
             self.verdict = Verdict::NoTest;
             return self.verdict;
@@ -207,6 +214,7 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         let mut restoring = 0usize;
         let mut found = None;
         let mut held_restores = false;
+        let mut known_restores = None;
         for q in 0..parts {
             let w = &mut self.without[q];
             *w = (self.lambda * *w + s.without[q]).min(cap * self.part_limit[q]);
@@ -223,6 +231,9 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
                 if self.isolated == Some(q as u8) {
                     held_restores = true;
                 }
+                if q < 32 && known & (1 << q) != 0 {
+                    known_restores = Some(q as u8);
+                }
             }
         }
         self.verdict = if self.total <= self.limit {
@@ -233,7 +244,10 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
             self.isolated.map_or(Verdict::Clean, Verdict::Isolated)
         } else {
             self.clean = 0;
-            if restoring == 1 && found != self.isolated {
+            if let Some(q) = known_restores {
+                self.isolated = Some(q);
+                held_restores = true;
+            } else if restoring == 1 && found != self.isolated {
                 // A new part: isolated once it alone explains the window for `confirm` sets.
                 if self.candidate == found {
                     self.run = self.run.saturating_add(1);
@@ -683,6 +697,27 @@ mod tests {
         let back = back.expect("re-admitted");
         assert!((250..350).contains(&back), "re-admitted after {back} sets");
         assert_eq!(m.isolated(), None);
+    }
+
+    /// A part already isolated by other evidence (the stuck check) that explains the window is
+    /// isolated at once: the window is never "unexplained" on its account.
+    #[test]
+    fn a_part_known_bad_is_isolated_at_once() {
+        let (mut m, arr) = monitor();
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        for _ in 0..300 {
+            m.step_with(&reading(&arr, &mut rng), 0);
+        }
+        let mut first = None;
+        for _ in 0..50 {
+            let mut p = reading(&arr, &mut rng);
+            p[13] += 0.05;
+            let v = m.step_with(&p, 1 << 4);
+            if v != Verdict::Clean {
+                first.get_or_insert(v);
+            }
+        }
+        assert_eq!(first, Some(Verdict::Isolated(4)));
     }
 
     #[test]

@@ -95,7 +95,7 @@ mod enabled {
         /// One set's readings (NaN where a part had no value).
         pub fn step(&mut self, p: &[f32]) -> Verdict {
             self.stuck_parts = self.stuck.step(p);
-            self.monitor.step(p)
+            self.monitor.step_with(p, self.stuck_parts)
         }
 
         /// The events a set calls for, from its `verdict` (the final one: with the known-field
