@@ -10,9 +10,10 @@
 //! nor by command.
 //!
 //! With the feature `fault-isolation` the measurements themselves are tested as well
-//! ([`crate::isolation`], issue 17): a part that the parity space isolates is kept out of the
-//! solve until the readings are consistent again, and while a fault is seen but not isolated
-//! the estimate carries [`Flags::RESIDUAL_HIGH`].
+//! ([`crate::isolation`], issue 17): a part that the parity space isolates, or whose own
+//! signal is stuck, is kept out of the solve until the readings are consistent again, where
+//! the model can spare it; while a fault is seen but not isolated, or isolated and not left
+//! out, the estimate carries [`Flags::RESIDUAL_HIGH`].
 
 use ballisto_link::{ChannelSet, PartSet};
 use estimator_core::fault_monitor::{TrustedRate, Verdict};
@@ -57,7 +58,7 @@ pub struct Estimation {
     good_run: [u16; MAX_PARTS],
     /// Parts out because they stopped answering.
     excluded: PartSet,
-    /// Parts out because the fault monitor isolated them.
+    /// Parts out because the fault monitor isolated them (parity space or stuck).
     isolated: PartSet,
     /// An isolation the solve could not take (too few channels left): not retried per set.
     refused: Option<PartSet>,
