@@ -159,11 +159,6 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         self.parity = parity;
     }
 
-    /// The parity space in use.
-    pub fn parity(&self) -> Option<&Parity<T, CAP>> {
-        self.parity.as_ref()
-    }
-
     /// The part currently isolated (held until re-admitted).
     pub fn isolated(&self) -> Option<u8> {
         self.isolated
@@ -181,11 +176,6 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         } else {
             T::ZERO
         }
-    }
-
-    /// The window's time constant in samples.
-    pub fn window(&self) -> u32 {
-        self.window
     }
 
     /// One sample set (`p[i]`: channel `i`'s reading). A set with a non-finite reading in the
@@ -608,6 +598,16 @@ mod tests {
         assert!(detected);
     }
 
+    /// [`monitor`] after 300 consistent sets drawn from `seed`, and the draws to go on with.
+    fn warmed_monitor(seed: u64) -> (FaultMonitor<f32, 24>, Arrangement<24>, ChaCha8Rng) {
+        let (mut m, arr) = monitor();
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        for _ in 0..300 {
+            m.step(&reading(&arr, &mut rng));
+        }
+        (m, arr, rng)
+    }
+
     fn monitor() -> (FaultMonitor<f32, 24>, Arrangement<24>) {
         let (arr, part) = layout();
         let mut m = FaultMonitor::new(Settings::default(), 100.0);
@@ -629,11 +629,7 @@ mod tests {
 
     #[test]
     fn a_small_bias_is_detected_and_never_blamed_on_another_part() {
-        let (mut m, arr) = monitor();
-        let mut rng = ChaCha8Rng::seed_from_u64(2);
-        for _ in 0..300 {
-            m.step(&reading(&arr, &mut rng));
-        }
+        let (mut m, arr, mut rng) = warmed_monitor(2);
         // 3 σ of one reading on part 4's y channel for 4 s. In this layout part 3 hides most of
         // it (without part 3 it shows at 0.028 of its χ²; see the parity test's table), so
         // the window sees it but cannot say whose it is.
@@ -660,11 +656,7 @@ mod tests {
 
     #[test]
     fn a_bias_is_isolated_held_and_readmitted_after_it_ends() {
-        let (mut m, arr) = monitor();
-        let mut rng = ChaCha8Rng::seed_from_u64(4);
-        for _ in 0..300 {
-            m.step(&reading(&arr, &mut rng));
-        }
+        let (mut m, arr, mut rng) = warmed_monitor(4);
         // 10 σ on part 4's y channel for 2 s.
         let mut isolated_at = None;
         for k in 0..200 {
@@ -703,11 +695,7 @@ mod tests {
     /// isolated at once: the window is never "unexplained" on its account.
     #[test]
     fn a_part_known_bad_is_isolated_at_once() {
-        let (mut m, arr) = monitor();
-        let mut rng = ChaCha8Rng::seed_from_u64(8);
-        for _ in 0..300 {
-            m.step_with(&reading(&arr, &mut rng), 0);
-        }
+        let (mut m, arr, mut rng) = warmed_monitor(8);
         let mut first = None;
         for _ in 0..50 {
             let mut p = reading(&arr, &mut rng);

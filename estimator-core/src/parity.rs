@@ -56,7 +56,6 @@ struct PartTest<T> {
 #[derive(Clone)]
 pub struct Parity<T, const CAP: usize> {
     n: usize,
-    mask: ChannelMask,
     dof: usize,
     /// The channel set's channels, in order (`rows` of them): row `a` is channel `index[a]`.
     index: [u8; CAP],
@@ -233,7 +232,6 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
         }
         Ok(Parity {
             n,
-            mask,
             dof,
             index,
             rows,
@@ -248,11 +246,6 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
     /// Degrees of freedom of `χ²` (`N − 12`).
     pub fn dof(&self) -> usize {
         self.dof
-    }
-
-    /// The channel set.
-    pub fn mask(&self) -> ChannelMask {
-        self.mask
     }
 
     /// Part numbers covered (`without` of [`ParitySample`] has this many entries).

@@ -71,6 +71,16 @@ pub fn mixed_layout(seed: u64, duration: f64) -> Scenario {
     sc
 }
 
+/// The Ω error of an estimate (the norm) against the truth, and whether it is silently wrong:
+/// above `ballisto::compare::SILENT_SD` reported deviations (the norm of the three) with no
+/// [`WARNING`] flag.
+pub fn omega_error(omega: [f64; 3], truth: [f64; 3], sd: [f64; 3], flags: u16) -> (f64, bool) {
+    let norm = |v: [f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let err = norm(core::array::from_fn(|k| omega[k] - truth[k]));
+    let silent = err > ballisto::compare::SILENT_SD * norm(sd) && flags & WARNING == 0;
+    (err, silent)
+}
+
 /// What one run showed, from 1 s on (the start-up excluded).
 #[derive(Debug, Default)]
 pub struct FaultRun {
@@ -125,17 +135,12 @@ pub fn fault_run(sc: &Scenario, fault: Option<(usize, f64, f64)>) -> FaultRun {
         if vals.clone().any(|v| !v.is_finite()) {
             r.nan += 1;
         }
-        let err: f64 = (0..3)
-            .map(|k| (f64::from(e.omega[k]) - tr.omega[k]).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let sd: f64 = e
-            .sd_omega
-            .iter()
-            .map(|s| f64::from(*s).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let silent = err > 5.0 * sd && e.flags.0 & WARNING == 0;
+        let (err, silent) = omega_error(
+            e.omega.map(f64::from),
+            tr.omega,
+            e.sd_omega.map(f64::from),
+            e.flags.0,
+        );
         let residual = e.flags.has(Flags::RESIDUAL_HIGH);
         let seen = residual || (m.missing.0 | m.excluded.0) & part_bit != 0;
         let out = m.excluded.0 & part_bit != 0;

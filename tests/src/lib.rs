@@ -2,6 +2,7 @@
 //! f64 multi-start maximum-likelihood reference, error statistics, and scenarios' records.
 
 pub mod cases;
+pub mod csv;
 pub mod faults;
 pub mod ml;
 pub mod nine;

@@ -6,28 +6,13 @@ use std::path::PathBuf;
 
 use ballisto::estimate::HostEstimator;
 use ballisto::samples_csv::SamplesReader;
+use e2e_tests::csv::read_columns;
 use e2e_tests::stats::rms3;
 use estimator_core::{Model, Options};
 use hal_sim::arrangement_file::load_arrangement;
 
 fn data_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/realdata/mimu4444_exp6")
-}
-
-fn read_columns(path: &PathBuf, cols: &[&str]) -> Vec<Vec<f64>> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let idx: Vec<usize> = cols
-        .iter()
-        .map(|c| header.iter().position(|h| h == c).unwrap())
-        .collect();
-    lines
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            idx.iter().map(|&i| f[i].parse().unwrap()).collect()
-        })
-        .collect()
 }
 
 struct Figures {
