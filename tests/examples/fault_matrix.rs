@@ -45,10 +45,11 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let (clean, rows) = fault_matrix(runs, layout);
     println!(
-        "| none (false alarms) | {runs} | — | — | — | — | {:.3} % | {:.3} % of {} rows | — | — | — | {} | {} |",
+        "| none (false alarms) | {runs} | — | — | — | — | {:.3} % | {:.3} % of {} rows | {:.1} % (fault-free) | — | — | {} | {} |",
         pct(clean.wrong_excluded, clean.rows),
         pct(clean.flagged_clean, clean.clean_rows),
         clean.clean_rows,
+        pct(clean.silent_clean, clean.clean_rows),
         clean.nan,
         clean.lost
     );

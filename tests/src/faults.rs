@@ -91,6 +91,9 @@ pub struct FaultRun {
     pub clean_rows: usize,
     /// Of [`Self::clean_rows`], those flagged 64 (false alarms).
     pub flagged_clean: usize,
+    /// Of [`Self::clean_rows`], those silently wrong (Ω error above 5 reported deviations, no
+    /// warning flag).
+    pub silent_clean: usize,
     /// Rows while the fault is active.
     pub active_rows: usize,
     /// Of [`Self::active_rows`], those flagged 64.
@@ -151,6 +154,7 @@ pub fn fault_run(sc: &Scenario, fault: Option<(usize, f64, f64)>) -> FaultRun {
         if t < start {
             r.clean_rows += 1;
             r.flagged_clean += usize::from(residual);
+            r.silent_clean += usize::from(silent);
         } else if t < end {
             r.active_rows += 1;
             r.flagged_active += usize::from(residual);
@@ -300,6 +304,8 @@ pub struct Tally {
     pub clean_rows: usize,
     /// Of `clean_rows`, flagged 64.
     pub flagged_clean: usize,
+    /// Of `clean_rows`, silently wrong.
+    pub silent_clean: usize,
     /// Rows while the fault was active; flagged 64; silently wrong.
     pub active: usize,
     /// Of `active`, flagged 64.
@@ -328,6 +334,7 @@ impl Tally {
         self.rows += r.clean_rows + r.active_rows + r.after_rows;
         self.clean_rows += r.clean_rows;
         self.flagged_clean += r.flagged_clean;
+        self.silent_clean += r.silent_clean;
         if let Some(l) = r.latency.filter(|l| *l <= 1.0) {
             self.detected.push(l);
         }
