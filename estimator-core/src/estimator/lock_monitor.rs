@@ -64,8 +64,7 @@ pub const MODEL_FLOOR: f64 = 0.01;
 pub(crate) enum PathCheck {
     /// Not checked.
     Off,
-    /// Checked every other sample while it passes (model G); on a lasting failure that the
-    /// other sign explains, the tracker forgets its history.
+    /// Checked every other sample while it passes (model G).
     Thinned,
     /// Checked every sample, and the tracker re-opens on a lasting failure (model F, m = 3).
     Full,
@@ -95,18 +94,15 @@ pub(crate) struct LockMonitor<T> {
 }
 
 impl<T: Real> LockMonitor<T> {
-    /// Forgets everything: the next sample starts a new path ([`LockMonitor::update`] clears
-    /// the rest there; clearing it here as well cost the STM32H743 image 60 B of flash).
+    /// Forgets everything.
     pub(crate) fn reset(&mut self) {
-        self.n = 0;
+        *self = Self::default();
     }
 
     /// [`LockMonitor::update`] with the chosen signed root's Ω and its estimate before the
     /// rate filter (Ω′ and the deviations): where the path is inconsistent, flags the estimate
     /// branch-ambiguous with margin 0. Returns whether the tracker's hypotheses should be
-    /// re-opened ([`REOPEN_WINDOWS`]; when `thin`, model G's check, only where the other
-    /// sign's path would fit: the estimator then has the tracker forget, `Tracker::forget`).
-    /// Out of line: the sample loop of the other layouts only
+    /// re-opened ([`REOPEN_WINDOWS`]; never when `thin`, model G's check). Out of line: the sample loop of the other layouts only
     /// tests whether to call it (inlined, it cost model F at N = 12 15–20 instructions per
     /// sample on the Cortex-M4F without running: `cargo qemu-bench`).
     #[inline(never)]
@@ -121,36 +117,9 @@ impl<T: Real> LockMonitor<T> {
         let vars = (variance(&est.sd_omega), domega_var);
         if self.update((omega, &est.domega), vars, dt, thin) {
             mark_inconsistent(est);
-            // Only a tripped test can make a re-opening due (`tripped_for` is 0 otherwise):
-            // the passing samples skip the bookkeeping. Thinned (model G: one branch), only
-            // where the other sign's path would be consistent.
-            return self.reopen_due(dt) && (!thin || self.flip_consistent(domega_var));
         }
-        false
-    }
-
-    /// Whether the other sign's path fits where the chosen one does not (model G, at a
-    /// re-opening due): along `−Ω` the slope of `u` is `−b − 2Ω′` where it is `b` along `Ω`
-    /// (Ω′ is the same on both signs; the newest Ω′ stands for the window's), tested against
-    /// the chosen path's variance (`|b|² / stat`) plus the newest Ω′'s. A path contradicted
-    /// for another reason (a jump of the chosen root, model error on real data) is not one
-    /// the other sign explains: there the tracker keeps its history (`tests/tests/
-    /// realdata.rs`: forgetting on every lasting trip took the real recording's model-G rate
-    /// error past its guard).
-    #[cold]
-    #[inline(never)]
-    fn flip_consistent(&self, domega_var: T) -> bool {
-        let [a0, a1, a2] = self.a;
-        let sxx = a2 - a1 * a1 / a0;
-        if !(sxx > T::ZERO && self.stat > T::ZERO) {
-            return false;
-        }
-        let tbar = a1 / a0;
-        let slope: Vec3<T> = core::array::from_fn(|k| (self.tu[k] - tbar * self.u[k]) / sxx);
-        let var = norm2(&slope) / self.stat + T::of(4.0) * domega_var;
-        let flipped: Vec3<T> =
-            core::array::from_fn(|k| -slope[k] - T::of(2.0) * self.last_domega[k]);
-        norm2(&flipped) < T::of(THRESHOLD) * var
+        // Thinned (model G), nothing is re-opened: skip the bookkeeping.
+        !thin && self.reopen_due(dt)
     }
 
     /// Takes the chosen signed root's Ω (`omega`), its Ω′ (`domega`), their deviations per
@@ -350,45 +319,6 @@ mod tests {
                 } else {
                     assert!(reopened[0] < 3.0 * window, "{rate} Hz: {reopened:?}");
                     assert!(reopened.len() > 1, "{rate} Hz: once only");
-                }
-            }
-        }
-    }
-
-    /// Thinned (model G), a lasting inconsistency asks for the tracker to forget only where the
-    /// other sign explains it: a path on the wrong sign of a spin-up (Ω = −∫Ω′) does, within
-    /// three windows; a path that drifts away from its Ω′ for another reason does not.
-    #[test]
-    fn thinned_only_the_other_sign_makes_the_tracker_forget() {
-        for rate in [50.0, 100.0, 1000.0] {
-            let dt = 1.0 / rate;
-            let window = WINDOW_S.max(MIN_SAMPLES * dt);
-            for wrong_sign in [true, false] {
-                let mut m = LockMonitor::<f64>::default();
-                let mut est = Estimate::<f64> {
-                    sd_omega: [1e-2; 3],
-                    ..Default::default()
-                };
-                let mut forgot = Vec::new();
-                for k in 0..(rate as usize * 2) {
-                    let t = k as f64 * dt;
-                    let domega = [0.1, -0.2, 0.6];
-                    // The wrong sign of Ω = Ω′ t, or the right sign drifting by 5 rad/s² in x.
-                    let omega: Vec3<f64> = if wrong_sign {
-                        core::array::from_fn(|i| -domega[i] * t)
-                    } else {
-                        [domega[0] * t + 2.5 * t * t, domega[1] * t, domega[2] * t]
-                    };
-                    est.domega = domega;
-                    if m.check(&omega, &mut est, 1e-2, dt, true) {
-                        forgot.push(t);
-                    }
-                }
-                if wrong_sign {
-                    assert!(!forgot.is_empty(), "{rate} Hz: never");
-                    assert!(forgot[0] < 3.0 * window, "{rate} Hz: {forgot:?}");
-                } else {
-                    assert!(forgot.is_empty(), "{rate} Hz: {forgot:?}");
                 }
             }
         }

@@ -499,8 +499,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         // checked as well (`Config::path_check`): contradicted by it, the branch is in doubt
         // whatever the tracker's margin. Contradicted for two windows on end where mirror
         // branches cross, none of the tracker's hypotheses is consistent: it re-opens both
-        // signs of every root (`lock_monitor::REOPEN_WINDOWS`); in model G, where the other
-        // sign's path would fit, the tracker forgets and decides the sign again.
+        // signs of every root (`lock_monitor::REOPEN_WINDOWS`).
         self.domega_var = lock_monitor::variance(&est.sd_domega);
         if check != PathCheck::Off
             && self.lock.check(
@@ -511,15 +510,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 check == PathCheck::Thinned,
             )
         {
-            if check == PathCheck::Full {
-                self.tracker.reopen(&cands[..nb]);
-            } else {
-                // Model G: one branch, one history per output (`Tracker::forget`). The sign
-                // is decided again from the evidence alone, flagged unresolved until then; the
-                // monitor starts a new path (the jump it would see is the restart's own).
-                self.tracker.forget();
-                self.lock.reset();
-            }
+            self.tracker.reopen(&cands[..nb]);
         }
         if !cfg.options.raw {
             cfg.apply_filtered(est, choice.filtered);

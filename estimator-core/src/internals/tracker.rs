@@ -139,8 +139,6 @@ pub struct Tracker<T> {
     /// Running variance of the trapezoidal model error per step (jerk, sampling), learnt from
     /// the chosen hypothesis' innovations.
     model_var: T,
-    /// The hint is not to be used on the next start ([`Tracker::forget`]).
-    unhinted: bool,
     /// Working storage of [`Tracker::step`] (not zeroed per step; written before read): the
     /// kept histories of one output and each new state's model-error sample.
     top: [[(State<T>, T); HISTORIES_PER_OUTPUT]; 2],
@@ -162,7 +160,6 @@ impl<T: Real> Tracker<T> {
             n: 0,
             best: 0,
             model_var: T::ZERO,
-            unhinted: false,
             top: [[(State::default(), T::ZERO); HISTORIES_PER_OUTPUT]; 2],
             innov: [T::ZERO; MAX_STATES],
         }
@@ -231,22 +228,6 @@ impl<T: Real> Tracker<T> {
     pub fn reset(&mut self) {
         self.n = 0;
         self.model_var = T::ZERO;
-        self.unhinted = false;
-    }
-
-    /// Forgets the history and starts again at the next step from that step's candidates
-    /// alone, both signs of each at their fit, whatever hint the step is given: for a tracker
-    /// whose chosen path the evidence contradicts (the estimator's lock monitor says when)
-    /// and that holds one history per output (model G: one branch and its two signs). There
-    /// [`Tracker::reopen`] does not help: a hypothesis it starts on the other sign is `STEP_CAP`
-    /// behind, and at the next step the continuation of that output from the held sign —
-    /// cut by the cap, so a mixture of the two signs, not a history — costs the same less
-    /// its log term and takes the output's only slot again. The true sign never gets a filter
-    /// of its own: on the 24-channel mixed layout of `tests/` the spin-up's wrong sign, taken
-    /// near rest, was held for the whole run (README, "Fault detection").
-    pub fn forget(&mut self) {
-        self.reset();
-        self.unhinted = true;
     }
 
     /// True once a step has been taken.
@@ -356,7 +337,7 @@ impl<T: Real> Tracker<T> {
             if np == 0 {
                 for (si, z) in zs.iter().enumerate() {
                     let mut cost = c.fit;
-                    if let Some((h, var)) = hint.filter(|_| !self.unhinted) {
+                    if let Some((h, var)) = hint {
                         cost += (norm2(&sub(z, &h)) / var.max(T::of(1e-30))).min(cap);
                     }
                     top[si][0] = (
@@ -780,51 +761,6 @@ mod tests {
                 (false, found) => assert_eq!(found, None, "never re-opened"),
                 (true, Some(k)) => assert!(k < 150, "on the consistent sign from step {k}"),
                 (true, None) => panic!("re-opened, the consistent sign was not found"),
-            }
-        }
-    }
-
-    /// With one history per output (model G: one branch and its two signs), a tracker holding
-    /// the wrong sign (here: started by a wrong hint) keeps it even re-opened — the re-opened
-    /// sign's slot is taken back at the next step by the continuation from the held sign, cut
-    /// by the cap — and finds the consistent sign once it forgets: it starts again from the
-    /// candidates alone, the hint it is still given ignored, and the evidence settles the sign.
-    #[test]
-    fn with_one_history_forgetting_finds_the_sign_reopening_does_not() {
-        for forget in [false, true] {
-            let mut tr = Tracker::<f64>::new();
-            let wrong = scale(-1.0, &truth(0.0).0);
-            let mut right_from = None;
-            for k in 0..300 {
-                let t = k as f64 * DT;
-                let (w, dw) = truth(t);
-                let cands = [cand(w, dw)];
-                // Given at every step, as the estimator does: used only without history.
-                let c = tr.step(&cands, DT, 1e-6, Some((wrong, 0.01)), 1).unwrap();
-                if k == 100 {
-                    if forget {
-                        tr.forget();
-                    } else {
-                        tr.reopen(&cands);
-                    }
-                }
-                let right = dist(&c.omega, &w) < 1e-9;
-                if k <= 100 {
-                    assert!(!right, "step {k}: the wrong hint's sign is held");
-                }
-                match (right, right_from) {
-                    (true, None) => right_from = Some(k),
-                    (false, Some(_)) => right_from = None,
-                    _ => {}
-                }
-                if forget && k == 299 {
-                    assert!(!c.sign_unresolved && !c.branch_ambiguous);
-                }
-            }
-            match (forget, right_from) {
-                (false, found) => assert_eq!(found, None, "re-opened only"),
-                (true, Some(k)) => assert!(k < 200, "on the consistent sign from step {k}"),
-                (true, None) => panic!("forgotten, the consistent sign was not found"),
             }
         }
     }
