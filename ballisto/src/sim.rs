@@ -235,7 +235,7 @@ fn record_firmware(
     samples: &mut impl Write,
     truth: &mut TruthFiles<impl Write>,
 ) -> Result<SimReport, Box<dyn Error>> {
-    use hal_sim::firmware_host::{firmware_config, run_firmware_with, SimTime};
+    use hal_sim::firmware_host::{firmware_config, for_each_channel, run_firmware_with, SimTime};
     let sc = job.scenario;
     let config = firmware_config(sc, loaded, alignment)?;
     let model_g = config.model == estimator_core::Model::General;
@@ -252,15 +252,7 @@ fn record_firmware(
                     tr: &hal_sim::motion::Truth| {
         let t = SimTime::seconds(set.t);
         row.iter_mut().for_each(|v| *v = None);
-        for (value, p) in set.parts.iter().zip(config.sampling.parts.iter()) {
-            if let (Some(v), Some(p)) = (value, p) {
-                for (x, c) in v.iter().zip(p.channels.iter()) {
-                    if let Some(c) = c {
-                        row[usize::from(*c)] = Some(f64::from(*x));
-                    }
-                }
-            }
-        }
+        for_each_channel(&config.sampling, set, |c, x| row[c] = Some(f64::from(x)));
         crate::estimate::count_flags(&mut flag_counts, m.estimate.flags);
         let r = samples_csv::write_row(samples, t, row.iter().copied())
             .and_then(|_| truth.row(set.k as usize, tr))

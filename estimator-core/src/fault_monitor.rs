@@ -589,13 +589,25 @@ mod tests {
     fn noise_above_the_declared_everywhere_is_detected_and_blamed_on_no_part() {
         let (mut m, arr) = monitor();
         let mut rng = ChaCha8Rng::seed_from_u64(6);
-        let mut detected = false;
-        for k in 0..1000 {
-            let v = m.step(&noisy_reading(&arr, &mut rng, 1.15e-3));
+        assert!(seen_never_isolated(&mut m, 1000, || {
+            noisy_reading(&arr, &mut rng, 1.15e-3)
+        }));
+    }
+
+    /// Steps `m` through `sets` readings from `next`: asserts that no part is isolated and
+    /// returns whether the fault was seen (not isolated) at some set.
+    fn seen_never_isolated(
+        m: &mut FaultMonitor<f32, 24>,
+        sets: usize,
+        mut next: impl FnMut() -> [f32; 18],
+    ) -> bool {
+        let mut seen = false;
+        for k in 0..sets {
+            let v = m.step(&next());
             assert!(!matches!(v, Verdict::Isolated(_)), "set {k}: {v:?}");
-            detected |= v == Verdict::NotIsolated;
+            seen |= v == Verdict::NotIsolated;
         }
-        assert!(detected);
+        seen
     }
 
     /// [`monitor`] after 300 consistent sets drawn from `seed`, and the draws to go on with.
@@ -712,16 +724,12 @@ mod tests {
     fn two_faulty_parts_are_detected_and_not_isolated() {
         let (mut m, arr) = monitor();
         let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let mut seen = false;
-        for _ in 0..300 {
+        assert!(seen_never_isolated(&mut m, 300, || {
             let mut p = reading(&arr, &mut rng);
             p[1] += 0.02;
             p[8] -= 0.02;
-            let v = m.step(&p);
-            assert!(!matches!(v, Verdict::Isolated(_)), "{v:?}");
-            seen |= v == Verdict::NotIsolated;
-        }
-        assert!(seen);
+            p
+        }));
         // A stuck reading (NaN-free) or a missing one: a NaN leaves the verdict as it was.
         let mut p = reading(&arr, &mut rng);
         p[0] = f32::NAN;

@@ -160,6 +160,20 @@ pub fn firmware_config(
     Ok(config)
 }
 
+/// Calls `f(channel, value)` for every channel a sample set carries: each part's x, y, z that
+/// `config` maps onto a channel of the arrangement (a missing part carries none).
+pub fn for_each_channel(config: &SamplingConfig, set: &SampleSet, mut f: impl FnMut(usize, f32)) {
+    for (value, part) in set.parts.iter().zip(config.parts.iter()) {
+        if let (Some(v), Some(part)) = (value, part) {
+            for (x, c) in v.iter().zip(part.channels.iter()) {
+                if let Some(c) = c {
+                    f(usize::from(*c), *x);
+                }
+            }
+        }
+    }
+}
+
 /// What the firmware did in a run.
 #[derive(Clone, Debug)]
 pub struct FirmwareReport {

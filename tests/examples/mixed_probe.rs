@@ -3,7 +3,7 @@
 //!
 //! `cargo run --release -p e2e-tests --example mixed_probe`
 use ballisto_fw::config::Alignment;
-use hal_sim::firmware_host::{firmware_config, run_firmware};
+use hal_sim::firmware_host::{firmware_config, for_each_channel, run_firmware};
 
 fn main() {
     if let Some(seed) = std::env::var("PARITY").ok().and_then(|s| s.parse().ok()) {
@@ -64,15 +64,7 @@ fn parity_over_time(seed: u64) {
     let mut p = vec![f64::NAN; n];
     run_firmware(&sc, &config, sc.samples() as u32, &mut |set, m, _| {
         let t = m.t as f64 * 1e-9;
-        for (value, pc) in set.parts.iter().zip(config.sampling.parts.iter()) {
-            if let (Some(v), Some(pc)) = (value, pc) {
-                for (x, c) in v.iter().zip(pc.channels.iter()) {
-                    if let Some(c) = c {
-                        p[usize::from(*c)] = f64::from(*x);
-                    }
-                }
-            }
-        }
+        for_each_channel(&config.sampling, set, |c, x| p[c] = f64::from(x));
         if let Some(s) = par.evaluate(&p) {
             acc.0 += s.chi2;
             for q in 0..8 {

@@ -12,7 +12,7 @@
 use ballisto_fw::config::Alignment;
 use estimator_core::smoother::StepRecord;
 use estimator_core::{Estimator, Model, Options};
-use hal_sim::firmware_host::{firmware_config, run_firmware};
+use hal_sim::firmware_host::{firmware_config, for_each_channel, run_firmware};
 
 fn main() {
     let step: u64 = std::env::var("STEP")
@@ -56,15 +56,7 @@ fn main() {
     run_firmware(&sc, &config, sc.samples() as u32, &mut |set, m, tr| {
         let t = m.t as f64 * 1e-9;
         if let Some((t0, t1)) = host {
-            for (value, pc) in set.parts.iter().zip(config.sampling.parts.iter()) {
-                if let (Some(v), Some(pc)) = (value, pc) {
-                    for (x, c) in v.iter().zip(pc.channels.iter()) {
-                        if let Some(c) = c {
-                            p[usize::from(*c)] = f64::from(*x);
-                        }
-                    }
-                }
-            }
+            for_each_channel(&config.sampling, set, |c, x| p[c] = f64::from(x));
             let r = *est.update_with(t, &p, Some(&mut rec));
             if t >= t0 && t <= t1 {
                 let w = tr.omega;
