@@ -224,17 +224,38 @@ fn twelve_channels_are_never_silently_wrong_under_the_named_faults() {
 }
 
 /// The 24-channel mixed layout (`e2e_tests::faults::mixed_layout`: LIS3DH on their own clocks,
-/// a spin-up from rest on the ground) is where the monitor is not yet good enough (README,
-/// "Fault detection"): healthy LIS3DH are taken out in fault-free runs and rows are silently
-/// wrong after several kinds of fault, as they were without the monitor. Asserted here only
-/// what must hold whatever the layout: no NaN, no telemetry lost, every fault seen.
+/// a spin-up from rest on the ground). Since model G keeps a second history per output while
+/// its path check fails (README, "Fault detection"), the wrong sign taken near rest is given
+/// up: no fault-free row is silently wrong and at most 0.5 % of the rows after a fault (20 runs:
+/// 0–0.2 %; before, 8–17 %), and where the part was taken out the estimate is within the
+/// issue's 1.2 × that of the run without it. Not yet good enough, and so not asserted: healthy
+/// LIS3DH taken out on about 1 % of the rows, small biases silently wrong while active (the
+/// README's table).
 #[test]
-fn the_mixed_layout_never_gives_nan_or_loses_telemetry() {
+fn the_mixed_layout_is_not_silently_wrong_after_a_fault() {
     let (clean, rows) = fault_matrix(10, e2e_tests::faults::mixed);
     assert_eq!((clean.nan, clean.lost), (0, 0));
+    assert_eq!(clean.silent_clean, 0, "fault-free rows silently wrong");
     for (name, t) in &rows {
+        println!(
+            "{name}: silent {} / {} while active, {} / {} after, Ω error ratio {:?}",
+            t.silent_active,
+            t.active,
+            t.silent_after,
+            t.after,
+            t.error_ratio()
+        );
         assert_eq!((t.nan, t.lost), (0, 0), "{name}");
         assert!(!t.detected.is_empty(), "{name}: never seen");
+        assert!(
+            t.silent_after * 200 <= t.after,
+            "{name}: silent after {} of {}",
+            t.silent_after,
+            t.after
+        );
+        if let Some(ratio) = t.error_ratio() {
+            assert!(ratio <= 1.2, "{name}: Ω error ratio {ratio:.2}");
+        }
     }
 }
 

@@ -122,6 +122,11 @@ impl<T: Real> LockMonitor<T> {
         !thin && self.reopen_due(dt)
     }
 
+    /// Whether the path check's last test failed (its statistic above [`THRESHOLD`]).
+    pub(crate) fn failing(&self) -> bool {
+        self.stat > T::of(THRESHOLD)
+    }
+
     /// Takes the chosen signed root's Ω (`omega`), its Ω′ (`domega`), their deviations per
     /// component (`sd_omega`, `sd_domega`) and the time since the previous sample; returns
     /// whether the path over the window is inconsistent.

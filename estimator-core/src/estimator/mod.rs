@@ -472,7 +472,12 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         // Several histories per output only where mirror branches exist and can merge (model
         // F, m = 3: the path check in full).
         let check = cfg.path_check;
-        let histories = if check == PathCheck::Full { 2 } else { 1 };
+        let histories =
+            if check == PathCheck::Full || (check == PathCheck::Thinned && self.lock.failing()) {
+                2
+            } else {
+                1
+            };
         let Some(choice) =
             self.tracker
                 .step(&cands[..nb], dt_t, self.domega_var, hint_var, histories)

@@ -39,6 +39,9 @@ pub struct Projection<T, const CAP: usize> {
     pub mq: [Sym3<T>; CAP],
     /// `T_j`, `j < k`.
     pub tq: [Sym3<T>; MAX_COLS],
+    /// Model G: the diagonals of the `T_j` are known exactly and are not read per sample
+    /// ([`Projection::tq_structured`]; checked when built).
+    pub tq_diag_known: bool,
     /// Diagonal 3×3 blocks of `G⁺ G⁺ᵀ` (σ0, Ω′, d): the covariance of `x` for known `a`.
     pub cov0: [Sym3<T>; 3],
     /// The forms of the body-frame components of σ0 and Ω′ (`x_body = Vᵀ x`):
@@ -82,6 +85,7 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             has_bias_offset: false,
             mq: [Sym3::zero(); CAP],
             tq: [Sym3::zero(); MAX_COLS],
+            tq_diag_known: false,
             cov0: [Sym3::zero(); 3],
             tq_body: [Sym3::zero(); 6],
             var0_body: [T::ZERO; 6],
@@ -241,6 +245,7 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
         for (dst, src) in self.tq.iter_mut().zip(tq.iter()) {
             *dst = src.cast();
         }
+        self.tq_diag_known = model == Model::General && tq_structured(&tq, k);
         for b in 0..3 {
             let mut blk = [[0.0f64; 3]; 3];
             if 3 * b + 2 < k {
@@ -505,6 +510,25 @@ pub(crate) fn design_row(s: &[f64; 3], r: &[f64; 3]) -> [f64; MAX_COLS] {
     ]
 }
 
+/// Whether the model-G forms `T_j = Σ_i G⁺_ji Q_i` have the diagonals the design implies:
+/// zero for σ0 and Ω′ (`j < 6`), `e_c − (1, 1, 1)` for `d_c` (`j = 6 + c`). Each sensor form's
+/// diagonal is `s∘R − (s·R)(1, 1, 1)` and `s∘R` is the design row's `d` part, so
+/// `diag T_j = (G⁺G)_{j,d} − Σ_c (G⁺G)_{j,d_c}` with `G⁺G = I`. Then
+/// `aᵀ T_j a = 2 (T_j,xy a_x a_y + T_j,xz a_x a_z + T_j,yz a_y a_z) + [j ≥ 6] (a_c² − |a|²)`:
+/// the sample loop reads three entries of each form instead of six. Checked, not assumed
+/// (to 1e-9 of the form's largest entry, or of 1), so that any other design keeps the full
+/// forms.
+pub(crate) fn tq_structured(tq: &[Sym3<f64>; MAX_COLS], k: usize) -> bool {
+    k == MAX_COLS
+        && tq.iter().enumerate().all(|(j, t)| {
+            let big = t.0.iter().fold(1.0f64, |a, v| a.max(v.abs()));
+            (0..3).all(|c| {
+                let want = if j < 6 || j - 6 == c { 0.0 } else { -1.0 };
+                (t.0[c] - want).abs() <= 1e-9 * big
+            })
+        })
+}
+
 /// Checks that no design-matrix column (body frame) is zero over the included channels, naming
 /// the unknown that could not be seen (for example "d_z is not observable: every channel has
 /// s_z·R_z = 0").
@@ -652,5 +676,48 @@ mod tests {
                 y[6 + e]
             );
         }
+    }
+
+    /// Model G in every frame: the forms `T_j` have the diagonals the design implies
+    /// ([`tq_structured`]), so the sample loop's three-entry `aᵀ T_j a` equals the full form;
+    /// model F's forms do not (its design has no `d` columns) and keep all six entries.
+    #[test]
+    fn general_forms_have_the_known_diagonals() {
+        let arr = arrangement();
+        let n = arr.len();
+        let a = [0.7, -1.9, 2.4];
+        for (f, q) in FRAME_QUATERNIONS.iter().enumerate() {
+            let v = quat_to_mat(*q);
+            let mut pr = Projection::<f64, CAP>::empty();
+            pr.build(&arr, ChannelMask::all(n), Model::General, &v, f as u8)
+                .unwrap();
+            assert!(pr.tq_diag_known, "frame {f}");
+            let a2 = dot(&a, &a);
+            for j in 0..pr.k {
+                let t = &pr.tq[j].0;
+                let off = 2.0 * (t[3] * a[0] * a[1] + t[4] * a[0] * a[2] + t[5] * a[1] * a[2]);
+                let diag = if j >= 6 {
+                    a[j - 6] * a[j - 6] - a2
+                } else {
+                    0.0
+                };
+                let full = pr.tq[j].quad(&a);
+                assert!(
+                    (off + diag - full).abs() < 1e-9 * full.abs().max(1.0),
+                    "frame {f} T{j}: {} vs {full}",
+                    off + diag
+                );
+            }
+        }
+        let mut pr = Projection::<f64, CAP>::empty();
+        pr.build(
+            &arr,
+            ChannelMask::all(n),
+            Model::FreeFloat,
+            &quat_to_mat(FRAME_QUATERNIONS[0]),
+            0,
+        )
+        .unwrap();
+        assert!(!pr.tq_diag_known);
     }
 }
