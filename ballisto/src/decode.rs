@@ -405,6 +405,7 @@ pub fn identified_arrangement(
             axis_sd: (free(1) && free(2)).then(|| sd(1).max(sd(2))),
             bias_sd: free(6).then(|| sd(6)),
             scale_sd: free(0).then(|| sd(0)),
+            range: spec.range,
         });
     }
     let file = ArrangementFile {

@@ -176,7 +176,8 @@ struct Faults<T: Real> {
     /// Every channel of the arrangement.
     all: ChannelMask,
     first_t: Option<f64>,
-    /// Model G (the parity space and the known-field test); every model has the stuck check.
+    /// Model G (the parity space and the known-field test); every model has the own-signal
+    /// check (stuck, or at the arrangement file's `range`).
     general: bool,
     stuck: StuckCheck<T, HOST_CAP>,
     /// The parts out of the forward pass's solve (bit per part), and a set it refused.
@@ -209,7 +210,7 @@ impl<T: Real> Faults<T> {
             .collect::<Vec<u8>>();
         Some(Faults {
             monitor: None,
-            stuck: StuckCheck::new(&part),
+            stuck: StuckCheck::with_limits(&part, &loaded.ranges),
             part,
             arrangement: loaded.arrangement.clone(),
             all: ChannelMask::all(loaded.names.len()),

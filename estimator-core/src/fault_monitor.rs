@@ -425,44 +425,77 @@ fn invert_spd6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
 /// Sets in a row with every channel of a part unchanged, bit for bit, after which the part is
 /// taken as stuck. A healthy MEMS part's noise spans many codes (ADXL355: about 300 LSB at
 /// 1.2 mg; LIS3DH: about 2 LSB), so ten identical sets on all its axes are a stuck output or
-/// a saturated one (hal-sim's saturation pins every axis at full scale).
+/// a saturated one (hal-sim's saturation pins every axis at full scale). Also the sets a part
+/// stays out after its last reading at a range limit ([`StuckCheck::with_limits`]).
 pub const STUCK_SETS: u16 = 10;
+
+/// Relative margin below a channel's full scale from which a reading is taken as at the limit:
+/// 1e-5 of full scale is 5 codes of an ADXL355's 20-bit output, less than one of a LIS3DH's
+/// 12-bit one (the rail itself), so nothing but a reading on or next to the rail counts.
+pub const RANGE_MARGIN: f64 = 1e-5;
 
 /// The check of each part from its own signal (issue 17: "where the residual has no
 /// redundancy"): a part whose every channel repeats the same value for [`STUCK_SETS`] sets is
-/// stuck. It needs no parity space, so it runs in every model and at any N.
+/// stuck; a part any of whose channels reads at its full scale (given with
+/// [`StuckCheck::with_limits`]) is saturated at once — one clipped axis is enough, the
+/// others may still move — and stays so until [`STUCK_SETS`] sets after its last reading at
+/// the limit (a part that touches the rail now and then is not taken out and re-admitted at
+/// every touch). It needs no parity space, so it runs in every model and at any N.
 #[derive(Clone, Debug)]
 pub struct StuckCheck<T, const CAP: usize> {
     part: [u8; CAP],
     n: usize,
     last: [T; CAP],
     run: [u16; CAP],
+    /// Per channel: the magnitude from which a reading is at its range limit (infinite: none).
+    limit: [T; CAP],
+    /// Per part: sets it stays saturated (0: in range).
+    saturated_for: [u16; CAP],
 }
 
 impl<T: Real, const CAP: usize> StuckCheck<T, CAP> {
-    /// The check for channels whose parts are `part[i]` ([`crate::parity::NO_PART`] for none).
+    /// The check for channels whose parts are `part[i]` ([`crate::parity::NO_PART`] for none),
+    /// without range limits.
     pub fn new(part: &[u8]) -> Self {
+        Self::with_limits(part, &[])
+    }
+
+    /// The check with each channel's full scale `range[i]` (m/s², the largest magnitude its
+    /// reading can take; missing, infinite, zero or negative: no limit). A reading of
+    /// magnitude `range · (1 − RANGE_MARGIN)` or more is at the limit.
+    pub fn with_limits(part: &[u8], range: &[f64]) -> Self {
         let mut p = [crate::parity::NO_PART; CAP];
         for (d, s) in p.iter_mut().zip(part) {
             *d = *s;
+        }
+        let mut limit = [T::of(f64::INFINITY); CAP];
+        for (l, r) in limit.iter_mut().zip(range) {
+            if *r > 0.0 && r.is_finite() {
+                *l = T::of(*r * (1.0 - RANGE_MARGIN));
+            }
         }
         StuckCheck {
             part: p,
             n: part.len().min(CAP),
             last: [T::ZERO; CAP],
             run: [0; CAP],
+            limit,
+            saturated_for: [0; CAP],
         }
     }
 
-    /// One set's readings; returns the parts stuck now (bit per part number, below 32). A
-    /// reading that is not finite (a part without a value) is not a repeat.
+    /// One set's readings; returns the parts stuck or saturated now (bit per part number, below
+    /// 32). A reading that is not finite (a part without a value) is neither a repeat nor at a
+    /// limit.
     pub fn step(&mut self, p: &[T]) -> u32 {
         let mut moved = [false; CAP];
         let mut present = [false; CAP];
-        for (i, (&q, last)) in self
+        let mut at_limit = [false; CAP];
+        for (i, ((&q, last), &limit)) in self
             .part
             .iter()
             .zip(self.last.iter_mut())
+            .zip(self.limit.iter())
             .enumerate()
             .take(self.n)
         {
@@ -473,26 +506,38 @@ impl<T: Real, const CAP: usize> StuckCheck<T, CAP> {
             present[q] = true;
             match p.get(i) {
                 // NaN ≠ NaN: a part without a value is never a repeat.
-                Some(v) if *v == *last => {}
+                Some(v) if *v == *last => at_limit[q] |= v.abs() >= limit,
                 Some(v) => {
                     moved[q] = true;
+                    at_limit[q] |= v.abs() >= limit;
                     *last = *v;
                 }
                 None => moved[q] = true,
             }
         }
-        let mut stuck = 0u32;
-        for (q, run) in self.run.iter_mut().enumerate() {
+        let mut out = 0u32;
+        for (q, (run, sat)) in self
+            .run
+            .iter_mut()
+            .zip(self.saturated_for.iter_mut())
+            .enumerate()
+        {
+            if at_limit[q] {
+                *sat = STUCK_SETS;
+            } else {
+                *sat = sat.saturating_sub(1);
+            }
+            let saturated = *sat > 0;
             if !present[q] || moved[q] {
                 *run = 0;
-                continue;
+            } else {
+                *run = run.saturating_add(1);
             }
-            *run = run.saturating_add(1);
-            if *run >= STUCK_SETS && q < 32 {
-                stuck |= 1 << q;
+            if (*run >= STUCK_SETS || saturated) && q < 32 {
+                out |= 1 << q;
             }
         }
-        stuck
+        out
     }
 }
 
@@ -811,6 +856,52 @@ mod tests {
             p[6..9].fill(f32::NAN);
             assert_eq!(check.step(&p), 0);
         }
+    }
+
+    /// One axis at its full scale takes its part out at once (the others still move, so the
+    /// repeat test alone would never see it); the part stays out for `STUCK_SETS` sets after
+    /// its last reading at the limit; a channel without a limit, or a reading just inside it,
+    /// is never saturated.
+    #[test]
+    fn one_axis_at_its_full_scale_saturates_the_part_at_once_and_for_a_while() {
+        let (arr, part) = layout();
+        let n = arr.len();
+        let full_scale = 20.0;
+        // Channels of part 0 without a limit; the others at ±20 m/s².
+        let range: Vec<f64> = (0..n)
+            .map(|i| if i < 3 { f64::INFINITY } else { full_scale })
+            .collect();
+        let mut check = StuckCheck::<f32, 24>::with_limits(&part, &range);
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for _ in 0..200 {
+            assert_eq!(check.step(&reading(&arr, &mut rng)), 0);
+        }
+        // Just inside the limit: nothing.
+        let inside = (full_scale * (1.0 - 10.0 * RANGE_MARGIN)) as f32;
+        let mut p = reading(&arr, &mut rng);
+        p[7] = inside;
+        assert_eq!(check.step(&p), 0);
+        // Part 2's y axis on the negative rail for 5 sets: out from the first.
+        for _ in 0..5 {
+            let mut p = reading(&arr, &mut rng);
+            p[7] = -full_scale as f32;
+            assert_eq!(check.step(&p), 1 << 2);
+        }
+        // Back in range: out for STUCK_SETS − 1 more sets, then in.
+        let mut out = 0;
+        while check.step(&reading(&arr, &mut rng)) == 1 << 2 {
+            out += 1;
+            assert!(out < 100);
+        }
+        assert_eq!(out, usize::from(STUCK_SETS) - 1);
+        // Part 0 has no limit: a reading of 1e3 m/s² is not saturation.
+        let mut p = reading(&arr, &mut rng);
+        p[0] = 1e3;
+        assert_eq!(check.step(&p), 0);
+        // Without a value (NaN), not at a limit.
+        let mut p = reading(&arr, &mut rng);
+        p[6..9].fill(f32::NAN);
+        assert_eq!(check.step(&p), 0);
     }
 
     #[test]

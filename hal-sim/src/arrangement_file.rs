@@ -76,6 +76,10 @@ pub struct ChannelSpec {
     /// Standard deviation of an identified scale.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scale_sd: Option<f64>,
+    /// Full scale (m/s²): the largest magnitude the reading takes; a reading at it is clipped
+    /// (the own-signal check's range limit). Absent: no limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub range: Option<f64>,
 }
 
 /// A tri-axial part: expands to channels `<name>.x`, `<name>.y`, `<name>.z`.
@@ -98,6 +102,9 @@ pub struct SensorSpec {
     /// Bus address or chip select; informational here.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub address: Option<toml::Value>,
+    /// Full scale of every axis (m/s²), as a channel's `range`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub range: Option<f64>,
 }
 
 /// Noise of a tri-axial part.
@@ -169,6 +176,8 @@ pub struct LoadedArrangement {
     pub model: Option<Model>,
     /// True if every channel had a noise value (otherwise equal weights were used).
     pub noise_given: bool,
+    /// Each channel's full scale (m/s², infinite where the file gives none).
+    pub ranges: Vec<f64>,
 }
 
 impl LoadedArrangement {
@@ -256,6 +265,7 @@ impl ArrangementFile {
                     position: s.position,
                     axis: body_axis(&m, j),
                     noise: noise[j],
+                    range: s.range,
                     ..Default::default()
                 });
             }
@@ -285,6 +295,7 @@ impl ArrangementFile {
         let noise_given = chans.iter().all(|c| c.noise.is_some());
         let mut arr = Arrangement::<HOST_CAP>::new();
         let mut names = Vec::new();
+        let mut ranges = Vec::new();
         for c in &chans {
             if c.name.is_empty() || c.name == "t" || c.name.contains(',') {
                 return Err(err(format!(
@@ -332,7 +343,16 @@ impl ArrangementFile {
                         ))
                     })?;
             }
+            if let Some(r) = c.range {
+                if !(r > 0.0 && r.is_finite()) {
+                    return Err(err(format!(
+                        "channel \"{}\": range = {r} must be a positive finite full scale (m/s²)",
+                        c.name
+                    )));
+                }
+            }
             names.push(c.name.clone());
+            ranges.push(c.range.unwrap_or(f64::INFINITY));
         }
         let frame = estimator_core::FrameUncertainty {
             rotation: self.frame_rotation_sd.unwrap_or(0.0),
@@ -351,6 +371,7 @@ impl ArrangementFile {
             arrangement: arr,
             model,
             noise_given,
+            ranges,
         })
     }
 }
@@ -388,6 +409,47 @@ noise = 0.01
         assert_eq!(l.names, ["u0.x", "u0.y", "u0.z"]);
         assert_eq!(l.arrangement.channels()[0].axis, [0.0, 1.0, 0.0]);
         assert_eq!(l.arrangement.channels()[1].axis, [-1.0, 0.0, 0.0]);
+    }
+
+    /// `range` (a part's full scale) is carried to every channel of a sensor and to a channel;
+    /// absent it is no limit; a non-positive one is refused naming the channel.
+    #[test]
+    fn range_is_read_per_channel_and_checked() {
+        let text = r#"
+[[channel]]
+name = "c"
+position = [0.0, 0.1, 0.0]
+axis = [1.0, 0.0, 0.0]
+noise = 0.01
+range = 40.0
+
+[[channel]]
+name = "d"
+position = [0.0, 0.1, 0.0]
+axis = [0.0, 1.0, 0.0]
+noise = 0.01
+
+[[sensor]]
+name = "u0"
+position = [0.1, 0.0, 0.0]
+noise = 0.01
+range = 20.08
+"#;
+        let l = ArrangementFile::parse(text, "x.toml")
+            .unwrap()
+            .load("x.toml")
+            .unwrap();
+        assert_eq!(l.ranges, [40.0, f64::INFINITY, 20.08, 20.08, 20.08]);
+        let bad = text.replace("range = 40.0", "range = -1.0");
+        let e = ArrangementFile::parse(&bad, "x.toml")
+            .unwrap()
+            .load("x.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("x.toml") && e.contains("\"c\"") && e.contains("range = -1"),
+            "{e}"
+        );
     }
 
     /// The frame's uncertainty is read into the arrangement; a negative one is refused by

@@ -132,7 +132,9 @@ pub fn fault_run(sc: &Scenario, fault: Option<(usize, f64, f64)>) -> FaultRun {
     let part_bit = fault.map_or(0, |(p, _, _)| 1u8 << p);
     let (start, end) = fault.map_or((f64::INFINITY, f64::INFINITY), |f| (f.1, f.2));
     let report = run_firmware(sc, &config, sc.samples() as u32, &mut |_, m, tr| {
-        let t = m.t as f64 * 1e-9;
+        // The set's instant in simulated time, as the fault's start and end (the report's `t`
+        // is on-board time, from boot: 50 ms earlier in these scenarios).
+        let t = tr.t;
         let e = &m.estimate;
         let vals = e.omega.iter().chain(&e.sigma0).chain(&e.domega);
         if vals.clone().any(|v| !v.is_finite()) {
@@ -199,7 +201,7 @@ pub fn errors_without_part(sc: &Scenario, part: usize, at: &[(f64, f64)]) -> Vec
             let err2: f64 = (0..3)
                 .map(|k| (f64::from(e.omega[k]) - tr.omega[k]).powi(2))
                 .sum();
-            by_time.push((m.t as f64 * 1e-9, err2));
+            by_time.push((tr.t, err2));
         },
     )
     .expect("the firmware ran");

@@ -292,3 +292,102 @@ fn firmware_then_host(
     .unwrap();
     host
 }
+
+/// Range limits (issue 17: saturation "from its own signal"): a bias of 40 m/s² on one axis of
+/// a ±2 g ADXL355 drives that axis onto its rail (20.08 m/s²) while its other two still move, so
+/// only the range limit can name the part from its own signal. With redundancy (N = 18) the
+/// part is out of the solve from the first clipped set, in the firmware and in `ballisto
+/// estimate` alike (the arrangement file's `range`); with twelve channels in model G (no
+/// parity space, the part cannot be spared) it is named at once by a `part-isolated` event
+/// and its rows carry flag 64. Never a silently wrong row.
+#[test]
+fn one_axis_on_its_rail_names_its_part_at_the_first_clipped_set() {
+    use hal_sim::scenario::{FaultSpec, Scenario};
+    let part = 2;
+    let onset = 4.0;
+    let fault = |sc: &Scenario| FaultSpec {
+        part: sc.parts[part].name.clone(),
+        kind: "bias-jump".to_string(),
+        start: onset,
+        end: Some(onset + 3.0),
+        bias: Some([0.0, 0.0, 40.0]),
+        rate: None,
+        density: None,
+        probability: None,
+        stall: None,
+    };
+    let bits = 0b111u64 << (3 * part);
+    for redundant in [true, false] {
+        let mut sc = if redundant {
+            e2e_tests::faults::layout(4100)
+        } else {
+            Scenario::load("tetra-orbit").unwrap()
+        };
+        sc.faults.push(fault(&sc));
+        let dir =
+            std::env::temp_dir().join(format!("ballisto-range-{}-{redundant}", std::process::id()));
+        let host = firmware_then_host(&sc, &dir);
+        let names = ["t", "excluded", "flags"];
+        let h = read_columns(&host, &names);
+        let f = read_columns(&dir.join("estimates.csv"), &names);
+        let truth = dir.join("truth.csv");
+        let (silent_fw, _, _) = silent_and_flagged(&dir.join("estimates.csv"), &truth);
+        let (silent_host, _, _) = silent_and_flagged(&host, &truth);
+        let stream =
+            ballisto::decode::decode_stream(&std::fs::read(dir.join("telemetry.bin")).unwrap());
+        let _ = std::fs::remove_dir_all(&dir);
+        let named: Vec<(f64, u32)> = stream
+            .packets
+            .iter()
+            .filter_map(|p| match &p.report {
+                Report::Event(e) if e.id == EventId::PartIsolated => Some((p.t, e.a)),
+                _ => None,
+            })
+            .collect();
+        // On-board time runs from boot, before the first set: the first motion report's time
+        // less the first row's is the offset.
+        let boot = stream
+            .packets
+            .iter()
+            .find(|p| matches!(p.report, Report::Motion(_)))
+            .map_or(0.0, |p| p.t)
+            - f[0][0];
+        let first = |rows: &[Vec<f64>], bit: &dyn Fn(&[f64]) -> bool| {
+            rows.iter()
+                .find(|r| r[0] >= onset - 0.5 && bit(r))
+                .map(|r| r[0])
+        };
+        let (first_h, first_f) = if redundant {
+            let out = |r: &[f64]| r[1] as u64 == bits;
+            (first(&h, &out), first(&f, &out))
+        } else {
+            let flagged = |r: &[f64]| r[2] as u16 & estimator_core::Flags::RESIDUAL_HIGH != 0;
+            (first(&h, &flagged), first(&f, &flagged))
+        };
+        println!(
+            "N = {}: part named {named:?} (on-board time, boot {boot:.3} s before the first \
+             set); first row out / flagged: host {first_h:?}, firmware {first_f:?}; silent host \
+             {silent_host}, firmware {silent_fw}",
+            if redundant { 18 } else { 12 }
+        );
+        assert_eq!(named.first().map(|e| e.1), Some(part as u32));
+        let at = named[0].0 - boot;
+        assert!(
+            (onset..onset + 0.005).contains(&at),
+            "named at {at} s (onset {onset} s)"
+        );
+        for first in [first_h, first_f] {
+            let t = first.expect("the part out or its rows flagged");
+            assert!((onset..onset + 0.005).contains(&t), "from {t} s");
+        }
+        if redundant {
+            // The same rows out in both, and only this part ever.
+            let differ = h.iter().zip(&f).filter(|(a, b)| a[1] != b[1]).count();
+            assert_eq!(differ, 0, "rows where host and firmware differ");
+            let out = f.iter().filter(|r| r[1] as u64 == bits).count();
+            assert!(out >= 300, "rows out {out}");
+            assert!(f.iter().all(|r| r[1] as u64 & !bits == 0));
+        }
+        assert_eq!((silent_fw, silent_host), (0, 0), "silently wrong rows");
+    }
+}

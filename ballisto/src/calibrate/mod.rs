@@ -358,6 +358,8 @@ pub fn estimator_rates(
         arrangement,
         model: Some(model),
         noise_given: true,
+        // Fault isolation is off here (below): no range limits.
+        ranges: vec![f64::INFINITY; names.len()],
     };
     // The geometry is what is being fitted: its error makes every path inconsistent with
     // its own Ω′, so the path check (model G) would leave nothing to fit with, and every
@@ -420,6 +422,8 @@ fn calibrated_file(
                 axis_sd,
                 bias_sd: sd(3),
                 scale_sd: sd(0),
+                // The parts' full scale is not identified: kept from the nominal file.
+                range: spec.range,
             }
         })
         .collect();

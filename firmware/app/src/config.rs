@@ -41,6 +41,15 @@ impl PartKind {
         !matches!(self, PartKind::Adxl355 { sync: true, .. })
     }
 
+    /// The largest magnitude a reading takes at the configured range (m/s²): an axis reading
+    /// it is clipped (the own-signal check's range limit, issue 17).
+    pub fn full_scale(self) -> f32 {
+        match self {
+            PartKind::Adxl355 { range, .. } => range.full_scale(),
+            PartKind::Lis3dh { range, .. } => range.full_scale(),
+        }
+    }
+
     /// The nominal output data rate (Hz).
     pub fn odr_hz(self) -> f32 {
         match self {

@@ -25,7 +25,8 @@ mod enabled {
     use estimator_core::Model;
 
     /// The monitor, each channel's part, model G's known-field test where there is no parity
-    /// space, and every part's stuck check from its own signal.
+    /// space, and every part's check from its own signal (stuck, or at its range limit: the
+    /// full scale of its configured range).
     pub struct Isolation {
         monitor: FaultMonitor<f32, MAX_CHANNELS>,
         part: [u8; MAX_CHANNELS],
@@ -43,10 +44,12 @@ mod enabled {
         /// A monitor for `config`'s parts and rate (no parity space until [`Isolation::rebuild`]).
         pub fn new(config: &AppConfig) -> Self {
             let mut part = [NO_PART; MAX_CHANNELS];
+            let mut range = [f64::INFINITY; MAX_CHANNELS];
             for (i, p) in config.sampling.parts() {
                 for c in p.channels.iter().flatten() {
                     if let Some(slot) = part.get_mut(usize::from(*c)) {
                         *slot = i as u8;
+                        range[usize::from(*c)] = f64::from(p.kind.full_scale());
                     }
                 }
             }
@@ -55,7 +58,7 @@ mod enabled {
                 monitor: FaultMonitor::new(Settings::default(), rate_hz),
                 part,
                 field: None,
-                stuck: StuckCheck::new(&part),
+                stuck: StuckCheck::with_limits(&part, &range),
                 stuck_parts: 0,
                 rate_hz,
                 reported: Verdict::NoTest,

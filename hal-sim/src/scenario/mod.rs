@@ -261,6 +261,18 @@ impl PartType {
         }
     }
 
+    /// The largest magnitude an axis reads at the range (m/s²): the output's positive rail,
+    /// `2¹⁹ − 1` counts of the ADXL355's 20 bits, `2¹¹ − 1` digits of the LIS3DH's 12
+    /// (high-resolution mode, as the bench reader and the firmware set it). Written to the
+    /// arrangement file as each channel's `range`.
+    pub fn full_scale(self, range_g: u32) -> f64 {
+        let counts = match self {
+            PartType::Adxl355 => f64::from((1u32 << 19) - 1),
+            PartType::Lis3dh => f64::from((1u32 << 11) - 1),
+        };
+        counts * self.lsb(range_g)
+    }
+
     /// One count of the output (m/s²) at the range.
     pub fn lsb(self, range_g: u32) -> f64 {
         match self {
@@ -1147,6 +1159,7 @@ impl Scenario {
                         (Some(cs), _) => toml::Value::String(format!("{} cs {cs}", p.bus)),
                         (_, a) => toml::Value::String(format!("{} {:#04x}", p.bus, a.unwrap_or(0))),
                     }),
+                    range: Some(p.part.full_scale(self.range_g(p))),
                 });
             } else {
                 for j in Self::part_axes(p) {
@@ -1155,6 +1168,7 @@ impl Scenario {
                         position: p.position,
                         axis: p.axis(j),
                         noise: Some(noise),
+                        range: Some(p.part.full_scale(self.range_g(p))),
                         ..Default::default()
                     });
                 }

@@ -38,6 +38,12 @@ impl Range {
         };
         G0 / lsb_per_g
     }
+
+    /// The largest magnitude a reading takes (m/s²): 524 287 LSB, the 20-bit output's positive
+    /// rail (a clipped axis reads it, or one LSB more on the negative side).
+    pub fn full_scale(self) -> f32 {
+        524_287.0 * self.scale()
+    }
 }
 
 /// Output data rate `4000 / 2ⁿ` Hz, `n` = 0..=10 (`FILTER` bits 3:0).

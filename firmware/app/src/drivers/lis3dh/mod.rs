@@ -41,6 +41,12 @@ impl Range {
         };
         mg * 1e-3 * G0
     }
+
+    /// The largest magnitude a reading takes (m/s²): 2047 digits, the 12-bit output's positive
+    /// rail (a clipped axis reads it, or one digit more on the negative side).
+    pub fn full_scale(self) -> f32 {
+        2047.0 * self.scale()
+    }
 }
 
 /// Output data rates of the normal and high-resolution modes.
