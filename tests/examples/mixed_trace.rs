@@ -54,7 +54,8 @@ fn main() {
     let mut p = vec![f64::NAN; n];
     let mut rec = StepRecord::<f64>::default();
     run_firmware(&sc, &config, sc.samples() as u32, &mut |set, m, tr| {
-        let t = m.t as f64 * 1e-9;
+        // The set's simulated instant (the report's `t` is on-board time, from boot).
+        let t = tr.t;
         if let Some((t0, t1)) = host {
             for_each_channel(&config.sampling, set, |c, x| p[c] = f64::from(x));
             let r = *est.update_with(t, &p, Some(&mut rec));
@@ -90,8 +91,8 @@ fn main() {
         );
         if silent || ((t * 100.0).round() as u64).is_multiple_of(step) {
             println!(
-                "dw true {:6.3} {:6.3} {:6.3} est {:6.3} {:6.3} {:6.3} t {t:6.2} true {:7.3} {:7.3} {:7.3} est {:7.3} {:7.3} {:7.3} sd {:.2e} err {err:.3} flags {:3} excl {:08b} silent {silent}",
-                tr.domega[0], tr.domega[1], tr.domega[2], e.domega[0], e.domega[1], e.domega[2], tr.omega[0], tr.omega[1], tr.omega[2], e.omega[0], e.omega[1], e.omega[2], e.sd_omega[0], e.flags.0, m.excluded.0
+                "dw true {:6.3} {:6.3} {:6.3} est {:6.3} {:6.3} {:6.3} t {t:6.2} true {:7.3} {:7.3} {:7.3} est {:7.3} {:7.3} {:7.3} sd {:.2e} err {err:.3} flags {:3} excl {:08b} silent {silent} verdict {:?}",
+                tr.domega[0], tr.domega[1], tr.domega[2], e.domega[0], e.domega[1], e.domega[2], tr.omega[0], tr.omega[1], tr.omega[2], e.omega[0], e.omega[1], e.omega[2], e.sd_omega[0], e.flags.0, m.excluded.0, m.verdict
             );
         }
     })
