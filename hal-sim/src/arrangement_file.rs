@@ -395,6 +395,13 @@ fn one_line(s: &str) -> String {
 mod tests {
     use super::*;
 
+    /// `text` parsed and loaded as the file `x.toml`; the error as its message.
+    fn load_text(text: &str) -> Result<LoadedArrangement, String> {
+        ArrangementFile::parse(text, "x.toml")
+            .and_then(|f| f.load("x.toml"))
+            .map_err(|e| e.to_string())
+    }
+
     #[test]
     fn sensor_expands_to_three_channels_with_orientation_columns() {
         let text = r#"
@@ -404,8 +411,7 @@ position = [0.1, 0.0, 0.0]
 orientation = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
 noise = 0.01
 "#;
-        let f = ArrangementFile::parse(text, "x.toml").unwrap();
-        let l = f.load("x.toml").unwrap();
+        let l = load_text(text).unwrap();
         assert_eq!(l.names, ["u0.x", "u0.y", "u0.z"]);
         assert_eq!(l.arrangement.channels()[0].axis, [0.0, 1.0, 0.0]);
         assert_eq!(l.arrangement.channels()[1].axis, [-1.0, 0.0, 0.0]);
@@ -435,17 +441,10 @@ position = [0.1, 0.0, 0.0]
 noise = 0.01
 range = 20.08
 "#;
-        let l = ArrangementFile::parse(text, "x.toml")
-            .unwrap()
-            .load("x.toml")
-            .unwrap();
+        let l = load_text(text).unwrap();
         assert_eq!(l.ranges, [40.0, f64::INFINITY, 20.08, 20.08, 20.08]);
         let bad = text.replace("range = 40.0", "range = -1.0");
-        let e = ArrangementFile::parse(&bad, "x.toml")
-            .unwrap()
-            .load("x.toml")
-            .unwrap_err()
-            .to_string();
+        let e = load_text(&bad).unwrap_err();
         assert!(
             e.contains("x.toml") && e.contains("\"c\"") && e.contains("range = -1"),
             "{e}"
@@ -463,21 +462,14 @@ position = [0.1, 0.0, 0.0]
 noise = 0.01
 "#;
         let good = format!("frame_rotation_sd = 1e-3\nframe_size_sd = 2e-3\n{part}");
-        let l = ArrangementFile::parse(&good, "x.toml")
-            .unwrap()
-            .load("x.toml")
-            .unwrap();
+        let l = load_text(&good).unwrap();
         let f = l.arrangement.frame_uncertainty();
         assert_eq!(
             (f.rotation, f.translation, f.size, f.relative_rotation),
             (1e-3, 0.0, 2e-3, 0.0)
         );
         let bad = format!("frame_translation_sd = -1e-4\n{part}");
-        let e = ArrangementFile::parse(&bad, "x.toml")
-            .unwrap()
-            .load("x.toml")
-            .unwrap_err()
-            .to_string();
+        let e = load_text(&bad).unwrap_err();
         assert!(
             e.contains("x.toml") && e.contains("frame_translation_sd = -0.0001"),
             "{e}"
