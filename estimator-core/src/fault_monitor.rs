@@ -514,12 +514,13 @@ impl<T: Real, const CAP: usize> StuckCheck<T, CAP> {
             }
             present[q] = true;
             match p.get(i) {
-                // NaN ≠ NaN: a part without a value is never a repeat.
-                Some(v) if *v == *last => at_limit[q] |= v.abs() >= limit,
+                // NaN ≠ NaN: a part without a value is never a repeat (and NaN is at no limit).
                 Some(v) => {
-                    moved[q] = true;
                     at_limit[q] |= v.abs() >= limit;
-                    *last = *v;
+                    if *v != *last {
+                        moved[q] = true;
+                        *last = *v;
+                    }
                 }
                 None => moved[q] = true,
             }

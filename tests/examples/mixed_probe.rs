@@ -18,8 +18,9 @@ fn main() {
         let mut first = [f64::NAN; 8];
         let mut flagged = 0;
         let mut hist = [0usize; 12];
-        run_firmware(&sc, &config, sc.samples() as u32, &mut |_, m, _| {
-            let t = m.t as f64 * 1e-9;
+        run_firmware(&sc, &config, sc.samples() as u32, &mut |_, m, tr| {
+            // The set's simulated instant (the report's `t` is on-board time, from boot).
+            let t = tr.t;
             let f = m.estimate.flags.has(estimator_core::Flags::RESIDUAL_HIGH);
             flagged += usize::from(f);
             if f {
@@ -62,8 +63,8 @@ fn parity_over_time(seed: u64) {
     .unwrap();
     let mut acc = (0.0, [0.0; 8], 0usize);
     let mut p = vec![f64::NAN; n];
-    run_firmware(&sc, &config, sc.samples() as u32, &mut |set, m, _| {
-        let t = m.t as f64 * 1e-9;
+    run_firmware(&sc, &config, sc.samples() as u32, &mut |set, _, tr| {
+        let t = tr.t;
         for_each_channel(&config.sampling, set, |c, x| p[c] = f64::from(x));
         if let Some(s) = par.evaluate(&p) {
             acc.0 += s.chi2;

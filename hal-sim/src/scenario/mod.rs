@@ -267,7 +267,7 @@ impl PartType {
     /// arrangement file as each channel's `range`.
     pub fn full_scale(self, range_g: u32) -> f64 {
         let counts = match self {
-            PartType::Adxl355 => f64::from((1u32 << 19) - 1),
+            PartType::Adxl355 => f64::from(crate::sensors::adxl355::CODE_MAX),
             PartType::Lis3dh => f64::from((1u32 << 11) - 1),
         };
         counts * self.lsb(range_g)

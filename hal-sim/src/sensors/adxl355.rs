@@ -77,7 +77,8 @@ const FIFO_CAP: usize = 96;
 /// Code written to `RESET`.
 pub const RESET_CODE: u8 = 0x52;
 /// Full-scale code of the 20-bit output.
-const CODE_MAX: i32 = (1 << 19) - 1;
+/// The 20-bit output's positive rail (codes); the negative one is one code further.
+pub const CODE_MAX: i32 = (1 << 19) - 1;
 
 fn reset_registers() -> [u8; NREG] {
     let mut r = [0u8; NREG];
