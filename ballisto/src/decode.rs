@@ -114,13 +114,20 @@ pub fn write_estimates<W: Write>(
     let mut rows = 0;
     let mut line = Vec::with_capacity(512);
     // The model in force, from the housekeeping (one is sent at boot, before any estimate)
-    // and the reconfigured events: model G's rows carry the gravity gradient.
+    // and the reconfigured and model-switched events, unless the report carries it: model G's
+    // rows carry the gravity gradient.
     let mut model = None;
     for p in &stream.packets {
         let m = match &p.report {
             Report::Motion(m) => m,
             Report::Housekeeping(h) => {
                 model = ModelCode::try_from(h.model).ok();
+                continue;
+            }
+            Report::Event(e) if e.id == EventId::ModelSwitched => {
+                model = u8::try_from(e.b)
+                    .ok()
+                    .and_then(|b| ModelCode::try_from(b).ok());
                 continue;
             }
             Report::Event(e) if e.id == EventId::Reconfigured => {
@@ -133,7 +140,8 @@ pub fn write_estimates<W: Write>(
         };
         line.clear();
         let t = ((p.t + time_offset) * 1e7).round() / 1e7;
-        let gamma = model == Some(ModelCode::General);
+        // The report's own model where it carries one (format 2).
+        let gamma = m.context.map_or(model, |(_, c)| Some(c)) == Some(ModelCode::General);
         let excluded = u64::from(m.excluded_channels.0);
         crate::estimates_csv::write_row(&mut line, t, &m.estimate, gamma, excluded)?;
         line.pop();
@@ -200,6 +208,14 @@ pub fn log_line(p: &Decoded, time_offset: f64) -> Option<String> {
                     format!("commanded_out={:#08x} -> {:#08x}", e.a, e.b)
                 }
                 EventId::PartIsolated => format!("part={} channels={:#08x}", e.a, e.b),
+                EventId::ModelSwitched => {
+                    let name = |m: u32| match m {
+                        0 => "general".to_string(),
+                        1 => "free-float".to_string(),
+                        other => format!("unknown({other})"),
+                    };
+                    format!("model={} -> {}", name(e.a), name(e.b))
+                }
                 EventId::FaultSuspected => format!(
                     "{} level={:.3}",
                     if e.a == 1 { "start" } else { "end" },

@@ -6,8 +6,9 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
 
+use estimator_core::exclusion::MissingRuns;
 use estimator_core::fault_monitor::{
-    FaultMonitor, FieldCheck, Settings, StuckCheck, TrustedRate, Verdict,
+    FaultMonitor, FieldCheck, Settings, StuckCheck, Suspicion, TrustedRate, Verdict,
 };
 use estimator_core::parity::{Parity, NO_PART};
 use estimator_core::path_choice::{Links, PathChoice, PathState};
@@ -87,6 +88,8 @@ pub const TWO_WAY_RUN_IN_S: f64 = 2.0;
 struct Pass<T: Real> {
     est: Estimator<T, HOST_CAP>,
     smoother: Box<Smoother<T, HOST_LAG>>,
+    /// The known Γ (model F's `A = Γ + {Ω}²`, rebuilt by the smoother).
+    gamma: estimator_core::Sym3<T>,
 }
 
 impl<T: Real> Pass<T> {
@@ -97,11 +100,16 @@ impl<T: Real> Pass<T> {
     ) -> Result<Self, estimator_core::ConfigError> {
         let est = Estimator::<T, HOST_CAP>::new(&loaded.arrangement, model, options)?;
         let mut smoother = Box::new(Smoother::new());
+        let gamma = options.gamma.cast();
         if model == Model::FreeFloat {
-            smoother.set_free_float_gamma(Some(options.gamma.cast()));
+            smoother.set_free_float_gamma(Some(gamma));
         }
         smoother.set_frame_uncertainty(est.frame_uncertainty());
-        Ok(Pass { est, smoother })
+        Ok(Pass {
+            est,
+            smoother,
+            gamma,
+        })
     }
 
     /// One sample; returns the estimator's own (unsmoothed) estimate of it.
@@ -114,15 +122,21 @@ impl<T: Real> Pass<T> {
         e
     }
 
-    /// Takes `mask` (if it is not the one in force) and restarts branch and sign tracking
-    /// from `hint`; false if the estimator refuses the mask (too few channels left).
-    fn set_mask(&mut self, mask: ChannelMask, hint: Option<[f64; 3]>) -> bool {
-        if self.est.mask() == mask {
+    /// Takes `mask` in the `preferred` model, or in model F where the channels do not carry
+    /// it (if mask and model are not the ones in force: [`Estimator::set_mask_in`]), and
+    /// restarts branch and sign tracking from `hint`; false if the estimator refuses the mask
+    /// (too few channels left for either model).
+    fn set_mask(&mut self, mask: ChannelMask, preferred: Model, hint: Option<[f64; 3]>) -> bool {
+        if self.est.mask() == mask && self.est.model() == preferred {
             return true;
         }
-        if self.est.set_mask(mask).is_err() {
+        let Ok(model) = self.est.set_mask_in(mask, preferred) else {
             return false;
-        }
+        };
+        // The records still held by the smoother are drained with this setting (at most its
+        // lag after a switch: model G rows whose smoothed Ω rebuilds A from the known Γ).
+        self.smoother
+            .set_free_float_gamma((model == Model::FreeFloat).then_some(self.gamma));
         if self.est.set_hint(hint).is_err() {
             let _ = self.est.set_hint(None);
         }
@@ -161,9 +175,24 @@ pub struct HostEstimator<T: Real> {
     /// Fault isolation from the measurements (issue 17), run with the forward pass as the
     /// firmware runs it; `None` when off.
     faults: Option<Faults<T>>,
-    /// Per held sample: the channels the forward pass used, and whether the monitor saw a
-    /// fault it could not isolate (flag 64 on that row).
-    masks: std::collections::VecDeque<(ChannelMask, bool)>,
+    /// Per held sample: what the forward pass used and saw.
+    masks: std::collections::VecDeque<RowUse>,
+}
+
+/// What the forward pass used for one sample, and what the monitor saw of it.
+#[derive(Clone, Copy, Debug)]
+struct RowUse {
+    /// The channels in the solve.
+    mask: ChannelMask,
+    /// The model in force (model F instead of model G where exclusions leave it unobservable).
+    model: Model,
+    /// Flag 64 on the row: the monitor saw a fault it could not isolate, or isolated a part
+    /// the solve could not leave out.
+    residual_high: bool,
+    /// The monitor's verdict (before the known-field test and the held suspicion).
+    verdict: Verdict,
+    /// A part isolated was taken out of the solve at this sample.
+    newly_out: bool,
 }
 
 /// The fault monitor of a host run and what it decided.
@@ -176,25 +205,30 @@ struct Faults<T: Real> {
     /// Every channel of the arrangement.
     all: ChannelMask,
     first_t: Option<f64>,
-    /// Model G (the parity space and the known-field test); every model has the own-signal
-    /// check (stuck, or at the arrangement file's `range`).
-    general: bool,
+    /// The configured model (the forward pass's, unless the channels in use do not carry it).
+    preferred: Model,
+    /// Every model has the own-signal check (stuck, or at the arrangement file's `range`).
     stuck: StuckCheck<T, HOST_CAP>,
-    /// The parts out of the forward pass's solve (bit per part), and a set it refused.
+    /// Runs of missing and good samples per part (as the firmware's `Estimation`).
+    runs: MissingRuns<32>,
+    /// The parts out of the forward pass's solve (bit per part): missing too long, and
+    /// isolated by the monitor; and an isolated set it refused.
+    missing: u32,
     isolated: u32,
     refused: Option<u32>,
     trusted: TrustedRate,
+    /// A fault suspected and not isolated, held through samples without a test.
+    suspicion: Suspicion,
     last_omega: Option<[f64; 3]>,
-    /// Model G's covariance of A and the known Γ, for the known-field test where there is no
-    /// parity space; the test, once the rate is known.
-    field_cov: Option<([[T; 6]; 6], estimator_core::Sym3<f64>)>,
+    /// The sample rate, once known (the monitor's windows).
+    rate: Option<f64>,
+    /// Model G's known-field test where there is no parity space, once the rate is known.
     field: Option<FieldCheck<T>>,
 }
 
 impl<T: Real> Faults<T> {
-    /// The monitor over the parts of `loaded` (the parity space in model G only); `est` the
-    /// forward pass's estimator (its covariance of A and known Γ).
-    fn new(loaded: &LoadedArrangement, model: Model, est: &Estimator<T, HOST_CAP>) -> Option<Self> {
+    /// The monitor over the parts of `loaded` (the parity space in model G only).
+    fn new(loaded: &LoadedArrangement, model: Model) -> Option<Self> {
         let mut parts: Vec<&str> = Vec::new();
         let part = loaded
             .names
@@ -215,36 +249,74 @@ impl<T: Real> Faults<T> {
             arrangement: loaded.arrangement.clone(),
             all: ChannelMask::all(loaded.names.len()),
             first_t: None,
-            general: model == Model::General,
+            preferred: model,
+            runs: MissingRuns::new(),
+            missing: 0,
             isolated: 0,
             refused: None,
             trusted: TrustedRate::default(),
+            suspicion: Suspicion::default(),
             last_omega: None,
-            field_cov: est.field_covariance().map(|c| (c, est.known_gamma())),
+            rate: None,
             field: None,
         })
     }
 
+    /// Notes which parts have a value in this sample (a part without one has every channel
+    /// NaN: an empty field in the samples file, as the firmware writes a part it could not
+    /// read).
+    fn observe_parts(&mut self, p: &[T]) {
+        let mut present = 0u32;
+        let mut seen = 0u32;
+        for (c, q) in self.part.iter().enumerate() {
+            if *q < 32 {
+                seen |= 1 << q;
+                if p.get(c).is_some_and(|v| !v.to_f64().is_nan()) {
+                    present |= 1 << q;
+                }
+            }
+        }
+        for q in 0..32 {
+            if seen & (1 << q) != 0 {
+                self.runs.observe(q, present & (1 << q) != 0);
+            }
+        }
+    }
+
+    /// The monitor's tests for the channels of the parts not missing, as the firmware's
+    /// `Isolation::rebuild`: the parity space in model G (as `est` is now), or else model G's
+    /// known-field test; none before the rate is known.
+    fn rebuild(&mut self, est: &Estimator<T, HOST_CAP>) {
+        let tested = self.mask(self.missing);
+        let (Some(m), Some(rate)) = (&mut self.monitor, self.rate) else {
+            return;
+        };
+        let parity = (est.model() == Model::General)
+            .then(|| Parity::build(&self.arrangement, tested, &self.part).ok())
+            .flatten();
+        self.field = match (&parity, est.field_covariance()) {
+            (None, Some(cov)) => {
+                FieldCheck::new(&cov, &est.known_gamma(), Settings::default(), rate)
+            }
+            _ => None,
+        };
+        m.set_parity(parity);
+    }
+
     /// One sample's readings: the monitor's verdict and the parts to keep out of the solve
-    /// from this sample on (bit per part: isolated by the parity space, or stuck).
-    fn step(&mut self, t: f64, p: &[T]) -> (Verdict, u32) {
+    /// from this sample on (bit per part: isolated by the parity space, or stuck); `est` the
+    /// forward pass's estimator (the monitor is built at the second sample, when the rate is
+    /// known).
+    fn step(&mut self, t: f64, p: &[T], est: &Estimator<T, HOST_CAP>) -> (Verdict, u32) {
+        self.observe_parts(p);
         let stuck = self.stuck.step(p);
         if self.monitor.is_none() {
             match self.first_t {
                 Some(t0) if t > t0 => {
                     let rate = 1.0 / (t - t0);
-                    let mut m = FaultMonitor::new(Settings::default(), rate);
-                    let parity = self
-                        .general
-                        .then(|| Parity::build(&self.arrangement, self.all, &self.part).ok())
-                        .flatten();
-                    if parity.is_none() {
-                        self.field = self
-                            .field_cov
-                            .and_then(|(c, g)| FieldCheck::new(&c, &g, Settings::default(), rate));
-                    }
-                    m.set_parity(parity);
-                    self.monitor = Some(m);
+                    self.rate = Some(rate);
+                    self.monitor = Some(FaultMonitor::new(Settings::default(), rate));
+                    self.rebuild(est);
                 }
                 _ => self.first_t = Some(t),
             }
@@ -291,7 +363,7 @@ impl<T: Real> HostEstimator<T> {
             faults: None,
             masks: Default::default(),
         };
-        let faults = Faults::new(loaded, model, &est.forward.est);
+        let faults = Faults::new(loaded, model);
         Ok(HostEstimator { faults, ..est })
     }
 
@@ -306,25 +378,27 @@ impl<T: Real> HostEstimator<T> {
     /// One sample; `emit` receives the decided outputs, oldest first (delayed by up to
     /// [`TWO_WAY_BLOCK_S`] + [`TWO_WAY_RUN_IN_S`] and [`HOST_LAG`] samples).
     pub fn push(&mut self, t: f64, p: &[T], mut emit: impl FnMut(f64, &Estimate<T>)) {
-        self.push_masked(t, p, |t, e, _| emit(t, e));
+        self.push_masked(t, p, |t, e, _, _| emit(t, e));
     }
 
     /// End of the record: emits what is still held.
     pub fn finish(&mut self, mut emit: impl FnMut(f64, &Estimate<T>)) {
-        self.finish_masked(|t, e, _| emit(t, e));
+        self.finish_masked(|t, e, _, _| emit(t, e));
     }
 
-    /// As [`Self::push`]; `emit` also receives the channels the row's estimate used.
+    /// As [`Self::push`]; `emit` also receives the channels the row's estimate used and the
+    /// model it was made in (model F instead of model G while exclusions leave model G
+    /// unobservable).
     pub fn push_masked(
         &mut self,
         t: f64,
         p: &[T],
-        mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask),
+        mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask, Model),
     ) {
         self.times.push_back(t);
         self.readings.extend(p.iter().copied().take(self.channels));
-        let (mask, residual_high) = self.isolate(t, p);
-        self.masks.push_back((mask, residual_high));
+        let used = self.isolate(t, p);
+        self.masks.push_back(used);
         let decided = &mut self.decided;
         let raw = self.forward.push(t, p, |e| decided.push_back(e));
         if let Some(f) = &mut self.faults {
@@ -334,9 +408,18 @@ impl<T: Real> HostEstimator<T> {
                 Some(check) if raw.is_finite() => check.step(&raw),
                 _ => false,
             };
-            let residual_high = residual_high || field_bad;
+            let verdict = if field_bad {
+                Verdict::NotIsolated
+            } else {
+                used.verdict
+            };
+            // In model F on the channels left by an exclusion there is no test: a suspicion
+            // stands until a test clears it or an isolated part is taken out (as in the
+            // firmware).
+            let verdict = f.suspicion.hold(verdict, used.newly_out);
+            let residual_high = used.residual_high || verdict == Verdict::NotIsolated;
             if let Some(m) = self.masks.back_mut() {
-                m.1 = residual_high;
+                m.residual_high = residual_high;
             }
             let verdict = if residual_high {
                 Verdict::NotIsolated
@@ -365,32 +448,59 @@ impl<T: Real> HostEstimator<T> {
         }
     }
 
-    /// The fault monitor's step (as the firmware's `Estimation::process`): the forward pass
-    /// takes the channel mask it decides, restarting from the trusted rate when an isolated
-    /// part leaves or re-enters; returns the mask and whether the row gets flag 64.
-    fn isolate(&mut self, t: f64, p: &[T]) -> (ChannelMask, bool) {
+    /// The fault monitor's step and the parts missing too long (as the firmware's
+    /// `Estimation::process`): the forward pass takes the channel mask they decide — in model
+    /// F where the channels left do not carry model G — restarting from the trusted rate when
+    /// an isolated part leaves or re-enters, from the last rate when a missing one does;
+    /// returns what the row used and whether it gets flag 64.
+    fn isolate(&mut self, t: f64, p: &[T]) -> RowUse {
         let Some(f) = &mut self.faults else {
-            return (self.forward.est.mask(), false);
+            return RowUse {
+                mask: self.forward.est.mask(),
+                model: self.forward.est.model(),
+                residual_high: false,
+                verdict: Verdict::NoTest,
+                newly_out: false,
+            };
         };
-        let (verdict, isolated) = f.step(t, p);
-        if isolated != f.isolated && f.refused != Some(isolated) {
-            let hint = f.trusted.hint_at(t).or(f.last_omega);
-            if self.forward.set_mask(f.mask(isolated), hint) {
+        let (verdict, isolated) = f.step(t, p, &self.forward.est);
+        let isolated_before = f.isolated;
+        let wanted = f.runs.wanted(f.missing);
+        if wanted != f.missing || (isolated != f.isolated && f.refused != Some(isolated)) {
+            let hint = if isolated != f.isolated {
+                f.trusted.hint_at(t).or(f.last_omega)
+            } else {
+                f.last_omega
+            };
+            let model_before = self.forward.est.model();
+            if self
+                .forward
+                .set_mask(f.mask(wanted | isolated), f.preferred, hint)
+            {
+                let stale = wanted != f.missing || self.forward.est.model() != model_before;
+                f.missing = wanted;
                 f.isolated = isolated;
+                if stale {
+                    f.rebuild(&self.forward.est);
+                }
             } else {
                 f.refused = Some(isolated);
             }
         }
         // A part isolated that the solve could not leave out (too few channels): flag 64.
         let kept = isolated & !f.isolated != 0;
-        (
-            self.forward.est.mask(),
-            verdict == Verdict::NotIsolated || kept,
-        )
+        RowUse {
+            mask: self.forward.est.mask(),
+            model: self.forward.est.model(),
+            residual_high: kept,
+            verdict,
+            newly_out: f.isolated & !isolated_before != 0,
+        }
     }
 
-    /// As [`Self::finish`]; `emit` also receives the channels the row's estimate used.
-    pub fn finish_masked(&mut self, mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask)) {
+    /// As [`Self::finish`]; `emit` also receives the channels the row's estimate used and the
+    /// model it was made in.
+    pub fn finish_masked(&mut self, mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask, Model)) {
         let decided = &mut self.decided;
         self.forward.finish(|e| decided.push_back(e));
         debug_assert_eq!(self.decided.len(), self.times.len());
@@ -402,7 +512,11 @@ impl<T: Real> HostEstimator<T> {
 
     /// Runs the backward pass over the decided samples, latest first, and emits the oldest
     /// `block` of them.
-    fn decide(&mut self, block: usize, emit: &mut impl FnMut(f64, &Estimate<T>, ChannelMask)) {
+    fn decide(
+        &mut self,
+        block: usize,
+        emit: &mut impl FnMut(f64, &Estimate<T>, ChannelMask, Model),
+    ) {
         let n = self.decided.len();
         let t_end = self.times[n - 1];
         // Started at the forward pass's rate, reversed, where that pass's sign is settled:
@@ -414,7 +528,8 @@ impl<T: Real> HostEstimator<T> {
         let hint = start.map(|e| e.omega.map(|v| -v.to_f64()));
         // The channels the forward pass used at the block's end (the backward pass follows the
         // forward pass's exclusions sample by sample, restarting from its own last rate).
-        let _ = self.backward.set_mask(self.masks[n - 1].0, hint);
+        let end = self.masks[n - 1];
+        let _ = self.backward.set_mask(end.mask, end.model, hint);
         // A rate the estimator refuses (not finite) leaves the pass to settle on its own.
         if self.backward.est.set_hint(hint).is_err() {
             let _ = self.backward.est.set_hint(None);
@@ -430,9 +545,9 @@ impl<T: Real> HostEstimator<T> {
             .enumerate()
             .rev()
         {
-            let mask = self.masks[k].0;
-            if mask != self.backward.est.mask() {
-                let _ = self.backward.set_mask(mask, last);
+            let RowUse { mask, model, .. } = self.masks[k];
+            if mask != self.backward.est.mask() || model != self.backward.est.model() {
+                let _ = self.backward.set_mask(mask, model, last);
             }
             let e = self
                 .backward
@@ -447,11 +562,11 @@ impl<T: Real> HostEstimator<T> {
         for (k, (t, fwd)) in self.times.iter().zip(&self.decided).take(block).enumerate() {
             let bwd = two_way::reversed(&self.scratch[n - 1 - k]);
             let mut out = two_way::combine_taking(fwd, &bwd, Some(self.takes[k]));
-            let (mask, residual_high) = self.masks[k];
-            if residual_high {
+            let used = self.masks[k];
+            if used.residual_high {
                 out.flags.0 |= Flags::RESIDUAL_HIGH;
             }
-            emit(*t, &out, mask);
+            emit(*t, &out, used.mask, used.model);
             if rate.is_some() {
                 taken.push((*t, out));
             }
@@ -516,10 +631,7 @@ fn run_typed<T: Real + Send + 'static>(
     let mut reader = SamplesReader::open(job.samples, &loaded.names)?;
     let out =
         File::create(job.out).map_err(|e| format!("{}: cannot create: {e}", job.out.display()))?;
-    let mut w = ThreadedWriter::<T>::new(
-        BufWriter::with_capacity(1 << 16, out),
-        model == Model::General,
-    );
+    let mut w = ThreadedWriter::<T>::new(BufWriter::with_capacity(1 << 16, out));
     let mut row = vec![0.0f64; loaded.names.len()];
     let mut p = vec![T::ZERO; loaded.names.len()];
     let mut summary = Summary {
@@ -529,11 +641,12 @@ fn run_typed<T: Real + Send + 'static>(
     };
     let mut io_err: Option<std::io::Error> = None;
     let all = ChannelMask::all(loaded.names.len());
-    let mut emit = |t: f64, e: &Estimate<T>, mask: ChannelMask| {
+    let mut emit = |t: f64, e: &Estimate<T>, mask: ChannelMask, row_model: Model| {
         if io_err.is_some() {
             return;
         }
-        if let Err(err) = w.push(t, e, all.0 & !mask.0) {
+        let gamma = row_model == Model::General;
+        if let Err(err) = w.push(t, e, all.0 & !mask.0, gamma) {
             io_err = Some(err);
         }
         summary.rows += 1;

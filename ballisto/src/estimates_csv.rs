@@ -148,7 +148,7 @@ fn format_row<T: Real>(line: &mut Vec<u8>, t: f64, e: &Estimate<T>, gamma: bool,
 const BATCH: usize = 512;
 
 /// A batch of rows on its way to the writing thread.
-type Batch<T> = Vec<(f64, Estimate<T>, u64)>;
+type Batch<T> = Vec<(f64, Estimate<T>, u64, bool)>;
 
 /// An estimates file written on a thread of its own: the caller estimates while the rows
 /// before are formatted and written (on two cores `ballisto estimate` then runs at the speed
@@ -162,16 +162,16 @@ pub struct ThreadedWriter<T> {
 }
 
 impl<T: Real + Send + 'static> ThreadedWriter<T> {
-    /// Writes the header, then every row pushed, to `w`; `gamma` as in [`write_row`].
-    pub fn new<W: Write + Send + 'static>(mut w: W, gamma: bool) -> Self {
+    /// Writes the header, then every row pushed, to `w`.
+    pub fn new<W: Write + Send + 'static>(mut w: W) -> Self {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Batch<T>>(2);
         let thread = std::thread::spawn(move || {
             write_header(&mut w)?;
             let mut text = Vec::with_capacity(768 * BATCH);
             for batch in rx {
                 text.clear();
-                for (t, e, excluded) in &batch {
-                    format_row(&mut text, *t, e, gamma, *excluded);
+                for (t, e, excluded, gamma) in &batch {
+                    format_row(&mut text, *t, e, *gamma, *excluded);
                 }
                 w.write_all(&text)?;
             }
@@ -184,9 +184,16 @@ impl<T: Real + Send + 'static> ThreadedWriter<T> {
         }
     }
 
-    /// Queues one row (`excluded`: the channels out of it, bit per channel).
-    pub fn push(&mut self, t: f64, e: &Estimate<T>, excluded: u64) -> std::io::Result<()> {
-        self.batch.push((t, *e, excluded));
+    /// Queues one row (`excluded`: the channels out of it, bit per channel; `gamma` as in
+    /// [`write_row`]: the row's estimate is model G's).
+    pub fn push(
+        &mut self,
+        t: f64,
+        e: &Estimate<T>,
+        excluded: u64,
+        gamma: bool,
+    ) -> std::io::Result<()> {
+        self.batch.push((t, *e, excluded, gamma));
         if self.batch.len() >= BATCH {
             self.send()?;
         }

@@ -238,7 +238,6 @@ fn record_firmware(
     use hal_sim::firmware_host::{firmware_config, for_each_channel, run_firmware_with, SimTime};
     let sc = job.scenario;
     let config = firmware_config(sc, loaded, alignment)?;
-    let model_g = config.model == estimator_core::Model::General;
     let path = job.out.join("estimates.csv");
     let mut estimates = create(&path)?;
     crate::estimates_csv::write_header(&mut estimates)?;
@@ -261,7 +260,7 @@ fn record_firmware(
                     &mut estimates,
                     t,
                     &m.estimate,
-                    model_g,
+                    m.model == estimator_core::Model::General,
                     excluded_channels(&config, m.excluded),
                 )
             });

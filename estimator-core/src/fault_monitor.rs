@@ -551,6 +551,34 @@ impl<T: Real, const CAP: usize> StuckCheck<T, CAP> {
     }
 }
 
+/// A suspicion outlives a spell without a test. Where exclusions leave no redundancy (model G
+/// switched to model F on the nine channels left, issue 17) the monitor has no test and says
+/// [`Verdict::NoTest`]; a fault it suspected and could not isolate may still be in the
+/// channels in use, and nothing can tell. So a suspicion stands until a test clears it, or
+/// until a part is taken out that explains it (isolated by the monitor, or by its own signal:
+/// a stuck part whose exclusion itself leaves no test). Measured on `tetra-orbit-faults` (a
+/// bias on one part, then another part dead): dropping it left 194 rows silently wrong through
+/// the firmware, 0.06–0.14 rad/s off.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Suspicion {
+    held: bool,
+}
+
+impl Suspicion {
+    /// The verdict to act on: [`Verdict::NoTest`] while a suspicion stands is
+    /// [`Verdict::NotIsolated`]; any test's verdict replaces it; `explained`: a part was taken
+    /// out of the solve at this sample as isolated (the suspicion is dropped).
+    pub fn hold(&mut self, verdict: Verdict, explained: bool) -> Verdict {
+        let verdict = if verdict == Verdict::NoTest && self.held && !explained {
+            Verdict::NotIsolated
+        } else {
+            verdict
+        };
+        self.held = verdict == Verdict::NotIsolated;
+        verdict
+    }
+}
+
 /// The rate hint across an exclusion or a re-admission: the last estimate with no warning flag
 /// from readings the monitor found consistent, carried forward by its Ω′. (The estimates
 /// between a fault's onset and its isolation may have taken the wrong sign, and the estimator
@@ -923,5 +951,23 @@ mod tests {
         assert!(Parity::<f32, 24>::build(&arr, ChannelMask::all(12), &part).is_err());
         m.set_parity(None);
         assert_eq!(m.step(&[0.0; 18]), Verdict::NoTest);
+    }
+
+    #[test]
+    fn a_suspicion_stands_until_a_test_clears_it() {
+        let mut s = Suspicion::default();
+        assert_eq!(s.hold(Verdict::NoTest, false), Verdict::NoTest);
+        assert_eq!(s.hold(Verdict::NotIsolated, false), Verdict::NotIsolated);
+        assert_eq!(s.hold(Verdict::NoTest, false), Verdict::NotIsolated);
+        assert_eq!(s.hold(Verdict::NoTest, false), Verdict::NotIsolated);
+        assert_eq!(s.hold(Verdict::Clean, false), Verdict::Clean);
+        assert_eq!(s.hold(Verdict::NoTest, false), Verdict::NoTest);
+        s.hold(Verdict::NotIsolated, false);
+        assert_eq!(s.hold(Verdict::Isolated(2), false), Verdict::Isolated(2));
+        assert_eq!(s.hold(Verdict::NoTest, false), Verdict::NoTest);
+        // A part taken out explains it: dropped, and not taken up again without a test.
+        s.hold(Verdict::NotIsolated, false);
+        assert_eq!(s.hold(Verdict::NoTest, true), Verdict::NoTest);
+        assert_eq!(s.hold(Verdict::NoTest, false), Verdict::NoTest);
     }
 }

@@ -13,6 +13,7 @@
 //! - [`arrangement`]: channels (position, axis, noise), the models, channel masks.
 //! - [`estimator`]: configuration (precomputation) and the per-sample solve.
 //! - [`estimate`]: the outputs and their status flags.
+//! - [`exclusion`]: when a part that stops answering leaves the solve and when it returns.
 //! - [`smoother`]: fixed-lag smoothing of branch and sign decisions (host tools).
 //! - [`two_way`]: each sample decided from the forward pass and the time-reversed one (host
 //!   tools).
@@ -39,6 +40,7 @@ pub mod arrangement;
 pub mod error;
 pub mod estimate;
 pub mod estimator;
+pub mod exclusion;
 pub mod fault_monitor;
 pub mod frame_uncertainty;
 pub mod identify;

@@ -45,6 +45,11 @@ pub enum EventId {
     /// here): `a` = 1 when it starts, 0 when it ends; `b` = the window's χ² over its limit, in
     /// thousandths.
     FaultSuspected = 13,
+    /// The model in force changed without a command (issue 17): exclusions left the configured
+    /// model G unobservable and the estimate is made in model F, or the channels carry model G
+    /// again. `a` = the model before, `b` = after (0 general, 1 free float; the motion reports
+    /// and housekeeping carry the model in force).
+    ModelSwitched = 14,
 }
 
 impl EventId {
@@ -65,6 +70,7 @@ impl EventId {
             ChannelsCommanded,
             PartIsolated,
             FaultSuspected,
+            ModelSwitched,
         ]
         .into_iter()
         .find(|e| *e as u16 == v)
@@ -77,7 +83,7 @@ impl EventId {
             | EventId::FrameRejected
             | EventId::SetsLost
             | EventId::FaultSuspected => 2,
-            EventId::PartsExcluded | EventId::PartIsolated => 3,
+            EventId::PartsExcluded | EventId::PartIsolated | EventId::ModelSwitched => 3,
             _ => 1,
         }
     }
@@ -98,6 +104,7 @@ impl EventId {
             EventId::ChannelsCommanded => "channels-commanded",
             EventId::PartIsolated => "part-isolated",
             EventId::FaultSuspected => "fault-suspected",
+            EventId::ModelSwitched => "model-switched",
         }
     }
 }

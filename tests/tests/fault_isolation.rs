@@ -201,7 +201,9 @@ fn silent_and_flagged(
 /// Twelve channels in model G have no parity space; model G's known-field test (Γ known in
 /// orbit: three degrees of freedom) flags what the faults of `tetra-orbit-faults` do to the
 /// estimate, through the firmware and through `ballisto estimate` on its samples, and nothing
-/// on the clean `tetra-orbit`.
+/// on the clean `tetra-orbit`. A part out (the stuck one, the dead one) leaves nine channels:
+/// both take them in model F at the same rows, and a suspicion stands through that spell
+/// without a test.
 #[test]
 fn twelve_channels_are_never_silently_wrong_under_the_named_faults() {
     for (name, faulty) in [("tetra-orbit-faults", true), ("tetra-orbit", false)] {
@@ -212,8 +214,34 @@ fn twelve_channels_are_never_silently_wrong_under_the_named_faults() {
         let truth = dir.join("truth.csv");
         let fw = silent_and_flagged(&dir.join("estimates.csv"), &truth);
         let h = silent_and_flagged(&host, &truth);
+        // One estimator: the same channels out at the same rows (the stuck part isolated, the
+        // dead one missing; each time in model F, whose rows leave the gamma columns empty).
+        let names = ["excluded", "gamma_xx"];
+        let (fe, he) = (
+            read_columns(&dir.join("estimates.csv"), &names),
+            read_columns(&host, &names),
+        );
         let _ = std::fs::remove_dir_all(&dir);
-        println!("{name}: (silent, flagged 64, rows) firmware {fw:?}, ballisto estimate {h:?}");
+        let out_rows = fe.iter().filter(|r| r[0] != 0.0).count();
+        let differ = fe.iter().zip(&he).filter(|(a, b)| a[0] != b[0]).count();
+        let model_f = |rows: &[Vec<f64>]| rows.iter().filter(|r| r[1].is_nan()).count();
+        println!(
+            "{name}: (silent, flagged 64, rows) firmware {fw:?}, ballisto estimate {h:?}; rows \
+             with a part out {out_rows}, in model F: firmware {}, host {}; excluded differs on \
+             {differ}",
+            model_f(&fe),
+            model_f(&he)
+        );
+        assert_eq!(
+            differ, 0,
+            "{name}: the host's exclusions differ from the firmware's"
+        );
+        assert_eq!(
+            model_f(&fe),
+            out_rows,
+            "{name}: model F exactly while a part is out"
+        );
+        assert_eq!(model_f(&he), out_rows, "{name}");
         assert_eq!((fw.0, h.0), (0, 0), "{name}: silently wrong rows");
         if faulty {
             assert!(fw.1 > 500 && h.1 > 500, "{name}: the faults are flagged");
@@ -298,8 +326,9 @@ fn firmware_then_host(
 /// only the range limit can name the part from its own signal. With redundancy (N = 18) the
 /// part is out of the solve from the first clipped set, in the firmware and in `ballisto
 /// estimate` alike (the arrangement file's `range`); with twelve channels in model G (no
-/// parity space, the part cannot be spared) it is named at once by a `part-isolated` event
-/// and its rows carry flag 64. Never a silently wrong row.
+/// parity space) it is named at once by a `part-isolated` event and taken out all the same, the
+/// estimate made in model F on the nine channels left until it returns (`model-switched`
+/// events). Never a silently wrong row.
 #[test]
 fn one_axis_on_its_rail_names_its_part_at_the_first_clipped_set() {
     use hal_sim::scenario::{FaultSpec, Scenario};
@@ -357,17 +386,20 @@ fn one_axis_on_its_rail_names_its_part_at_the_first_clipped_set() {
                 .find(|r| r[0] >= onset - 0.5 && bit(r))
                 .map(|r| r[0])
         };
-        let (first_h, first_f) = if redundant {
-            let out = |r: &[f64]| r[1] as u64 == bits;
-            (first(&h, &out), first(&f, &out))
-        } else {
-            let flagged = |r: &[f64]| r[2] as u16 & estimator_core::Flags::RESIDUAL_HIGH != 0;
-            (first(&h, &flagged), first(&f, &flagged))
-        };
+        let out = |r: &[f64]| r[1] as u64 == bits;
+        let (first_h, first_f) = (first(&h, &out), first(&f, &out));
+        let switches: Vec<(f64, u32, u32)> = stream
+            .packets
+            .iter()
+            .filter_map(|p| match &p.report {
+                Report::Event(e) if e.id == EventId::ModelSwitched => Some((p.t - boot, e.a, e.b)),
+                _ => None,
+            })
+            .collect();
         println!(
             "N = {}: part named {named:?} (on-board time, boot {boot:.3} s before the first \
-             set); first row out / flagged: host {first_h:?}, firmware {first_f:?}; silent host \
-             {silent_host}, firmware {silent_fw}",
+             set); first row out: host {first_h:?}, firmware {first_f:?}; model switched \
+             {switches:?}; silent host {silent_host}, firmware {silent_fw}",
             if redundant { 18 } else { 12 }
         );
         assert_eq!(named.first().map(|e| e.1), Some(part as u32));
@@ -377,16 +409,26 @@ fn one_axis_on_its_rail_names_its_part_at_the_first_clipped_set() {
             "named at {at} s (onset {onset} s)"
         );
         for first in [first_h, first_f] {
-            let t = first.expect("the part out or its rows flagged");
+            let t = first.expect("the part out");
             assert!((onset..onset + 0.005).contains(&t), "from {t} s");
         }
+        // The same rows out in both, and only this part ever.
+        let differ = h.iter().zip(&f).filter(|(a, b)| a[1] != b[1]).count();
+        assert_eq!(differ, 0, "rows where host and firmware differ");
+        let rows_out = f.iter().filter(|r| out(r)).count();
+        assert!(rows_out >= 300, "rows out {rows_out}");
+        assert!(f.iter().all(|r| r[1] as u64 & !bits == 0));
         if redundant {
-            // The same rows out in both, and only this part ever.
-            let differ = h.iter().zip(&f).filter(|(a, b)| a[1] != b[1]).count();
-            assert_eq!(differ, 0, "rows where host and firmware differ");
-            let out = f.iter().filter(|r| r[1] as u64 == bits).count();
-            assert!(out >= 300, "rows out {out}");
-            assert!(f.iter().all(|r| r[1] as u64 & !bits == 0));
+            assert!(switches.is_empty(), "model switched with 15 channels left");
+        } else {
+            // Nine channels do not carry model G: model F from the first clipped set to the
+            // part's return, each switch reported.
+            let (g, f) = (0, 1);
+            assert_eq!(switches.len(), 2, "{switches:?}");
+            assert_eq!((switches[0].1, switches[0].2), (g, f));
+            assert!((onset..onset + 0.005).contains(&switches[0].0));
+            assert_eq!((switches[1].1, switches[1].2), (f, g));
+            assert!(switches[1].0 > onset + 3.0);
         }
         assert_eq!((silent_fw, silent_host), (0, 0), "silently wrong rows");
     }

@@ -197,15 +197,27 @@ fn a_stalling_bus_skips_instants_and_a_dead_part_is_counted_excluded_and_restart
     let a0 = r.parts[0];
     assert!(a0.implausible >= 10 && a0.missed >= 95, "{a0:?}");
     assert!(a0.running, "a0 restarted after the fault");
-    // Model G needs all 12 channels: a0 cannot be excluded, those sets are flagged.
-    let flagged = out
-        .iter()
-        .filter(|m| m.missing.contains(0))
-        .all(|m| m.estimate.flags.has(estimator_core::Flags::INPUT_INVALID));
-    assert!(flagged);
-    // After the faults the estimate is back to a valid one.
+    // Model G needs all 12 channels: with a0 out, the nine left are taken in model F (issue
+    // 17). Its first missing sets are flagged predictions; from its EXCLUDE_AFTER-th on it is
+    // excluded and the sets are estimates again, in model F.
+    use estimator_core::{Flags, Model};
+    let missing: Vec<_> = out.iter().filter(|m| m.missing.contains(0)).collect();
+    let first = missing.first().expect("a0 missing").k;
+    for m in &missing {
+        let out = m.k + 1 >= first + u32::from(ballisto_fw::estimation::EXCLUDE_AFTER);
+        assert_eq!(m.excluded.contains(0), out, "set {}", m.k);
+        assert_eq!(
+            m.estimate.flags.has(Flags::INPUT_INVALID),
+            !out,
+            "set {}",
+            m.k
+        );
+        assert_eq!(m.model == Model::FreeFloat, out, "set {}", m.k);
+    }
+    // After the faults the estimate is back to a valid one, in model G.
     let last = out.last().unwrap();
     assert!(last.missing.is_empty());
+    assert_eq!(last.model, Model::General);
     assert!(!last
         .estimate
         .flags

@@ -232,6 +232,29 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.configure(&arr, self.cfg.model, mask, self.cfg.options)
     }
 
+    /// Takes the channels of `mask` in the `preferred` model if they carry it, and otherwise in
+    /// model F (issue 17: where exclusions leave model G unobservable — fewer than 12 channels,
+    /// or a design of rank below 12 — model F, whose `A = Γ + {Ω}²` needs 9 and the known Γ of
+    /// the options, still estimates). Returns the model now in force; on error (neither model
+    /// can use the channels) nothing changes and the error is the preferred model's. Like
+    /// [`Estimator::set_mask`] it restarts the history: set the hint after it.
+    pub fn set_mask_in(
+        &mut self,
+        mask: ChannelMask,
+        preferred: Model,
+    ) -> Result<Model, ConfigError> {
+        let arr = self.cfg.arr.clone();
+        let options = self.cfg.options;
+        match self.configure(&arr, preferred, mask, options) {
+            Ok(()) => Ok(preferred),
+            Err(e) if preferred == Model::General => self
+                .configure(&arr, Model::FreeFloat, mask, options)
+                .map(|()| Model::FreeFloat)
+                .map_err(|_| e),
+            Err(e) => Err(e),
+        }
+    }
+
     /// Sets the known gravity-gradient tensor Γ (body frame). Cheap (no SVD).
     pub fn set_gamma(&mut self, gamma: &Sym3<f64>) -> Result<(), ConfigError> {
         if !gamma.0.iter().all(|v| v.is_finite()) {

@@ -3,11 +3,16 @@
 //! Each sample set becomes the estimator's channel vector (part axis → channel); a part
 //! without a value leaves its channels NaN, which the estimator answers with its prediction,
 //! flagged. A part missing for [`EXCLUDE_AFTER`] sets in a row is excluded (the channel mask
-//! changes, if the rest still suffices for the model), and included again after
-//! [`INCLUDE_AFTER`] good sets; across such a change the last Ω is carried as the rate hint, so
-//! branch and sign are kept. Channels can also be taken out by command
+//! changes), and included again after [`INCLUDE_AFTER`] good sets (estimator-core's
+//! `exclusion`, which `ballisto estimate` shares); across such a change the last Ω is carried
+//! as the rate hint, so branch and sign are kept. Channels can also be taken out by command
 //! ([`Estimation::set_commanded`]); the solve uses every channel neither excluded automatically
 //! nor by command.
+//!
+//! The model is the configured one where the channels in use carry it. Where exclusions leave
+//! model G unobservable (fewer than 12 channels), the estimate is made in model F (Γ known) on
+//! the channels left, and in model G again once they carry it (issue 17); each switch is
+//! reported ([`Estimation::take_model_switch`], the `model-switched` event).
 //!
 //! With the feature `fault-isolation` the measurements themselves are tested as well
 //! ([`crate::isolation`], issue 17): a part that the parity space isolates, or whose own
@@ -16,7 +21,8 @@
 //! out, the estimate carries [`Flags::RESIDUAL_HIGH`].
 
 use ballisto_link::{ChannelSet, PartSet};
-use estimator_core::fault_monitor::{TrustedRate, Verdict};
+use estimator_core::exclusion::MissingRuns;
+use estimator_core::fault_monitor::{Suspicion, TrustedRate, Verdict};
 use estimator_core::{
     Arrangement, ChannelMask, ConfigError, Estimate, Estimator, Flags, Model, Options,
 };
@@ -26,10 +32,7 @@ use crate::isolation::Isolation;
 use crate::sampler::SampleSet;
 use crate::time::{seconds, Nanos};
 
-/// Sets in a row without a value after which a part is excluded.
-pub const EXCLUDE_AFTER: u16 = 5;
-/// Good sets in a row after which an excluded part is included again.
-pub const INCLUDE_AFTER: u16 = 100;
+pub use estimator_core::exclusion::{EXCLUDE_AFTER, INCLUDE_AFTER};
 
 /// The estimate of one sample set (what the estimation task outputs per set).
 #[derive(Clone, Copy, Debug)]
@@ -46,6 +49,9 @@ pub struct SetEstimate {
     pub excluded: PartSet,
     /// What the fault monitor said of this set's readings.
     pub verdict: Verdict,
+    /// The model the estimate was made in (model F instead of the configured model G while
+    /// exclusions leave it unobservable).
+    pub model: Model,
 }
 
 /// The estimator and the channel bookkeeping.
@@ -54,8 +60,7 @@ pub struct Estimation {
     channels: [[Option<u8>; 3]; MAX_PARTS],
     n: usize,
     p: [f32; MAX_CHANNELS],
-    missing_run: [u16; MAX_PARTS],
-    good_run: [u16; MAX_PARTS],
+    runs: MissingRuns<MAX_PARTS>,
     /// Parts out because they stopped answering.
     excluded: PartSet,
     /// Parts out because the fault monitor isolated them (parity space or stuck).
@@ -65,9 +70,15 @@ pub struct Estimation {
     isolation: Isolation,
     commanded: ChannelSet,
     options: Options,
+    /// The configured model (the estimator's, unless the channels in use do not carry it).
+    model: Model,
+    /// A change of the model in force not yet reported: (before, after).
+    switch: Option<(Model, Model)>,
     last_omega: Option<[f64; 3]>,
     /// The rate hint when an isolated part leaves or re-enters the solve.
     trusted: TrustedRate,
+    /// A fault suspected and not isolated, held through sets without a test.
+    suspicion: Suspicion,
 }
 
 impl Estimation {
@@ -87,16 +98,18 @@ impl Estimation {
             channels,
             n: config.arrangement.len(),
             p: [f32::NAN; MAX_CHANNELS],
-            missing_run: [0; MAX_PARTS],
-            good_run: [0; MAX_PARTS],
+            runs: MissingRuns::new(),
             excluded: PartSet::EMPTY,
             isolated: PartSet::EMPTY,
             refused: None,
             isolation: Isolation::new(config),
             commanded: ChannelSet::EMPTY,
             options,
+            model: config.model,
+            switch: None,
             last_omega: None,
             trusted: TrustedRate::default(),
+            suspicion: Suspicion::default(),
         };
         e.rebuild_monitor();
         Ok(e)
@@ -132,14 +145,46 @@ impl Estimation {
     /// (too few channels left, or a degenerate geometry) nothing changes.
     pub fn set_commanded(&mut self, commanded: ChannelSet) -> Result<(), ConfigError> {
         let mask = self.mask(self.excluded_parts(), commanded);
-        ballisto_fw_precompute::set_mask(&mut self.estimator, mask)?;
+        self.take_mask(mask)?;
         self.commanded = commanded;
         let _ = self.estimator.set_hint(self.last_omega);
         self.rebuild_monitor();
         Ok(())
     }
 
-    /// A new arrangement (same channels) or model. On error nothing changes.
+    /// The configured model (the estimator's is model F instead where the channels in use do
+    /// not carry model G).
+    pub fn model(&self) -> Model {
+        self.model
+    }
+
+    /// The change of the model in force since the last call, if any: (before, after).
+    pub fn take_model_switch(&mut self) -> Option<(Model, Model)> {
+        self.switch.take()
+    }
+
+    /// Takes the channels of `mask` in the configured model, or in model F where they do not
+    /// carry it (estimator-core's `Estimator::set_mask_in`), and notes a change of the model in
+    /// force. On error nothing changes.
+    fn take_mask(&mut self, mask: ChannelMask) -> Result<(), ConfigError> {
+        let before = self.estimator.model();
+        ballisto_fw_precompute::set_mask_in(&mut self.estimator, mask, self.model)?;
+        self.note_model(before);
+        Ok(())
+    }
+
+    /// Notes that the model in force was `before` (a switch and its reversal before the
+    /// report cancel out).
+    fn note_model(&mut self, before: Model) {
+        let now = self.estimator.model();
+        if now != before {
+            let first = self.switch.map_or(before, |(b, _)| b);
+            self.switch = (first != now).then_some((first, now));
+        }
+    }
+
+    /// A new arrangement (same channels) or model (model F in force instead of model G where
+    /// the channels in use do not carry it). On error nothing changes.
     pub fn configure(
         &mut self,
         arrangement: &Arrangement<MAX_CHANNELS>,
@@ -155,7 +200,17 @@ impl Estimation {
             initial_omega: self.last_omega,
             ..self.options
         };
-        ballisto_fw_precompute::configure(&mut self.estimator, arrangement, model, mask, options)?;
+        let est = &mut self.estimator;
+        match ballisto_fw_precompute::configure(est, arrangement, model, mask, options) {
+            Ok(()) => {}
+            Err(e) if model == Model::General => {
+                ballisto_fw_precompute::configure(est, arrangement, Model::FreeFloat, mask, options)
+                    .map_err(|_| e)?
+            }
+            Err(e) => return Err(e),
+        }
+        // A commanded change: the `reconfigured` event reports the model in force.
+        self.model = model;
         self.rebuild_monitor();
         Ok(())
     }
@@ -221,19 +276,19 @@ impl Estimation {
                             self.p[usize::from(*c)] = *x;
                         }
                     }
-                    self.missing_run[i] = 0;
-                    self.good_run[i] = self.good_run[i].saturating_add(1);
+                    self.runs.observe(i, true);
                 }
                 None if chans.iter().any(Option::is_some) => {
                     missing = missing.with(i);
-                    self.good_run[i] = 0;
-                    self.missing_run[i] = self.missing_run[i].saturating_add(1);
+                    self.runs.observe(i, false);
                 }
                 None => {}
             }
         }
         let verdict = self.isolation.step(&self.p[..self.n]);
+        let isolated_before = self.isolated;
         self.update_exclusions(set.t);
+        let newly_out = !self.isolated.minus(isolated_before).is_empty();
         // Through the speed-built crate: this crate is built for size.
         let mut estimate =
             *ballisto_fw_estimate::update(&mut self.estimator, seconds(set.t), &self.p[..self.n]);
@@ -248,6 +303,9 @@ impl Estimation {
         } else {
             verdict
         };
+        // In model F on the channels left by an exclusion there is no test: a suspicion
+        // stands until a test clears it or an isolated part is taken out.
+        let verdict = self.suspicion.hold(verdict, newly_out);
         if verdict == Verdict::NotIsolated {
             estimate.flags.0 |= Flags::RESIDUAL_HIGH;
         }
@@ -261,28 +319,24 @@ impl Estimation {
             missing,
             excluded: self.excluded_parts(),
             verdict,
+            model: self.estimator.model(),
         }
     }
 
-    /// Excludes parts missing too long or isolated, and includes recovered ones.
+    /// Excludes parts missing too long or isolated, and includes recovered ones; in model F
+    /// where the channels left do not carry model G, and back.
     fn update_exclusions(&mut self, now: Nanos) {
-        let mut wanted = self.excluded;
-        for i in 0..MAX_PARTS {
-            if self.missing_run[i] >= EXCLUDE_AFTER {
-                wanted = wanted.with(i);
-            } else if self.good_run[i] >= INCLUDE_AFTER {
-                wanted = wanted.without(i);
-            }
-        }
+        let wanted = PartSet(self.runs.wanted(u32::from(self.excluded.0)) as u8);
         let isolated = self.isolation.isolated();
         if wanted == self.excluded && (isolated == self.isolated || Some(isolated) == self.refused)
         {
             return;
         }
         let mask = self.mask(PartSet(wanted.0 | isolated.0), self.commanded);
-        // Too few channels left for the model: keep the mask (the sets stay flagged).
-        if ballisto_fw_precompute::set_mask(&mut self.estimator, mask).is_ok() {
-            let missing_changed = wanted != self.excluded;
+        // Too few channels left for either model: keep the mask (the sets stay flagged).
+        let model_before = self.estimator.model();
+        if self.take_mask(mask).is_ok() {
+            let monitor_stale = wanted != self.excluded || self.estimator.model() != model_before;
             let hint = if isolated != self.isolated {
                 self.trusted.hint_at(seconds(now)).or(self.last_omega)
             } else {
@@ -291,7 +345,7 @@ impl Estimation {
             self.excluded = wanted;
             self.isolated = isolated;
             let _ = self.estimator.set_hint(hint);
-            if missing_changed {
+            if monitor_stale {
                 self.rebuild_monitor();
             }
         } else {
@@ -347,14 +401,45 @@ mod tests {
         assert_eq!(e.estimator().mask(), ChannelMask::all(12));
     }
 
+    /// Issue 17: with a part dead, twelve channels leave model G unobservable: the part is
+    /// excluded all the same and the estimate made in model F on the nine left (instead of the
+    /// flagged prediction held for as long as the part is dead); back in model G once the part
+    /// has answered for [`INCLUDE_AFTER`] sets. Each switch is reported once.
     #[test]
-    fn model_g_cannot_spare_a_part_and_keeps_all_channels() {
+    fn model_g_switches_to_model_f_while_a_part_is_out_and_back() {
         let mut e = Estimation::new(&tetra()).unwrap();
-        for k in 0..20 {
+        assert_eq!(e.estimator().model(), Model::General);
+        let gap = 5 + u32::from(EXCLUDE_AFTER);
+        for k in 0..gap {
             let m = e.process(&set(k, k < 5));
-            assert_eq!(m.excluded, PartSet(0));
-            assert_eq!(m.estimate.flags.has(Flags::INPUT_INVALID), k >= 5);
+            let out = k + 1 == gap;
+            assert_eq!(m.excluded, PartSet(u8::from(out)), "set {k}");
+            assert_eq!(m.estimate.flags.has(Flags::INPUT_INVALID), k >= 5 && !out);
             assert!(m.estimate.is_finite());
         }
+        assert_eq!(e.estimator().model(), Model::FreeFloat);
+        assert_eq!(e.model(), Model::General, "the configured model is kept");
+        assert_eq!(
+            e.take_model_switch(),
+            Some((Model::General, Model::FreeFloat))
+        );
+        assert_eq!(e.take_model_switch(), None);
+        // Dead 20 sets more, then good: back in after INCLUDE_AFTER good sets.
+        let back = gap + 20 + u32::from(INCLUDE_AFTER);
+        for k in gap..back {
+            let m = e.process(&set(k, k >= gap + 20));
+            assert_eq!(m.excluded, PartSet(u8::from(k + 1 < back)), "set {k}");
+            assert!(m.estimate.is_finite());
+            if k < gap + 20 {
+                assert!(m.estimate.flags.has(Flags::CHANNELS_EXCLUDED), "set {k}");
+                assert!(!m.estimate.flags.has(Flags::INPUT_INVALID), "set {k}");
+            }
+        }
+        assert_eq!(e.estimator().model(), Model::General);
+        assert_eq!(e.estimator().mask(), ChannelMask::all(12));
+        assert_eq!(
+            e.take_model_switch(),
+            Some((Model::FreeFloat, Model::General))
+        );
     }
 }

@@ -34,6 +34,17 @@ pub fn set_mask(estimator: &mut FwEstimator, mask: ChannelMask) -> Result<(), Co
     estimator.set_mask(mask)
 }
 
+/// [`Estimator::set_mask_in`] (the channels in use, in model F where they do not carry the
+/// preferred model G); returns the model in force.
+#[inline(never)]
+pub fn set_mask_in(
+    estimator: &mut FwEstimator,
+    mask: ChannelMask,
+    preferred: Model,
+) -> Result<Model, ConfigError> {
+    estimator.set_mask_in(mask, preferred)
+}
+
 /// [`Estimator::configure`] (a new arrangement, model, mask and options).
 #[inline(never)]
 pub fn configure(

@@ -106,7 +106,7 @@ impl App {
     /// and handed to the estimator, which keeps its configuration if it refuses.
     pub(super) fn load_arrangement(&mut self, data: &[u8]) -> Result<(), (FailureCode, u32)> {
         let arrangement = telecommand::arrangement(data)?;
-        let model = self.estimation.estimator().model();
+        let model = self.estimation.model();
         self.estimation
             .configure(&arrangement, model)
             .map_err(refused)?;

@@ -21,7 +21,7 @@ mod uplink;
 
 use ballisto_link::telecommand::{self, Accepted, Context};
 use ballisto_link::{
-    subtype, BootEvent, BootInfo, CalibrationId, EventId, PartState, TimeCorrelation,
+    subtype, BootEvent, BootInfo, CalibrationId, EventId, ModelCode, PartState, TimeCorrelation,
     FORMAT_VERSION,
 };
 use embassy_sync::blocking_mutex::raw::RawMutex;
@@ -218,6 +218,19 @@ impl App {
                 self.send_motion(tm, &m).await;
             }
             motion = Some(m);
+        }
+        // Exclusions (or a command) left the configured model unobservable, or no longer do.
+        if let Some((before, after)) = self.estimation.take_model_switch() {
+            let (before, after) = (ModelCode::from(before), ModelCode::from(after));
+            warn!("model in force {:?} -> {:?}", before, after);
+            self.event(
+                set.t,
+                tm,
+                EventId::ModelSwitched,
+                before as u32,
+                after as u32,
+            )
+            .await;
         }
         self.since_housekeeping += 1;
         if self.since_housekeeping >= self.housekeeping_every {

@@ -1,0 +1,85 @@
+//! Issue 17: where exclusions leave model G unobservable the estimator takes the channels in
+//! model F (`Estimator::set_mask_in`), reports it, and returns to model G when it can.
+
+mod common;
+
+use common::{outputs, CAP};
+use estimator_core::linalg::Sym3;
+use estimator_core::{Arrangement, ChannelMask, ConfigError, Estimator, Model, Options};
+
+/// Four tri-axial parts at the vertices of a tetrahedron (12 channels, model G's minimum).
+fn tetra() -> Arrangement<CAP> {
+    let mut a = Arrangement::<CAP>::new();
+    let k = 0.1;
+    for v in [[k, k, k], [k, -k, -k], [-k, k, -k], [-k, -k, k]] {
+        for axis in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] {
+            a.push(v, axis, 1e-3).unwrap();
+        }
+    }
+    a
+}
+
+#[test]
+fn a_part_out_of_twelve_channels_switches_model_g_to_model_f_and_back() {
+    let arr = tetra();
+    let omega = [0.3, -1.1, 0.7];
+    let mut est = Estimator::<f64, CAP>::new(
+        &arr,
+        Model::General,
+        Options {
+            initial_omega: Some(omega),
+            ..Options::default()
+        },
+    )
+    .unwrap();
+    let without_part_1 = ChannelMask::all(12).without(3).without(4).without(5);
+    // Model G cannot use 9 channels: set_mask refuses, set_mask_in takes them in model F.
+    assert!(est.set_mask(without_part_1).is_err());
+    assert_eq!(
+        est.set_mask_in(without_part_1, Model::General),
+        Ok(Model::FreeFloat)
+    );
+    assert_eq!(
+        (est.model(), est.mask()),
+        (Model::FreeFloat, without_part_1)
+    );
+    // The free-float field (Γ = 0: A = {Ω}²) from the nine channels, the dead part's readings
+    // NaN: the rate near the hint is recovered.
+    let a = Sym3::skew_squared(&omega);
+    let (sigma0, domega) = ([0.2, 0.1, -0.4], [0.5, 0.0, -0.3]);
+    let mut p = outputs(&arr, &sigma0, &domega, &a);
+    p[3..6].fill(f64::NAN);
+    let e = *est.update(0.0, &p);
+    assert!(!e.flags.has(estimator_core::Flags::INPUT_INVALID));
+    let err: f64 = (0..3)
+        .map(|i| (e.omega[i] - omega[i]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(err < 1e-6, "Ω error {err}, {:?}", e.omega);
+    // Eight channels: neither model; the preferred model's error, nothing changed.
+    let eight = without_part_1.without(0);
+    assert_eq!(
+        est.set_mask_in(eight, Model::General),
+        Err(ConfigError::TooFewChannels {
+            model: Model::General,
+            have: 8,
+            need: 12
+        })
+    );
+    assert_eq!(
+        (est.model(), est.mask()),
+        (Model::FreeFloat, without_part_1)
+    );
+    // Every channel back: model G again. Model F preferred is never switched.
+    assert_eq!(
+        est.set_mask_in(ChannelMask::all(12), Model::General),
+        Ok(Model::General)
+    );
+    assert_eq!(est.model(), Model::General);
+    assert_eq!(
+        est.set_mask_in(ChannelMask::all(12), Model::FreeFloat),
+        Ok(Model::FreeFloat)
+    );
+    assert!(est.set_mask_in(eight, Model::FreeFloat).is_err());
+    assert_eq!(est.model(), Model::FreeFloat);
+}
