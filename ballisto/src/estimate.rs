@@ -284,16 +284,16 @@ impl<T: Real> Faults<T> {
     }
 
     /// The monitor's tests for the channels of the parts not missing, as the firmware's
-    /// `Isolation::rebuild`: the parity space in model G (as `est` is now), or else model G's
-    /// known-field test; none before the rate is known.
+    /// `Isolation::rebuild`: the parity space, or else model G's known-field test (if `est`
+    /// is in model G); none before the rate is known.
     fn rebuild(&mut self, est: &Estimator<T, HOST_CAP>) {
         let tested = self.mask(self.missing);
         let (Some(m), Some(rate)) = (&mut self.monitor, self.rate) else {
             return;
         };
-        let parity = (est.model() == Model::General)
-            .then(|| Parity::build(&self.arrangement, tested, &self.part).ok())
-            .flatten();
+        // Model G's parity space whatever the model estimated in (model F's field is one of
+        // model G's), as the firmware's.
+        let parity = Parity::build(&self.arrangement, tested, &self.part).ok();
         self.field = match (&parity, est.field_covariance()) {
             (None, Some(cov)) => {
                 FieldCheck::new(&cov, &est.known_gamma(), Settings::default(), rate)

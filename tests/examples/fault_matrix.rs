@@ -16,11 +16,12 @@
 //! estimate, telemetry packets lost. The fault-free runs give the false-alarm rates.
 //!
 //! `cargo run --release -p e2e-tests --example fault_matrix -- [RUNS]` (default 20; about 2 s);
-//! `MIXED=1` the 24-channel mixed layout (`e2e_tests::faults::mixed_layout`).
+//! `MIXED=1` the 24-channel mixed layout (`e2e_tests::faults::mixed_layout`); `MODEL=F` the
+//! N = 18 layout estimated in model F.
 //! `SHOW=KIND` (a kind's name as in the table) prints each run of that kind: the part, the
 //! onset, when the part went out, its worst Ω error while out, rows with a healthy part out.
 
-use e2e_tests::faults::{fault_matrix, layout, mixed, DURATION, FAULT_S};
+use e2e_tests::faults::{fault_matrix, layout, layout_free_float, mixed, DURATION, FAULT_S};
 
 fn main() {
     let runs: u64 = std::env::args()
@@ -29,12 +30,20 @@ fn main() {
         .unwrap_or(20);
     // `MIXED=1`: the 24-channel mixed layout.
     let mixed_layout = std::env::var_os("MIXED").is_some();
-    let layout = if mixed_layout { mixed } else { layout };
+    // `MODEL=F`: the N = 18 layout estimated in model F.
+    let free_float = std::env::var("MODEL").is_ok_and(|m| m == "F");
+    let layout = match (mixed_layout, free_float) {
+        (true, _) => mixed,
+        (false, true) => layout_free_float,
+        (false, false) => layout,
+    };
     // One sample's noise: the arrangement's declared channel noise.
     let loaded = layout(0).arrangement().load("arrangement.toml").unwrap();
     let sigma = loaded.arrangement.channels()[0].noise;
     let name = if mixed_layout {
         "ground-spin-mixed doubled: 4 ADXL355 on SPI, 4 LIS3DH on two I²C buses (N = 24, model G, 12 dof)"
+    } else if free_float {
+        "tetra-orbit + 2 ADXL355 (N = 18, model F; the monitor's parity space model G's, 6 dof)"
     } else {
         "tetra-orbit + 2 ADXL355 (N = 18, model G, 6 dof)"
     };

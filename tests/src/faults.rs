@@ -228,6 +228,15 @@ pub fn layout(seed: u64) -> Scenario {
     redundant_layout(seed, DURATION)
 }
 
+/// [`layout`] estimated in model F (Γ known: the orbit's), the configured model of a
+/// free-float instrument (N = 18, 9 degrees of freedom in model F, 6 in the monitor's parity
+/// space, which is model G's).
+pub fn layout_free_float(seed: u64) -> Scenario {
+    let mut sc = layout(seed);
+    sc.model = Some("free-float".to_string());
+    sc
+}
+
 /// The mixed layout for `seed` (N = 24, [`mixed_layout`]).
 pub fn mixed(seed: u64) -> Scenario {
     mixed_layout(seed, DURATION)

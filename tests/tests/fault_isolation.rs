@@ -22,8 +22,22 @@ const ISOLATED: [&str; 8] = [
 
 #[test]
 fn faults_are_isolated_and_the_estimate_without_the_part_is_as_good_as_never_having_it() {
+    the_matrix_holds(e2e_tests::faults::layout);
+}
+
+/// The same layout estimated in model F: the monitor's parity space is model G's whatever the
+/// model (model F's field is one of model G's), so a free-float instrument with redundancy
+/// isolates as model G does (before, model F ran no parity test: only the stuck and range
+/// checks).
+#[test]
+fn in_model_f_the_same_faults_are_isolated() {
+    the_matrix_holds(e2e_tests::faults::layout_free_float);
+}
+
+/// The N = 18 matrix's assertions for a layout (20 runs per kind).
+fn the_matrix_holds(layout: fn(u64) -> hal_sim::scenario::Scenario) {
     let runs = 20;
-    let (clean, rows) = fault_matrix(runs, e2e_tests::faults::layout);
+    let (clean, rows) = fault_matrix(runs, layout);
     // Fault-free: no part ever taken out, no row silently wrong, no NaN, nothing lost.
     assert_eq!(
         clean.wrong_excluded, 0,

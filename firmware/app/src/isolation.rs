@@ -1,6 +1,7 @@
 //! Fault isolation from the measurements (issue 17): estimator-core's
 //! [`FaultMonitor`](estimator_core::fault_monitor::FaultMonitor) over the parts that answer,
-//! in model G with redundancy (N ≥ 13; isolating a tri-axial part needs N ≥ 16).
+//! with redundancy (N ≥ 13; isolating a tri-axial part needs N ≥ 16) in either model: its
+//! parity space is model G's, and model F's readings lie in it too.
 //!
 //! The monitor tests every channel that is neither missing on the bus nor taken out by
 //! command — the isolated part's included, so that it is re-admitted when it is consistent
@@ -22,7 +23,6 @@ mod enabled {
     use super::*;
     use estimator_core::fault_monitor::{FaultMonitor, FieldCheck, Settings, StuckCheck};
     use estimator_core::parity::{Parity, NO_PART};
-    use estimator_core::Model;
 
     /// The monitor, each channel's part, model G's known-field test where there is no parity
     /// space, and every part's check from its own signal (stuck, or at its range limit: the
@@ -66,14 +66,12 @@ mod enabled {
             }
         }
 
-        /// The parity space of the channels of `tested` (model G only; otherwise, or with too
-        /// few channels, no test); without one, model G's known-field test on the estimator's
-        /// channels.
+        /// The parity space of the channels of `tested` (model G's linear design whatever the
+        /// model estimated in: model F's field is one of model G's, so its readings are
+        /// consistent with the same space; none with too few channels, N ≤ 12); without one,
+        /// model G's known-field test on the estimator's channels.
         pub fn rebuild(&mut self, estimator: &Estimator<f32, MAX_CHANNELS>, tested: ChannelMask) {
-            let general = estimator.model() == Model::General;
-            let parity = general
-                .then(|| Parity::build(estimator.arrangement(), tested, &self.part).ok())
-                .flatten();
+            let parity = Parity::build(estimator.arrangement(), tested, &self.part).ok();
             self.field = match (&parity, estimator.field_covariance()) {
                 (None, Some(cov)) => FieldCheck::new(
                     &cov,
