@@ -404,15 +404,11 @@ impl<T: Real> HostEstimator<T> {
         if let Some(f) = &mut self.faults {
             // With no parity space, model G's known-field test on the forward estimate flags
             // the row (as the firmware does).
-            let field_bad = match &mut f.field {
-                Some(check) if raw.is_finite() => check.step(&raw),
-                _ => false,
+            let field = match &mut f.field {
+                Some(check) if raw.is_finite() => Some(check.step(&raw)),
+                _ => None,
             };
-            let verdict = if field_bad {
-                Verdict::NotIsolated
-            } else {
-                used.verdict
-            };
+            let verdict = used.verdict.with_field(field);
             // In model F on the channels left by an exclusion there is no test: a suspicion
             // stands until a test clears it or an isolated part is taken out (as in the
             // firmware).

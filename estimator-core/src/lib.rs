@@ -62,7 +62,7 @@ pub use arrangement::{Arrangement, Channel, ChannelMask, Model};
 pub const G0: f64 = 9.806_65;
 pub use error::{ConfigError, Unknown};
 pub use estimate::{Estimate, Flags};
-pub use estimator::{Estimator, Options};
+pub use estimator::{Estimator, Options, SpareConfig};
 pub use frame_uncertainty::FrameUncertainty;
 pub use linalg::{Sym3, Vec3};
 pub use real::Real;

@@ -5,7 +5,9 @@ mod common;
 
 use common::{outputs, CAP};
 use estimator_core::linalg::Sym3;
-use estimator_core::{Arrangement, ChannelMask, ConfigError, Estimator, Model, Options};
+use estimator_core::{
+    Arrangement, ChannelMask, ConfigError, Estimator, Model, Options, SpareConfig,
+};
 
 /// Four tri-axial parts at the vertices of a tetrahedron (12 channels, model G's minimum).
 fn tetra() -> Arrangement<CAP> {
@@ -82,4 +84,39 @@ fn a_part_out_of_twelve_channels_switches_model_g_to_model_f_and_back() {
     );
     assert!(est.set_mask_in(eight, Model::FreeFloat).is_err());
     assert_eq!(est.model(), Model::FreeFloat);
+}
+
+/// The double buffer: the switch to model F sets model G's configuration aside, and the
+/// return swaps it back (no precomputation); a refused mask changes neither buffer.
+#[test]
+fn the_return_to_model_g_swaps_its_configuration_back() {
+    let arr = tetra();
+    let mut est = Estimator::<f32, CAP>::new(&arr, Model::General, Options::default()).unwrap();
+    let mut spare = SpareConfig::new();
+    assert_eq!(spare.holds(), None);
+    let all = ChannelMask::all(12);
+    let nine = all.without(3).without(4).without(5);
+    let keep = |est: &mut Estimator<f32, CAP>, spare: &mut SpareConfig<f32, CAP>, m| {
+        est.set_mask_keeping(m, Model::General, spare)
+    };
+    assert_eq!(keep(&mut est, &mut spare, nine), Ok(Model::FreeFloat));
+    assert_eq!(spare.holds(), Some((Model::General, all)));
+    // Eight channels: refused, both buffers as they were.
+    assert!(keep(&mut est, &mut spare, nine.without(0)).is_err());
+    assert_eq!((est.model(), est.mask()), (Model::FreeFloat, nine));
+    assert_eq!(spare.holds(), Some((Model::General, all)));
+    // Back: model G's configuration swapped in, model F's set aside.
+    assert_eq!(keep(&mut est, &mut spare, all), Ok(Model::General));
+    assert_eq!((est.model(), est.mask()), (Model::General, all));
+    assert_eq!(spare.holds(), Some((Model::FreeFloat, nine)));
+    // The swapped-in configuration estimates as a freshly built one.
+    let mut fresh = Estimator::<f32, CAP>::new(&arr, Model::General, Options::default()).unwrap();
+    let p: Vec<f32> = (0..12).map(|i| 0.3 + 0.01 * i as f32).collect();
+    let (a, b) = (*est.update(0.0, &p), *fresh.update(0.0, &p));
+    assert_eq!(
+        (a.omega, a.sigma0, a.flags.0),
+        (b.omega, b.sigma0, b.flags.0)
+    );
+    spare.clear();
+    assert_eq!(spare.holds(), None);
 }

@@ -265,6 +265,31 @@ fn twelve_channels_are_never_silently_wrong_under_the_named_faults() {
     }
 }
 
+/// A passing known-field test clears a suspicion (`Verdict::with_field`): `ground-spin-mixed`
+/// (twelve channels in model G on the ground, a spin-up from rest) trips it at start-up only —
+/// taken for no test, the held suspicion flagged 1 994 of its 2 001 firmware rows.
+#[test]
+fn a_start_up_suspicion_on_twelve_channels_ends_when_the_field_test_passes() {
+    let sc = hal_sim::scenario::Scenario::load("ground-spin-mixed").unwrap();
+    let dir = std::env::temp_dir().join(format!("ballisto-gsm-{}", std::process::id()));
+    let host = firmware_then_host(&sc, &dir);
+    let names = ["t", "flags"];
+    let last_flagged = |path: &std::path::Path| {
+        read_columns(path, &names)
+            .iter()
+            .filter(|r| r[1] as u16 & estimator_core::Flags::RESIDUAL_HIGH != 0)
+            .map(|r| r[0])
+            .fold(0.0, f64::max)
+    };
+    let (fw, h) = (
+        last_flagged(&dir.join("estimates.csv")),
+        last_flagged(&host),
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    println!("last row flagged 64: firmware {fw} s, ballisto estimate {h} s");
+    assert!(fw < 3.0 && h < 3.0, "flag 64 after the start-up");
+}
+
 /// The 24-channel mixed layout (`e2e_tests::faults::mixed_layout`: LIS3DH on their own clocks,
 /// a spin-up from rest on the ground). Since model G keeps a second history per output while
 /// its path check fails (README, "Fault detection"), the wrong sign taken near rest is given

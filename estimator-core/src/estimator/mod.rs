@@ -170,6 +170,63 @@ impl<T: Real, const CAP: usize> Work<T, CAP> {
     }
 }
 
+impl<T: Real, const CAP: usize> Config<T, CAP> {
+    /// A configuration with no channel (nothing precomputed).
+    fn empty(model: Model) -> Self {
+        Config {
+            arr: Arrangement::new(),
+            model,
+            mask: ChannelMask::all(0),
+            proj: core::array::from_fn(|_| Projection::empty()),
+            usable: [false; NUM_FRAMES],
+            frames: 0,
+            gamma: Sym3::zero(),
+            gamma_frame: [Sym3::zero(); NUM_FRAMES],
+            gamma_offset: [T::ZERO; CAP],
+            gamma_offset_nonzero: false,
+            frame_uncertainty: FrameUncertainty::default(),
+            widen: false,
+            path_check: PathCheck::Off,
+            options: Options::default(),
+        }
+    }
+}
+
+/// A second configuration, set aside (issue 17, double buffering): when exclusions switch the
+/// estimator from model G to model F ([`Estimator::set_mask_keeping`]), model G's
+/// configuration is kept here, and the return to it is a swap instead of a precomputation
+/// (model G's four frames: 7.4 million instructions on the M4F, `cargo qemu-bench`; on the
+/// QEMU board the return stalled the sample loop for 1.24 s, 124 sets dropped).
+pub struct SpareConfig<T: Real, const CAP: usize> {
+    cfg: Config<T, CAP>,
+}
+
+impl<T: Real, const CAP: usize> Default for SpareConfig<T, CAP> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T: Real, const CAP: usize> SpareConfig<T, CAP> {
+    /// An empty slot.
+    pub fn new() -> Self {
+        SpareConfig {
+            cfg: Config::empty(Model::General),
+        }
+    }
+
+    /// Forgets the configuration set aside (call it when the arrangement or the options
+    /// change: it would bring back the old ones).
+    pub fn clear(&mut self) {
+        self.cfg.frames = 0;
+    }
+
+    /// The model and channels of the configuration set aside (`None` if there is none).
+    pub fn holds(&self) -> Option<(Model, ChannelMask)> {
+        (self.cfg.frames > 0).then_some((self.cfg.model, self.cfg.mask))
+    }
+}
+
 impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// Builds an estimator: validates the arrangement for the model and precomputes every
     /// frame (paper eq. 10–11).
@@ -179,22 +236,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         options: Options,
     ) -> Result<Self, ConfigError> {
         let mut e = Estimator {
-            cfg: Config {
-                arr: Arrangement::new(),
-                model,
-                mask: ChannelMask::all(0),
-                proj: core::array::from_fn(|_| Projection::empty()),
-                usable: [false; NUM_FRAMES],
-                frames: 0,
-                gamma: Sym3::zero(),
-                gamma_frame: [Sym3::zero(); NUM_FRAMES],
-                gamma_offset: [T::ZERO; CAP],
-                gamma_offset_nonzero: false,
-                frame_uncertainty: FrameUncertainty::default(),
-                widen: false,
-                path_check: PathCheck::Off,
-                options: Options::default(),
-            },
+            cfg: Config::empty(model),
             frame: 0,
             tracker: Tracker::new(),
             last_t: None,
@@ -252,6 +294,48 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 .map(|()| Model::FreeFloat)
                 .map_err(|_| e),
             Err(e) => Err(e),
+        }
+    }
+
+    /// As [`Estimator::set_mask_in`], with `spare` as the second buffer: the configuration in
+    /// force is set aside there before the new one is built (one swap, no copy), so that a
+    /// switch from model G to model F keeps model G's; and where `spare` already holds the
+    /// `preferred` model for `mask` while another model is in force, that configuration is
+    /// swapped back in without a precomputation. History restarts as with `set_mask_in`; on
+    /// error nothing changes.
+    pub fn set_mask_keeping(
+        &mut self,
+        mask: ChannelMask,
+        preferred: Model,
+        spare: &mut SpareConfig<T, CAP>,
+    ) -> Result<Model, ConfigError> {
+        if self.cfg.model != preferred && spare.holds() == Some((preferred, mask)) {
+            core::mem::swap(&mut self.cfg, &mut spare.cfg);
+            self.frame = 0;
+            self.reset();
+            return Ok(preferred);
+        }
+        core::mem::swap(&mut self.cfg, &mut spare.cfg);
+        let (arr, options) = (&spare.cfg.arr, spare.cfg.options);
+        let built = match self.cfg.configure(arr, preferred, mask, options) {
+            Ok(()) => Ok(preferred),
+            Err(e) if preferred == Model::General => self
+                .cfg
+                .configure(arr, Model::FreeFloat, mask, options)
+                .map(|()| Model::FreeFloat)
+                .map_err(|_| e),
+            Err(e) => Err(e),
+        };
+        match built {
+            Ok(model) => {
+                self.frame = 0;
+                self.reset();
+                Ok(model)
+            }
+            Err(e) => {
+                core::mem::swap(&mut self.cfg, &mut spare.cfg);
+                Err(e)
+            }
         }
     }
 

@@ -72,6 +72,10 @@ pub struct Estimation {
     options: Options,
     /// The configured model (the estimator's, unless the channels in use do not carry it).
     model: Model,
+    /// The configuration set aside at a mask change: model G's while model F is in force, so
+    /// that the return is a swap, not a precomputation (feature `spare-config`).
+    #[cfg(feature = "spare-config")]
+    spare: ballisto_fw_precompute::FwSpare,
     /// A change of the model in force not yet reported: (before, after).
     switch: Option<(Model, Model)>,
     last_omega: Option<[f64; 3]>,
@@ -106,6 +110,8 @@ impl Estimation {
             commanded: ChannelSet::EMPTY,
             options,
             model: config.model,
+            #[cfg(feature = "spare-config")]
+            spare: ballisto_fw_precompute::FwSpare::new(),
             switch: None,
             last_omega: None,
             trusted: TrustedRate::default(),
@@ -164,10 +170,20 @@ impl Estimation {
     }
 
     /// Takes the channels of `mask` in the configured model, or in model F where they do not
-    /// carry it (estimator-core's `Estimator::set_mask_in`), and notes a change of the model in
-    /// force. On error nothing changes.
+    /// carry it (estimator-core's `Estimator::set_mask_in`; with the feature `spare-config`
+    /// `set_mask_keeping`: back in the configured model, its configuration set aside at the
+    /// switch is swapped in), and notes a change of the model in force. On error nothing
+    /// changes.
     fn take_mask(&mut self, mask: ChannelMask) -> Result<(), ConfigError> {
         let before = self.estimator.model();
+        #[cfg(feature = "spare-config")]
+        ballisto_fw_precompute::set_mask_keeping(
+            &mut self.estimator,
+            mask,
+            self.model,
+            &mut self.spare,
+        )?;
+        #[cfg(not(feature = "spare-config"))]
         ballisto_fw_precompute::set_mask_in(&mut self.estimator, mask, self.model)?;
         self.note_model(before);
         Ok(())
@@ -209,8 +225,11 @@ impl Estimation {
             }
             Err(e) => return Err(e),
         }
-        // A commanded change: the `reconfigured` event reports the model in force.
+        // A commanded change: the `reconfigured` event reports the model in force; a
+        // configuration set aside has the old arrangement.
         self.model = model;
+        #[cfg(feature = "spare-config")]
+        self.spare.clear();
         self.rebuild_monitor();
         Ok(())
     }
@@ -297,12 +316,7 @@ impl Estimation {
         }
         // A fault the solve may still be using (seen but not isolated, or, with no parity
         // space, the readings inconsistent with the known field): the estimate is in doubt.
-        let field_bad = self.isolation.field_inconsistent(&estimate);
-        let verdict = if field_bad {
-            Verdict::NotIsolated
-        } else {
-            verdict
-        };
+        let verdict = verdict.with_field(self.isolation.field_inconsistent(&estimate));
         // In model F on the channels left by an exclusion there is no test: a suspicion
         // stands until a test clears it or an isolated part is taken out.
         let verdict = self.suspicion.hold(verdict, newly_out);

@@ -85,11 +85,12 @@ mod enabled {
         }
 
         /// After the estimate: whether model G's known-field test finds its window
-        /// inconsistent (always false where there is a parity space, or in model F).
-        pub fn field_inconsistent(&mut self, e: &Estimate<f32>) -> bool {
+        /// inconsistent; `None` where it has none (a parity space instead, model F, or an
+        /// estimate it cannot use).
+        pub fn field_inconsistent(&mut self, e: &Estimate<f32>) -> Option<bool> {
             match &mut self.field {
-                Some(f) if e.is_finite() => f.step(e),
-                _ => false,
+                Some(f) if e.is_finite() => Some(f.step(e)),
+                _ => None,
             }
         }
 
@@ -170,8 +171,8 @@ mod enabled {
         pub fn rebuild(&mut self, _: &Estimator<f32, MAX_CHANNELS>, _: ChannelMask) {}
 
         /// No test.
-        pub fn field_inconsistent(&mut self, _: &Estimate<f32>) -> bool {
-            false
+        pub fn field_inconsistent(&mut self, _: &Estimate<f32>) -> Option<bool> {
+            None
         }
 
         /// No test.

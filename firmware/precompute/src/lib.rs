@@ -10,7 +10,9 @@
 //! README, "Budgets".
 #![no_std]
 
-use estimator_core::{Arrangement, ChannelMask, ConfigError, Estimator, Model, Options};
+use estimator_core::{
+    Arrangement, ChannelMask, ConfigError, Estimator, Model, Options, SpareConfig,
+};
 
 /// Most channels of the firmware's arrangement.
 pub const MAX_CHANNELS: usize = ballisto_link::ids::MAX_CHANNELS;
@@ -43,6 +45,22 @@ pub fn set_mask_in(
     preferred: Model,
 ) -> Result<Model, ConfigError> {
     estimator.set_mask_in(mask, preferred)
+}
+
+/// The firmware's second configuration buffer.
+pub type FwSpare = SpareConfig<f32, MAX_CHANNELS>;
+
+/// [`Estimator::set_mask_keeping`] (the channels in use, in model F where they do not carry
+/// the preferred model G, the configuration in force set aside in `spare`); returns the model
+/// in force.
+#[inline(never)]
+pub fn set_mask_keeping(
+    estimator: &mut FwEstimator,
+    mask: ChannelMask,
+    preferred: Model,
+    spare: &mut FwSpare,
+) -> Result<Model, ConfigError> {
+    estimator.set_mask_keeping(mask, preferred, spare)
 }
 
 /// [`Estimator::configure`] (a new arrangement, model, mask and options).
