@@ -38,6 +38,26 @@ impl Default for Options {
 }
 
 impl<T: Real, const CAP: usize> Config<T, CAP> {
+    /// [`Config::configure`] in the `preferred` model, or in model F where the channels of
+    /// `mask` do not carry model G (issue 17); returns the model built. On error `self` is
+    /// unchanged and the error is the preferred model's.
+    pub(super) fn configure_preferring(
+        &mut self,
+        arr: &Arrangement<CAP>,
+        preferred: Model,
+        mask: ChannelMask,
+        options: Options,
+    ) -> Result<Model, ConfigError> {
+        match self.configure(arr, preferred, mask, options) {
+            Ok(()) => Ok(preferred),
+            Err(e) if preferred == Model::General => self
+                .configure(arr, Model::FreeFloat, mask, options)
+                .map(|()| Model::FreeFloat)
+                .map_err(|_| e),
+            Err(e) => Err(e),
+        }
+    }
+
     /// Validates and precomputes a configuration; on error `self` is unchanged.
     pub(super) fn configure(
         &mut self,

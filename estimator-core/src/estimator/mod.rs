@@ -286,15 +286,25 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         preferred: Model,
     ) -> Result<Model, ConfigError> {
         let arr = self.cfg.arr.clone();
-        let options = self.cfg.options;
-        match self.configure(&arr, preferred, mask, options) {
-            Ok(()) => Ok(preferred),
-            Err(e) if preferred == Model::General => self
-                .configure(&arr, Model::FreeFloat, mask, options)
-                .map(|()| Model::FreeFloat)
-                .map_err(|_| e),
-            Err(e) => Err(e),
-        }
+        self.configure_preferring(&arr, preferred, mask, self.cfg.options)
+    }
+
+    /// [`Estimator::configure`] in the `preferred` model, or in model F where the channels of
+    /// `mask` do not carry model G (as [`Estimator::set_mask_in`], with a new arrangement and
+    /// options); returns the model now in force. On error nothing changes.
+    pub fn configure_preferring(
+        &mut self,
+        arr: &Arrangement<CAP>,
+        preferred: Model,
+        mask: ChannelMask,
+        options: Options,
+    ) -> Result<Model, ConfigError> {
+        let model = self
+            .cfg
+            .configure_preferring(arr, preferred, mask, options)?;
+        self.frame = 0;
+        self.reset();
+        Ok(model)
     }
 
     /// As [`Estimator::set_mask_in`], with `spare` as the second buffer: the configuration in
@@ -317,16 +327,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         }
         core::mem::swap(&mut self.cfg, &mut spare.cfg);
         let (arr, options) = (&spare.cfg.arr, spare.cfg.options);
-        let built = match self.cfg.configure(arr, preferred, mask, options) {
-            Ok(()) => Ok(preferred),
-            Err(e) if preferred == Model::General => self
-                .cfg
-                .configure(arr, Model::FreeFloat, mask, options)
-                .map(|()| Model::FreeFloat)
-                .map_err(|_| e),
-            Err(e) => Err(e),
-        };
-        match built {
+        match self.cfg.configure_preferring(arr, preferred, mask, options) {
             Ok(model) => {
                 self.frame = 0;
                 self.reset();

@@ -217,14 +217,7 @@ impl Estimation {
             ..self.options
         };
         let est = &mut self.estimator;
-        match ballisto_fw_precompute::configure(est, arrangement, model, mask, options) {
-            Ok(()) => {}
-            Err(e) if model == Model::General => {
-                ballisto_fw_precompute::configure(est, arrangement, Model::FreeFloat, mask, options)
-                    .map_err(|_| e)?
-            }
-            Err(e) => return Err(e),
-        }
+        ballisto_fw_precompute::configure_preferring(est, arrangement, model, mask, options)?;
         // A commanded change: the `reconfigured` event reports the model in force; a
         // configuration set aside has the old arrangement.
         self.model = model;

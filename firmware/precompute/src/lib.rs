@@ -63,14 +63,15 @@ pub fn set_mask_keeping(
     estimator.set_mask_keeping(mask, preferred, spare)
 }
 
-/// [`Estimator::configure`] (a new arrangement, model, mask and options).
+/// [`Estimator::configure_preferring`] (a new arrangement, model, mask and options; model F in
+/// force where the mask does not carry model G); returns the model in force.
 #[inline(never)]
-pub fn configure(
+pub fn configure_preferring(
     estimator: &mut FwEstimator,
     arrangement: &Arrangement<MAX_CHANNELS>,
     model: Model,
     mask: ChannelMask,
     options: Options,
-) -> Result<(), ConfigError> {
-    estimator.configure(arrangement, model, mask, options)
+) -> Result<Model, ConfigError> {
+    estimator.configure_preferring(arrangement, model, mask, options)
 }
