@@ -8,7 +8,7 @@ use std::path::Path;
 
 use estimator_core::exclusion::MissingRuns;
 use estimator_core::fault_monitor::{
-    FaultMonitor, FieldCheck, Settings, StuckCheck, Suspicion, TrustedRate, Verdict,
+    FaultMonitor, FieldCheck, ResidualCheck, Settings, StuckCheck, Suspicion, TrustedRate, Verdict,
 };
 use estimator_core::parity::{Parity, NO_PART};
 use estimator_core::path_choice::{Links, PathChoice, PathState};
@@ -224,6 +224,8 @@ struct Faults<T: Real> {
     rate: Option<f64>,
     /// Model G's known-field test where there is no parity space, once the rate is known.
     field: Option<FieldCheck<T>>,
+    /// Model F's own residual, windowed, where there is neither (10–12 channels).
+    residual: Option<ResidualCheck<T>>,
 }
 
 impl<T: Real> Faults<T> {
@@ -259,6 +261,7 @@ impl<T: Real> Faults<T> {
             last_omega: None,
             rate: None,
             field: None,
+            residual: None,
         })
     }
 
@@ -297,6 +300,12 @@ impl<T: Real> Faults<T> {
         self.field = match (&parity, est.field_covariance()) {
             (None, Some(cov)) => {
                 FieldCheck::new(&cov, &est.known_gamma(), Settings::default(), rate)
+            }
+            _ => None,
+        };
+        self.residual = match (&parity, &self.field, est.model()) {
+            (None, None, Model::FreeFloat) => {
+                ResidualCheck::new(est.dof(), Settings::default(), rate)
             }
             _ => None,
         };
@@ -404,9 +413,12 @@ impl<T: Real> HostEstimator<T> {
         if let Some(f) = &mut self.faults {
             // With no parity space, model G's known-field test on the forward estimate flags
             // the row (as the firmware does).
-            let field = match &mut f.field {
-                Some(check) if raw.is_finite() => Some(check.step(&raw)),
-                _ => None,
+            // Model G's known-field test, or model F's own residual (as the firmware's).
+            let field = match (&mut f.field, &mut f.residual) {
+                _ if !raw.is_finite() => None,
+                (Some(check), _) => Some(check.step(&raw)),
+                (None, Some(check)) => Some(check.step(&raw)),
+                (None, None) => None,
             };
             let verdict = used.verdict.with_field(field);
             // In model F on the channels left by an exclusion there is no test: a suspicion

@@ -21,8 +21,11 @@ use crate::config::{AppConfig, MAX_CHANNELS};
 #[cfg(feature = "fault-isolation")]
 mod enabled {
     use super::*;
-    use estimator_core::fault_monitor::{FaultMonitor, FieldCheck, Settings, StuckCheck};
+    use estimator_core::fault_monitor::{
+        FaultMonitor, FieldCheck, ResidualCheck, Settings, StuckCheck,
+    };
     use estimator_core::parity::{Parity, NO_PART};
+    use estimator_core::Model;
 
     /// The monitor, each channel's part, model G's known-field test where there is no parity
     /// space, and every part's check from its own signal (stuck, or at its range limit: the
@@ -31,6 +34,8 @@ mod enabled {
         monitor: FaultMonitor<f32, MAX_CHANNELS>,
         part: [u8; MAX_CHANNELS],
         field: Option<FieldCheck<f32>>,
+        /// Model F's own residual, windowed, where there is neither (10–12 channels).
+        residual: Option<ResidualCheck<f32>>,
         stuck: StuckCheck<f32, MAX_CHANNELS>,
         /// The parts stuck at the last set (bit per part).
         stuck_parts: u32,
@@ -58,6 +63,7 @@ mod enabled {
                 monitor: FaultMonitor::new(Settings::default(), rate_hz),
                 part,
                 field: None,
+                residual: None,
                 stuck: StuckCheck::with_limits(&part, &range),
                 stuck_parts: 0,
                 rate_hz,
@@ -81,16 +87,25 @@ mod enabled {
                 ),
                 _ => None,
             };
+            // Model F with 10–12 channels: its own residual (N − 9 degrees of freedom).
+            self.residual = match (&parity, &self.field, estimator.model()) {
+                (None, None, Model::FreeFloat) => {
+                    ResidualCheck::new(estimator.dof(), Settings::default(), self.rate_hz)
+                }
+                _ => None,
+            };
             self.monitor.set_parity(parity);
         }
 
-        /// After the estimate: whether model G's known-field test finds its window
-        /// inconsistent; `None` where it has none (a parity space instead, model F, or an
-        /// estimate it cannot use).
+        /// After the estimate: whether model G's known-field test, or model F's own residual,
+        /// finds its window inconsistent; `None` where there is neither (a parity space
+        /// instead, nine channels in model F, or an estimate it cannot use).
         pub fn field_inconsistent(&mut self, e: &Estimate<f32>) -> Option<bool> {
-            match &mut self.field {
-                Some(f) if e.is_finite() => Some(f.step(e)),
-                _ => None,
+            match (&mut self.field, &mut self.residual) {
+                _ if !e.is_finite() => None,
+                (Some(f), _) => Some(f.step(e)),
+                (None, Some(r)) => Some(r.step(e)),
+                (None, None) => None,
             }
         }
 
@@ -132,9 +147,10 @@ mod enabled {
 
         /// The window's χ² over its limit: the monitor's, or the known-field test's.
         fn level(&self) -> f32 {
-            match &self.field {
-                Some(f) => f.level(),
-                None => self.monitor.level(),
+            match (&self.field, &self.residual) {
+                (Some(f), _) => f.level(),
+                (None, Some(r)) => r.level(),
+                (None, None) => self.monitor.level(),
             }
         }
 
