@@ -30,12 +30,6 @@ pub fn new(
     Estimator::new(arrangement, model, options)
 }
 
-/// [`Estimator::set_mask`] (a new precomputation for the channels in use).
-#[inline(never)]
-pub fn set_mask(estimator: &mut FwEstimator, mask: ChannelMask) -> Result<(), ConfigError> {
-    estimator.set_mask(mask)
-}
-
 /// [`Estimator::set_mask_in`] (the channels in use, in model F where they do not carry the
 /// preferred model G); returns the model in force.
 #[inline(never)]
