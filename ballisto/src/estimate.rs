@@ -8,7 +8,7 @@ use std::path::Path;
 
 use estimator_core::exclusion::MissingRuns;
 use estimator_core::fault_monitor::{
-    FaultMonitor, FieldCheck, ResidualCheck, Settings, StuckCheck, Suspicion, TrustedRate, Verdict,
+    FaultMonitor, NoParityTest, Settings, StuckCheck, Suspicion, TrustedRate, Verdict,
 };
 use estimator_core::parity::{Parity, NO_PART};
 use estimator_core::path_choice::{Links, PathChoice, PathState};
@@ -222,10 +222,9 @@ struct Faults<T: Real> {
     last_omega: Option<[f64; 3]>,
     /// The sample rate, once known (the monitor's windows).
     rate: Option<f64>,
-    /// Model G's known-field test where there is no parity space, once the rate is known.
-    field: Option<FieldCheck<T>>,
-    /// Model F's own residual, windowed, where there is neither (10–12 channels).
-    residual: Option<ResidualCheck<T>>,
+    /// The test where there is no parity space (model G's known field, or model F's own
+    /// residual), once the rate is known.
+    no_parity: NoParityTest<T>,
 }
 
 impl<T: Real> Faults<T> {
@@ -260,8 +259,7 @@ impl<T: Real> Faults<T> {
             suspicion: Suspicion::default(),
             last_omega: None,
             rate: None,
-            field: None,
-            residual: None,
+            no_parity: NoParityTest::None,
         })
     }
 
@@ -287,8 +285,8 @@ impl<T: Real> Faults<T> {
     }
 
     /// The monitor's tests for the channels of the parts not missing, as the firmware's
-    /// `Isolation::rebuild`: the parity space, or else model G's known-field test (if `est`
-    /// is in model G); none before the rate is known.
+    /// `Isolation::rebuild`: the parity space, or else estimator-core's [`NoParityTest`];
+    /// none before the rate is known.
     fn rebuild(&mut self, est: &Estimator<T, HOST_CAP>) {
         let tested = self.mask(self.missing);
         let (Some(m), Some(rate)) = (&mut self.monitor, self.rate) else {
@@ -297,18 +295,8 @@ impl<T: Real> Faults<T> {
         // Model G's parity space whatever the model estimated in (model F's field is one of
         // model G's), as the firmware's.
         let parity = Parity::build(&self.arrangement, tested, &self.part).ok();
-        self.field = match (&parity, est.field_covariance()) {
-            (None, Some(cov)) => {
-                FieldCheck::new(&cov, &est.known_gamma(), Settings::default(), rate)
-            }
-            _ => None,
-        };
-        self.residual = match (&parity, &self.field, est.model()) {
-            (None, None, Model::FreeFloat) => {
-                ResidualCheck::new(est.dof(), Settings::default(), rate)
-            }
-            _ => None,
-        };
+        self.no_parity =
+            NoParityTest::for_estimator(est, parity.is_some(), Settings::default(), rate);
         m.set_parity(parity);
     }
 
@@ -411,15 +399,9 @@ impl<T: Real> HostEstimator<T> {
         let decided = &mut self.decided;
         let raw = self.forward.push(t, p, |e| decided.push_back(e));
         if let Some(f) = &mut self.faults {
-            // With no parity space, model G's known-field test on the forward estimate flags
-            // the row (as the firmware does).
-            // Model G's known-field test, or model F's own residual (as the firmware's).
-            let field = match (&mut f.field, &mut f.residual) {
-                _ if !raw.is_finite() => None,
-                (Some(check), _) => Some(check.step(&raw)),
-                (None, Some(check)) => Some(check.step(&raw)),
-                (None, None) => None,
-            };
+            // With no parity space, model G's known-field test or model F's own residual on
+            // the forward estimate flags the row (as the firmware's).
+            let field = f.no_parity.step(&raw);
             let verdict = used.verdict.with_field(field);
             // In model F on the channels left by an exclusion there is no test: a suspicion
             // stands until a test clears it or an isolated part is taken out (as in the

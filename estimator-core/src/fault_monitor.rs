@@ -445,6 +445,69 @@ impl<T: Real> ResidualCheck<T> {
     }
 }
 
+/// The test where the fault monitor has no parity space (N ≤ 12; issue 17): model G's
+/// known-field test ([`FieldCheck`]), else model F's own residual windowed ([`ResidualCheck`],
+/// 10–12 channels), else none (nine channels in model F: no degree of freedom). Chosen once
+/// per channel set, as the monitor's parity space is rebuilt; the firmware's `Isolation` and
+/// `ballisto estimate` both run it, after each estimate.
+#[derive(Clone, Debug)]
+pub enum NoParityTest<T> {
+    /// A parity space, or no degree of freedom: no test here.
+    None,
+    /// Model G's consistency with the known Γ.
+    Field(FieldCheck<T>),
+    /// Model F's own `χ²` with `N − 9` degrees of freedom, windowed.
+    Residual(ResidualCheck<T>),
+}
+
+impl<T: Real> NoParityTest<T> {
+    /// The test for `estimator`'s configuration where `has_parity` is false (the monitor's
+    /// parity space could not be built over the channels tested), windowed over `settings`
+    /// at `rate_hz`.
+    pub fn for_estimator<const CAP: usize>(
+        estimator: &crate::Estimator<T, CAP>,
+        has_parity: bool,
+        settings: Settings,
+        rate_hz: f64,
+    ) -> Self {
+        if has_parity {
+            return NoParityTest::None;
+        }
+        if let Some(cov) = estimator.field_covariance() {
+            if let Some(f) = FieldCheck::new(&cov, &estimator.known_gamma(), settings, rate_hz) {
+                return NoParityTest::Field(f);
+            }
+        }
+        match estimator.model() {
+            crate::Model::FreeFloat => ResidualCheck::new(estimator.dof(), settings, rate_hz)
+                .map_or(NoParityTest::None, NoParityTest::Residual),
+            crate::Model::General => NoParityTest::None,
+        }
+    }
+
+    /// After an estimate: whether the window is inconsistent; `None` where there is no test
+    /// (a parity space instead, no degree of freedom, or an estimate it cannot use).
+    pub fn step(&mut self, e: &Estimate<T>) -> Option<bool> {
+        if !e.is_finite() {
+            return None;
+        }
+        match self {
+            NoParityTest::None => None,
+            NoParityTest::Field(f) => Some(f.step(e)),
+            NoParityTest::Residual(r) => Some(r.step(e)),
+        }
+    }
+
+    /// The window's `χ²` over its limit; `None` without a test.
+    pub fn level(&self) -> Option<T> {
+        match self {
+            NoParityTest::None => None,
+            NoParityTest::Field(f) => Some(f.level()),
+            NoParityTest::Residual(r) => Some(r.level()),
+        }
+    }
+}
+
 /// `r = S − ({Ω}²)` and `∂{Ω}²/∂Ω` (components `[xx, yy, zz, xy, xz, yz]`).
 fn residual_and_jacobian<T: Real>(s: &[T; 6], w: &[T; 3]) -> ([T; 6], [[T; 3]; 6]) {
     let [x, y, z] = *w;
@@ -920,6 +983,43 @@ mod tests {
             }
         }
         assert!(seen.is_some_and(|k| k < 100), "seen after {seen:?} sets");
+    }
+
+    /// Where the monitor has no parity space, the test is chosen by the model and the channels:
+    /// model G's known field on twelve channels, model F's own residual on twelve, nothing on
+    /// nine in model F (no degree of freedom) or where a parity space exists; an estimate it
+    /// cannot use is not a test.
+    #[test]
+    fn the_test_without_a_parity_space_follows_the_model_and_the_channels() {
+        let (full, _) = layout();
+        let take = |n: usize| {
+            let mut arr = Arrangement::<24>::new();
+            for ch in full.channels().iter().take(n) {
+                arr.push(ch.position, ch.axis, ch.noise).unwrap();
+            }
+            arr
+        };
+        let est = |n: usize, model| {
+            crate::Estimator::<f32, 24>::new(&take(n), model, Default::default()).unwrap()
+        };
+        let s = Settings::default();
+        let test = |e: &crate::Estimator<f32, 24>, parity| {
+            NoParityTest::for_estimator(e, parity, s, 100.0)
+        };
+        let g12 = est(12, crate::Model::General);
+        let mut f12 = est(12, crate::Model::FreeFloat);
+        let f9 = est(9, crate::Model::FreeFloat);
+        assert!(matches!(test(&g12, false), NoParityTest::Field(_)));
+        assert!(matches!(test(&f12, false), NoParityTest::Residual(_)));
+        assert!(matches!(test(&f9, false), NoParityTest::None));
+        assert!(matches!(test(&g12, true), NoParityTest::None));
+        assert!(matches!(test(&f12, true), NoParityTest::None));
+        let mut t = test(&f12, false);
+        assert_eq!(t.level(), Some(0.0));
+        let mut e = *f12.update(0.0, &[0.0; 12]);
+        e.omega[0] = f32::NAN;
+        assert_eq!(t.step(&e), None);
+        assert_eq!(test(&f9, false).level(), None);
     }
 
     #[test]

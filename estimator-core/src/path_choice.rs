@@ -58,6 +58,11 @@ impl PathState {
         self.cost
     }
 
+    /// The same state at another cost (probes).
+    pub fn with_cost(s: &Self, cost: f64) -> Self {
+        PathState { cost, ..*s }
+    }
+
     /// A state at an estimate (its Ω and Ω′ with their variances), at cost 0.
     pub fn at<T: Real>(e: &Estimate<T>) -> Self {
         PathState {

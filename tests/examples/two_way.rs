@@ -17,11 +17,14 @@
 //! jerk density per sample rate, `DTH` as for "split" (default 0); "beam all": the same over
 //! every signed candidate of every sample, `SJ` its jerk density (default: a grid, the cheapest
 //! path's), `PASSSIGN=1` only the signs the passes hold, `HYBRID=1` every candidate only where
-//! the passes offer `path_choice` a choice and the margin rule's pass elsewhere, `HINTSD` the
+//! the passes offer `path_choice` a choice and the margin rule's pass elsewhere, `LEVELS=a,b,..`
+//! a multiple-model beam (each hypothesis at one of these multiples of the jerk density,
+//! `SWITCH` the cost of changing level), `HINTSD` the
 //! start hint's deviation (default 0.01 rad/s), `BWIN=SAMPLES`
 //! its Ω RMS per window). `WIN=SAMPLES` prints the Ω
 //! RMS of each per window, `RANGE=T0,T1` the rows where the plain passes differ, `DUMP=1` the
-//! silently wrong rows of the two-way output, `TRUTHSTART=1` starts the backward pass at the
+//! silently wrong rows of the two-way output, `DUMPC=T0,T1` every candidate's Ω error per row
+//! ("oracle all" is the candidate nearest the truth per row), `TRUTHSTART=1` starts the backward pass at the
 //! truth.
 
 // A probe indexes parallel per-row tables by row number.
@@ -633,9 +636,88 @@ fn main() {
             );
         }
     }
+    // The oracle over every signed candidate (per row the one nearest the truth), and where
+    // the excess over the ML lies: fallback rows (no real root) against rows with roots.
+    let oracle_all: Vec<Estimate<f64>> = (0..n)
+        .map(|k| {
+            let mut best = fwd[k];
+            let mut bd = f64::INFINITY;
+            for (e, _) in &all[k] {
+                for sg in [1.0, -1.0] {
+                    let mut z = *e;
+                    z.omega = e.omega.map(|v| sg * v);
+                    let d = dist(&z.omega, &case.truth[k].omega);
+                    if d < bd {
+                        bd = d;
+                        best = z;
+                    }
+                }
+            }
+            best
+        })
+        .collect();
+    {
+        let (mut fb, mut nf, mut mfb, mut mnf, mut nfb) = (0.0, 0.0, 0.0, 0.0, 0usize);
+        for k in 0..n {
+            let e = dist(&oracle_all[k].sigma0, &case.truth[k].sigma0).powi(2);
+            let is_fb = all[k]
+                .iter()
+                .any(|(c, _)| c.flags.has(estimator_core::Flags::FALLBACK));
+            if is_fb {
+                fb += e;
+                mfb += ml[k][0];
+                nfb += 1;
+            } else {
+                nf += e;
+                mnf += ml[k][0];
+            }
+        }
+        println!(
+            "oracle all, σ0 sum sq: fallback rows ({nfb}) {fb:.4e} vs ML {mfb:.4e}; root rows {nf:.4e} vs ML {mnf:.4e}"
+        );
+    }
+    if let Some((t0, t1)) = std::env::var("DUMPC").ok().and_then(|v| {
+        let (a, b) = v.split_once(',')?;
+        Some((a.parse::<f64>().ok()?, b.parse::<f64>().ok()?))
+    }) {
+        for k in 0..n {
+            let t = case.truth[k].t;
+            if t < t0 || t > t1 {
+                continue;
+            }
+            let mut line = format!(
+                "{t:.3} |W| {:.3} chosen {:.4} ML {:.4}:",
+                case.truth[k]
+                    .omega
+                    .iter()
+                    .map(|v| v * v)
+                    .sum::<f64>()
+                    .sqrt(),
+                dist(&beam_all_pick[k].omega, &case.truth[k].omega),
+                ml[k][2].sqrt()
+            );
+            for (e, wd) in &all[k] {
+                let ep = dist(&e.omega, &case.truth[k].omega);
+                let en = dist(&e.omega.map(|v| -v), &case.truth[k].omega);
+                line += &format!(
+                    " [{:.4}{} sd {:.4} w {:.4}]",
+                    ep.min(en),
+                    if e.flags.has(estimator_core::Flags::FALLBACK) {
+                        " fb"
+                    } else {
+                        ""
+                    },
+                    e.sd_omega[0],
+                    wd.iter().sum::<f64>().sqrt()
+                );
+            }
+            println!("{line}");
+        }
+    }
     for (name, rows) in [
         ("beam", &beam_pick),
         ("beam all", &beam_all_pick),
+        ("oracle all", &oracle_all),
         ("bridge", &bridge_pick),
         ("split", &split_pick),
         ("by centre", &by_centre),
@@ -717,12 +799,23 @@ fn beam_all(
     let widen = std::env::var_os("NOWIDEN").is_none();
     let signs_from_passes = std::env::var_os("PASSSIGN").is_some();
     let hybrid = std::env::var_os("HYBRID").is_some();
-    // (state, predecessor, candidate and sign)
-    type H = (PathState, usize, (usize, f64));
+    // Jerk levels (multiples of `sj`) and the cost of a switch between them (probe: a
+    // multiple-model beam).
+    let levels: Vec<f64> = std::env::var("LEVELS")
+        .ok()
+        .map(|v| v.split(',').filter_map(|x| x.parse().ok()).collect())
+        .unwrap_or_else(|| vec![1.0]);
+    let switch: f64 = std::env::var("SWITCH")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(10.0);
+    // (state, predecessor, candidate and sign, level)
+    type H = (PathState, usize, (usize, f64), usize);
     let n = cands.len();
     let mut total = f64::NAN;
     let mut back: Vec<Vec<(usize, (usize, f64))>> = Vec::with_capacity(n);
     let mut hs: Vec<H> = Vec::new();
+    let mut level_rows = vec![0usize; levels.len()];
     for (k, cs) in cands.iter().enumerate() {
         let dt = if k == 0 { 0.0 } else { t[k] - t[k - 1] };
         // The signed candidates of this row as estimates (sd widened).
@@ -752,31 +845,39 @@ fn beam_all(
         let mut next: Vec<H> = Vec::new();
         if hs.is_empty() {
             for &(pick, z) in &signed {
-                let mut s = PathState::at(&z);
-                // The hint (the record's initial rate) as one more measurement of Ω at the
-                // start, to `HINTSD` rad/s.
-                let hinted = Estimate {
-                    omega: hint,
-                    sd_omega: [std::env::var("HINTSD")
-                        .ok()
-                        .and_then(|v| v.parse().ok())
-                        .unwrap_or(1e-2); 3],
-                    sd_domega: [1e3; 3],
-                    ..z
-                };
-                s = s.step(0.0, 0.0, &hinted);
-                next.push((s, 0, pick));
+                for l in 0..levels.len() {
+                    let mut s = PathState::at(&z);
+                    // The hint (the record's initial rate) as one more measurement of Ω at the
+                    // start, to `HINTSD` rad/s.
+                    let hinted = Estimate {
+                        omega: hint,
+                        sd_omega: [std::env::var("HINTSD")
+                            .ok()
+                            .and_then(|v| v.parse().ok())
+                            .unwrap_or(1e-2); 3],
+                        sd_domega: [1e3; 3],
+                        ..z
+                    };
+                    s = s.step(0.0, 0.0, &hinted);
+                    next.push((s, 0, pick, l));
+                }
             }
         }
         for (hi, h) in hs.iter().enumerate() {
             for &(pick, z) in &signed {
-                next.push((h.0.step(dt, sj, &z), hi, pick));
+                for (l, lv) in levels.iter().enumerate() {
+                    let mut s = h.0.step(dt, sj * lv, &z);
+                    if l != h.3 {
+                        s = PathState::with_cost(&s, s.cost() + switch);
+                    }
+                    next.push((s, hi, pick, l));
+                }
             }
         }
         next.sort_by(|a, b| a.0.cost().total_cmp(&b.0.cost()));
         let mut kept: Vec<H> = Vec::new();
         for h in next {
-            if kept.iter().filter(|k| k.2 == h.2).count() < per_out {
+            if kept.iter().filter(|k| k.2 == h.2 && k.3 == h.3).count() < per_out {
                 kept.push(h);
             }
             if kept.len() >= width {
@@ -788,8 +889,12 @@ fn beam_all(
             continue;
         }
         total = kept[0].0.cost();
+        level_rows[kept[0].3] += 1;
         back.push(kept.iter().map(|h| (h.1, h.2)).collect());
         hs = kept;
+    }
+    if levels.len() > 1 {
+        println!("rows whose best hypothesis is at each level: {level_rows:?}");
     }
     let mut out = vec![(0, 1.0); n];
     let mut j = 0;

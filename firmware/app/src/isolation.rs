@@ -21,21 +21,16 @@ use crate::config::{AppConfig, MAX_CHANNELS};
 #[cfg(feature = "fault-isolation")]
 mod enabled {
     use super::*;
-    use estimator_core::fault_monitor::{
-        FaultMonitor, FieldCheck, ResidualCheck, Settings, StuckCheck,
-    };
+    use estimator_core::fault_monitor::{FaultMonitor, NoParityTest, Settings, StuckCheck};
     use estimator_core::parity::{Parity, NO_PART};
-    use estimator_core::Model;
 
-    /// The monitor, each channel's part, model G's known-field test where there is no parity
-    /// space, and every part's check from its own signal (stuck, or at its range limit: the
-    /// full scale of its configured range).
+    /// The monitor, each channel's part, the test where there is no parity space (model G's
+    /// known field, or model F's own residual), and every part's check from its own signal
+    /// (stuck, or at its range limit: the full scale of its configured range).
     pub struct Isolation {
         monitor: FaultMonitor<f32, MAX_CHANNELS>,
         part: [u8; MAX_CHANNELS],
-        field: Option<FieldCheck<f32>>,
-        /// Model F's own residual, windowed, where there is neither (10–12 channels).
-        residual: Option<ResidualCheck<f32>>,
+        no_parity: NoParityTest<f32>,
         stuck: StuckCheck<f32, MAX_CHANNELS>,
         /// The parts stuck at the last set (bit per part).
         stuck_parts: u32,
@@ -62,8 +57,7 @@ mod enabled {
             Isolation {
                 monitor: FaultMonitor::new(Settings::default(), rate_hz),
                 part,
-                field: None,
-                residual: None,
+                no_parity: NoParityTest::None,
                 stuck: StuckCheck::with_limits(&part, &range),
                 stuck_parts: 0,
                 rate_hz,
@@ -75,25 +69,15 @@ mod enabled {
         /// The parity space of the channels of `tested` (model G's linear design whatever the
         /// model estimated in: model F's field is one of model G's, so its readings are
         /// consistent with the same space; none with too few channels, N ≤ 12); without one,
-        /// model G's known-field test on the estimator's channels.
+        /// estimator-core's [`NoParityTest`] for the estimator's configuration.
         pub fn rebuild(&mut self, estimator: &Estimator<f32, MAX_CHANNELS>, tested: ChannelMask) {
             let parity = Parity::build(estimator.arrangement(), tested, &self.part).ok();
-            self.field = match (&parity, estimator.field_covariance()) {
-                (None, Some(cov)) => FieldCheck::new(
-                    &cov,
-                    &estimator.known_gamma(),
-                    Settings::default(),
-                    self.rate_hz,
-                ),
-                _ => None,
-            };
-            // Model F with 10–12 channels: its own residual (N − 9 degrees of freedom).
-            self.residual = match (&parity, &self.field, estimator.model()) {
-                (None, None, Model::FreeFloat) => {
-                    ResidualCheck::new(estimator.dof(), Settings::default(), self.rate_hz)
-                }
-                _ => None,
-            };
+            self.no_parity = NoParityTest::for_estimator(
+                estimator,
+                parity.is_some(),
+                Settings::default(),
+                self.rate_hz,
+            );
             self.monitor.set_parity(parity);
         }
 
@@ -101,12 +85,7 @@ mod enabled {
         /// finds its window inconsistent; `None` where there is neither (a parity space
         /// instead, nine channels in model F, or an estimate it cannot use).
         pub fn field_inconsistent(&mut self, e: &Estimate<f32>) -> Option<bool> {
-            match (&mut self.field, &mut self.residual) {
-                _ if !e.is_finite() => None,
-                (Some(f), _) => Some(f.step(e)),
-                (None, Some(r)) => Some(r.step(e)),
-                (None, None) => None,
-            }
+            self.no_parity.step(e)
         }
 
         /// One set's readings (NaN where a part had no value).
@@ -145,13 +124,12 @@ mod enabled {
             [suspicion, named]
         }
 
-        /// The window's χ² over its limit: the monitor's, or the known-field test's.
+        /// The window's χ² over its limit: the monitor's, or the test's where it has no parity
+        /// space.
         fn level(&self) -> f32 {
-            match (&self.field, &self.residual) {
-                (Some(f), _) => f.level(),
-                (None, Some(r)) => r.level(),
-                (None, None) => self.monitor.level(),
-            }
+            self.no_parity
+                .level()
+                .unwrap_or_else(|| self.monitor.level())
         }
 
         /// Whether the monitor is built in.
