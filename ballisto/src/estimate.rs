@@ -6,12 +6,13 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
 
+use estimator_core::ambiguous_roots::{RootOption, Roots};
 use estimator_core::exclusion::MissingRuns;
 use estimator_core::fault_monitor::{
     FaultMonitor, NoParityTest, Settings, StuckCheck, Suspicion, TrustedRate, Verdict,
 };
 use estimator_core::parity::{Parity, NO_PART};
-use estimator_core::path_choice::{Links, PathChoice, PathState};
+use estimator_core::path_choice::{Links, PathChoice, PathState, MAX_OPTIONS};
 use estimator_core::smoother::Smoother;
 use estimator_core::two_way;
 use estimator_core::{ChannelMask, Estimate, Estimator, Flags, Model, Options, Real};
@@ -112,14 +113,25 @@ impl<T: Real> Pass<T> {
         })
     }
 
-    /// One sample; returns the estimator's own (unsmoothed) estimate of it.
-    fn push(&mut self, t: f64, p: &[T], mut emit: impl FnMut(Estimate<T>)) -> Estimate<T> {
+    /// One sample; returns the estimator's own (unsmoothed) estimate of it, and its roots
+    /// where it has more than one (the path's options where the two-way decision is
+    /// ambiguous: [`estimator_core::ambiguous_roots`]).
+    fn push(
+        &mut self,
+        t: f64,
+        p: &[T],
+        mut emit: impl FnMut(Estimate<T>),
+    ) -> (Estimate<T>, Option<Box<Roots<T>>>) {
         if let Some((_, e)) = self.smoother.make_room() {
             emit(e);
         }
         let e = *self.est.update_with(t, p, Some(self.smoother.slot()));
+        let record = self.smoother.slot();
+        // Copied only where there is a choice (model G, and model F away from crossings, has
+        // one root).
+        let roots = (record.valid && record.n_candidates > 1).then(|| Box::new(Roots::of(record)));
         self.smoother.commit();
-        e
+        (e, roots)
     }
 
     /// Takes `mask` in the `preferred` model, or in model F where the channels do not carry
@@ -167,11 +179,14 @@ pub struct HostEstimator<T: Real> {
     scratch: Vec<Estimate<T>>,
     /// The path's state after the last emitted sample ([`estimator_core::path_choice`]).
     path: Option<(f64, PathState)>,
-    /// Per sample of a block: whether it offers the path a choice, the path's links and its
-    /// decisions (reused).
-    offers: Vec<bool>,
+    /// Per held sample: its roots as the forward pass solved them, where there is more than
+    /// one (model F, m = 3, near a crossing).
+    roots: std::collections::VecDeque<Option<Box<Roots<T>>>>,
+    /// Per sample of a block: the roots it offers the path (0: the two-way decision is not
+    /// ambiguous, or there is one root), the path's links and its picks (reused).
+    offered: Vec<u8>,
     links: Vec<Links>,
-    takes: Vec<bool>,
+    picks: Vec<u8>,
     /// Fault isolation from the measurements (issue 17), run with the forward pass as the
     /// firmware runs it; `None` when off.
     faults: Option<Faults<T>>,
@@ -354,9 +369,10 @@ impl<T: Real> HostEstimator<T> {
             decided: Default::default(),
             scratch: Vec::new(),
             path: None,
-            offers: Vec::new(),
+            roots: Default::default(),
+            offered: Vec::new(),
             links: Vec::new(),
-            takes: Vec::new(),
+            picks: Vec::new(),
             faults: None,
             masks: Default::default(),
         };
@@ -397,7 +413,8 @@ impl<T: Real> HostEstimator<T> {
         let used = self.isolate(t, p);
         self.masks.push_back(used);
         let decided = &mut self.decided;
-        let raw = self.forward.push(t, p, |e| decided.push_back(e));
+        let (raw, roots) = self.forward.push(t, p, |e| decided.push_back(e));
+        self.roots.push_back(roots);
         if let Some(f) = &mut self.faults {
             // With no parity space, model G's known-field test or model F's own residual on
             // the forward estimate flags the row (as the firmware's).
@@ -539,7 +556,7 @@ impl<T: Real> HostEstimator<T> {
             if mask != self.backward.est.mask() || model != self.backward.est.model() {
                 let _ = self.backward.set_mask(mask, model, last);
             }
-            let e = self
+            let (e, _) = self
                 .backward
                 .push(t_end - self.times[k], p, |e| scratch.push(e));
             if e.is_finite() && !e.flags.has(Flags::INPUT_INVALID) {
@@ -551,7 +568,15 @@ impl<T: Real> HostEstimator<T> {
         let mut taken = Vec::with_capacity(if rate.is_some() { block } else { 0 });
         for (k, (t, fwd)) in self.times.iter().zip(&self.decided).take(block).enumerate() {
             let bwd = two_way::reversed(&self.scratch[n - 1 - k]);
-            let mut out = two_way::combine_taking(fwd, &bwd, Some(self.takes[k]));
+            let mut out = two_way::combine(fwd, &bwd);
+            if let (Some(roots), true) = (&self.roots[k], self.offered[k] > 0) {
+                // The two-way decision is ambiguous here: the root the path took.
+                let mut options = [RootOption::default(); MAX_OPTIONS];
+                let m = roots.options(fwd, &bwd, &mut options);
+                if let Some(o) = options[..m].get(usize::from(self.picks[k])) {
+                    out = roots.take(o, &out, fwd, &bwd, &self.forward.est.frame_uncertainty());
+                }
+            }
             let used = self.masks[k];
             if used.residual_high {
                 out.flags.0 |= Flags::RESIDUAL_HIGH;
@@ -569,21 +594,39 @@ impl<T: Real> HostEstimator<T> {
         self.readings.drain(..block * self.channels);
         self.decided.drain(..block);
         self.masks.drain(..block);
+        self.roots.drain(..block);
     }
 
-    /// Decides which pass each of the `n` held samples takes ([`estimator_core::path_choice`],
-    /// over the block and its run-in) into `takes`; the sample rate it assumed, or `None` if no
-    /// sample offered a choice (model G, or no crossing in the block: every sample then takes
-    /// [`two_way::combine`]'s pass).
+    /// Decides the path through the `n` held samples ([`estimator_core::path_choice`], over
+    /// the block and its run-in): where the margins do not decide (the two-way decision is
+    /// ambiguous, or the passes hold different roots within their margins:
+    /// [`two_way::offers_choice`]) and the sample has more than one root, the path chooses among the roots ([`Roots::options`]: `offered`,
+    /// `picks`); elsewhere it takes the decision's estimate. Returns the sample rate it
+    /// assumed, or `None` if no sample offered a choice (model G, or no crossing in the block:
+    /// every sample then takes [`two_way::combine`]'s estimate).
     fn choose_path(&mut self, n: usize) -> Option<f64> {
         let times = self.times.make_contiguous();
         let backward = |k: usize| two_way::reversed(&self.scratch[n - 1 - k]);
-        self.takes.clear();
-        self.takes.resize(n, false);
-        self.offers.clear();
-        self.offers
-            .extend((0..n).map(|k| two_way::offers_choice(&self.decided[k], &backward(k))));
-        if !self.offers.contains(&true) {
+        let mut options = [RootOption::default(); MAX_OPTIONS];
+        self.picks.clear();
+        self.picks.resize(n, 0);
+        self.offered.clear();
+        for (k, fwd) in self.decided.iter().take(n).enumerate() {
+            let bwd = backward(k);
+            // Where the margins do not decide: the decision flagged ambiguous, or the passes on
+            // different roots within their margins (agreeing in Ω, so not flagged: near a
+            // crossing, where either root is within the noise of the other).
+            let open = two_way::combine(fwd, &bwd)
+                .flags
+                .has(Flags::BRANCH_AMBIGUOUS)
+                || two_way::offers_choice(fwd, &bwd);
+            let m = match &self.roots[k] {
+                Some(roots) if open => roots.options(fwd, &bwd, &mut options),
+                _ => 0,
+            };
+            self.offered.push(m as u8);
+        }
+        if self.offered.iter().all(|m| *m == 0) {
             return None;
         }
         let span = times[n - 1] - times[0];
@@ -596,17 +639,23 @@ impl<T: Real> HostEstimator<T> {
         self.links.clear();
         self.links.resize(n, Links::default());
         let mut last = self.path.map(|(t, _)| t);
+        let mut measurements = [Estimate::<T>::default(); MAX_OPTIONS];
         for (k, (t, fwd)) in times.iter().zip(&self.decided).take(n).enumerate() {
             let bwd = backward(k);
             let dt = last.map_or(0.0, |l| t - l);
-            if self.offers[k] {
-                beam.step(dt, fwd, Some(&bwd), &mut self.links[k]);
-            } else {
-                beam.step(dt, &two_way::combine(fwd, &bwd), None, &mut self.links[k]);
+            match (&self.roots[k], self.offered[k]) {
+                (Some(roots), m) if m > 0 => {
+                    let m = roots.options(fwd, &bwd, &mut options);
+                    for (slot, o) in measurements.iter_mut().zip(&options[..m]) {
+                        *slot = o.measurement;
+                    }
+                    beam.step(dt, &measurements[..m], &mut self.links[k]);
+                }
+                _ => beam.step(dt, &[two_way::combine(fwd, &bwd)], &mut self.links[k]),
             }
             last = Some(*t);
         }
-        PathChoice::decide(&self.links, &mut self.takes);
+        PathChoice::decide(&self.links, &mut self.picks);
         Some(rate)
     }
 }

@@ -12,12 +12,13 @@
 //! **How.** Along the true path `dΩ/dt = Ω′` with Ω′ varying smoothly; a path that jumps to the
 //! other root at a crossing does not continue the slope it came in with. A beam of
 //! [`PATH_WIDTH`] hypotheses, each a Kalman filter of the state (Ω, Ω′) — constant Ω′ driven by
-//! white jerk, the same isotropic 2×2 covariance for the three axes — takes at every sample
-//! either pass's Ω (variance: the mean of its `sd_omega²`) and then its Ω′ (the mean of its
-//! `sd_domega²`) as measurements; a hypothesis' cost is the negative log-likelihood of its
-//! innovations, `|ν|²/S + 3 ln S` for each. The cheapest hypotheses survive, at most half of
-//! them per pass taken at the sample; at the end of the block the cheapest one's history gives
-//! each sample's pass (a Viterbi decision over the whole block, not a per-sample one).
+//! white jerk, the same isotropic 2×2 covariance for the three axes — takes at every sample one
+//! of the estimates the sample offers: its Ω (variance: the mean of its `sd_omega²`) and then
+//! its Ω′ (the mean of its `sd_domega²`) as measurements; a hypothesis' cost is the negative
+//! log-likelihood of its innovations, `|ν|²/S + 3 ln S` for each. The cheapest hypotheses
+//! survive, at most [`PER_OPTION`] per option of the sample; at the end of the block the
+//! cheapest one's history gives each sample's option (a Viterbi decision over the whole block,
+//! not a per-sample one).
 //!
 //! **The jerk density** is `JERK_PER_SAMPLE × rate` (Ω′ may wander by √0.3 rad/s² per
 //! sample): measured on the nine-channel family (`tests/examples/two_way.rs`, raw Ω against the
@@ -25,17 +26,25 @@
 //! rad²/s⁵: 16× at 100 Hz; 10: 1.7× at 4 kHz, 1 kHz manoeuvre); per sample, 0.1–0.3 × rate
 //! held every case tried from 50 Hz to 4 kHz, while 1 × rate took the 1 kHz tumble to 1.38×.
 //!
-//! The caller offers a choice only where the passes hold different roots and their margins do
-//! not decide ([`crate::two_way::offers_choice`]); elsewhere the beam follows the pass the
-//! margins take.
+//! `ballisto estimate` offers every root of the sample, with the signs the passes hold, where
+//! the two-way decision flags it branch ambiguous (the passes' margins do not decide), and the
+//! two-way estimate elsewhere (issue 15, stop 35): the flags and margins stay the two-way
+//! decision's, and only the estimate taken in ambiguous samples changes. Offered only the two
+//! passes' estimates there (stop 30), the path could not take a root that neither pass held.
 //! Allocation-free: the caller keeps one [`Links`] per sample of the block.
 
 use crate::estimate::Estimate;
 use crate::real::Real;
 
-/// Hypotheses kept by the beam (half of them at most per pass taken at the sample). Measured:
-/// 32 decides the same as 8 on the nine-channel family.
-pub const PATH_WIDTH: usize = 8;
+/// Hypotheses kept by the beam. Measured on the nine-channel family
+/// (`tests/examples/two_way.rs`): 16, at most [`PER_OPTION`] per option of a sample.
+pub const PATH_WIDTH: usize = 16;
+
+/// Hypotheses kept per option of a sample (the beam stays spread over the roots).
+pub const PER_OPTION: usize = 2;
+
+/// Options of one sample at most: every root of the quadratic forms with either sign.
+pub const MAX_OPTIONS: usize = 2 * crate::tracker::MAX_CANDIDATES;
 
 /// Variance (rad²/s⁴) by which Ω′ may wander per sample (the white jerk density is this times
 /// the sample rate; see the module's documentation).
@@ -140,11 +149,11 @@ fn mean_square<T: Real>(sd: &[T; 3]) -> f64 {
 }
 
 /// One sample's links of the beam: per kept hypothesis, its predecessor at the previous sample
-/// and whether it took the backward pass there.
+/// and the option it took there.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Links {
     from: [u8; PATH_WIDTH],
-    backward: [bool; PATH_WIDTH],
+    option: [u8; PATH_WIDTH],
     n: u8,
 }
 
@@ -177,50 +186,45 @@ impl PathChoice {
         PathChoice { states, n, jerk }
     }
 
-    /// One sample: `dt` since the previous one, the forward pass's estimate and the backward
-    /// pass's (`None` where it is not a choice: the passes agree, or one of them cannot be
-    /// used). Writes the sample's links.
-    pub fn step<T: Real>(
-        &mut self,
-        dt: f64,
-        forward: &Estimate<T>,
-        backward: Option<&Estimate<T>>,
-        links: &mut Links,
-    ) {
-        let mut next = [(PathState::default(), 0u8, false); 2 * PATH_WIDTH];
+    /// One sample: `dt` since the previous one and the estimates it offers (the passes'
+    /// outputs, or the sample's roots: at most [`MAX_OPTIONS`], the rest ignored; none: the
+    /// sample is skipped, its links empty). Writes the sample's links.
+    pub fn step<T: Real>(&mut self, dt: f64, options: &[Estimate<T>], links: &mut Links) {
+        let options = &options[..options.len().min(MAX_OPTIONS)];
+        if options.is_empty() {
+            *links = Links::default();
+            return;
+        }
+        let mut next = [(PathState::default(), 0u8, 0u8); PATH_WIDTH * MAX_OPTIONS];
         let mut m = 0;
         if self.n == 0 {
-            next[m] = (PathState::at(forward), 0, false);
-            m += 1;
-            if let Some(b) = backward {
-                next[m] = (PathState::at(b), 0, true);
+            for (o, e) in options.iter().enumerate() {
+                next[m] = (PathState::at(e), 0, o as u8);
                 m += 1;
             }
         }
         for (i, s) in self.states[..self.n].iter().enumerate() {
-            next[m] = (s.step(dt, self.jerk, forward), i as u8, false);
-            m += 1;
-            if let Some(b) = backward {
-                next[m] = (s.step(dt, self.jerk, b), i as u8, true);
+            for (o, e) in options.iter().enumerate() {
+                next[m] = (s.step(dt, self.jerk, e), i as u8, o as u8);
                 m += 1;
             }
         }
         let next = &mut next[..m];
         next.sort_unstable_by(|a, b| a.0.cost.total_cmp(&b.0.cost));
-        let mut per_pass = [0usize; 2];
+        let mut per_option = [0usize; MAX_OPTIONS];
         let mut kept = 0;
-        for &(s, from, back) in next.iter() {
+        for &(s, from, option) in next.iter() {
             if kept == PATH_WIDTH {
                 break;
             }
-            let p = usize::from(back);
-            if backward.is_some() && per_pass[p] == PATH_WIDTH / 2 {
+            let o = usize::from(option);
+            if per_option[o] == PER_OPTION {
                 continue;
             }
-            per_pass[p] += 1;
+            per_option[o] += 1;
             self.states[kept] = s;
             links.from[kept] = from;
-            links.backward[kept] = back;
+            links.option[kept] = option;
             kept += 1;
         }
         self.n = kept;
@@ -236,13 +240,17 @@ impl PathChoice {
         }
     }
 
-    /// The cheapest hypothesis' history: `backward[k]` true where sample `k` of the block
-    /// (whose links are `links`, oldest first) takes the backward pass.
-    pub fn decide(links: &[Links], backward: &mut [bool]) {
+    /// The cheapest hypothesis' history: `picks[k]` the option sample `k` of the block (whose
+    /// links are `links`, oldest first) takes (0 for a sample skipped).
+    pub fn decide(links: &[Links], picks: &mut [u8]) {
         let mut j = 0usize;
-        for (l, b) in links.iter().zip(backward.iter_mut()).rev() {
-            let j_here = j.min(usize::from(l.n).saturating_sub(1));
-            *b = l.backward[j_here];
+        for (l, p) in links.iter().zip(picks.iter_mut()).rev() {
+            if l.n == 0 {
+                *p = 0;
+                continue;
+            }
+            let j_here = j.min(usize::from(l.n) - 1);
+            *p = l.option[j_here];
             j = usize::from(l.from[j_here]);
         }
     }
@@ -333,15 +341,14 @@ mod tests {
             truth_is_backward[k] = t >= tc;
             beam.step(
                 if k == 0 { 0.0 } else { 1.0 / rate },
-                &f,
-                Some(&b),
+                &[f, b],
                 &mut links[k],
             );
         }
-        let mut takes = vec![false; n];
-        PathChoice::decide(&links, &mut takes);
+        let mut picks = vec![0u8; n];
+        PathChoice::decide(&links, &mut picks);
         let wrong: Vec<usize> = (0..n)
-            .filter(|&k| takes[k] != truth_is_backward[k])
+            .filter(|&k| (picks[k] == 1) != truth_is_backward[k])
             .collect();
         // Within 5 ms of the crossing the two roots are within 0.02 rad/s: either will do.
         assert!(
@@ -350,20 +357,73 @@ mod tests {
         );
     }
 
-    /// Without a choice every sample takes the forward pass, and degenerate deviations (zero)
-    /// give finite costs: the decision is still made.
+    /// Without a choice every sample takes its one option, and degenerate deviations (zero)
+    /// give finite costs: the decision is still made; a sample without an option is skipped
+    /// and the path goes on through it.
     #[test]
-    fn without_a_choice_the_forward_pass_is_taken() {
+    fn without_a_choice_the_one_option_is_taken() {
         let mut beam = PathChoice::new(100.0, None);
         let mut links = vec![Links::default(); 50];
         for (k, l) in links.iter_mut().enumerate() {
             let e = est([1.0, 0.0, k as f64 * 0.01], [0.0, 0.0, 1.0], 0.0, 0.0);
-            beam.step(0.01, &e, None, l);
+            if k == 20 {
+                beam.step::<f64>(0.01, &[], l);
+            } else {
+                beam.step(0.01, &[e], l);
+            }
         }
         assert!(beam.states[..beam.n].iter().all(|s| s.cost.is_finite()));
-        let mut takes = vec![true; 50];
-        PathChoice::decide(&links, &mut takes);
-        assert!(takes.iter().all(|t| !t));
+        let mut picks = vec![7u8; 50];
+        PathChoice::decide(&links, &mut picks);
+        assert!(picks.iter().all(|p| *p == 0));
+    }
+
+    /// Among four roots at a sample, the path takes the one that continues the motion it came
+    /// in with (100 samples where the truth was the only option), not a mirror that leaves it,
+    /// a far root that is consistent with itself, or the opposite sign.
+    #[test]
+    fn among_every_root_the_path_takes_the_one_that_continues_the_motion() {
+        let (rate, n) = (1000.0, 600usize);
+        let (sd, sd_d) = (0.01, 0.9);
+        let mut beam = PathChoice::new(rate, None);
+        let mut links = vec![Links::default(); n];
+        for (k, l) in links.iter_mut().enumerate() {
+            let t = k as f64 / rate;
+            // The truth: Ω = (1 + t, 0.5, 0), Ω′ = (1, 0, 0); from 0.1 s three other roots: a
+            // mirror drifting away at a slope its own Ω′ does not explain (as after a
+            // crossing), a far root at rest, and the truth's opposite sign.
+            let w = [1.0 + t, 0.5, 0.0];
+            let d = [1.0, 0.0, 0.0];
+            let at = |w: [f64; 3], d: [f64; 3], j: usize| {
+                est(
+                    core::array::from_fn(|i| w[i] + sd * noise(k + 13 * j, i)),
+                    core::array::from_fn(|i| d[i] + sd_d * noise(k + 29 * j, i)),
+                    sd,
+                    sd_d,
+                )
+            };
+            let options = [
+                at([w[0] - 3.0 * (t - 0.1), w[1], w[2]], [0.5, 0.0, 0.0], 1),
+                at(w, d, 0),
+                at([-2.0, 3.0, 1.0], [0.0; 3], 2),
+                at(w.map(|v| -v), d, 3),
+            ];
+            let dt = if k == 0 { 0.0 } else { 1.0 / rate };
+            if k < 100 {
+                beam.step(dt, &options[1..2], l);
+            } else {
+                beam.step(dt, &options, l);
+            }
+        }
+        let mut picks = vec![0u8; n];
+        PathChoice::decide(&links, &mut picks);
+        // Before 0.1 s the truth was the only option (index 0); within 10 ms after it the
+        // drifting mirror is within 0.03 rad/s of the truth.
+        let wrong: Vec<(usize, u8)> = (0..n)
+            .filter(|&k| !(100..110).contains(&k) && picks[k] != u8::from(k >= 100))
+            .map(|k| (k, picks[k]))
+            .collect();
+        assert!(wrong.is_empty(), "wrong root at (sample, option) {wrong:?}");
     }
 
     /// The state carried across blocks is the filter along the decided path.

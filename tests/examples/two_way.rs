@@ -770,11 +770,15 @@ fn beam(fwd: &[Estimate<f64>], bwd: &[Estimate<f64>], t: &[f64]) -> Vec<bool> {
             (fwd[k].omega[i] - bwd[k].omega[i]).abs()
                 > dth * (fwd[k].sd_omega[i].powi(2) + bwd[k].sd_omega[i].powi(2)).sqrt()
         });
-        path.step(dt, &fwd[k], differ.then_some(&bwd[k]), &mut links[k]);
+        if differ {
+            path.step(dt, &[fwd[k], bwd[k]], &mut links[k]);
+        } else {
+            path.step(dt, &[fwd[k]], &mut links[k]);
+        }
     }
-    let mut out = vec![false; n];
-    PathChoice::decide(&links, &mut out);
-    out
+    let mut picks = vec![0u8; n];
+    PathChoice::decide(&links, &mut picks);
+    picks.iter().map(|p| *p == 1).collect()
 }
 
 /// Probe: the beam over every signed candidate of every row (not only the passes' choices),

@@ -129,33 +129,21 @@ fn accuracy_cases() -> Vec<(f64, f64, f64)> {
 /// firmware's, which cannot look ahead) ratios are printed beside them: 1.03–1.83.
 #[test]
 fn raw_accuracy_against_the_maximum_likelihood_in_a_tumble() {
-    accuracy_against_the_maximum_likelihood(false, &[]);
+    accuracy_against_the_maximum_likelihood(false);
 }
-
-/// The manoeuvres where issue 15's ratio is not met yet (README, "Branch lock"): both
-/// fixed-lag passes hold the wrong root in some crossing zones, so no choice between them
-/// reaches the maximum likelihood (measured: 1 kHz, 1e-2 m/s², σ0 1.13; 5 cm arm, σ0 1.37).
-const MANOEUVRE_NOT_MET: [(f64, f64, f64); 2] = [(1000.0, 1e-2, 0.12), (1000.0, 2e-3, 0.05)];
 
 /// The same in the manoeuvre (sinusoidal torque), where the passes' margins do not say which
-/// pass holds the true root after a crossing and the path through both decides
-/// (`estimator_core::path_choice`): every case but [`MANOEUVRE_NOT_MET`], whose ratios are
-/// printed and checked by the ignored test below.
+/// pass holds the true root after a crossing and the path through every root decides where
+/// they do not (`estimator_core::path_choice`, `estimator_core::ambiguous_roots`). Every case
+/// since stop 35: before, the 1e-2 m/s² case (σ0 1.13) and the 5 cm arm (σ0 1.37) were not
+/// met, both passes holding the wrong root in some crossing zones.
 #[test]
 fn raw_accuracy_against_the_maximum_likelihood_in_a_manoeuvre() {
-    accuracy_against_the_maximum_likelihood(true, &MANOEUVRE_NOT_MET);
+    accuracy_against_the_maximum_likelihood(true);
 }
 
-/// Every manoeuvre case, [`MANOEUVRE_NOT_MET`] included: fails until issue 15 is met there.
-/// `cargo test --release -p e2e-tests --test branch_lock -- --ignored --nocapture`.
-#[test]
-#[ignore = "issue 15's ML ratio is not met in two manoeuvre cases yet (README, Branch lock)"]
-fn raw_accuracy_against_the_maximum_likelihood_in_every_manoeuvre() {
-    accuracy_against_the_maximum_likelihood(true, &[]);
-}
-
-/// Prints the table and asserts 1.10 × ML for every case but `not_met` (printed as such).
-fn accuracy_against_the_maximum_likelihood(manoeuvre: bool, not_met: &[(f64, f64, f64)]) {
+/// Prints the table and asserts 1.10 × ML for every case.
+fn accuracy_against_the_maximum_likelihood(manoeuvre: bool) {
     println!("| rate | noise | arm | motion | σ0 / ML (two-way / forward) | Ω′ / ML | Ω / ML |");
     println!("|---|---|---|---|---|---|---|");
     let mut failures = Vec::new();
@@ -188,9 +176,7 @@ fn accuracy_against_the_maximum_likelihood(manoeuvre: bool, not_met: &[(f64, f64
                 smoothed[2],
                 fwd[2]
             );
-            if not_met.contains(&(rate_hz, noise, arm)) {
-                println!("(not met yet, not asserted: issue 15)");
-            } else if smoothed.iter().any(|r| *r > 1.10) {
+            if smoothed.iter().any(|r| *r > 1.10) {
                 failures.push(format!(
                     "{rate_hz} Hz {noise:e} {arm} {}: {smoothed:?}",
                     motion(manoeuvre)
