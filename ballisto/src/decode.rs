@@ -313,6 +313,9 @@ fn housekeeping_text(h: &Housekeeping) -> String {
             s.push_str(" | time not correlated");
         }
     }
+    if let Some(test) = h.test {
+        let _ = write!(s, " | consistency_test={}", test.name());
+    }
     s
 }
 

@@ -122,6 +122,51 @@ impl TryFrom<u8> for ResetCause {
     }
 }
 
+/// The consistency test the fault monitor runs on the readings (issue 17: "say when no test is
+/// possible"). Where there is none, nothing checks the estimate against the readings'
+/// redundancy: a part's fault that its bus and its own signal do not show goes through.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(u8)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ConsistencyTest {
+    /// No test possible with the channels in use (model F on nine channels).
+    #[default]
+    None = 0,
+    /// The parity space (13 channels or more): tests, and isolates a part.
+    Parity = 1,
+    /// Model G's consistency with the known Γ (12 channels): tests.
+    KnownField = 2,
+    /// Model F's own residual, windowed (10–12 channels): tests.
+    OwnResidual = 3,
+    /// The image carries no fault monitor (the STM32H743 flight image, for flash).
+    NotBuilt = 255,
+}
+
+impl ConsistencyTest {
+    /// The name used in decoded logs.
+    pub fn name(self) -> &'static str {
+        match self {
+            ConsistencyTest::None => "none-possible",
+            ConsistencyTest::Parity => "parity",
+            ConsistencyTest::KnownField => "known-field",
+            ConsistencyTest::OwnResidual => "own-residual",
+            ConsistencyTest::NotBuilt => "not-built",
+        }
+    }
+}
+
+impl TryFrom<u8> for ConsistencyTest {
+    type Error = u8;
+
+    fn try_from(v: u8) -> Result<Self, u8> {
+        use ConsistencyTest::*;
+        [None, Parity, KnownField, OwnResidual, NotBuilt]
+            .into_iter()
+            .find(|c| *c as u8 == v)
+            .ok_or(v)
+    }
+}
+
 /// The unit's boots: how many since power was applied, and why the last one happened.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -241,10 +286,14 @@ pub struct Housekeeping {
     /// Boot count and reset cause, and the time correlation (`None` when decoded from a layout
     /// before telemetry format 2).
     pub boot: Option<(BootInfo, TimeCorrelation)>,
+    /// The consistency test on the readings (`None` when decoded from the layout before it).
+    pub test: Option<ConsistencyTest>,
 }
 
 /// Application data length of the housekeeping report.
-pub const HOUSEKEEPING_LEN: usize = HOUSEKEEPING_LEN_NO_BOOT + 4 + 1 + 1 + 7;
+pub const HOUSEKEEPING_LEN: usize = HOUSEKEEPING_LEN_NO_TEST + 1;
+/// Application data length of the layout before the consistency test (issue 17; still decoded).
+pub const HOUSEKEEPING_LEN_NO_TEST: usize = HOUSEKEEPING_LEN_NO_BOOT + 4 + 1 + 1 + 7;
 /// Application data length of the layout before the boot and time fields (format 1, issue 16).
 pub const HOUSEKEEPING_LEN_NO_BOOT: usize = HOUSEKEEPING_LEN_NO_CALIBRATION + 9;
 /// Application data length of the layout before the calibration identity (still decoded).
@@ -289,12 +338,13 @@ impl Housekeeping {
         p.u32(boot.count)
             .u8(boot.cause as u8)
             .u8(u8::from(time.set))
-            .bytes(&time.epoch);
+            .bytes(&time.epoch)
+            .u8(self.test.unwrap_or_default() as u8);
         p.finish()
     }
 
     /// Decodes the application data after the SID, of length `len`: [`HOUSEKEEPING_LEN`] or
-    /// one of the layouts before it ([`HOUSEKEEPING_LEN_NO_BOOT`],
+    /// one of the layouts before it ([`HOUSEKEEPING_LEN_NO_TEST`], [`HOUSEKEEPING_LEN_NO_BOOT`],
     /// [`HOUSEKEEPING_LEN_NO_CALIBRATION`]), which lack the fields added at their end.
     #[cfg_attr(not(feature = "ground"), allow(dead_code))]
     pub(crate) fn decode(g: &mut Get, len: usize) -> Option<Self> {
@@ -340,7 +390,7 @@ impl Housekeeping {
                 crc: g.u32()?,
             });
         }
-        if len == HOUSEKEEPING_LEN {
+        if len >= HOUSEKEEPING_LEN_NO_TEST {
             let boot = BootInfo {
                 count: g.u32()?,
                 cause: ResetCause::try_from(g.u8()?).ok()?,
@@ -352,6 +402,9 @@ impl Housekeeping {
             };
             let epoch = g.array::<7>()?;
             h.boot = Some((boot, TimeCorrelation { set, epoch }));
+        }
+        if len == HOUSEKEEPING_LEN {
+            h.test = Some(ConsistencyTest::try_from(g.u8()?).ok()?);
         }
         Some(h)
     }

@@ -41,8 +41,8 @@ pub mod verification;
 
 pub use event::{BootEvent, Event, EventId};
 pub use housekeeping::{
-    BootInfo, CalibrationId, CalibrationSource, Housekeeping, LoopCounters, PartCounters,
-    PartState, ResetCause, TimeCorrelation,
+    BootInfo, CalibrationId, CalibrationSource, ConsistencyTest, Housekeeping, LoopCounters,
+    PartCounters, PartState, ResetCause, TimeCorrelation,
 };
 pub use ids::{service, sid, subtype, APID, FORMAT_VERSION};
 pub use masks::{ChannelSet, PartSet};

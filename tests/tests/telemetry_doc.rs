@@ -10,9 +10,9 @@ use ballisto_link::event::EVENT_LEN;
 use ballisto_link::housekeeping::HOUSEKEEPING_LEN;
 use ballisto_link::motion::MOTION_LEN;
 use ballisto_link::{
-    BootInfo, CalibrationId, CalibrationSource, ChannelSet, Housekeeping, LoopCounters, Mode,
-    ModelCode, MotionReport, PartCounters, PartSet, PartState, RequestId, ResetCause,
-    TimeCorrelation, Verification,
+    BootInfo, CalibrationId, CalibrationSource, ChannelSet, ConsistencyTest, Housekeeping,
+    LoopCounters, Mode, ModelCode, MotionReport, PartCounters, PartSet, PartState, RequestId,
+    ResetCause, TimeCorrelation, Verification,
 };
 use estimator_core::linalg::Sym3;
 use estimator_core::{Estimate, Flags};
@@ -261,6 +261,7 @@ fn housekeeping_table_matches_the_encoder() {
                 epoch: [1, 2, 3, 4, 5, 6, 7],
             },
         )),
+        test: Some(ConsistencyTest::OwnResidual),
     };
     let mut data = [0u8; HOUSEKEEPING_LEN];
     assert_eq!(hk.encode(&mut data), Some(HOUSEKEEPING_LEN));
@@ -300,6 +301,7 @@ fn housekeeping_table_matches_the_encoder() {
             "spacecraft time of the boot",
             (1..=7).map(f64::from).collect(),
         ),
+        ("consistency test", vec![3.0]),
     ];
     check_rows(&data, &rows, &expected, "housekeeping");
     // Slot 1 octet by octet: the state, then six u32 counters.

@@ -249,6 +249,16 @@ fn a_dead_part_is_reported_down_and_up_again() {
     let u3 = down.parts[3];
     assert_eq!(u3.state, ballisto_link::PartState::Down);
     assert!(u3.missed >= 10 && u3.implausible >= 10, "{down:?}");
+    // The consistency test it says is run: model G's known field on the twelve channels, none
+    // on the nine left in model F (issue 17: "say when no test is possible").
+    use ballisto_link::ConsistencyTest;
+    assert_eq!(down.test, Some(ConsistencyTest::None), "{down:?}");
+    let before = stream.packets.iter().find_map(|p| match &p.report {
+        Report::Housekeeping(h) if p.t > 1.5 && p.t < 4.5 => Some(*h),
+        _ => None,
+    });
+    let before = before.expect("a housekeeping report before the faults");
+    assert_eq!(before.test, Some(ConsistencyTest::KnownField), "{before:?}");
 }
 
 /// The decoder reads the motion report of telemetry format 2 (148 octets: mode and model), the
@@ -323,15 +333,18 @@ fn motion_reports_with_and_without_the_branch_margin_decode() {
     ));
 }
 
-/// The decoder reads the housekeeping report with the calibration identity (270 octets) and the
-/// layout before it (261: the identity is unknown); any other length is refused; a source code
-/// it does not know is refused too.
+/// The decoder reads the housekeeping report with the consistency test (284 octets), the layout
+/// before it (283: the test unknown), and the one before the calibration identity (261: the
+/// identity unknown); any other length is refused; a source or test code it does not know is
+/// refused too.
 #[test]
 fn housekeeping_with_and_without_the_calibration_identity_decodes() {
     use ballisto_link::decode::{decode, DecodeError};
-    use ballisto_link::housekeeping::{HOUSEKEEPING_LEN, HOUSEKEEPING_LEN_NO_CALIBRATION};
+    use ballisto_link::housekeeping::{
+        HOUSEKEEPING_LEN, HOUSEKEEPING_LEN_NO_CALIBRATION, HOUSEKEEPING_LEN_NO_TEST,
+    };
     use ballisto_link::ids::TM_MAX;
-    use ballisto_link::{tm, CalibrationId, CalibrationSource, Housekeeping};
+    use ballisto_link::{tm, CalibrationId, CalibrationSource, ConsistencyTest, Housekeeping};
     let id = CalibrationId {
         source: CalibrationSource::Flash,
         id: 42,
@@ -341,6 +354,7 @@ fn housekeeping_with_and_without_the_calibration_identity_decodes() {
         channels: 12,
         estimates: 77,
         calibration: Some(id),
+        test: Some(ConsistencyTest::KnownField),
         ..Default::default()
     };
     let packet = |len: usize, patch: Option<(usize, u8)>| {
@@ -363,18 +377,28 @@ fn housekeeping_with_and_without_the_calibration_identity_decodes() {
         .unwrap();
         p[..n].to_vec()
     };
-    for (len, expected) in [
-        (HOUSEKEEPING_LEN, Some(id)),
-        (HOUSEKEEPING_LEN_NO_CALIBRATION, None),
+    for (len, expected, test) in [
+        (
+            HOUSEKEEPING_LEN,
+            Some(id),
+            Some(ConsistencyTest::KnownField),
+        ),
+        (HOUSEKEEPING_LEN_NO_TEST, Some(id), None),
+        (HOUSEKEEPING_LEN_NO_CALIBRATION, None, None),
     ] {
         let Report::Housekeeping(h) = decode(&packet(len, None)).expect("decodes").report else {
             panic!("not housekeeping");
         };
         assert_eq!((h.channels, h.estimates), (12, 77));
-        assert_eq!(h.calibration, expected);
+        assert_eq!((h.calibration, h.test), (expected, test));
     }
     assert!(matches!(
-        decode(&packet(HOUSEKEEPING_LEN - 1, None)),
+        decode(&packet(HOUSEKEEPING_LEN_NO_TEST - 1, None)),
+        Err(DecodeError::Data(..))
+    ));
+    // Test code 9 at offset 283: refused.
+    assert!(matches!(
+        decode(&packet(HOUSEKEEPING_LEN, Some((283, 9)))),
         Err(DecodeError::Data(..))
     ));
     // Source code 7 at offset 261: refused, not guessed.

@@ -271,6 +271,12 @@ impl Estimation {
         self.isolation.events(verdict)
     }
 
+    /// The consistency test the fault monitor runs on the readings of the channels in use
+    /// (housekeeping; "not built" without the feature `fault-isolation`).
+    pub fn consistency_test(&self) -> ballisto_link::ConsistencyTest {
+        self.isolation.test()
+    }
+
     /// The estimator (model, mask, condition).
     pub fn estimator(&self) -> &Estimator<f32, MAX_CHANNELS> {
         &self.estimator

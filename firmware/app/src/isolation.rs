@@ -12,7 +12,7 @@
 //! STM32H743 flight image leaves it out: it does not fit issue 13's 128 KiB with the rest
 //! (244 B free before it); without the feature this module is an empty stand-in.
 
-use ballisto_link::{EventId, PartSet};
+use ballisto_link::{ConsistencyTest, EventId, PartSet};
 use estimator_core::fault_monitor::Verdict;
 use estimator_core::{ChannelMask, Estimate, Estimator};
 
@@ -30,6 +30,8 @@ mod enabled {
     pub struct Isolation {
         monitor: FaultMonitor<f32, MAX_CHANNELS>,
         part: [u8; MAX_CHANNELS],
+        /// The monitor has a parity space over the channels tested.
+        parity: bool,
         no_parity: NoParityTest<f32>,
         stuck: StuckCheck<f32, MAX_CHANNELS>,
         /// The parts stuck at the last set (bit per part).
@@ -57,6 +59,7 @@ mod enabled {
             Isolation {
                 monitor: FaultMonitor::new(Settings::default(), rate_hz),
                 part,
+                parity: false,
                 no_parity: NoParityTest::None,
                 stuck: StuckCheck::with_limits(&part, &range),
                 stuck_parts: 0,
@@ -72,6 +75,7 @@ mod enabled {
         /// estimator-core's [`NoParityTest`] for the estimator's configuration.
         pub fn rebuild(&mut self, estimator: &Estimator<f32, MAX_CHANNELS>, tested: ChannelMask) {
             let parity = Parity::build(estimator.arrangement(), tested, &self.part).ok();
+            self.parity = parity.is_some();
             self.no_parity = NoParityTest::for_estimator(
                 estimator,
                 parity.is_some(),
@@ -137,6 +141,16 @@ mod enabled {
             true
         }
 
+        /// The consistency test on the readings (housekeeping).
+        pub fn test(&self) -> ConsistencyTest {
+            match (&self.no_parity, self.parity) {
+                (_, true) => ConsistencyTest::Parity,
+                (NoParityTest::Field(_), _) => ConsistencyTest::KnownField,
+                (NoParityTest::Residual(_), _) => ConsistencyTest::OwnResidual,
+                (NoParityTest::None, false) => ConsistencyTest::None,
+            }
+        }
+
         /// The parts isolated (to be kept out of the solve): by the parity space, or stuck.
         pub fn isolated(&self) -> PartSet {
             let stuck = PartSet((self.stuck_parts & 0xff) as u8);
@@ -177,6 +191,11 @@ mod enabled {
         /// Not built in.
         pub fn enabled(&self) -> bool {
             false
+        }
+
+        /// No monitor built in.
+        pub fn test(&self) -> ConsistencyTest {
+            ConsistencyTest::NotBuilt
         }
 
         /// No events.

@@ -51,6 +51,7 @@ impl App {
             parts: self.health.parts.map(|p| part_counters(p.as_ref())),
             calibration: Some(self.calibration),
             boot: Some((self.boot_info, self.time)),
+            test: Some(self.estimation.consistency_test()),
         }
     }
 
