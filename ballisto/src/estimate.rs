@@ -570,7 +570,8 @@ impl<T: Real> HostEstimator<T> {
             let bwd = two_way::reversed(&self.scratch[n - 1 - k]);
             let mut out = two_way::combine(fwd, &bwd);
             if let (Some(roots), true) = (&self.roots[k], self.offered[k] > 0) {
-                // The two-way decision is ambiguous here: the root the path took.
+                // The margins do not decide here (flagged ambiguous, or the passes on different
+                // roots within their margins): the root the path took.
                 let mut options = [RootOption::default(); MAX_OPTIONS];
                 let m = roots.options(fwd, &bwd, &mut options);
                 if let Some(o) = options[..m].get(usize::from(self.picks[k])) {
