@@ -601,8 +601,9 @@ impl<T: Real> HostEstimator<T> {
     /// Decides the path through the `n` held samples ([`estimator_core::path_choice`], over
     /// the block and its run-in): where the margins do not decide (the two-way decision is
     /// ambiguous, or the passes hold different roots within their margins:
-    /// [`two_way::offers_choice`]) and the sample has more than one root, the path chooses among the roots ([`Roots::options`]: `offered`,
-    /// `picks`); elsewhere it takes the decision's estimate. Returns the sample rate it
+    /// [`two_way::offers_choice`]) and the sample has more than one root, the path chooses
+    /// among the roots ([`Roots::options`]: `offered`, `picks`); elsewhere it takes the
+    /// decision's estimate. Returns the sample rate it
     /// assumed, or `None` if no sample offered a choice (model G, or no crossing in the block:
     /// every sample then takes [`two_way::combine`]'s estimate).
     fn choose_path(&mut self, n: usize) -> Option<f64> {
@@ -613,18 +614,23 @@ impl<T: Real> HostEstimator<T> {
         self.picks.resize(n, 0);
         self.offered.clear();
         for (k, fwd) in self.decided.iter().take(n).enumerate() {
-            let bwd = backward(k);
-            // Where the margins do not decide: the decision flagged ambiguous, or the passes on
-            // different roots within their margins (agreeing in Ω, so not flagged: near a
-            // crossing, where either root is within the noise of the other).
-            let open = two_way::combine(fwd, &bwd)
-                .flags
-                .has(Flags::BRANCH_AMBIGUOUS)
-                || two_way::offers_choice(fwd, &bwd);
-            let m = match &self.roots[k] {
-                Some(roots) if open => roots.options(fwd, &bwd, &mut options),
-                _ => 0,
-            };
+            // Only a sample with more than one root can offer a choice (none in model G): the
+            // decision is combined for those alone.
+            let m = self.roots[k].as_ref().map_or(0, |roots| {
+                let bwd = backward(k);
+                // Where the margins do not decide: the decision flagged ambiguous, or the
+                // passes on different roots within their margins (agreeing in Ω, so not
+                // flagged: near a crossing, where either root is within the noise of the other).
+                let open = two_way::combine(fwd, &bwd)
+                    .flags
+                    .has(Flags::BRANCH_AMBIGUOUS)
+                    || two_way::offers_choice(fwd, &bwd);
+                if open {
+                    roots.options(fwd, &bwd, &mut options)
+                } else {
+                    0
+                }
+            });
             self.offered.push(m as u8);
         }
         if self.offered.iter().all(|m| *m == 0) {

@@ -17,9 +17,9 @@
 //! settled decisions and was farther from the truth than the decision at most such rows in nine
 //! of twelve cases probed.
 //!
-//! **What changes.** Only the estimate of an ambiguous sample: its flags and branch margin stay
-//! the decision's (flag 16 with a margin under 16), so a row the path takes is flagged as it
-//! was. A root neither pass holds is output as the estimator solved it (its deviations widened
+//! **What changes.** Only the estimate of such a sample: its flags and branch margin stay the
+//! decision's (flag 16 exactly where the margin is under 16), so a row the path takes is
+//! flagged, or not, as it was. A root neither pass holds is output as the estimator solved it (its deviations widened
 //! near the crossing, [`crate::estimator`]'s crossing widening), raw even where the passes'
 //! outputs are filtered: no filter has followed it.
 
@@ -85,13 +85,10 @@ impl<T: Real> Roots<T> {
             return 0;
         }
         let mut m = 0;
-        for (i, (root, wd)) in self.roots.iter().zip(self.widening.iter()).enumerate() {
-            if i == self.len() {
-                break;
-            }
+        let roots = self.roots.iter().zip(self.widening.iter()).take(self.len());
+        for (i, (root, wd)) in roots.enumerate() {
             for sign in [1i8, -1] {
-                let mut e = *root;
-                e.omega = root.omega.map(|v| if sign < 0 { -v } else { v });
+                let mut e = signed(root, sign);
                 if !(along(&e, forward) > T::ZERO || along(&e, backward) > T::ZERO) {
                     continue;
                 }
@@ -124,10 +121,7 @@ impl<T: Real> Roots<T> {
         let Some(root) = self.roots[..self.len()].get(usize::from(option.root)) else {
             return *decided;
         };
-        let mut signed = *root;
-        if option.sign < 0 {
-            signed.omega = root.omega.map(|v| -v);
-        }
+        let mut signed = signed(root, option.sign);
         let holds = |e: &Estimate<T>| Self::holds_signed(&signed, e);
         let mut out = if holds(decided) {
             return *decided;
@@ -162,6 +156,15 @@ pub struct RootOption<T> {
     pub measurement: Estimate<T>,
     root: u8,
     sign: i8,
+}
+
+/// The root with Ω of the given sign (σ0, Ω′ and the field do not depend on it).
+fn signed<T: Real>(root: &Estimate<T>, sign: i8) -> Estimate<T> {
+    if sign < 0 {
+        crate::two_way::reversed(root)
+    } else {
+        *root
+    }
 }
 
 /// `Ω_a · Ω_b`.

@@ -130,6 +130,12 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         }
     }
 
+    /// Whether the monitor has a parity space (13 channels or more tested): it tests and
+    /// isolates.
+    pub fn has_parity(&self) -> bool {
+        self.parity.is_some()
+    }
+
     /// Uses `parity` (or none: no test) from the next sample set on; the window starts empty.
     /// A part isolated before stays isolated until the window is clean for `τ` samples.
     pub fn set_parity(&mut self, parity: Option<Parity<T, CAP>>) {

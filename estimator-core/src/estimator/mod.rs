@@ -319,25 +319,23 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         preferred: Model,
         spare: &mut SpareConfig<T, CAP>,
     ) -> Result<Model, ConfigError> {
-        if self.cfg.model != preferred && spare.holds() == Some((preferred, mask)) {
-            core::mem::swap(&mut self.cfg, &mut spare.cfg);
-            self.frame = 0;
-            self.reset();
-            return Ok(preferred);
-        }
+        let back = self.cfg.model != preferred && spare.holds() == Some((preferred, mask));
         core::mem::swap(&mut self.cfg, &mut spare.cfg);
-        let (arr, options) = (&spare.cfg.arr, spare.cfg.options);
-        match self.cfg.configure_preferring(arr, preferred, mask, options) {
-            Ok(model) => {
-                self.frame = 0;
-                self.reset();
-                Ok(model)
+        let model = if back {
+            preferred
+        } else {
+            let (arr, options) = (&spare.cfg.arr, spare.cfg.options);
+            match self.cfg.configure_preferring(arr, preferred, mask, options) {
+                Ok(model) => model,
+                Err(e) => {
+                    core::mem::swap(&mut self.cfg, &mut spare.cfg);
+                    return Err(e);
+                }
             }
-            Err(e) => {
-                core::mem::swap(&mut self.cfg, &mut spare.cfg);
-                Err(e)
-            }
-        }
+        };
+        self.frame = 0;
+        self.reset();
+        Ok(model)
     }
 
     /// Sets the known gravity-gradient tensor Γ (body frame). Cheap (no SVD).

@@ -30,8 +30,6 @@ mod enabled {
     pub struct Isolation {
         monitor: FaultMonitor<f32, MAX_CHANNELS>,
         part: [u8; MAX_CHANNELS],
-        /// The monitor has a parity space over the channels tested.
-        parity: bool,
         no_parity: NoParityTest<f32>,
         stuck: StuckCheck<f32, MAX_CHANNELS>,
         /// The parts stuck at the last set (bit per part).
@@ -59,7 +57,6 @@ mod enabled {
             Isolation {
                 monitor: FaultMonitor::new(Settings::default(), rate_hz),
                 part,
-                parity: false,
                 no_parity: NoParityTest::None,
                 stuck: StuckCheck::with_limits(&part, &range),
                 stuck_parts: 0,
@@ -75,7 +72,6 @@ mod enabled {
         /// estimator-core's [`NoParityTest`] for the estimator's configuration.
         pub fn rebuild(&mut self, estimator: &Estimator<f32, MAX_CHANNELS>, tested: ChannelMask) {
             let parity = Parity::build(estimator.arrangement(), tested, &self.part).ok();
-            self.parity = parity.is_some();
             self.no_parity = NoParityTest::for_estimator(
                 estimator,
                 parity.is_some(),
@@ -143,11 +139,11 @@ mod enabled {
 
         /// The consistency test on the readings (housekeeping).
         pub fn test(&self) -> ConsistencyTest {
-            match (&self.no_parity, self.parity) {
-                (_, true) => ConsistencyTest::Parity,
-                (NoParityTest::Field(_), _) => ConsistencyTest::KnownField,
-                (NoParityTest::Residual(_), _) => ConsistencyTest::OwnResidual,
-                (NoParityTest::None, false) => ConsistencyTest::None,
+            match &self.no_parity {
+                _ if self.monitor.has_parity() => ConsistencyTest::Parity,
+                NoParityTest::Field(_) => ConsistencyTest::KnownField,
+                NoParityTest::Residual(_) => ConsistencyTest::OwnResidual,
+                NoParityTest::None => ConsistencyTest::None,
             }
         }
 
