@@ -19,7 +19,9 @@
 //! path's), `PASSSIGN=1` only the signs the passes hold, `HYBRID=1` every candidate only where
 //! the passes offer `path_choice` a choice and the margin rule's pass elsewhere, `LEVELS=a,b,..`
 //! a multiple-model beam (each hypothesis at one of these multiples of the jerk density,
-//! `SWITCH` the cost of changing level), `HINTSD` the
+//! `SWITCH` the cost of changing level), `LAGS=0,10,..` the beam's output with a fixed lag
+//! of so many samples (row k as traced back from the best hypothesis at row k + lag; 0: the
+//! causal filter, no look-ahead, what a forward-only estimator can do), `HINTSD` the
 //! start hint's deviation (default 0.01 rad/s), `BWIN=SAMPLES`
 //! its Ω RMS per window). `WIN=SAMPLES` prints the Ω
 //! RMS of each per window, `RANGE=T0,T1` the rows where the plain passes differ, `DUMP=1` the
@@ -579,7 +581,7 @@ fn main() {
     type Run = (Vec<(usize, f64)>, f64, f64);
     let mut best_run: Option<Run> = None;
     for &sj in &grid {
-        let (p, c) = beam_all(
+        let (p, c, back) = beam_all(
             &all,
             &times,
             case.options.initial_omega.unwrap(),
@@ -587,6 +589,27 @@ fn main() {
             (&fwd, &bwd),
         );
         println!("SJ {sj}: path cost {c:.1}");
+        if let Ok(lags) = std::env::var("LAGS") {
+            for lag in lags.split(',').filter_map(|x| x.parse::<usize>().ok()) {
+                let picks = lagged(&back, lag);
+                let rows: Vec<Estimate<f64>> = (0..n)
+                    .map(|k| {
+                        let (c, sg) = picks[k];
+                        let mut e = all[k].get(c).map_or(fwd[k], |x| x.0);
+                        e.omega = e.omega.map(|v| sg * v);
+                        e
+                    })
+                    .collect();
+                let r = Score::of(&rows, &case.truth).rms();
+                println!(
+                    "  lag {lag:>5} ({:.3} s): σ0 {:.2} Ω′ {:.2} Ω {:.2} ×ML",
+                    lag as f64 / rate,
+                    r[0] / ml_rms[0],
+                    r[1] / ml_rms[1],
+                    r[2] / ml_rms[2]
+                );
+            }
+        }
         if best_run.as_ref().is_none_or(|b| c < b.1) {
             best_run = Some((p, c, sj));
         }
@@ -792,7 +815,7 @@ fn beam_all(
     hint: [f64; 3],
     sj: f64,
     passes: (&[Estimate<f64>], &[Estimate<f64>]),
-) -> (Vec<(usize, f64)>, f64) {
+) -> (Vec<(usize, f64)>, f64, Back) {
     let env = |k: &str, d: usize| {
         std::env::var(k)
             .ok()
@@ -817,7 +840,7 @@ fn beam_all(
     type H = (PathState, usize, (usize, f64), usize);
     let n = cands.len();
     let mut total = f64::NAN;
-    let mut back: Vec<Vec<(usize, (usize, f64))>> = Vec::with_capacity(n);
+    let mut back: Back = Vec::with_capacity(n);
     let mut hs: Vec<H> = Vec::new();
     let mut level_rows = vec![0usize; levels.len()];
     for (k, cs) in cands.iter().enumerate() {
@@ -907,5 +930,27 @@ fn beam_all(
         out[k] = pick;
         j = from;
     }
-    (out, total)
+    (out, total, back)
+}
+
+/// The beam's links per row: per kept hypothesis (best first), its predecessor and pick.
+type Back = Vec<Vec<(usize, (usize, f64))>>;
+
+/// The picks a fixed-lag output of the beam makes: row k as traced back from the best
+/// hypothesis at row k + `lag` (0: the causal filter, the best hypothesis at each row).
+fn lagged(back: &Back, lag: usize) -> Vec<(usize, f64)> {
+    let n = back.len();
+    (0..n)
+        .map(|k| {
+            let top = (k + lag).min(n - 1);
+            let mut j = 0;
+            let mut pick = (0, 1.0);
+            for r in (k..=top).rev() {
+                let (from, p) = back[r][j.min(back[r].len() - 1)];
+                pick = p;
+                j = from;
+            }
+            pick
+        })
+        .collect()
 }
