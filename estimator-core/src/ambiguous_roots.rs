@@ -121,8 +121,8 @@ impl<T: Real> Roots<T> {
         let Some(root) = self.roots[..self.len()].get(usize::from(option.root)) else {
             return *decided;
         };
-        let mut signed = signed(root, option.sign);
-        let holds = |e: &Estimate<T>| Self::holds_signed(&signed, e);
+        let mut chosen = signed(root, option.sign);
+        let holds = |e: &Estimate<T>| Self::holds_signed(&chosen, e);
         let mut out = if holds(decided) {
             return *decided;
         } else if holds(forward) {
@@ -130,8 +130,8 @@ impl<T: Real> Roots<T> {
         } else if holds(backward) {
             *backward
         } else {
-            frame.widen(&mut signed);
-            signed
+            frame.widen(&mut chosen);
+            chosen
         };
         // Branch and sign are the decision's (flag 16 exactly when its margin is under 16);
         // what the solve says of the root (fallback, ill-conditioned, …) is added.

@@ -579,6 +579,21 @@ fn main() {
     };
     // (per row the candidate and sign, the path's cost, the jerk density)
     type Run = (Vec<(usize, f64)>, f64, f64);
+    // The estimate a beam pick stands for: the combined passes (`HYBRID`'s settled rows), the
+    // candidate with the sign taken, or the forward pass where the row has no such candidate.
+    let taken = |k: usize, (c, sg): (usize, f64)| -> Estimate<f64> {
+        if c == usize::MAX {
+            return two_way::combine(&fwd[k], &bwd[k]);
+        }
+        match all[k].get(c) {
+            Some((e, _)) => {
+                let mut e = *e;
+                e.omega = e.omega.map(|v| sg * v);
+                e
+            }
+            None => fwd[k],
+        }
+    };
     let mut best_run: Option<Run> = None;
     for &sj in &grid {
         let (p, c, back) = beam_all(
@@ -592,14 +607,7 @@ fn main() {
         if let Ok(lags) = std::env::var("LAGS") {
             for lag in lags.split(',').filter_map(|x| x.parse::<usize>().ok()) {
                 let picks = lagged(&back, lag);
-                let rows: Vec<Estimate<f64>> = (0..n)
-                    .map(|k| {
-                        let (c, sg) = picks[k];
-                        let mut e = all[k].get(c).map_or(fwd[k], |x| x.0);
-                        e.omega = e.omega.map(|v| sg * v);
-                        e
-                    })
-                    .collect();
+                let rows: Vec<Estimate<f64>> = (0..n).map(|k| taken(k, picks[k])).collect();
                 let r = Score::of(&rows, &case.truth).rms();
                 println!(
                     "  lag {lag:>5} ({:.3} s): σ0 {:.2} Ω′ {:.2} Ω {:.2} ×ML",
@@ -616,22 +624,7 @@ fn main() {
     }
     let (picks_all, _, sj_best) = best_run.unwrap();
     println!("SJ chosen {sj_best}");
-    let beam_all_pick: Vec<Estimate<f64>> = (0..n)
-        .map(|k| {
-            let (c, sg) = picks_all[k];
-            if c == usize::MAX {
-                return two_way::combine(&fwd[k], &bwd[k]);
-            }
-            match all[k].get(c) {
-                Some((e, _)) => {
-                    let mut e = *e;
-                    e.omega = e.omega.map(|v| sg * v);
-                    e
-                }
-                None => fwd[k],
-            }
-        })
-        .collect();
+    let beam_all_pick: Vec<Estimate<f64>> = (0..n).map(|k| taken(k, picks_all[k])).collect();
     if let Some(w) = std::env::var("BWIN")
         .ok()
         .and_then(|v| v.parse::<usize>().ok())

@@ -139,8 +139,10 @@ mod enabled {
 
         /// The consistency test on the readings (housekeeping).
         pub fn test(&self) -> ConsistencyTest {
+            if self.monitor.has_parity() {
+                return ConsistencyTest::Parity;
+            }
             match &self.no_parity {
-                _ if self.monitor.has_parity() => ConsistencyTest::Parity,
                 NoParityTest::Field(_) => ConsistencyTest::KnownField,
                 NoParityTest::Residual(_) => ConsistencyTest::OwnResidual,
                 NoParityTest::None => ConsistencyTest::None,
