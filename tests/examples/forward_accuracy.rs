@@ -1,0 +1,99 @@
+//! Probe (issue 15): the forward path (the firmware's: no look-ahead) on the accuracy cases of
+//! `tests/tests/branch_lock.rs` — raw σ0, Ω′ and Ω RMS over the truth-started maximum
+//! likelihood, and the filtered (default) output's Ω RMS, flagged and silently wrong rows.
+//!
+//! `cargo run --release -p e2e-tests --example forward_accuracy`
+//!
+//! `SEEDS=1,2` the seeds (default 1), `CASES=0,3` the cases by index (default all: the four
+//! rates, the two other noises and the two other arms around 1 kHz, 2e-3 m/s², 0.12 m, in a
+//! tumble then a manoeuvre), `SECONDS` the record's length (default 20). The maximum
+//! likelihood's RMS is cached per case in `target/ml-cache/` (slow at 4 kHz).
+
+use e2e_tests::nine::{self, Params, Score};
+
+fn cases() -> Vec<(f64, f64, f64, bool)> {
+    let centre = (1000.0, 2e-3, 0.12);
+    let mut out = Vec::new();
+    for manoeuvre in [false, true] {
+        for rate in [50.0, 100.0, 1000.0, 4000.0] {
+            out.push((rate, centre.1, centre.2, manoeuvre));
+        }
+        for noise in [1e-4, 1e-2] {
+            out.push((centre.0, noise, centre.2, manoeuvre));
+        }
+        for arm in [0.05, 0.2] {
+            out.push((centre.0, centre.1, arm, manoeuvre));
+        }
+    }
+    out
+}
+
+fn list<T: std::str::FromStr>(name: &str) -> Option<Vec<T>> {
+    std::env::var(name)
+        .ok()
+        .map(|v| v.split(',').filter_map(|x| x.parse().ok()).collect())
+}
+
+fn main() {
+    let seeds: Vec<u64> = list("SEEDS").unwrap_or_else(|| vec![1]);
+    let seconds: f64 = std::env::var("SECONDS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(20.0);
+    let all = cases();
+    let picked: Vec<usize> = list("CASES").unwrap_or_else(|| (0..all.len()).collect());
+    let cache = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/ml-cache");
+    std::fs::create_dir_all(&cache).expect("cache directory");
+    println!("| case | seed | raw σ0 / ML | Ω′ / ML | Ω / ML | filtered Ω RMS | flagged | silent raw / filtered |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let mut worst: f64 = 0.0;
+    for &ci in &picked {
+        let Some(&(rate_hz, noise, arm, manoeuvre)) = all.get(ci) else {
+            continue;
+        };
+        for &seed in &seeds {
+            let case = nine::make(Params {
+                rate_hz,
+                noise,
+                arm,
+                seconds,
+                seed,
+                manoeuvre,
+            });
+            let key = cache.join(format!(
+                "{rate_hz}_{noise:e}_{arm}_{manoeuvre}_{seed}_{seconds}"
+            ));
+            let ml: [f64; 3] = match std::fs::read_to_string(&key) {
+                Ok(s) => {
+                    let v: Vec<f64> = s.split(',').filter_map(|x| x.parse().ok()).collect();
+                    [v[0], v[1], v[2]]
+                }
+                Err(_) => {
+                    let e = case.ml_errors();
+                    let n = e.len() as f64;
+                    let r: [f64; 3] =
+                        core::array::from_fn(|i| (e.iter().map(|x| x[i]).sum::<f64>() / n).sqrt());
+                    std::fs::write(&key, format!("{},{},{}", r[0], r[1], r[2])).expect("cache");
+                    r
+                }
+            };
+            let raw = Score::of(&case.forward(true), &case.truth);
+            let filtered = Score::of(&case.forward(false), &case.truth);
+            let r = raw.rms();
+            let ratio: [f64; 3] = core::array::from_fn(|i| r[i] / ml[i]);
+            worst = worst.max(ratio.iter().cloned().fold(0.0, f64::max));
+            println!(
+                "| {rate_hz} Hz {noise:e} {arm} m {} | {seed} | {:.2} | {:.2} | {:.2} | {:.4} | {:.1} % | {} / {} |",
+                if manoeuvre { "manoeuvre" } else { "tumble" },
+                ratio[0],
+                ratio[1],
+                ratio[2],
+                filtered.rms()[2],
+                raw.pct(raw.flagged),
+                raw.silent,
+                filtered.silent
+            );
+        }
+    }
+    println!("worst ratio {worst:.2}");
+}
