@@ -11,21 +11,16 @@
 
 use e2e_tests::nine::{self, Params, Score};
 
+/// The accuracy cases in a tumble, then in a manoeuvre.
 fn cases() -> Vec<(f64, f64, f64, bool)> {
-    let centre = (1000.0, 2e-3, 0.12);
-    let mut out = Vec::new();
-    for manoeuvre in [false, true] {
-        for rate in [50.0, 100.0, 1000.0, 4000.0] {
-            out.push((rate, centre.1, centre.2, manoeuvre));
-        }
-        for noise in [1e-4, 1e-2] {
-            out.push((centre.0, noise, centre.2, manoeuvre));
-        }
-        for arm in [0.05, 0.2] {
-            out.push((centre.0, centre.1, arm, manoeuvre));
-        }
-    }
-    out
+    [false, true]
+        .into_iter()
+        .flat_map(|m| {
+            nine::accuracy_cases()
+                .into_iter()
+                .map(move |(r, n, a)| (r, n, a, m))
+        })
+        .collect()
 }
 
 fn list<T: std::str::FromStr>(name: &str) -> Option<Vec<T>> {

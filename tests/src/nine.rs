@@ -51,6 +51,23 @@ fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
 }
 
+/// The cases of issue 15's accuracy requirement: one factor at a time around the issue's case
+/// (1 kHz, 2e-3 m/s², 0.12 m) — rate (Hz), noise (m/s²) and arm (m).
+pub fn accuracy_cases() -> Vec<(f64, f64, f64)> {
+    let centre = (1000.0, 2e-3, 0.12);
+    let mut cases = Vec::new();
+    for rate in [50.0, 100.0, 1000.0, 4000.0] {
+        cases.push((rate, centre.1, centre.2));
+    }
+    for noise in [1e-4, 1e-2] {
+        cases.push((centre.0, noise, centre.2));
+    }
+    for arm in [0.05, 0.2] {
+        cases.push((centre.0, centre.1, arm));
+    }
+    cases
+}
+
 /// Builds the case.
 pub fn make(p: Params) -> Case {
     let mut rng = ChaCha8Rng::seed_from_u64(p.seed);

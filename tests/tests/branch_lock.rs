@@ -106,23 +106,6 @@ fn never_silently_wrong_across_the_family() {
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-/// The cases of the accuracy requirement: one factor at a time around the issue's case
-/// (1 kHz, 2e-3 m/s², 0.12 m).
-fn accuracy_cases() -> Vec<(f64, f64, f64)> {
-    let centre = (1000.0, 2e-3, 0.12);
-    let mut cases = Vec::new();
-    for rate in [50.0, 100.0, 1000.0, 4000.0] {
-        cases.push((rate, centre.1, centre.2));
-    }
-    for noise in [1e-4, 1e-2] {
-        cases.push((centre.0, noise, centre.2));
-    }
-    for arm in [0.05, 0.2] {
-        cases.push((centre.0, centre.1, arm));
-    }
-    cases
-}
-
 /// Issue 15's accuracy requirement on the issue's motion, the torque-free tumble: the raw σ0,
 /// Ω′ and Ω RMS of `ballisto estimate --raw` (two-way: forward and time-reversed passes) within
 /// 1.10 × the truth-started maximum likelihood, seed 1, 20 s. The forward path's (the
@@ -147,7 +130,7 @@ fn accuracy_against_the_maximum_likelihood(manoeuvre: bool) {
     println!("| rate | noise | arm | motion | σ0 / ML (two-way / forward) | Ω′ / ML | Ω / ML |");
     println!("|---|---|---|---|---|---|---|");
     let mut failures = Vec::new();
-    for (rate_hz, noise, arm) in accuracy_cases() {
+    for (rate_hz, noise, arm) in nine::accuracy_cases() {
         {
             let case = nine::make(Params {
                 rate_hz,
