@@ -78,8 +78,7 @@ fn main() {
         r.omega = r.omega.map(|v| -v);
     }
     let ml = case.ml_errors();
-    let ml_rms: [f64; 3] =
-        core::array::from_fn(|i| (ml.iter().map(|e| e[i]).sum::<f64>() / n as f64).sqrt());
+    let ml_rms = nine::rms_of(&ml);
     let by_margin: Vec<Estimate<f64>> = (0..n)
         .map(|k| {
             if fwd[k].branch_margin >= bwd[k].branch_margin {

@@ -180,6 +180,12 @@ impl Case {
     }
 }
 
+/// RMS per column of per-sample squared errors (σ0, Ω′, Ω: as [`Case::ml_errors`] gives them).
+pub fn rms_of(squared: &[[f64; 3]]) -> [f64; 3] {
+    let n = squared.len().max(1) as f64;
+    core::array::from_fn(|i| (squared.iter().map(|e| e[i]).sum::<f64>() / n).sqrt())
+}
+
 /// What one path's rows show against the truth.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Score {

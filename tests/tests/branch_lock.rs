@@ -140,10 +140,7 @@ fn accuracy_against_the_maximum_likelihood(manoeuvre: bool) {
                 seed: 1,
                 manoeuvre,
             });
-            let ml = case.ml_errors();
-            let n = ml.len() as f64;
-            let ml_rms: [f64; 3] =
-                core::array::from_fn(|i| (ml.iter().map(|e| e[i]).sum::<f64>() / n).sqrt());
+            let ml_rms = nine::rms_of(&case.ml_errors());
             let ratio = |rows: &[estimator_core::Estimate<f64>]| -> [f64; 3] {
                 let rms = Score::of(rows, &case.truth).rms();
                 core::array::from_fn(|i| rms[i] / ml_rms[i])
