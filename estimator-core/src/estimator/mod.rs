@@ -468,7 +468,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         if !input_ok {
             return (self.hold(t, dt_t, record), false);
         }
-        let excluded = cfg.mask.count(n) < n;
+        let excluded = !cfg.mask.holds_all(n);
         let Work {
             branches,
             trial,
