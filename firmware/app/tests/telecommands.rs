@@ -124,7 +124,10 @@ struct Unit {
 
 impl Unit {
     fn new() -> Self {
-        let cfg = config();
+        Self::with(config())
+    }
+
+    fn with(cfg: AppConfig) -> Self {
         let app = App::new(&cfg, Mode::Operate).unwrap();
         let mut tm = Telemetry::new(Capture::default());
         let mut unit = Unit {
@@ -329,6 +332,68 @@ fn every_command_is_verified_and_takes_effect() {
     let r = u.command(&tc(service::TEST, subtype::ARE_YOU_ALIVE, &[], 10));
     assert!(matches!(r[1].report, Report::Alive));
     ok(&r);
+}
+
+/// TC[200,6] arriving while model F stands in for the configured model G (a channel of the
+/// twelve excluded by command: model G unobservable on eleven): the new arrangement is taken,
+/// the configured model stays G, model F stays in force while the exclusion does, and the
+/// `reconfigured` event says F. When the channel is put back, model G returns — on the new
+/// arrangement, not on a configuration set aside before the load (the spare configuration,
+/// where the build has it, is dropped by the load).
+#[test]
+fn an_arrangement_loaded_while_model_f_stands_in_keeps_the_configured_model_and_the_exclusion() {
+    let mut u = Unit::with(tetra());
+    u.sets(10);
+    let b = service::BALLISTOMETER;
+    let ok = |r: &[Decoded]| {
+        assert_eq!(verification(&r[0]), (subtype::ACCEPTED, None));
+        assert_eq!(verification(r.last().unwrap()), (subtype::COMPLETED, None));
+    };
+    assert_eq!(u.app.estimation().estimator().model(), Model::General);
+    ok(&u.command(&tc(b, subtype::EXCLUDE, &[3], 1)));
+    assert_eq!(u.app.estimation().estimator().model(), Model::FreeFloat);
+    u.sets(5);
+
+    let shift = 0.01;
+    let mut data = vec![12u8];
+    for ch in u.cfg.arrangement.channels() {
+        let p = [ch.position[0] + shift, ch.position[1], ch.position[2]];
+        for v in p.iter().chain(ch.axis.iter()).chain([ch.noise].iter()) {
+            data.extend((*v as f32).to_be_bytes());
+        }
+    }
+    let r = u.command(&tc(b, subtype::LOAD_ARRANGEMENT, &data, 2));
+    ok(&r);
+    let model_f = ballisto_link::ModelCode::from(Model::FreeFloat) as u32;
+    assert!(
+        r.iter().any(|p| matches!(p.report, Report::Event(e)
+            if e.id == EventId::Reconfigured && e.a == 12 && e.b == model_f)),
+        "{r:?}"
+    );
+    let e = u.app.estimation();
+    assert_eq!(e.model(), Model::General, "the configured model");
+    assert_eq!(
+        e.estimator().model(),
+        Model::FreeFloat,
+        "the model in force"
+    );
+    assert_eq!(e.excluded_channels(), ChannelSet(1 << 3));
+    let x0 = u.cfg.arrangement.channels()[0].position[0] + shift;
+    assert!((e.estimator().arrangement().channels()[0].position[0] - x0).abs() < 1e-6);
+    let before = motion_values(&mut u).len();
+    u.sets(5);
+    let after = motion_values(&mut u);
+    assert_eq!(after.len(), before + 5);
+    assert!(after.iter().flatten().all(|v| v.is_finite()));
+
+    ok(&u.command(&tc(b, subtype::INCLUDE, &[3], 3)));
+    let e = u.app.estimation();
+    assert_eq!(e.estimator().model(), Model::General);
+    assert_eq!(e.excluded_channels(), ChannelSet(0));
+    assert!(
+        (e.estimator().arrangement().channels()[0].position[0] - x0).abs() < 1e-6,
+        "model G back on the loaded arrangement"
+    );
 }
 
 /// Each bad command: the failure report it must produce.
