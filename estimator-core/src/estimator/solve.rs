@@ -146,7 +146,9 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
                 let dup = roots[..nr].iter().any(|b| {
                     norm2(&crate::linalg::sub(&a, b)) <= T::of(1e-6) * norm2(&a).max(T::EPSILON)
                 });
-                if !dup && nr < MAX_CANDIDATES && a.iter().all(|v| v.is_finite()) {
+                // x·0 is ±0 for finite x and NaN otherwise: one test for the three components.
+                let finite = a[0] * T::ZERO + a[1] * T::ZERO + a[2] * T::ZERO == T::ZERO;
+                if !dup && nr < MAX_CANDIDATES && finite {
                     roots[nr] = a;
                     scratch.fit[nr] = res;
                     scratch.jtj[nr] = sol.jtj;
