@@ -9,6 +9,17 @@ pub type Vec3<T> = [T; 3];
 /// A 3×3 matrix, row-major.
 pub type Mat3<T> = [[T; 3]; 3];
 
+/// True if no element is NaN or infinite, in one comparison: `x·0` is ±0 for finite `x` and
+/// NaN otherwise, so the sum of the products is zero exactly when every element is finite.
+#[inline]
+pub fn all_finite<T: Real>(x: &[T]) -> bool {
+    let mut acc = T::ZERO;
+    for v in x {
+        acc += *v * T::ZERO;
+    }
+    acc == T::ZERO
+}
+
 /// `a · b`.
 #[inline]
 pub fn dot<T: Real>(a: &Vec3<T>, b: &Vec3<T>) -> T {

@@ -146,9 +146,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
                 let dup = roots[..nr].iter().any(|b| {
                     norm2(&crate::linalg::sub(&a, b)) <= T::of(1e-6) * norm2(&a).max(T::EPSILON)
                 });
-                // x·0 is ±0 for finite x and NaN otherwise: one test for the three components.
-                let finite = a[0] * T::ZERO + a[1] * T::ZERO + a[2] * T::ZERO == T::ZERO;
-                if !dup && nr < MAX_CANDIDATES && finite {
+                if !dup && nr < MAX_CANDIDATES && crate::linalg::all_finite(&a) {
                     roots[nr] = a;
                     scratch.fit[nr] = res;
                     scratch.jtj[nr] = sol.jtj;
@@ -257,11 +255,7 @@ pub(super) fn readings_usable<T: Real>(p: &[T], n: usize, mask: ChannelMask) -> 
     let Some(p) = p.get(..n) else {
         return false;
     };
-    let mut acc = T::ZERO;
-    for v in p {
-        acc += *v * T::ZERO;
-    }
-    acc == T::ZERO
+    crate::linalg::all_finite(p)
         || p.iter()
             .enumerate()
             .all(|(i, v)| v.is_finite() || !mask.contains(i))

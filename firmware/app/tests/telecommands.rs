@@ -168,6 +168,19 @@ impl Unit {
     }
 }
 
+/// TC[200,6]'s application data: `cfg`'s arrangement with every channel moved by `dx` in x.
+fn shifted_arrangement(cfg: &AppConfig, dx: f64) -> Vec<u8> {
+    let channels = cfg.arrangement.channels();
+    let mut data = vec![channels.len() as u8];
+    for ch in channels {
+        let p = [ch.position[0] + dx, ch.position[1], ch.position[2]];
+        for v in p.iter().chain(ch.axis.iter()).chain([ch.noise].iter()) {
+            data.extend((*v as f32).to_be_bytes());
+        }
+    }
+    data
+}
+
 fn verification(p: &Decoded) -> (u8, Option<(FailureCode, u32)>) {
     match &p.report {
         Report::Verification(v) => (v.subtype, v.failure),
@@ -291,13 +304,7 @@ fn every_command_is_verified_and_takes_effect() {
     ok(&u.command(&tc(b, subtype::SET_HINT, &hint, 6)));
 
     // The same geometry, shifted by 1 cm in x: accepted, and the estimator has it.
-    let mut data = vec![12u8];
-    for ch in u.cfg.arrangement.channels() {
-        let p = [ch.position[0] + 0.01, ch.position[1], ch.position[2]];
-        for v in p.iter().chain(ch.axis.iter()).chain([ch.noise].iter()) {
-            data.extend((*v as f32).to_be_bytes());
-        }
-    }
+    let data = shifted_arrangement(&u.cfg, 0.01);
     assert_eq!(data.len(), 1 + 12 * CHANNEL_LEN);
     assert_eq!(u.app.calibration(), ballisto_link::CalibrationId::default());
     ok(&u.command(&tc(b, subtype::LOAD_ARRANGEMENT, &data, 7)));
@@ -355,13 +362,7 @@ fn an_arrangement_loaded_while_model_f_stands_in_keeps_the_configured_model_and_
     u.sets(5);
 
     let shift = 0.01;
-    let mut data = vec![12u8];
-    for ch in u.cfg.arrangement.channels() {
-        let p = [ch.position[0] + shift, ch.position[1], ch.position[2]];
-        for v in p.iter().chain(ch.axis.iter()).chain([ch.noise].iter()) {
-            data.extend((*v as f32).to_be_bytes());
-        }
-    }
+    let data = shifted_arrangement(&u.cfg, shift);
     let r = u.command(&tc(b, subtype::LOAD_ARRANGEMENT, &data, 2));
     ok(&r);
     let model_f = ballisto_link::ModelCode::from(Model::FreeFloat) as u32;
