@@ -120,3 +120,54 @@ fn the_return_to_model_g_swaps_its_configuration_back() {
     spare.clear();
     assert_eq!(spare.holds(), None);
 }
+
+/// Issue 17, the precomputation outside the sample loop: a configuration built in the spare
+/// slot while the estimator goes on estimating leaves the estimator untouched, and swapped in
+/// it estimates exactly as one configured in place; the configuration it replaced is set
+/// aside. A refused build leaves the slot as it was; an empty slot swaps nothing in.
+#[test]
+fn a_configuration_built_beside_the_estimator_is_swapped_in_whole() {
+    let arr = tetra();
+    let mut est = Estimator::<f32, CAP>::new(&arr, Model::General, Options::default()).unwrap();
+    let mut spare = SpareConfig::new();
+    assert_eq!(est.swap_in(&mut spare), None, "nothing to swap in");
+    assert_eq!(est.model(), Model::General);
+    let all = ChannelMask::all(12);
+    let nine = all.without(3).without(4).without(5);
+    let p: Vec<f32> = (0..12).map(|i| 0.3 + 0.01 * i as f32).collect();
+    let before = *est.update(0.0, &p);
+    let built = spare.build(est.arrangement(), Model::General, nine, est.options());
+    assert_eq!(
+        built,
+        Ok(Model::FreeFloat),
+        "nine channels do not carry model G"
+    );
+    assert_eq!(spare.holds(), Some((Model::FreeFloat, nine)));
+    // The estimator in force is untouched by the build.
+    assert_eq!((est.model(), est.mask()), (Model::General, all));
+    let mut twin = Estimator::<f32, CAP>::new(&arr, Model::General, Options::default()).unwrap();
+    let _ = twin.update(0.0, &p);
+    let (a, b) = (*est.update(0.01, &p), *twin.update(0.01, &p));
+    assert_eq!((a.omega, a.flags.0), (b.omega, b.flags.0));
+    assert!(before.is_finite());
+    // A refused build (eight channels): the slot keeps what it held.
+    let eight = nine.without(0);
+    assert!(spare
+        .build(est.arrangement(), Model::General, eight, est.options())
+        .is_err());
+    assert_eq!(spare.holds(), Some((Model::FreeFloat, nine)));
+    // Swapped in: model F in force, model G set aside; it estimates as one set in place.
+    assert_eq!(est.swap_in(&mut spare), Some(Model::FreeFloat));
+    assert_eq!((est.model(), est.mask()), (Model::FreeFloat, nine));
+    assert_eq!(spare.holds(), Some((Model::General, all)));
+    let mut fresh = Estimator::<f32, CAP>::new(&arr, Model::General, Options::default()).unwrap();
+    assert_eq!(
+        fresh.set_mask_in(nine, Model::General),
+        Ok(Model::FreeFloat)
+    );
+    let (a, b) = (*est.update(0.0, &p), *fresh.update(0.0, &p));
+    assert_eq!(
+        (a.omega, a.sigma0, a.flags.0),
+        (b.omega, b.sigma0, b.flags.0)
+    );
+}

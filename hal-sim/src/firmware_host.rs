@@ -20,7 +20,7 @@ use ballisto_fw::config::{
     Alignment, AppConfig, PartConfig, PartKind, SamplingConfig, MAX_CHANNELS, MAX_PARTS,
 };
 use ballisto_fw::drivers::{adxl355, lis3dh};
-use ballisto_fw::estimation::SetEstimate;
+use ballisto_fw::estimation::{Builds, SetEstimate};
 use ballisto_fw::sampler::{
     sampling_task, HealthBoard, LoopHealth, PartBus, PartHealth, SampleSet, Sampler,
 };
@@ -93,6 +93,31 @@ impl OutputPin for SimSyncPin {
     fn set_high(&mut self) -> Result<(), Infallible> {
         self.line.pulse(self.clock.now());
         Ok(())
+    }
+}
+
+/// The firmware's second configuration buffer for one run, [`Builds::inline`]: changes are
+/// built in the sample path at once, as `ballisto estimate` makes them, since simulated time
+/// does not pass during a build. The application holds it for `'static`, so buffers are kept in
+/// a pool across runs (about 24 KB each, as many as runs at a time) instead of leaked per run.
+struct SpareBuffer(&'static Builds);
+
+static SPARE_BUFFERS: std::sync::Mutex<Vec<&'static Builds>> = std::sync::Mutex::new(Vec::new());
+
+impl SpareBuffer {
+    fn take() -> Self {
+        let pooled = SPARE_BUFFERS.lock().ok().and_then(|mut pool| pool.pop());
+        SpareBuffer(pooled.unwrap_or_else(|| Box::leak(Box::new(Builds::inline()))))
+    }
+}
+
+impl Drop for SpareBuffer {
+    /// Back to the pool, emptied (declared before the application, it outlives it).
+    fn drop(&mut self) {
+        self.0.clear();
+        if let Ok(mut pool) = SPARE_BUFFERS.lock() {
+            pool.push(self.0);
+        }
     }
 }
 
@@ -371,8 +396,10 @@ pub fn run_firmware_boot(
         clock: rig.clock.clone(),
     };
     let mut sampler = Sampler::new(&config.sampling, buses, sync);
+    let spare = SpareBuffer::take();
     let mut app =
         App::new(config, Mode::Operate).map_err(|e| format!("firmware estimator: {e}"))?;
+    app.attach_builds(spare.0);
     app.set_calibration(boot.calibration);
     app.set_boot_info(boot.info);
     let requests = CommitRequests::<NoopRawMutex>::new();

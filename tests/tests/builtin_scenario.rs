@@ -21,6 +21,7 @@ use embassy_futures::select::select;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::zerocopy_channel::Channel as ZeroCopyChannel;
+use estimator_core::Flags;
 use hal_sim::firmware_host::Downlink;
 
 /// Time that jumps to each instant waited for.
@@ -217,9 +218,16 @@ fn qemu_stream_matches_the_host_run() {
     assert!(qemu.problems.is_empty(), "{:?}", qemu.problems);
     let host = decode_stream(&host_run());
     let (q, h) = (motions(&qemu), motions(&host));
+    // The first reconfiguration: u3's exclusion (its silence from `OUTAGE.from`, excluded at
+    // its EXCLUDE_AFTER-th missing set) and the switch to model F, at set 404. The host builds
+    // its configuration in the sample path (simulated time does not pass); the QEMU board in
+    // thread mode below the sample loop (issue 17), so from there the two streams differ.
+    let first_reconfiguration = (ballisto_fw::demo::OUTAGE.from * 100.0).round() as u32
+        + u32::from(ballisto_fw::estimation::EXCLUDE_AFTER)
+        - 1;
     let mut same = 0;
     for (a, b) in q.iter().zip(h.iter()) {
-        if a.1.k != b.1.k {
+        if a.1.k != b.1.k || a.1.k >= first_reconfiguration {
             break;
         }
         let (x, y) = (&a.1.estimate, &b.1.estimate);
@@ -236,18 +244,29 @@ fn qemu_stream_matches_the_host_run() {
         q.len(),
         h.len()
     );
-    // The first reconfiguration, the first set it may drop: u3's exclusion (its silence from
-    // `OUTAGE.from`, excluded at its EXCLUDE_AFTER-th missing set) and the switch to model F,
-    // at set 404 (355 estimates after the standby's 50 sets; the commanded model change at
-    // 6 s was the first before the G → F switch: 555).
-    let first_reconfiguration = (ballisto_fw::demo::OUTAGE.from * 100.0).round() as u32
-        + u32::from(ballisto_fw::estimation::EXCLUDE_AFTER)
-        - 1;
-    let before = h.iter().filter(|m| m.1.k <= first_reconfiguration).count();
+    let before = h.iter().filter(|m| m.1.k < first_reconfiguration).count();
     assert!(
         same >= before,
         "{same} identical, {before} before the first reconfiguration"
     );
+    // Issue 17: the exclusion and the return (the G → F switch and back) lose no set on the
+    // QEMU board: every set has its estimate until the commanded model change at 6 s (a
+    // telecommand's change is still built in the sample path), and until the board's own
+    // exclusion the sets with u3 silent are its flagged predictions.
+    let commanded = (ballisto_fw::demo::SCRIPT[5].0 * 100.0).round() as u32;
+    let at = |k: u32| q.iter().find(|m| m.1.k == k).map(|m| &m.1);
+    let mut waited = 0;
+    for k in first_reconfiguration..commanded {
+        let m = at(k).unwrap_or_else(|| panic!("set {k} lost on the QEMU board"));
+        if m.excluded_parts.is_empty() && k < first_reconfiguration + 100 {
+            assert!(
+                m.estimate.flags.has(Flags::INPUT_INVALID),
+                "set {k}: u3 silent and not yet out"
+            );
+            waited += 1;
+        }
+    }
+    println!("QEMU: the exclusion's configuration built while {waited} sets were predicted");
     let (rms, sd) = omega_rms(&q, 100);
     println!("QEMU: Ω RMS {rms:.3e} rad/s (reported sd {sd:.3e})");
     assert!(
@@ -266,7 +285,16 @@ fn qemu_stream_matches_the_host_run() {
             })
             .collect()
     };
-    assert_eq!(kinds(&qemu), kinds(&host));
+    // The same events and verifications; the verifications in the same order, the events
+    // as a set: the board's exclusion now follows u3's part-down event by its build's time.
+    let (mut a, mut b) = (kinds(&qemu), kinds(&host));
+    let verifications = |k: &[String]| -> Vec<String> {
+        k.iter().filter(|e| e.starts_with("tc")).cloned().collect()
+    };
+    assert_eq!(verifications(&a), verifications(&b));
+    a.sort();
+    b.sort();
+    assert_eq!(a, b);
     // The QEMU board's store → reset → boot chose as the host's did.
     let calibration = |s: &Stream| {
         s.packets.iter().find_map(|p| match &p.report {

@@ -225,6 +225,22 @@ impl<T: Real, const CAP: usize> SpareConfig<T, CAP> {
     pub fn holds(&self) -> Option<(Model, ChannelMask)> {
         (self.cfg.frames > 0).then_some((self.cfg.model, self.cfg.mask))
     }
+
+    /// Builds a configuration in this slot — the precomputation of
+    /// [`Estimator::configure_preferring`] — without touching any estimator, so that it can run
+    /// while the estimator in force goes on estimating (issue 17: the firmware builds it in a
+    /// lower-priority task); [`Estimator::swap_in`] then puts it in force. Returns the model
+    /// built (model F where `mask` does not carry the `preferred` model G). On error the slot
+    /// keeps what it held.
+    pub fn build(
+        &mut self,
+        arr: &Arrangement<CAP>,
+        preferred: Model,
+        mask: ChannelMask,
+        options: Options,
+    ) -> Result<Model, ConfigError> {
+        self.cfg.configure_preferring(arr, preferred, mask, options)
+    }
 }
 
 impl<T: Real, const CAP: usize> Estimator<T, CAP> {
@@ -336,6 +352,23 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.frame = 0;
         self.reset();
         Ok(model)
+    }
+
+    /// Puts the configuration of `spare` in force and sets the one in force aside there (one
+    /// swap of the two buffers, no precomputation), restarting the history as a mask change
+    /// does; returns the model now in force. `None`, and nothing changes, if `spare` holds no
+    /// configuration.
+    pub fn swap_in(&mut self, spare: &mut SpareConfig<T, CAP>) -> Option<Model> {
+        spare.holds()?;
+        core::mem::swap(&mut self.cfg, &mut spare.cfg);
+        self.frame = 0;
+        self.reset();
+        Some(self.cfg.model)
+    }
+
+    /// The options in force (those of the last configuration).
+    pub fn options(&self) -> Options {
+        self.cfg.options
     }
 
     /// Sets the known gravity-gradient tensor Γ (body frame). Cheap (no SVD).

@@ -69,3 +69,17 @@ pub fn configure_preferring(
 ) -> Result<Model, ConfigError> {
     estimator.configure_preferring(arrangement, model, mask, options)
 }
+
+/// [`SpareConfig::build`]: the precomputation of a configuration in the second buffer,
+/// beside the estimator in force (the firmware's lower-priority builder task, issue 17);
+/// returns the model built.
+#[inline(never)]
+pub fn build_spare(
+    spare: &mut FwSpare,
+    arrangement: &Arrangement<MAX_CHANNELS>,
+    preferred: Model,
+    mask: ChannelMask,
+    options: Options,
+) -> Result<Model, ConfigError> {
+    spare.build(arrangement, preferred, mask, options)
+}

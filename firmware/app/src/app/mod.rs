@@ -123,6 +123,14 @@ impl App {
         })
     }
 
+    /// Takes `builds` as the estimator's second configuration buffer (feature `spare-config`;
+    /// [`Estimation::attach_builds`]): with [`Builds::background`] the board must run
+    /// [`Builds::run`] in a task of lower priority than this one's.
+    #[cfg(feature = "spare-config")]
+    pub fn attach_builds(&mut self, builds: &'static crate::estimation::Builds) {
+        self.estimation.attach_builds(builds);
+    }
+
     /// Says which calibration the configuration's arrangement is (the board's choice at boot
     /// between the stored calibration and the built-in one: `calstore::select_at_boot`).
     pub fn set_calibration(&mut self, calibration: CalibrationId) {

@@ -1,6 +1,11 @@
 //! The ballistometer on QEMU mps2-an386 (Cortex-M4F): the application of the `firmware`
 //! crate on the embassy executor, with
-//! - a SysTick time base (24-bit counter at 25 MHz, wraps counted in its exception),
+//! - a SysTick time base (1 ms periods of the 25 MHz core clock, counted in its exception,
+//!   which also wakes the tasks waiting for a time),
+//! - two priorities: sampling, the application and the observer on an interrupt executor (a
+//!   software-pended interrupt), and below them, in thread mode, the builder of the
+//!   estimator's configurations (issue 17: a part's exclusion is precomputed there, in soft
+//!   f64 on this Cortex-M4F, while the estimates go on) and the scripted uplink,
 //! - the built-in scenario in place of the parts (QEMU has no accelerometers) and its
 //!   scripted uplink,
 //! - the telemetry link written to `telemetry.bin` in QEMU's working directory through
@@ -17,7 +22,9 @@
 
 #[cfg(target_os = "none")]
 mod board {
+    use core::cell::RefCell;
     use core::sync::atomic::{AtomicU32, Ordering};
+    use core::task::Poll;
 
     use ballisto_fw::app::{
         app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
@@ -25,29 +32,71 @@ mod board {
     use ballisto_fw::boot::{count_boot, ResetCause};
     use ballisto_fw::calstore::{Programming, RamFlash};
     use ballisto_fw::demo::{self, ScriptedUplink, SETS};
+    use ballisto_fw::estimation::Builds;
     use ballisto_fw::sampler::synthetic::{synthetic_task, Synthetic};
     use ballisto_fw::sampler::{HealthBoard, SampleSet};
     use ballisto_fw::telemetry::Telemetry;
     use ballisto_fw::time::{Nanos, TimeBase};
+    use cortex_m::interrupt::InterruptNumber;
+    use cortex_m::peripheral::scb::SystemHandler;
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::SYST;
     use cortex_m_rt::exception;
     use cortex_m_semihosting::{debug, hprintln, syscall};
-    use embassy_executor::Spawner;
+    use embassy_executor::{InterruptExecutor, Spawner};
     use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex as Cs;
+    use embassy_sync::blocking_mutex::Mutex as BlockingMutex;
     use embassy_sync::channel::Channel;
+    use embassy_sync::waitqueue::MultiWakerRegistration;
     use embassy_sync::zerocopy_channel::{self, Channel as ZeroCopyChannel};
     use embedded_io_async::{ErrorKind, ErrorType, Write};
     use static_cell::StaticCell;
 
     /// SysTick counts the 25 MHz core clock: 40 ns per count.
     const NS_PER_COUNT: u64 = 40;
-    const RELOAD: u32 = 0x00FF_FFFF;
+    /// One SysTick period: 1 ms (the resolution of a wait).
+    const COUNTS_PER_WRAP: u32 = 25_000;
+    const RELOAD: u32 = COUNTS_PER_WRAP - 1;
     static WRAPS: AtomicU32 = AtomicU32::new(0);
+    /// The tasks waiting for a time: woken at every SysTick, they look at the time again.
+    static WAITING: BlockingMutex<Cs, RefCell<MultiWakerRegistration<4>>> =
+        BlockingMutex::new(RefCell::new(MultiWakerRegistration::new()));
 
     #[exception]
     fn SysTick() {
         WRAPS.fetch_add(1, Ordering::Relaxed);
+        WAITING.lock(|w| w.borrow_mut().wake());
+    }
+
+    /// The interrupt the upper executor runs in: one of the NVIC's lines that no device of
+    /// mps2-an386 drives, pended only by the executor itself.
+    #[derive(Clone, Copy)]
+    struct SoftwareInterrupt;
+
+    const EXECUTOR_IRQ: u16 = 31;
+
+    // SAFETY: 31 is a valid interrupt number of the machine's NVIC (32 lines).
+    unsafe impl InterruptNumber for SoftwareInterrupt {
+        fn number(self) -> u16 {
+            EXECUTOR_IRQ
+        }
+    }
+
+    /// Sampling, the application and the observer: above thread mode, where the builder of
+    /// configurations and the scripted uplink run.
+    static UPPER: InterruptExecutor = InterruptExecutor::new();
+
+    /// Without a device crate every external interrupt comes here (cortex-m-rt's default
+    /// vector table): the executor's line polls it; any other is not expected.
+    #[exception]
+    unsafe fn DefaultHandler(irqn: i16) {
+        if irqn == EXECUTOR_IRQ as i16 {
+            // SAFETY: called from the executor's interrupt only.
+            unsafe { UPPER.on_interrupt() }
+        } else {
+            hprintln!("board-qemu: unexpected interrupt {}", irqn);
+            finish(false)
+        }
     }
 
     /// The time base: SysTick counts extended by the wrap count.
@@ -60,18 +109,25 @@ mod board {
                 let before = WRAPS.load(Ordering::Acquire);
                 let count = SYST::get_current();
                 if WRAPS.load(Ordering::Acquire) == before {
-                    let ticks = (u64::from(before) << 24) | u64::from(RELOAD - count);
+                    let ticks =
+                        u64::from(before) * u64::from(COUNTS_PER_WRAP) + u64::from(RELOAD - count);
                     return ticks * NS_PER_COUNT;
                 }
             }
         }
 
         async fn wait_until(&mut self, at: Nanos) {
-            // The executor polls again at once: under QEMU's instruction counting the loop
-            // costs virtual time, not a sleep (an interrupt-driven timer is the STM32's).
-            while self.now() < at {
-                embassy_futures::yield_now().await;
-            }
+            // Woken by the next SysTick (1 ms) to look again: the processor is free meanwhile
+            // for the lower priority (busy-yielding here would keep the upper executor pended
+            // and starve thread mode).
+            core::future::poll_fn(|cx| {
+                if self.now() >= at {
+                    return Poll::Ready(());
+                }
+                WAITING.lock(|w| w.borrow_mut().register(cx.waker()));
+                Poll::Pending
+            })
+            .await
         }
     }
 
@@ -113,6 +169,7 @@ mod board {
     static COMMANDS: StaticCell<ZeroCopyChannel<'static, Cs, Incoming>> = StaticCell::new();
     static HEALTH: HealthBoard<Cs> = HealthBoard::new();
     static APP: StaticCell<App> = StaticCell::new();
+    static BUILDS: StaticCell<Builds> = StaticCell::new();
     static SOURCE: StaticCell<Synthetic> = StaticCell::new();
     static TELEMETRY: StaticCell<Telemetry<HostFile>> = StaticCell::new();
     /// Sector of the RAM-backed calibration flash.
@@ -153,6 +210,12 @@ mod board {
             storage: None,
         };
         app_task(app, &SysTickTime, links).await;
+    }
+
+    /// Builds the estimator's configurations (thread mode: below everything else).
+    #[embassy_executor::task]
+    async fn builder(builds: &'static Builds) {
+        builds.run().await
     }
 
     /// Ends the run once the application has handled the last set of the scenario.
@@ -197,6 +260,13 @@ mod board {
         let Some(mut p) = cortex_m::Peripherals::take() else {
             finish(false)
         };
+        // SysTick above the upper executor, so that no period is missed while it runs.
+        // SAFETY: priorities are set before the executor starts; no priority-based critical
+        // section is in use.
+        unsafe {
+            p.SCB.set_priority(SystemHandler::SysTick, 0);
+            p.NVIC.set_priority(SoftwareInterrupt, 0x80);
+        }
         p.SYST.set_clock_source(SystClkSource::Core);
         p.SYST.set_reload(RELOAD);
         p.SYST.clear_current();
@@ -260,16 +330,22 @@ mod board {
         };
         app.set_calibration(calibration);
         app.set_boot_info(boot_info);
+        let builds = BUILDS.init_with(Builds::background);
+        app.attach_builds(builds);
         let app = APP.init(app);
         let source = SOURCE.init(Synthetic::new(&config, Some(demo::OUTAGE)));
         let tm = TELEMETRY.init(Telemetry::new(file));
+        spawner.spawn(builder(builds).unwrap());
+        let upper = UPPER.start(SoftwareInterrupt);
         let t0 = SysTickTime.now() + source.period();
-        spawner.spawn(sampling(source, t0).unwrap());
+        upper.spawn(sampling(source, t0).unwrap());
         let slots = SLOTS.init_with(|| core::array::from_fn(|_| Incoming::new()));
         let (command_tx, command_rx) = COMMANDS.init(ZeroCopyChannel::new(slots)).split();
+        // The scripted uplink looks at the time by yielding (on the host it must not drive the
+        // simulated clock): in thread mode, beside the builder, it cannot starve it.
         spawner.spawn(uplink(t0, command_tx).unwrap());
-        spawner.spawn(observer().unwrap());
-        spawner.spawn(application(app, tm, command_rx).unwrap());
+        upper.spawn(observer().unwrap());
+        upper.spawn(application(app, tm, command_rx).unwrap());
     }
 
     #[panic_handler]

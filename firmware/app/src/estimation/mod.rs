@@ -19,6 +19,18 @@
 //! signal is stuck, is kept out of the solve until the readings are consistent again, where
 //! the model can spare it; while a fault is seen but not isolated, or isolated and not left
 //! out, the estimate carries [`Flags::RESIDUAL_HIGH`].
+//!
+//! With the feature `spare-config` and a [`Builds`] buffer attached
+//! ([`Estimation::attach_builds`]) the configuration of an exclusion or a re-admission is
+//! built beside the one in force, by a task of lower priority where the board runs one
+//! ([`background`]): the estimate goes on meanwhile, the parts on their way out read as
+//! missing (flagged predictions), and the new configuration is swapped in at the first set
+//! after it is built.
+
+#[cfg(feature = "spare-config")]
+pub mod background;
+#[cfg(feature = "spare-config")]
+pub use background::Builds;
 
 use ballisto_link::{ChannelSet, PartSet};
 use estimator_core::exclusion::MissingRuns;
@@ -72,10 +84,17 @@ pub struct Estimation {
     options: Options,
     /// The configured model (the estimator's, unless the channels in use do not carry it).
     model: Model,
-    /// The configuration set aside at a mask change: model G's while model F is in force, so
-    /// that the return is a swap, not a precomputation (feature `spare-config`).
+    /// The second configuration buffer (feature `spare-config`, where the board attaches one):
+    /// model G's configuration set aside while model F is in force, so that the return is a
+    /// swap, and, with a builder task, where changes are built outside the sample loop.
     #[cfg(feature = "spare-config")]
-    spare: ballisto_fw_precompute::FwSpare,
+    builds: Option<&'static Builds>,
+    /// The exclusion or re-admission waiting for its configuration (built in the background).
+    #[cfg(feature = "spare-config")]
+    pending: Option<background::Pending>,
+    /// Numbers the builds asked for.
+    #[cfg(feature = "spare-config")]
+    tickets: u32,
     /// A change of the model in force not yet reported: (before, after).
     switch: Option<(Model, Model)>,
     last_omega: Option<[f64; 3]>,
@@ -111,7 +130,11 @@ impl Estimation {
             options,
             model: config.model,
             #[cfg(feature = "spare-config")]
-            spare: ballisto_fw_precompute::FwSpare::new(),
+            builds: None,
+            #[cfg(feature = "spare-config")]
+            pending: None,
+            #[cfg(feature = "spare-config")]
+            tickets: 0,
             switch: None,
             last_omega: None,
             trusted: TrustedRate::default(),
@@ -119,6 +142,24 @@ impl Estimation {
         };
         e.rebuild_monitor();
         Ok(e)
+    }
+
+    /// Takes `builds` as the second configuration buffer: mask changes keep the configuration
+    /// they replace there, and, if it is [`Builds::background`], the exclusions' and
+    /// re-admissions' configurations are built there by the board's builder task.
+    #[cfg(feature = "spare-config")]
+    pub fn attach_builds(&mut self, builds: &'static Builds) {
+        self.builds = Some(builds);
+        self.pending = None;
+    }
+
+    /// The channels whose exclusion waits for its configuration (none without a builder task).
+    pub fn channels_leaving(&self) -> ChannelMask {
+        #[cfg(feature = "spare-config")]
+        if let Some(p) = self.pending {
+            return ChannelMask(self.estimator.mask().0 & !p.mask.0);
+        }
+        ChannelMask(0)
     }
 
     /// The fault monitor's parity space over the channels neither missing nor commanded out.
@@ -177,16 +218,39 @@ impl Estimation {
     fn take_mask(&mut self, mask: ChannelMask) -> Result<(), ConfigError> {
         let before = self.estimator.model();
         #[cfg(feature = "spare-config")]
-        ballisto_fw_precompute::set_mask_keeping(
-            &mut self.estimator,
-            mask,
-            self.model,
-            &mut self.spare,
-        )?;
+        {
+            // Made here and now: a change waiting for the builder is no longer wanted.
+            self.pending = None;
+            match self.builds.and_then(|b| b.spare_now()) {
+                Some(mut spare) => ballisto_fw_precompute::set_mask_keeping(
+                    &mut self.estimator,
+                    mask,
+                    self.model,
+                    &mut spare,
+                )?,
+                None => ballisto_fw_precompute::set_mask_in(&mut self.estimator, mask, self.model)?,
+            };
+        }
         #[cfg(not(feature = "spare-config"))]
         ballisto_fw_precompute::set_mask_in(&mut self.estimator, mask, self.model)?;
         self.note_model(before);
         Ok(())
+    }
+
+    /// As [`Estimation::take_mask`] for the exclusions' and re-admissions' own changes, built
+    /// by the builder task where there is one: `None` while it is being built (nothing
+    /// changes meanwhile).
+    #[cfg(feature = "spare-config")]
+    fn take_mask_when_built(&mut self, mask: ChannelMask) -> Option<Result<(), ConfigError>> {
+        if let Some(builds) = self.builds.filter(|b| b.in_background()) {
+            let before = self.estimator.model();
+            let est = &mut self.estimator;
+            let taken =
+                builds.change(est, mask, self.model, &mut self.pending, &mut self.tickets)?;
+            self.note_model(before);
+            return Some(taken.map(|_| ()));
+        }
+        Some(self.take_mask(mask))
     }
 
     /// Notes that the model in force was `before` (a switch and its reversal before the
@@ -222,7 +286,9 @@ impl Estimation {
         // configuration set aside has the old arrangement.
         self.model = model;
         #[cfg(feature = "spare-config")]
-        self.spare.clear();
+        if let Some(b) = self.builds {
+            b.clear();
+        }
         self.rebuild_monitor();
         Ok(())
     }
@@ -306,6 +372,16 @@ impl Estimation {
         let verdict = self.isolation.step(&self.p[..self.n]);
         let isolated_before = self.isolated;
         self.update_exclusions(set.t);
+        // Parts whose exclusion waits for its configuration are out already: read as missing.
+        #[cfg(feature = "spare-config")]
+        if self.pending.is_some() {
+            let leaving = self.channels_leaving();
+            for (c, x) in self.p[..self.n].iter_mut().enumerate() {
+                if leaving.contains(c) {
+                    *x = f32::NAN;
+                }
+            }
+        }
         let newly_out = !self.isolated.minus(isolated_before).is_empty();
         // Through the speed-built crate: this crate is built for size.
         let mut estimate =
@@ -343,12 +419,22 @@ impl Estimation {
         let isolated = self.isolation.isolated();
         if wanted == self.excluded && (isolated == self.isolated || Some(isolated) == self.refused)
         {
+            #[cfg(feature = "spare-config")]
+            {
+                self.pending = None; // a change no longer wanted
+            }
             return;
         }
         let mask = self.mask(PartSet(wanted.0 | isolated.0), self.commanded);
         // Too few channels left for either model: keep the mask (the sets stay flagged).
         let model_before = self.estimator.model();
-        if self.take_mask(mask).is_ok() {
+        #[cfg(feature = "spare-config")]
+        let Some(taken) = self.take_mask_when_built(mask) else {
+            return; // being built: the estimate goes on with the configuration in force
+        };
+        #[cfg(not(feature = "spare-config"))]
+        let taken = self.take_mask(mask);
+        if taken.is_ok() {
             let monitor_stale = wanted != self.excluded || self.estimator.model() != model_before;
             let hint = if isolated != self.isolated {
                 self.trusted.hint_at(seconds(now)).or(self.last_omega)
@@ -369,6 +455,7 @@ impl Estimation {
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
     use super::*;
     use crate::config::tetra;
     use estimator_core::{Flags, Model};
@@ -454,5 +541,105 @@ mod tests {
             e.take_model_switch(),
             Some((Model::FreeFloat, Model::General))
         );
+    }
+
+    /// Issue 17: with a builder task the exclusion's configuration is built beside the one in
+    /// force. Until it is built the estimates go on every set — the configured model, the
+    /// leaving part read as missing: flagged predictions, finite — and none uses a half-built
+    /// configuration; the first set after the build is made in model F without the part. The
+    /// return, once the part has answered for `INCLUDE_AFTER` sets, swaps model G's
+    /// configuration back from the buffer at once, with no build.
+    #[cfg(feature = "spare-config")]
+    #[test]
+    fn an_exclusion_built_in_the_background_never_stops_the_estimates() {
+        use core::future::Future;
+        use core::task::{Context, Poll};
+        let builds: &'static Builds =
+            std::boxed::Box::leak(std::boxed::Box::new(Builds::background()));
+        let mut e = Estimation::new(&tetra()).unwrap();
+        e.attach_builds(builds);
+        let mut builder = core::pin::pin!(builds.run());
+        let waker = futures::task::noop_waker();
+        let mut cx = Context::from_waker(&waker);
+        let part0 = ChannelMask(0b111);
+        let gap = 5 + u32::from(EXCLUDE_AFTER);
+        for k in 0..gap + 30 {
+            let m = e.process(&set(k, k < 5));
+            assert_eq!(
+                m.excluded,
+                PartSet::EMPTY,
+                "set {k}: not out before it is built"
+            );
+            assert_eq!(m.model, Model::General, "set {k}");
+            assert!(m.estimate.is_finite(), "set {k}");
+            assert_eq!(
+                m.estimate.flags.has(Flags::INPUT_INVALID),
+                k >= 5,
+                "set {k}"
+            );
+            let leaving = if k + 1 >= gap { part0 } else { ChannelMask(0) };
+            assert_eq!(e.channels_leaving(), leaving, "set {k}");
+        }
+        assert_eq!(e.take_model_switch(), None);
+        // The builder runs (once it has the processor): the configuration is built.
+        assert!(matches!(builder.as_mut().poll(&mut cx), Poll::Pending));
+        let k = gap + 30;
+        let m = e.process(&set(k, false));
+        assert_eq!(m.excluded, PartSet(1));
+        assert_eq!(m.model, Model::FreeFloat);
+        assert!(m.estimate.flags.has(Flags::CHANNELS_EXCLUDED));
+        assert!(!m.estimate.flags.has(Flags::INPUT_INVALID));
+        assert_eq!(e.channels_leaving(), ChannelMask(0));
+        assert_eq!(
+            e.take_model_switch(),
+            Some((Model::General, Model::FreeFloat))
+        );
+        // Back without the builder: model G's configuration was set aside at the swap.
+        let back = k + 1 + u32::from(INCLUDE_AFTER);
+        for k in k + 1..back {
+            let m = e.process(&set(k, true));
+            assert_eq!(m.excluded, PartSet(u8::from(k + 1 < back)), "set {k}");
+            assert!(m.estimate.is_finite(), "set {k}");
+        }
+        assert_eq!(e.estimator().model(), Model::General);
+        assert_eq!(e.estimator().mask(), ChannelMask::all(12));
+        assert_eq!(
+            e.take_model_switch(),
+            Some((Model::FreeFloat, Model::General))
+        );
+    }
+
+    /// A part back before its exclusion's configuration is built: the change is abandoned —
+    /// the estimator keeps its configuration and the part, and the build, when the builder
+    /// gets to it, is not swapped in.
+    #[cfg(feature = "spare-config")]
+    #[test]
+    fn an_exclusion_no_longer_wanted_is_not_swapped_in() {
+        use core::future::Future;
+        use core::task::{Context, Poll};
+        let builds: &'static Builds =
+            std::boxed::Box::leak(std::boxed::Box::new(Builds::background()));
+        let mut e = Estimation::new(&tetra()).unwrap();
+        e.attach_builds(builds);
+        let gap = 5 + u32::from(EXCLUDE_AFTER);
+        for k in 0..gap {
+            e.process(&set(k, k < 5));
+        }
+        assert_eq!(e.channels_leaving(), ChannelMask(0b111), "asked for");
+        let m = e.process(&set(gap, true));
+        assert_eq!(e.channels_leaving(), ChannelMask(0), "no longer wanted");
+        assert!(!m.estimate.flags.has(Flags::INPUT_INVALID));
+        let waker = futures::task::noop_waker();
+        let mut cx = Context::from_waker(&waker);
+        let mut builder = core::pin::pin!(builds.run());
+        assert!(matches!(builder.as_mut().poll(&mut cx), Poll::Pending));
+        for k in gap + 1..gap + 20 {
+            let m = e.process(&set(k, true));
+            assert_eq!(m.excluded, PartSet::EMPTY, "set {k}");
+            assert_eq!(m.model, Model::General, "set {k}");
+            assert!(!m.estimate.flags.has(Flags::INPUT_INVALID), "set {k}");
+        }
+        assert_eq!(e.estimator().mask(), ChannelMask::all(12));
+        assert_eq!(e.take_model_switch(), None);
     }
 }

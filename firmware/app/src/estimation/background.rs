@@ -1,0 +1,191 @@
+//! The precomputation of a channel-mask change outside the sample loop (issue 17): the second
+//! configuration buffer and the task that builds into it (feature `spare-config`).
+//!
+//! ```text
+//! application task (sets)            Builds (spare buffer, request)          builder task
+//!  exclusion wanted ──request──────▶ ┌──────────────────────────┐ ◀──lock, build── (lower
+//!  estimates go on with the old     │ Mutex: only ever *tried*  │                   priority)
+//!  configuration (parts on their    │ by the application        │ ──done──▶
+//!  way out read as missing)         └──────────────────────────┘
+//!  next set after done ◀──swap (one exchange of the two buffers, no precomputation)
+//! ```
+//!
+//! The application never waits for the buffer: it only *tries* to lock it, and the builder
+//! holds it for the whole build, so the estimate never meets a half-built configuration. The
+//! configuration replaced at the swap stays in the buffer (set aside), so that the return —
+//! model F back to model G when the part is back — is a swap too.
+//!
+//! [`Builds::inline`] is the same buffer without a builder task: the change is built in the
+//! sample path at once (the host simulator, whose time is simulated, so that its estimates stay
+//! those of `ballisto estimate` set for set). On the QEMU board (Cortex-M4F, soft f64) a build
+//! in the sample path stopped the loop for 23 sets at the G → F switch.
+
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex as Cs;
+use embassy_sync::mutex::{MappedMutexGuard, Mutex, MutexGuard};
+use embassy_sync::signal::Signal;
+use estimator_core::{Arrangement, ChannelMask, ConfigError, Model, Options};
+
+use ballisto_fw_precompute::{FwEstimator, FwSpare};
+
+use crate::config::MAX_CHANNELS;
+
+/// A configuration asked of the builder.
+struct Request {
+    ticket: u32,
+    arrangement: Arrangement<MAX_CHANNELS>,
+    options: Options,
+    mask: ChannelMask,
+    preferred: Model,
+}
+
+/// The buffer and what was asked of it.
+struct Slot {
+    spare: FwSpare,
+    request: Option<Request>,
+    /// The ticket of the last build and its outcome.
+    done: Option<(u32, Result<Model, ConfigError>)>,
+}
+
+/// A change of the channels in use waiting for its configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Pending {
+    ticket: u32,
+    /// The channels the configuration is built for.
+    pub mask: ChannelMask,
+}
+
+/// The second configuration buffer, shared by the application and the builder task.
+pub struct Builds {
+    slot: Mutex<Cs, Slot>,
+    wake: Signal<Cs, ()>,
+    background: bool,
+}
+
+impl Builds {
+    /// A buffer built into by a task of lower priority than the application's, which the board
+    /// must run ([`Builds::run`]); until it does, exclusions wait.
+    pub fn background() -> Self {
+        Self::with(true)
+    }
+
+    /// A buffer without a builder task: changes are built in the sample path at once.
+    pub fn inline() -> Self {
+        Self::with(false)
+    }
+
+    fn with(background: bool) -> Self {
+        Builds {
+            slot: Mutex::new(Slot {
+                spare: FwSpare::new(),
+                request: None,
+                done: None,
+            }),
+            wake: Signal::new(),
+            background,
+        }
+    }
+
+    /// Whether changes are built by [`Builds::run`].
+    pub fn in_background(&self) -> bool {
+        self.background
+    }
+
+    /// The builder task's body: builds each configuration asked for into the buffer, holding
+    /// the buffer for the whole build. Never returns.
+    pub async fn run(&self) -> ! {
+        loop {
+            self.wake.wait().await;
+            let mut guard = self.slot.lock().await;
+            let slot = &mut *guard;
+            if let Some(r) = slot.request.take() {
+                let built = ballisto_fw_precompute::build_spare(
+                    &mut slot.spare,
+                    &r.arrangement,
+                    r.preferred,
+                    r.mask,
+                    r.options,
+                );
+                slot.done = Some((r.ticket, built));
+            }
+        }
+    }
+
+    /// The buffer, if no build holds it, with any request or build for a change no longer
+    /// wanted (not `pending`) forgotten: its configuration is not the estimator's to take.
+    fn free(&self, pending: Option<Pending>) -> Option<MutexGuard<'_, Cs, Slot>> {
+        let mut slot = self.slot.try_lock().ok()?;
+        let wanted = |ticket: u32| pending.is_some_and(|p| p.ticket == ticket);
+        if slot.request.as_ref().is_some_and(|r| !wanted(r.ticket)) {
+            slot.request = None;
+        }
+        if slot
+            .done
+            .as_ref()
+            .is_some_and(|(ticket, _)| !wanted(*ticket))
+        {
+            slot.done = None;
+            slot.spare.clear();
+        }
+        Some(slot)
+    }
+
+    /// The spare configuration for a change made in the sample path (a telecommand, or no
+    /// builder task), if no build holds it; a build under way for another change is abandoned
+    /// (its outcome is forgotten when it is done).
+    pub fn spare_now(&self) -> Option<MappedMutexGuard<'_, Cs, FwSpare>> {
+        Some(MutexGuard::map(self.free(None)?, |s| &mut s.spare))
+    }
+
+    /// Forgets the configuration set aside (a new arrangement or options), or, if a build
+    /// holds the buffer, leaves it to be forgotten when that build is done.
+    pub fn clear(&self) {
+        if let Some(mut slot) = self.free(None) {
+            slot.spare.clear();
+        }
+    }
+
+    /// The channels of `mask` in the `preferred` model (model F where they do not carry model
+    /// G) for `estimator`, built outside the sample loop: `Some` once the estimator uses them
+    /// (or the build was refused: nothing changed), `None` while they are being built — the
+    /// estimator keeps its configuration meanwhile. `pending` is the caller's record of the
+    /// change asked for; `tickets` numbers the requests.
+    pub fn change(
+        &self,
+        estimator: &mut FwEstimator,
+        mask: ChannelMask,
+        preferred: Model,
+        pending: &mut Option<Pending>,
+        tickets: &mut u32,
+    ) -> Option<Result<Model, ConfigError>> {
+        let asked = pending.filter(|p| p.mask == mask);
+        let mut guard = self.free(asked)?;
+        let slot = &mut *guard;
+        if let Some((_, built)) = slot.done.take() {
+            // Built for this change (`free` forgot any other).
+            *pending = None;
+            return Some(built.map(|model| estimator.swap_in(&mut slot.spare).unwrap_or(model)));
+        }
+        if estimator.model() != preferred && slot.spare.holds() == Some((preferred, mask)) {
+            // The return to the configuration set aside.
+            *pending = None;
+            return estimator.swap_in(&mut slot.spare).map(Ok);
+        }
+        if asked.is_some() && slot.request.is_some() {
+            return None; // asked; the builder has not started
+        }
+        *tickets = tickets.wrapping_add(1);
+        slot.request = Some(Request {
+            ticket: *tickets,
+            arrangement: estimator.arrangement().clone(),
+            options: estimator.options(),
+            mask,
+            preferred,
+        });
+        *pending = Some(Pending {
+            ticket: *tickets,
+            mask,
+        });
+        self.wake.signal(());
+        None
+    }
+}
