@@ -61,6 +61,9 @@ pub mod not_ready {
     /// TC[9,128]: the spacecraft time given is earlier than the unit's own time since boot
     /// (the boot would precede the spacecraft's epoch).
     pub const TIME_BEFORE_BOOT: u32 = 9;
+    /// A commanded configuration change (model, arrangement, channels) is still being built
+    /// (the builder task of a board without a double-precision FPU): send it again later.
+    pub const CONFIGURATION_BUSY: u32 = 10;
 }
 
 /// The data of [`FailureCode::StoreFailed`].

@@ -249,14 +249,13 @@ fn qemu_stream_matches_the_host_run() {
         same >= before,
         "{same} identical, {before} before the first reconfiguration"
     );
-    // Issue 17: the exclusion and the return (the G → F switch and back) lose no set on the
-    // QEMU board: every set has its estimate until the commanded model change at 6 s (a
-    // telecommand's change is still built in the sample path), and until the board's own
-    // exclusion the sets with u3 silent are its flagged predictions.
-    let commanded = (ballisto_fw::demo::SCRIPT[5].0 * 100.0).round() as u32;
+    // Issue 17: no set is lost on the QEMU board from the first reconfiguration on — the
+    // exclusion and the return (the G → F switch and back), the commanded model change and
+    // the commanded exclusion are all built in thread mode below the sample loop — and until
+    // the board's own exclusion the sets with u3 silent are its flagged predictions.
     let at = |k: u32| q.iter().find(|m| m.1.k == k).map(|m| &m.1);
     let mut waited = 0;
-    for k in first_reconfiguration..commanded {
+    for k in first_reconfiguration..SETS {
         let m = at(k).unwrap_or_else(|| panic!("set {k} lost on the QEMU board"));
         if m.excluded_parts.is_empty() && k < first_reconfiguration + 100 {
             assert!(

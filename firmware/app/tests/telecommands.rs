@@ -1083,3 +1083,117 @@ fn the_spacecraft_time_sets_the_time_correlation() {
         (subtype::NOT_ACCEPTED, Some((FailureCode::DataLength, 7)))
     );
 }
+
+/// Issue 17: with the builder task (a board without a double-precision FPU) a commanded
+/// change is accepted at once and completed at the first set after its configuration is built
+/// — the event with it — while the estimates go on (the channel on its way out read as
+/// missing: flagged predictions, finite); another configuration command meanwhile is refused
+/// as not ready. A refused change completes as refused, nothing changed.
+#[cfg(feature = "spare-config")]
+#[test]
+fn commanded_changes_built_in_the_background_complete_once_in_force() {
+    use ballisto_fw::estimation::Builds;
+    use ballisto_link::verification::not_ready;
+    use std::future::Future;
+    use std::task::{Context, Poll};
+    let builds: &'static Builds = Box::leak(Box::new(Builds::background()));
+    let mut u = Unit::with(tetra());
+    u.app.attach_builds(builds);
+    u.sets(10);
+    let mut builder = Box::pin(builds.run());
+    let waker = futures::task::noop_waker();
+    let mut cx = Context::from_waker(&waker);
+    let b = service::BALLISTOMETER;
+    let since = |u: &mut Unit, n: usize| u.all()[n..].to_vec();
+
+    let r = u.command(&tc(b, subtype::EXCLUDE, &[3], 1));
+    assert_eq!(r.len(), 1, "accepted, not completed yet: {r:?}");
+    assert_eq!(verification(&r[0]), (subtype::ACCEPTED, None));
+    let n = u.all().len();
+    u.sets(5);
+    let waiting: Vec<_> = since(&mut u, n)
+        .into_iter()
+        .filter_map(|p| match p.report {
+            Report::Motion(m) => Some(m.estimate),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(waiting.len(), 5, "an estimate every set");
+    for e in &waiting {
+        assert!(e.flags.has(estimator_core::Flags::INPUT_INVALID));
+        assert!(e.omega.iter().chain(e.sigma0.iter()).all(|v| v.is_finite()));
+    }
+    assert_eq!(u.app.estimation().excluded_channels(), ChannelSet(0));
+    assert_eq!(u.app.estimation().estimator().model(), Model::General);
+
+    let r = u.command(&tc(b, subtype::SET_MODEL, &[1], 2));
+    assert_eq!(verification(&r[0]), (subtype::ACCEPTED, None));
+    assert_eq!(
+        verification(r.last().unwrap()),
+        (
+            subtype::NOT_COMPLETED,
+            Some((FailureCode::NotReady, not_ready::CONFIGURATION_BUSY))
+        )
+    );
+
+    assert!(matches!(builder.as_mut().poll(&mut cx), Poll::Pending));
+    let n = u.all().len();
+    u.sets(1);
+    let r = since(&mut u, n);
+    assert!(
+        r.iter().any(|p| matches!(p.report, Report::Event(e)
+            if e.id == EventId::ChannelsCommanded && e.a == 0 && e.b == 1 << 3)),
+        "{r:?}"
+    );
+    assert!(
+        r.iter().any(|p| matches!(&p.report, Report::Verification(v)
+            if v.subtype == subtype::COMPLETED && v.request.sequence & 0x3FFF == 1)),
+        "{r:?}"
+    );
+    let e = u.app.estimation();
+    assert_eq!(e.excluded_channels(), ChannelSet(1 << 3));
+    assert_eq!(e.estimator().model(), Model::FreeFloat, "eleven channels");
+
+    // A model change, then the channel back: each completed once built.
+    let r = u.command(&tc(b, subtype::SET_MODEL, &[1], 3));
+    assert_eq!(r.len(), 1, "{r:?}");
+    u.sets(3);
+    assert_eq!(u.app.estimation().model(), Model::General, "not yet");
+    assert!(matches!(builder.as_mut().poll(&mut cx), Poll::Pending));
+    let n = u.all().len();
+    u.sets(1);
+    let r = since(&mut u, n);
+    let model_f = ballisto_link::ModelCode::from(Model::FreeFloat) as u32;
+    assert!(
+        r.iter().any(|p| matches!(p.report, Report::Event(e)
+            if e.id == EventId::Reconfigured && e.a == 12 && e.b == model_f)),
+        "{r:?}"
+    );
+    assert_eq!(u.app.estimation().model(), Model::FreeFloat);
+
+    // Eight channels would be left: refused once built, nothing changed.
+    for (seq, c) in [(4u16, 0u8), (5, 1)] {
+        u.command(&tc(b, subtype::EXCLUDE, &[c], seq));
+        assert!(matches!(builder.as_mut().poll(&mut cx), Poll::Pending));
+        u.sets(1);
+    }
+    assert_eq!(u.app.estimation().excluded_channels(), ChannelSet(0b1011));
+    u.command(&tc(b, subtype::EXCLUDE, &[2], 6));
+    assert!(matches!(builder.as_mut().poll(&mut cx), Poll::Pending));
+    let n = u.all().len();
+    u.sets(1);
+    let r = since(&mut u, n);
+    assert!(
+        r.iter().any(|p| matches!(&p.report, Report::Verification(v)
+            if v.subtype == subtype::NOT_COMPLETED && v.request.sequence & 0x3FFF == 6
+                && matches!(v.failure, Some((FailureCode::Refused, _))))),
+        "{r:?}"
+    );
+    assert_eq!(u.app.estimation().excluded_channels(), ChannelSet(0b1011));
+    let n = u.all().len();
+    u.sets(2);
+    assert!(since(&mut u, n).iter().all(|p| match p.report {
+        Report::Motion(m) => !m.estimate.flags.has(estimator_core::Flags::INPUT_INVALID),
+        _ => true,
+    }));
+}

@@ -9,6 +9,7 @@ use embedded_io_async::Write;
 use estimator_core::ConfigError;
 
 use super::{App, Mode};
+use crate::estimation::Applied;
 use crate::telemetry::Telemetry;
 use crate::time::Nanos;
 
@@ -40,10 +41,18 @@ impl App {
                 None
             }
             Command::SetModel(model) => {
+                #[cfg(feature = "spare-config")]
+                self.configuration_free()?;
                 let arrangement = self.estimation.estimator().arrangement().clone();
-                self.estimation
+                let applied = self
+                    .estimation
                     .configure(&arrangement, model)
                     .map_err(refused)?;
+                #[cfg(feature = "spare-config")]
+                if applied == Applied::WhenBuilt {
+                    return Ok(self.defer_reconfigured(None));
+                }
+                let _ = applied;
                 Some(self.reconfigured())
             }
             Command::SetHint(w) => {
@@ -53,16 +62,35 @@ impl App {
                 None
             }
             Command::Exclude(c) | Command::Include(c) => {
+                #[cfg(feature = "spare-config")]
+                self.configuration_free()?;
                 let now = self.estimation.commanded();
                 let commanded = match command {
                     Command::Exclude(_) => now.with(usize::from(c)),
                     _ => now.without(usize::from(c)),
                 };
-                self.estimation.set_commanded(commanded).map_err(refused)?;
+                let applied = self.estimation.set_commanded(commanded).map_err(refused)?;
+                #[cfg(feature = "spare-config")]
+                if applied == Applied::WhenBuilt {
+                    self.deferring = Some(super::awaited::Deferred::ChannelsCommanded {
+                        before: now,
+                        after: commanded,
+                    });
+                    return Ok(None);
+                }
+                let _ = applied;
                 (commanded != now).then_some((EventId::ChannelsCommanded, now.0, commanded.0))
             }
             Command::LoadArrangement(data) => {
-                self.load_arrangement(data)?;
+                #[cfg(feature = "spare-config")]
+                self.configuration_free()?;
+                let (applied, calibration) = self.load_arrangement(data)?;
+                #[cfg(feature = "spare-config")]
+                if applied == Applied::WhenBuilt {
+                    return Ok(self.defer_reconfigured(Some(calibration)));
+                }
+                let _ = applied;
+                self.calibration = calibration;
                 Some(self.reconfigured())
             }
             Command::SetRates {
@@ -103,19 +131,44 @@ impl App {
     }
 
     /// TC[200,6] execution: the arrangement built (on the stack, not in the task's state)
-    /// and handed to the estimator, which keeps its configuration if it refuses.
-    pub(super) fn load_arrangement(&mut self, data: &[u8]) -> Result<(), (FailureCode, u32)> {
+    /// and handed to the estimator, which keeps its configuration if it refuses; when it takes
+    /// effect, and the arrangement's calibration identity (the command's data: a commanded
+    /// arrangement is no stored calibration).
+    pub(super) fn load_arrangement(
+        &mut self,
+        data: &[u8],
+    ) -> Result<(Applied, ballisto_link::CalibrationId), (FailureCode, u32)> {
         let arrangement = telecommand::arrangement(data)?;
         let model = self.estimation.model();
-        self.estimation
+        let applied = self
+            .estimation
             .configure(&arrangement, model)
             .map_err(refused)?;
-        // A commanded arrangement is no stored calibration: its identity is the command's data.
-        self.calibration = ballisto_link::CalibrationId {
+        let calibration = ballisto_link::CalibrationId {
             source: ballisto_link::CalibrationSource::Commanded,
             id: 0,
             crc: ballisto_calstore::record::crc32(data),
         };
+        Ok((applied, calibration))
+    }
+
+    /// A new model or arrangement (`calibration`: the new arrangement's identity) to be built
+    /// by the builder task: its `reconfigured` event comes with the command's completion.
+    #[cfg(feature = "spare-config")]
+    fn defer_reconfigured(
+        &mut self,
+        calibration: Option<ballisto_link::CalibrationId>,
+    ) -> Option<CommandEvent> {
+        self.deferring = Some(super::awaited::Deferred::Reconfigured { calibration });
+        None
+    }
+
+    /// A configuration command may run: none is being built (with the builder task).
+    #[cfg(feature = "spare-config")]
+    fn configuration_free(&self) -> Result<(), (FailureCode, u32)> {
+        if self.estimation.order_awaited() {
+            return Err((FailureCode::NotReady, not_ready::CONFIGURATION_BUSY));
+        }
         Ok(())
     }
 }

@@ -13,6 +13,8 @@
 //! [`reports`] (the application's state as the link's reports), [`uplink`] (the command link),
 //! [`task`] (the task and its links; observers subscribe to [`Observations`]).
 
+#[cfg(feature = "spare-config")]
+mod awaited;
 mod commands;
 mod identify;
 mod reports;
@@ -89,6 +91,12 @@ pub struct App {
     /// The storage task's state, and a commit waiting to be sent to it.
     store: identify::Store,
     outbox: Option<CommitRequest>,
+    /// What the command being executed reports once its configuration is built (set by
+    /// `execute`), and the command waiting for it.
+    #[cfg(feature = "spare-config")]
+    deferring: Option<awaited::Deferred>,
+    #[cfg(feature = "spare-config")]
+    awaited: Option<awaited::Awaited>,
 }
 
 impl App {
@@ -120,6 +128,10 @@ impl App {
             identification: Identification::new(),
             store: identify::Store::None,
             outbox: None,
+            #[cfg(feature = "spare-config")]
+            deferring: None,
+            #[cfg(feature = "spare-config")]
+            awaited: None,
         })
     }
 
@@ -227,6 +239,15 @@ impl App {
             }
             motion = Some(m);
         }
+        // A commanded configuration built by the builder task is taken at a set (in standby
+        // too), and its command completed.
+        #[cfg(feature = "spare-config")]
+        {
+            if self.mode != Mode::Operate {
+                self.estimation.poll_order();
+            }
+            self.complete_awaited(set.t, tm).await;
+        }
         // Exclusions (or a command) left the configured model unobservable, or no longer do.
         if let Some((before, after)) = self.estimation.take_model_switch() {
             let (before, after) = (ModelCode::from(before), ModelCode::from(after));
@@ -304,6 +325,16 @@ impl App {
             return;
         }
         let (st, failure) = match self.execute(command, t, tm).await {
+            #[cfg(feature = "spare-config")]
+            Ok(_) if self.deferring.is_some() => {
+                // Completed when its configuration is built (`complete_awaited`).
+                self.awaited = self.deferring.take().map(|report| awaited::Awaited {
+                    request,
+                    ack: ack_completion,
+                    report,
+                });
+                return;
+            }
             Ok(event) => {
                 if let Some((id, a, b)) = event {
                     self.event(t, tm, id, a, b).await;

@@ -144,6 +144,50 @@ impl Builds {
         }
     }
 
+    /// Asks the builder for the configuration of `arrangement`, `options` and `mask` in the
+    /// `preferred` model (model F where the mask does not carry model G), in place of any
+    /// request not yet taken; `None` if a build holds the buffer. `tickets` numbers the requests.
+    pub fn post(
+        &self,
+        arrangement: &Arrangement<MAX_CHANNELS>,
+        options: Options,
+        mask: ChannelMask,
+        preferred: Model,
+        tickets: &mut u32,
+    ) -> Option<Pending> {
+        let mut slot = self.free(None)?;
+        *tickets = tickets.wrapping_add(1);
+        slot.request = Some(Request {
+            ticket: *tickets,
+            arrangement: arrangement.clone(),
+            options,
+            mask,
+            preferred,
+        });
+        drop(slot);
+        self.wake.signal(());
+        Some(Pending {
+            ticket: *tickets,
+            mask,
+        })
+    }
+
+    /// The configuration asked for by `pending`, swapped into `estimator` once built (the one
+    /// in force is set aside): [`Collected::Building`] meanwhile, nothing changed.
+    pub fn collect(&self, estimator: &mut FwEstimator, pending: Pending) -> Collected {
+        let Some(mut guard) = self.free(Some(pending)) else {
+            return Collected::Building;
+        };
+        let slot = &mut *guard;
+        match slot.done.take() {
+            Some((_, built)) => Collected::Done(
+                built.map(|model| estimator.swap_in(&mut slot.spare).unwrap_or(model)),
+            ),
+            None if slot.request.is_some() => Collected::Building,
+            None => Collected::Lost,
+        }
+    }
+
     /// The channels of `mask` in the `preferred` model (model F where they do not carry model
     /// G) for `estimator`, built outside the sample loop: `Some` once the estimator uses them
     /// (or the build was refused: nothing changed), `None` while they are being built — the
@@ -157,35 +201,38 @@ impl Builds {
         pending: &mut Option<Pending>,
         tickets: &mut u32,
     ) -> Option<Result<Model, ConfigError>> {
-        let asked = pending.filter(|p| p.mask == mask);
-        let mut guard = self.free(asked)?;
-        let slot = &mut *guard;
-        if let Some((_, built)) = slot.done.take() {
-            // Built for this change (`free` forgot any other).
-            *pending = None;
-            return Some(built.map(|model| estimator.swap_in(&mut slot.spare).unwrap_or(model)));
+        if let Some(asked) = pending.filter(|p| p.mask == mask) {
+            match self.collect(estimator, asked) {
+                Collected::Building => return None,
+                Collected::Done(taken) => {
+                    *pending = None;
+                    return Some(taken);
+                }
+                Collected::Lost => {} // asked again below
+            }
         }
-        if estimator.model() != preferred && slot.spare.holds() == Some((preferred, mask)) {
-            // The return to the configuration set aside.
-            *pending = None;
-            return estimator.swap_in(&mut slot.spare).map(Ok);
+        {
+            let mut slot = self.free(None)?;
+            if estimator.model() != preferred && slot.spare.holds() == Some((preferred, mask)) {
+                // The return to the configuration set aside.
+                *pending = None;
+                return estimator.swap_in(&mut slot.spare).map(Ok);
+            }
         }
-        if asked.is_some() && slot.request.is_some() {
-            return None; // asked; the builder has not started
-        }
-        *tickets = tickets.wrapping_add(1);
-        slot.request = Some(Request {
-            ticket: *tickets,
-            arrangement: estimator.arrangement().clone(),
-            options: estimator.options(),
-            mask,
-            preferred,
-        });
-        *pending = Some(Pending {
-            ticket: *tickets,
-            mask,
-        });
-        self.wake.signal(());
+        let (arrangement, options) = (estimator.arrangement(), estimator.options());
+        *pending = self.post(arrangement, options, mask, preferred, tickets);
         None
     }
+}
+
+/// What became of a configuration asked for ([`Builds::collect`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Collected {
+    /// Not built yet: the estimator keeps its configuration.
+    Building,
+    /// Built and swapped in (the model in force), or refused (nothing changed).
+    Done(Result<Model, ConfigError>),
+    /// Neither built nor asked for any longer (a change made in the sample path took the
+    /// buffer): nothing changed.
+    Lost,
 }

@@ -66,6 +66,29 @@ pub struct SetEstimate {
     pub model: Model,
 }
 
+/// When a commanded configuration change takes effect.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Applied {
+    /// It is in force.
+    Now,
+    /// Once the builder task has built it (feature `spare-config`, [`Builds::background`]):
+    /// [`Estimation::take_order_outcome`] says how it ended.
+    WhenBuilt,
+}
+
+/// A commanded configuration change being built by the builder task.
+#[cfg(feature = "spare-config")]
+#[derive(Clone, Copy, Debug)]
+struct Order {
+    pending: background::Pending,
+    /// The configured model and the channels out by command once it is in force.
+    model: Model,
+    commanded: ChannelSet,
+    /// A new arrangement or model (the configuration set aside is then forgotten), or only
+    /// the channels out by command.
+    reconfigures: bool,
+}
+
 /// The estimator and the channel bookkeeping.
 pub struct Estimation {
     estimator: Estimator<f32, MAX_CHANNELS>,
@@ -95,6 +118,11 @@ pub struct Estimation {
     /// Numbers the builds asked for.
     #[cfg(feature = "spare-config")]
     tickets: u32,
+    /// The commanded change being built, and how the last one ended (not yet taken).
+    #[cfg(feature = "spare-config")]
+    order: Option<Order>,
+    #[cfg(feature = "spare-config")]
+    order_outcome: Option<Result<(), ConfigError>>,
     /// A change of the model in force not yet reported: (before, after).
     switch: Option<(Model, Model)>,
     last_omega: Option<[f64; 3]>,
@@ -135,6 +163,10 @@ impl Estimation {
             pending: None,
             #[cfg(feature = "spare-config")]
             tickets: 0,
+            #[cfg(feature = "spare-config")]
+            order: None,
+            #[cfg(feature = "spare-config")]
+            order_outcome: None,
             switch: None,
             last_omega: None,
             trusted: TrustedRate::default(),
@@ -151,15 +183,123 @@ impl Estimation {
     pub fn attach_builds(&mut self, builds: &'static Builds) {
         self.builds = Some(builds);
         self.pending = None;
+        self.order = None;
     }
 
-    /// The channels whose exclusion waits for its configuration (none without a builder task).
+    /// The channels whose exclusion (automatic or commanded) waits for its configuration
+    /// (none without a builder task).
     pub fn channels_leaving(&self) -> ChannelMask {
         #[cfg(feature = "spare-config")]
-        if let Some(p) = self.pending {
+        if let Some(p) = self.order.map(|o| o.pending).or(self.pending) {
             return ChannelMask(self.estimator.mask().0 & !p.mask.0);
         }
         ChannelMask(0)
+    }
+
+    /// Whether a commanded configuration change is being built (another is refused meanwhile).
+    pub fn order_awaited(&self) -> bool {
+        #[cfg(feature = "spare-config")]
+        return self.order.is_some();
+        #[cfg(not(feature = "spare-config"))]
+        false
+    }
+
+    /// How the last commanded change built by the builder task ended, once (`None` while it
+    /// is being built, or if none was).
+    pub fn take_order_outcome(&mut self) -> Option<Result<(), ConfigError>> {
+        #[cfg(feature = "spare-config")]
+        return self.order_outcome.take();
+        #[cfg(not(feature = "spare-config"))]
+        None
+    }
+
+    /// The builder task's buffer, if the board runs one.
+    #[cfg(feature = "spare-config")]
+    fn background(&self) -> Option<&'static Builds> {
+        self.builds.filter(|b| b.in_background())
+    }
+
+    /// Asks the builder task for a commanded change: the configuration of `arrangement` (the
+    /// one in force if `None`) in `model` with the channels of `commanded` out. `false` (nothing
+    /// asked) without a builder task or while it holds the buffer: the caller makes the change
+    /// in the sample path.
+    #[cfg(feature = "spare-config")]
+    fn order(
+        &mut self,
+        arrangement: Option<&Arrangement<MAX_CHANNELS>>,
+        model: Model,
+        commanded: ChannelSet,
+    ) -> bool {
+        let Some(builds) = self.background() else {
+            return false;
+        };
+        let mask = self.mask(self.excluded_parts(), commanded);
+        let reconfigures = arrangement.is_some() || model != self.model;
+        // As the change in the sample path: a reconfiguration with the options configured, a
+        // change of channels with those in force.
+        let options = Options {
+            initial_omega: self.last_omega,
+            ..if reconfigures {
+                self.options
+            } else {
+                self.estimator.options()
+            }
+        };
+        let arrangement = arrangement.unwrap_or(self.estimator.arrangement());
+        let Some(pending) = builds.post(arrangement, options, mask, model, &mut self.tickets)
+        else {
+            return false;
+        };
+        // An automatic change waiting is superseded: it is asked again once this is in force.
+        self.pending = None;
+        self.order = Some(Order {
+            pending,
+            model,
+            commanded,
+            reconfigures,
+        });
+        true
+    }
+
+    /// Takes a commanded change once it is built (where no set is processed: standby).
+    #[cfg(feature = "spare-config")]
+    pub fn poll_order(&mut self) {
+        self.collect_order();
+    }
+
+    /// The commanded change being built, swapped in once it is: `true` while it is still
+    /// being built (the exclusions wait for it).
+    #[cfg(feature = "spare-config")]
+    fn collect_order(&mut self) -> bool {
+        let (Some(order), Some(builds)) = (self.order, self.builds) else {
+            return false;
+        };
+        let before = self.estimator.model();
+        let outcome = match builds.collect(&mut self.estimator, order.pending) {
+            background::Collected::Building => return true,
+            background::Collected::Done(Ok(_)) => {
+                self.commanded = order.commanded;
+                if order.reconfigures {
+                    // The `reconfigured` event reports the model in force; a configuration
+                    // set aside has the old arrangement or model.
+                    self.model = order.model;
+                    builds.clear();
+                } else {
+                    self.note_model(before);
+                }
+                let _ = self.estimator.set_hint(self.last_omega);
+                self.rebuild_monitor();
+                Ok(())
+            }
+            background::Collected::Done(Err(e)) => Err(e),
+            // Cannot happen (nothing takes the buffer while an order waits); said, not hung.
+            background::Collected::Lost => Err(ConfigError::NotFinite {
+                what: "configuration lost by the builder",
+            }),
+        };
+        self.order = None;
+        self.order_outcome = Some(outcome);
+        false
     }
 
     /// The fault monitor's parity space over the channels neither missing nor commanded out.
@@ -190,13 +330,18 @@ impl Estimation {
 
     /// Takes the channels of `commanded` out of the solve and puts the others back. On error
     /// (too few channels left, or a degenerate geometry) nothing changes.
-    pub fn set_commanded(&mut self, commanded: ChannelSet) -> Result<(), ConfigError> {
+    /// With a builder task the change is built there ([`Applied::WhenBuilt`]).
+    pub fn set_commanded(&mut self, commanded: ChannelSet) -> Result<Applied, ConfigError> {
+        #[cfg(feature = "spare-config")]
+        if self.order(None, self.model, commanded) {
+            return Ok(Applied::WhenBuilt);
+        }
         let mask = self.mask(self.excluded_parts(), commanded);
         self.take_mask(mask)?;
         self.commanded = commanded;
         let _ = self.estimator.set_hint(self.last_omega);
         self.rebuild_monitor();
-        Ok(())
+        Ok(Applied::Now)
     }
 
     /// The configured model (the estimator's is model F instead where the channels in use do
@@ -264,22 +409,31 @@ impl Estimation {
     }
 
     /// A new arrangement (same channels) or model (model F in force instead of model G where
-    /// the channels in use do not carry it). On error nothing changes.
+    /// the channels in use do not carry it). On error nothing changes. With a builder task the
+    /// change is built there ([`Applied::WhenBuilt`]).
     pub fn configure(
         &mut self,
         arrangement: &Arrangement<MAX_CHANNELS>,
         model: Model,
-    ) -> Result<(), ConfigError> {
+    ) -> Result<Applied, ConfigError> {
         if arrangement.len() != self.n {
             return Err(ConfigError::NoSuchChannel {
                 channel: arrangement.len().min(self.n),
             });
+        }
+        #[cfg(feature = "spare-config")]
+        if self.order(Some(arrangement), model, self.commanded) {
+            return Ok(Applied::WhenBuilt);
         }
         let mask = self.mask(self.excluded_parts(), self.commanded);
         let options = Options {
             initial_omega: self.last_omega,
             ..self.options
         };
+        #[cfg(feature = "spare-config")]
+        {
+            self.pending = None; // an exclusion waiting was for the old configuration
+        }
         let est = &mut self.estimator;
         ballisto_fw_precompute::configure_preferring(est, arrangement, model, mask, options)?;
         // A commanded change: the `reconfigured` event reports the model in force; a
@@ -290,7 +444,7 @@ impl Estimation {
             b.clear();
         }
         self.rebuild_monitor();
-        Ok(())
+        Ok(Applied::Now)
     }
 
     /// A rate hint (settles sign and branch from the next set on).
@@ -371,10 +525,16 @@ impl Estimation {
         }
         let verdict = self.isolation.step(&self.p[..self.n]);
         let isolated_before = self.isolated;
-        self.update_exclusions(set.t);
+        #[cfg(feature = "spare-config")]
+        let ordered = self.collect_order();
+        #[cfg(not(feature = "spare-config"))]
+        let ordered = false;
+        if !ordered {
+            self.update_exclusions(set.t);
+        }
         // Parts whose exclusion waits for its configuration are out already: read as missing.
         #[cfg(feature = "spare-config")]
-        if self.pending.is_some() {
+        if self.pending.is_some() || self.order.is_some() {
             let leaving = self.channels_leaving();
             for (c, x) in self.p[..self.n].iter_mut().enumerate() {
                 if leaving.contains(c) {
