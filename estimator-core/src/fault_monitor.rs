@@ -178,6 +178,14 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         self.parity = parity;
     }
 
+    /// As [`FaultMonitor::set_parity`], handing back the parity space it replaces (the firmware
+    /// keeps it in its second buffer, so that a part's return need not build it again).
+    pub fn replace_parity(&mut self, parity: Option<Parity<T, CAP>>) -> Option<Parity<T, CAP>> {
+        let old = self.parity.take();
+        self.set_parity(parity);
+        old
+    }
+
     /// The part currently isolated (held until re-admitted).
     pub fn isolated(&self) -> Option<u8> {
         self.isolated

@@ -28,6 +28,13 @@ use estimator_core::{Arrangement, ChannelMask, ConfigError, Model, Options};
 use ballisto_fw_precompute::{FwEstimator, FwSpare};
 
 use crate::config::MAX_CHANNELS;
+#[cfg(feature = "fault-isolation")]
+use crate::isolation::{build_parity, Checks};
+
+/// The parity space a change needs (feature `fault-isolation`): the channels the fault monitor
+/// will test and each channel's part; `None` where the tested channels do not change, or
+/// there is no monitor.
+pub type Tested = Option<(ChannelMask, [u8; MAX_CHANNELS])>;
 
 /// A configuration asked of the builder.
 struct Request {
@@ -36,6 +43,8 @@ struct Request {
     options: Options,
     mask: ChannelMask,
     preferred: Model,
+    #[cfg_attr(not(feature = "fault-isolation"), allow(dead_code))]
+    tested: Tested,
 }
 
 /// The buffer and what was asked of it.
@@ -44,6 +53,22 @@ struct Slot {
     request: Option<Request>,
     /// The ticket of the last build and its outcome.
     done: Option<(u32, Result<Model, ConfigError>)>,
+    /// The fault monitor's second buffer: a parity space and the channels it tests, built
+    /// with a configuration or set aside when one was swapped in.
+    #[cfg(feature = "fault-isolation")]
+    parity: Option<(ChannelMask, Checks)>,
+}
+
+impl Slot {
+    /// Forgets what the buffer holds (a configuration and parity space built for a change no
+    /// longer wanted, or set aside for an arrangement no longer in force).
+    fn forget(&mut self) {
+        self.spare.clear();
+        #[cfg(feature = "fault-isolation")]
+        {
+            self.parity = None;
+        }
+    }
 }
 
 /// A change of the channels in use waiting for its configuration.
@@ -79,6 +104,8 @@ impl Builds {
                 spare: FwSpare::new(),
                 request: None,
                 done: None,
+                #[cfg(feature = "fault-isolation")]
+                parity: None,
             }),
             wake: Signal::new(),
             background,
@@ -95,19 +122,17 @@ impl Builds {
     pub async fn run(&self) -> ! {
         loop {
             self.wake.wait().await;
-            let mut guard = self.slot.lock().await;
-            let slot = &mut *guard;
-            if let Some(r) = slot.request.take() {
-                let built = ballisto_fw_precompute::build_spare(
-                    &mut slot.spare,
-                    &r.arrangement,
-                    r.preferred,
-                    r.mask,
-                    r.options,
-                );
-                slot.done = Some((r.ticket, built));
-            }
+            build_asked(&mut *self.slot.lock().await);
         }
+    }
+
+    /// What the builder task does, at once: builds the configuration asked for, if there is
+    /// one and no build holds the buffer; whether it built one (for a board that builds from
+    /// its idle loop, and for tests).
+    pub fn build_now(&self) -> bool {
+        self.slot
+            .try_lock()
+            .is_ok_and(|mut slot| build_asked(&mut slot))
     }
 
     /// The buffer, if no build holds it, with any request or build for a change no longer
@@ -124,7 +149,7 @@ impl Builds {
             .is_some_and(|(ticket, _)| !wanted(*ticket))
         {
             slot.done = None;
-            slot.spare.clear();
+            slot.forget();
         }
         Some(slot)
     }
@@ -136,23 +161,26 @@ impl Builds {
         Some(MutexGuard::map(self.free(None)?, |s| &mut s.spare))
     }
 
-    /// Forgets the configuration set aside (a new arrangement or options), or, if a build
-    /// holds the buffer, leaves it to be forgotten when that build is done.
+    /// Forgets the configuration and parity space set aside (a new arrangement or options),
+    /// or, if a build holds the buffer, leaves them to be forgotten when that build is done.
     pub fn clear(&self) {
         if let Some(mut slot) = self.free(None) {
-            slot.spare.clear();
+            slot.forget();
         }
     }
 
     /// Asks the builder for the configuration of `arrangement`, `options` and `mask` in the
     /// `preferred` model (model F where the mask does not carry model G), in place of any
     /// request not yet taken; `None` if a build holds the buffer. `tickets` numbers the requests.
+    /// With `tested`, the fault monitor's parity space for those channels is built too.
+    #[allow(clippy::too_many_arguments)]
     pub fn post(
         &self,
         arrangement: &Arrangement<MAX_CHANNELS>,
         options: Options,
         mask: ChannelMask,
         preferred: Model,
+        tested: Tested,
         tickets: &mut u32,
     ) -> Option<Pending> {
         let mut slot = self.free(None)?;
@@ -163,6 +191,7 @@ impl Builds {
             options,
             mask,
             preferred,
+            tested,
         });
         drop(slot);
         self.wake.signal(());
@@ -198,6 +227,7 @@ impl Builds {
         estimator: &mut FwEstimator,
         mask: ChannelMask,
         preferred: Model,
+        tested: Tested,
         pending: &mut Option<Pending>,
         tickets: &mut u32,
     ) -> Option<Result<Model, ConfigError>> {
@@ -213,16 +243,71 @@ impl Builds {
         }
         {
             let mut slot = self.free(None)?;
-            if estimator.model() != preferred && slot.spare.holds() == Some((preferred, mask)) {
-                // The return to the configuration set aside.
+            if slot.spare.holds() == Some((preferred, mask)) {
+                // The return to the configuration set aside (it has the arrangement and
+                // options in force: the buffer is emptied when they change).
                 *pending = None;
                 return estimator.swap_in(&mut slot.spare).map(Ok);
             }
         }
         let (arrangement, options) = (estimator.arrangement(), estimator.options());
-        *pending = self.post(arrangement, options, mask, preferred, tickets);
+        *pending = self.post(arrangement, options, mask, preferred, tested, tickets);
         None
     }
+
+    /// The parity space built or set aside for the channels of `tested`, if the buffer holds
+    /// it and no build holds the buffer.
+    #[cfg(feature = "fault-isolation")]
+    pub fn take_parity(&self, tested: ChannelMask) -> Option<Checks> {
+        let mut slot = self.slot.try_lock().ok()?;
+        match slot.parity.take() {
+            Some((mask, checks)) if mask == tested => Some(checks),
+            other => {
+                slot.parity = other;
+                None
+            }
+        }
+    }
+
+    /// The channels of the parity space the buffer holds (built or set aside), if no build
+    /// holds the buffer.
+    #[cfg(feature = "fault-isolation")]
+    pub fn parity_held(&self) -> Option<ChannelMask> {
+        self.slot
+            .try_lock()
+            .ok()?
+            .parity
+            .as_ref()
+            .map(|(mask, _)| *mask)
+    }
+
+    /// Sets aside the parity space of the channels of `tested` that a change replaced.
+    #[cfg(feature = "fault-isolation")]
+    pub fn set_aside_parity(&self, tested: ChannelMask, checks: Checks) {
+        if let Ok(mut slot) = self.slot.try_lock() {
+            slot.parity = Some((tested, checks));
+        }
+    }
+}
+
+/// Builds the configuration asked for in `slot`, if any, and keeps its outcome there.
+fn build_asked(slot: &mut Slot) -> bool {
+    let Some(r) = slot.request.take() else {
+        return false;
+    };
+    let built = ballisto_fw_precompute::build_spare(
+        &mut slot.spare,
+        &r.arrangement,
+        r.preferred,
+        r.mask,
+        r.options,
+    );
+    slot.done = Some((r.ticket, built));
+    #[cfg(feature = "fault-isolation")]
+    if let Some((tested, part)) = r.tested {
+        slot.parity = Some((tested, build_parity(&r.arrangement, tested, &part)));
+    }
+    true
 }
 
 /// What became of a configuration asked for ([`Builds::collect`]).

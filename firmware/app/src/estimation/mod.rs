@@ -245,9 +245,10 @@ impl Estimation {
                 self.estimator.options()
             }
         };
+        let tested = self.tested_after(self.excluded, commanded, reconfigures);
         let arrangement = arrangement.unwrap_or(self.estimator.arrangement());
-        let Some(pending) = builds.post(arrangement, options, mask, model, &mut self.tickets)
-        else {
+        let tickets = &mut self.tickets;
+        let Some(pending) = builds.post(arrangement, options, mask, model, tested, tickets) else {
             return false;
         };
         // An automatic change waiting is superseded: it is asked again once this is in force.
@@ -278,17 +279,18 @@ impl Estimation {
         let outcome = match builds.collect(&mut self.estimator, order.pending) {
             background::Collected::Building => return true,
             background::Collected::Done(Ok(_)) => {
+                let tested_before = self.mask(self.excluded, self.commanded);
                 self.commanded = order.commanded;
+                let _ = self.estimator.set_hint(self.last_omega);
+                self.refresh_monitor(tested_before);
                 if order.reconfigures {
-                    // The `reconfigured` event reports the model in force; a configuration
-                    // set aside has the old arrangement or model.
+                    // The `reconfigured` event reports the model in force; what is set aside
+                    // has the old arrangement or model.
                     self.model = order.model;
                     builds.clear();
                 } else {
                     self.note_model(before);
                 }
-                let _ = self.estimator.set_hint(self.last_omega);
-                self.rebuild_monitor();
                 Ok(())
             }
             background::Collected::Done(Err(e)) => Err(e),
@@ -300,6 +302,53 @@ impl Estimation {
         self.order = None;
         self.order_outcome = Some(outcome);
         false
+    }
+
+    /// What a change needs built besides the configuration: the fault monitor's parity space
+    /// for the channels neither `missing` nor `commanded` out, if they are not those it tests
+    /// now (or, `anew`, a new arrangement: whatever they are).
+    #[cfg(feature = "spare-config")]
+    fn tested_after(
+        &self,
+        missing: PartSet,
+        commanded: ChannelSet,
+        anew: bool,
+    ) -> background::Tested {
+        #[cfg(feature = "fault-isolation")]
+        {
+            let tested = self.mask(missing, commanded);
+            let now = self.mask(self.excluded, self.commanded);
+            (anew || tested != now).then(|| (tested, *self.isolation.parts()))
+        }
+        #[cfg(not(feature = "fault-isolation"))]
+        {
+            let _ = (missing, commanded, anew);
+            None
+        }
+    }
+
+    /// The fault monitor after a change built by the builder task (the channels it tested were
+    /// `before`): the parity space built with it or set aside, where the buffer holds the one
+    /// for the channels now tested (the one replaced is set aside in turn); else built here.
+    #[cfg(feature = "spare-config")]
+    fn refresh_monitor(&mut self, before: ChannelMask) {
+        #[cfg(feature = "fault-isolation")]
+        if let Some(builds) = self.background() {
+            let tested = self.mask(self.excluded, self.commanded);
+            if tested == before {
+                // The same channels tested: the model's test alone (no SVD).
+                let checks = self.isolation.install(&self.estimator, None);
+                let _ = self.isolation.install(&self.estimator, checks);
+                return;
+            }
+            if let Some(checks) = builds.take_parity(tested) {
+                let replaced = self.isolation.install(&self.estimator, checks);
+                builds.set_aside_parity(before, replaced);
+                return;
+            }
+        }
+        let _ = before;
+        self.rebuild_monitor();
     }
 
     /// The fault monitor's parity space over the channels neither missing nor commanded out.
@@ -386,12 +435,19 @@ impl Estimation {
     /// by the builder task where there is one: `None` while it is being built (nothing
     /// changes meanwhile).
     #[cfg(feature = "spare-config")]
-    fn take_mask_when_built(&mut self, mask: ChannelMask) -> Option<Result<(), ConfigError>> {
-        if let Some(builds) = self.builds.filter(|b| b.in_background()) {
+    /// `missing`: the parts out because they stopped answering once the change is made (the
+    /// fault monitor tests the others).
+    fn take_mask_when_built(
+        &mut self,
+        mask: ChannelMask,
+        missing: PartSet,
+    ) -> Option<Result<(), ConfigError>> {
+        if let Some(builds) = self.background() {
             let before = self.estimator.model();
-            let est = &mut self.estimator;
-            let taken =
-                builds.change(est, mask, self.model, &mut self.pending, &mut self.tickets)?;
+            let tested = self.tested_after(missing, self.commanded, false);
+            let (est, pending, tickets) =
+                (&mut self.estimator, &mut self.pending, &mut self.tickets);
+            let taken = builds.change(est, mask, self.model, tested, pending, tickets)?;
             self.note_model(before);
             return Some(taken.map(|_| ()));
         }
@@ -589,7 +645,7 @@ impl Estimation {
         // Too few channels left for either model: keep the mask (the sets stay flagged).
         let model_before = self.estimator.model();
         #[cfg(feature = "spare-config")]
-        let Some(taken) = self.take_mask_when_built(mask) else {
+        let Some(taken) = self.take_mask_when_built(mask, wanted) else {
             return; // being built: the estimate goes on with the configuration in force
         };
         #[cfg(not(feature = "spare-config"))]
@@ -601,10 +657,15 @@ impl Estimation {
             } else {
                 self.last_omega
             };
+            #[cfg(feature = "spare-config")]
+            let tested_before = self.mask(self.excluded, self.commanded);
             self.excluded = wanted;
             self.isolated = isolated;
             let _ = self.estimator.set_hint(hint);
             if monitor_stale {
+                #[cfg(feature = "spare-config")]
+                self.refresh_monitor(tested_before);
+                #[cfg(not(feature = "spare-config"))]
                 self.rebuild_monitor();
             }
         } else {
@@ -710,17 +771,18 @@ mod tests {
     /// return, once the part has answered for `INCLUDE_AFTER` sets, swaps model G's
     /// configuration back from the buffer at once, with no build.
     #[cfg(feature = "spare-config")]
-    #[test]
-    fn an_exclusion_built_in_the_background_never_stops_the_estimates() {
-        use core::future::Future;
-        use core::task::{Context, Poll};
+    fn with_builder() -> (Estimation, &'static Builds) {
         let builds: &'static Builds =
             std::boxed::Box::leak(std::boxed::Box::new(Builds::background()));
         let mut e = Estimation::new(&tetra()).unwrap();
         e.attach_builds(builds);
-        let mut builder = core::pin::pin!(builds.run());
-        let waker = futures::task::noop_waker();
-        let mut cx = Context::from_waker(&waker);
+        (e, builds)
+    }
+
+    #[cfg(feature = "spare-config")]
+    #[test]
+    fn an_exclusion_built_in_the_background_never_stops_the_estimates() {
+        let (mut e, builds) = with_builder();
         let part0 = ChannelMask(0b111);
         let gap = 5 + u32::from(EXCLUDE_AFTER);
         for k in 0..gap + 30 {
@@ -742,7 +804,8 @@ mod tests {
         }
         assert_eq!(e.take_model_switch(), None);
         // The builder runs (once it has the processor): the configuration is built.
-        assert!(matches!(builder.as_mut().poll(&mut cx), Poll::Pending));
+        assert!(builds.build_now());
+        assert!(!builds.build_now(), "one build asked for");
         let k = gap + 30;
         let m = e.process(&set(k, false));
         assert_eq!(m.excluded, PartSet(1));
@@ -775,12 +838,7 @@ mod tests {
     #[cfg(feature = "spare-config")]
     #[test]
     fn an_exclusion_no_longer_wanted_is_not_swapped_in() {
-        use core::future::Future;
-        use core::task::{Context, Poll};
-        let builds: &'static Builds =
-            std::boxed::Box::leak(std::boxed::Box::new(Builds::background()));
-        let mut e = Estimation::new(&tetra()).unwrap();
-        e.attach_builds(builds);
+        let (mut e, builds) = with_builder();
         let gap = 5 + u32::from(EXCLUDE_AFTER);
         for k in 0..gap {
             e.process(&set(k, k < 5));
@@ -789,10 +847,7 @@ mod tests {
         let m = e.process(&set(gap, true));
         assert_eq!(e.channels_leaving(), ChannelMask(0), "no longer wanted");
         assert!(!m.estimate.flags.has(Flags::INPUT_INVALID));
-        let waker = futures::task::noop_waker();
-        let mut cx = Context::from_waker(&waker);
-        let mut builder = core::pin::pin!(builds.run());
-        assert!(matches!(builder.as_mut().poll(&mut cx), Poll::Pending));
+        assert!(builds.build_now(), "the builder gets to it");
         for k in gap + 1..gap + 20 {
             let m = e.process(&set(k, true));
             assert_eq!(m.excluded, PartSet::EMPTY, "set {k}");
@@ -801,5 +856,106 @@ mod tests {
         }
         assert_eq!(e.estimator().mask(), ChannelMask::all(12));
         assert_eq!(e.take_model_switch(), None);
+    }
+
+    /// Eighteen channels: the tetrahedron and two more parts on the axes (the host simulator's
+    /// `tetra-orbit` with two ADXL355s added).
+    #[cfg(all(feature = "spare-config", feature = "fault-isolation"))]
+    fn eighteen() -> AppConfig {
+        let mut cfg = tetra();
+        let extra = cfg.sampling.parts[0].expect("part 0");
+        for (i, pos) in [[0.12, 0.0, 0.0], [0.0, 0.0, -0.12]].iter().enumerate() {
+            let mut channels = [None; 3];
+            for (k, ch) in channels.iter_mut().enumerate() {
+                let mut axis = [0.0; 3];
+                axis[(k + i) % 3] = 1.0;
+                let noise = cfg.arrangement.channels()[0].noise;
+                *ch = cfg
+                    .arrangement
+                    .push(*pos, axis, noise)
+                    .ok()
+                    .map(|c| c as u8);
+            }
+            cfg.sampling.parts[4 + i] = Some(crate::config::PartConfig { channels, ..extra });
+        }
+        cfg
+    }
+
+    /// Readings consistent with a uniform specific force (no rotation), `part0` absent.
+    #[cfg(all(feature = "spare-config", feature = "fault-isolation"))]
+    fn consistent_set(cfg: &AppConfig, k: u32, part0: bool) -> SampleSet {
+        let d = 1e-3 * f64::from(k % 7);
+        let f = [0.1 + d, 0.2 - d, 9.8 + d];
+        let mut parts = [None; MAX_PARTS];
+        for (i, p) in cfg.sampling.parts() {
+            let mut v = [0.0f32; 3];
+            for (x, c) in v.iter_mut().zip(p.channels.iter()) {
+                if let Some(c) = c {
+                    let a = cfg.arrangement.channels()[usize::from(*c)].axis;
+                    *x = (a[0] * f[0] + a[1] * f[1] + a[2] * f[2]) as f32;
+                }
+            }
+            parts[i] = (i != 0 || part0).then_some(v);
+        }
+        SampleSet {
+            k,
+            t: u64::from(k) * 10_000_000,
+            parts,
+        }
+    }
+
+    /// With redundancy (N = 18) the fault monitor's parity space is built by the builder task
+    /// with the exclusion's configuration, not in the sample path: at the swap the monitor
+    /// tests the fifteen channels left with it, and the one for all eighteen is set aside; the
+    /// part's return takes that one back (and sets the other aside) with no build at all.
+    #[cfg(all(feature = "spare-config", feature = "fault-isolation"))]
+    #[test]
+    fn the_parity_space_is_built_with_the_configuration_in_the_background() {
+        let cfg = eighteen();
+        let builds: &'static Builds =
+            std::boxed::Box::leak(std::boxed::Box::new(Builds::background()));
+        let mut e = Estimation::new(&cfg).unwrap();
+        e.attach_builds(builds);
+        let all = ChannelMask::all(18);
+        let without0 = all.without(0).without(1).without(2);
+        assert_eq!(e.consistency_test(), ballisto_link::ConsistencyTest::Parity);
+        let gap = 5 + u32::from(EXCLUDE_AFTER);
+        for k in 0..gap {
+            let m = e.process(&consistent_set(&cfg, k, k < 5));
+            assert_eq!(m.excluded, PartSet::EMPTY, "set {k}");
+        }
+        assert_eq!(builds.parity_held(), None, "asked for, not built");
+        assert!(builds.build_now());
+        assert_eq!(
+            builds.parity_held(),
+            Some(without0),
+            "built with the configuration"
+        );
+        let m = e.process(&consistent_set(&cfg, gap, false));
+        assert_eq!(m.excluded, PartSet(1));
+        assert_eq!(m.model, Model::General, "fifteen channels carry model G");
+        assert_eq!(e.consistency_test(), ballisto_link::ConsistencyTest::Parity);
+        assert_eq!(
+            builds.parity_held(),
+            Some(all),
+            "the one replaced, set aside"
+        );
+        // Back after INCLUDE_AFTER good sets, with no build: the configuration and the
+        // parity space set aside are swapped back.
+        let back = gap + 1 + u32::from(INCLUDE_AFTER);
+        let mut k = gap + 1;
+        while k < back {
+            e.process(&consistent_set(&cfg, k, true));
+            k += 1;
+        }
+        assert!(!builds.build_now(), "nothing asked of the builder");
+        assert_eq!(e.excluded_parts(), PartSet::EMPTY, "back at set {k}");
+        assert_eq!(e.estimator().mask(), all);
+        assert_eq!(e.consistency_test(), ballisto_link::ConsistencyTest::Parity);
+        assert_eq!(builds.parity_held(), Some(without0), "swapped back");
+        for k in k..k + 20 {
+            let m = e.process(&consistent_set(&cfg, k, true));
+            assert!(!m.estimate.flags.has(Flags::RESIDUAL_HIGH), "set {k}");
+        }
     }
 }
