@@ -696,6 +696,17 @@ mod tests {
         }
     }
 
+    /// Model G on all twelve channels again, and the return from model F reported once.
+    fn back_in_model_g(e: &mut Estimation) {
+        assert_eq!(e.estimator().model(), Model::General);
+        assert_eq!(e.estimator().mask(), ChannelMask::all(12));
+        assert_eq!(
+            e.take_model_switch(),
+            Some((Model::FreeFloat, Model::General))
+        );
+        assert_eq!(e.take_model_switch(), None);
+    }
+
     #[test]
     fn a_part_missing_for_several_sets_is_excluded_and_later_included() {
         let mut cfg = tetra();
@@ -756,20 +767,11 @@ mod tests {
                 assert!(!m.estimate.flags.has(Flags::INPUT_INVALID), "set {k}");
             }
         }
-        assert_eq!(e.estimator().model(), Model::General);
-        assert_eq!(e.estimator().mask(), ChannelMask::all(12));
-        assert_eq!(
-            e.take_model_switch(),
-            Some((Model::FreeFloat, Model::General))
-        );
+        back_in_model_g(&mut e);
     }
 
-    /// Issue 17: with a builder task the exclusion's configuration is built beside the one in
-    /// force. Until it is built the estimates go on every set — the configured model, the
-    /// leaving part read as missing: flagged predictions, finite — and none uses a half-built
-    /// configuration; the first set after the build is made in model F without the part. The
-    /// return, once the part has answered for `INCLUDE_AFTER` sets, swaps model G's
-    /// configuration back from the buffer at once, with no build.
+    /// The tetrahedron's estimation with a builder task's buffer (the test builds at once with
+    /// `Builds::build_now` where the board's task would build).
     #[cfg(feature = "spare-config")]
     fn with_builder() -> (Estimation, &'static Builds) {
         let builds: &'static Builds =
@@ -779,6 +781,12 @@ mod tests {
         (e, builds)
     }
 
+    /// Issue 17: with a builder task the exclusion's configuration is built beside the one in
+    /// force. Until it is built the estimates go on every set — the configured model, the
+    /// leaving part read as missing: flagged predictions, finite — and none uses a half-built
+    /// configuration; the first set after the build is made in model F without the part. The
+    /// return, once the part has answered for `INCLUDE_AFTER` sets, swaps model G's
+    /// configuration back from the buffer at once, with no build.
     #[cfg(feature = "spare-config")]
     #[test]
     fn an_exclusion_built_in_the_background_never_stops_the_estimates() {
@@ -824,12 +832,7 @@ mod tests {
             assert_eq!(m.excluded, PartSet(u8::from(k + 1 < back)), "set {k}");
             assert!(m.estimate.is_finite(), "set {k}");
         }
-        assert_eq!(e.estimator().model(), Model::General);
-        assert_eq!(e.estimator().mask(), ChannelMask::all(12));
-        assert_eq!(
-            e.take_model_switch(),
-            Some((Model::FreeFloat, Model::General))
-        );
+        back_in_model_g(&mut e);
     }
 
     /// A part back before its exclusion's configuration is built: the change is abandoned —
