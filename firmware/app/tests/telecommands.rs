@@ -1197,3 +1197,119 @@ fn commanded_changes_built_in_the_background_complete_once_in_force() {
         _ => true,
     }));
 }
+
+/// Issue 17, the builder's state machine under any order of events: random configuration
+/// commands (exclude, include, model, a shifted arrangement), sample sets with part 3 dropping
+/// out and back, and builds at random moments. Every configuration command accepted gets
+/// exactly one completion or failure report; the estimates stay finite;
+/// and once the builder has caught up and the part is back, the channels out are exactly the
+/// ones the completed commands left out.
+#[cfg(feature = "spare-config")]
+#[test]
+fn random_commands_sets_and_builds_keep_every_command_answered() {
+    use ballisto_fw::estimation::Builds;
+    let mut x = 0x9E37_79B9_7F4A_7C15u64;
+    let mut rnd = move || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x
+    };
+    let b = service::BALLISTOMETER;
+    for run in 0..12 {
+        let builds: &'static Builds = Box::leak(Box::new(Builds::background()));
+        let mut u = Unit::with(tetra());
+        u.app.attach_builds(builds);
+        let data = shifted_arrangement(&u.cfg, 0.002);
+        let mut sent: Vec<u16> = Vec::new();
+        let mut seq = 1u16;
+        for step in 0..400 {
+            match rnd() % 10 {
+                0 | 1 => {
+                    let c = (rnd() % 12) as u8;
+                    let st = if rnd() % 2 == 0 {
+                        subtype::EXCLUDE
+                    } else {
+                        subtype::INCLUDE
+                    };
+                    u.command(&tc(b, st, &[c], seq));
+                    sent.push(seq);
+                    seq += 1;
+                }
+                2 => {
+                    u.command(&tc(b, subtype::SET_MODEL, &[(rnd() % 2) as u8], seq));
+                    sent.push(seq);
+                    seq += 1;
+                }
+                3 => {
+                    u.command(&tc(b, subtype::LOAD_ARRANGEMENT, &data, seq));
+                    sent.push(seq);
+                    seq += 1;
+                }
+                4..=6 => {
+                    builds.build_now();
+                }
+                _ => {}
+            }
+            // Part 3 silent now and then (the sets of `set` carry every part).
+            let s = set(&u.cfg, u.k);
+            let mut s = s;
+            if (step / 40) % 3 == 1 {
+                s.parts[3] = None;
+            }
+            let board = HealthBoard::<NoopRawMutex>::new();
+            board.publish(health(&u.cfg));
+            block_on(u.app.on_set(&s, &board, &mut u.tm));
+            u.k += 1;
+        }
+        // Catch up: the part back, the builder free to finish.
+        for _ in 0..300 {
+            builds.build_now();
+            u.sets(1);
+        }
+        let all = u.all();
+        let mut answered: Vec<u16> = Vec::new();
+        for p in &all {
+            match &p.report {
+                Report::Verification(v) if v.subtype != subtype::ACCEPTED => {
+                    answered.push(v.request.sequence & 0x3FFF);
+                }
+                Report::Motion(m) => {
+                    let e = &m.estimate;
+                    assert!(
+                        e.omega.iter().chain(e.sigma0.iter()).all(|v| v.is_finite()),
+                        "run {run}: {e:?}"
+                    );
+                }
+                _ => {}
+            }
+        }
+        // A command refused as busy is answered before the one being built.
+        answered.sort_unstable();
+        assert_eq!(answered, sent, "run {run}: one answer per command");
+        assert!(!u.app.estimation().order_awaited(), "run {run}");
+        assert_eq!(
+            u.app.estimation().excluded_channels(),
+            u.app.estimation().commanded(),
+            "run {run}: only the commanded channels out once the part is back"
+        );
+        // Every channel back by command, then one out: the commands are what is in force.
+        let mut step = |u: &mut Unit, st: u8, c: u8, seq: u16| {
+            u.command(&tc(b, st, &[c], seq));
+            builds.build_now();
+            u.sets(1);
+        };
+        for c in 0..12u8 {
+            if u.app.estimation().commanded().contains(usize::from(c)) {
+                step(&mut u, subtype::INCLUDE, c, seq);
+                seq += 1;
+            }
+        }
+        assert_eq!(u.app.estimation().excluded_channels(), ChannelSet(0));
+        let c = (run % 12) as u8;
+        step(&mut u, subtype::EXCLUDE, c, seq);
+        let e = u.app.estimation();
+        assert_eq!(e.commanded(), ChannelSet(1 << c), "run {run}");
+        assert_eq!(e.excluded_channels(), ChannelSet(1 << c), "run {run}");
+    }
+}
