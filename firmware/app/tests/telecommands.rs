@@ -1294,7 +1294,7 @@ fn random_commands_sets_and_builds_keep_every_command_answered() {
             "run {run}: only the commanded channels out once the part is back"
         );
         // Every channel back by command, then one out: the commands are what is in force.
-        let mut step = |u: &mut Unit, st: u8, c: u8, seq: u16| {
+        let step = |u: &mut Unit, st: u8, c: u8, seq: u16| {
             u.command(&tc(b, st, &[c], seq));
             builds.build_now();
             u.sets(1);
