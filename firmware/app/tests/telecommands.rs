@@ -1088,7 +1088,8 @@ fn the_spacecraft_time_sets_the_time_correlation() {
 /// change is accepted at once and completed at the first set after its configuration is built
 /// — the event with it — while the estimates go on (the channel on its way out read as
 /// missing: flagged predictions, finite); another configuration command meanwhile is refused
-/// as not ready. A refused change completes as refused, nothing changed.
+/// as not ready. A refused change completes as refused, nothing changed. A channel back in to
+/// the configuration set aside is swapped in and completed at once.
 #[cfg(feature = "spare-config")]
 #[test]
 fn commanded_changes_built_in_the_background_complete_once_in_force() {
@@ -1196,6 +1197,18 @@ fn commanded_changes_built_in_the_background_complete_once_in_force() {
         Report::Motion(m) => !m.estimate.flags.has(estimator_core::Flags::INPUT_INVALID),
         _ => true,
     }));
+
+    // A channel back in, to the configuration set aside when it went out: swapped in at once,
+    // completed with the command, nothing asked of the builder.
+    let r = u.command(&tc(b, subtype::INCLUDE, &[1], 7));
+    assert_eq!(verification(r.last().unwrap()), (subtype::COMPLETED, None));
+    assert!(
+        r.iter().any(|p| matches!(p.report, Report::Event(e)
+            if e.id == EventId::ChannelsCommanded && e.a == 0b1011 && e.b == 0b1001)),
+        "{r:?}"
+    );
+    assert_eq!(u.app.estimation().excluded_channels(), ChannelSet(0b1001));
+    assert!(!builds.build_now(), "nothing was built");
 }
 
 /// Issue 17, the builder's state machine under any order of events: random configuration

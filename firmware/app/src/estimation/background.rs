@@ -245,18 +245,31 @@ impl Builds {
                 Collected::Lost => {} // asked again below
             }
         }
-        {
-            let mut slot = self.free(None)?;
-            if slot.spare.holds() == Some((preferred, mask)) {
-                // The return to the configuration set aside (it has the arrangement and
-                // options in force: the buffer is emptied when they change).
-                *pending = None;
-                return estimator.swap_in(&mut slot.spare).map(Ok);
-            }
+        // The return to the configuration set aside (it has the arrangement and options in
+        // force: the buffer is emptied when they change).
+        if let Some(model) = self.swap_back(estimator, preferred, mask) {
+            *pending = None;
+            return Some(Ok(model));
         }
         let (arrangement, options) = (estimator.arrangement(), estimator.options());
         *pending = self.post(arrangement, options, mask, preferred, tested, tickets);
         None
+    }
+
+    /// The configuration set aside, if it is the channels of `mask` in the `preferred` model,
+    /// swapped into `estimator` (the one in force set aside in turn); the model in force, or
+    /// `None` (nothing changed: another configuration, or a build holds the buffer).
+    pub fn swap_back(
+        &self,
+        estimator: &mut FwEstimator,
+        preferred: Model,
+        mask: ChannelMask,
+    ) -> Option<Model> {
+        let mut slot = self.free(None)?;
+        if slot.spare.holds() != Some((preferred, mask)) {
+            return None;
+        }
+        estimator.swap_in(&mut slot.spare)
     }
 
     /// The parity space built or set aside for the channels of `tested`, if the buffer holds

@@ -220,7 +220,9 @@ impl Estimation {
     }
 
     /// Asks the builder task for a commanded change: the configuration of `arrangement` (the
-    /// one in force if `None`) in `model` with the channels of `commanded` out. `false` (nothing
+    /// one in force if `None`) in `model` with the channels of `commanded` out
+    /// ([`Applied::WhenBuilt`]), or, a change of channels back to the configuration set aside
+    /// (a channel commanded back in), swaps that in at once ([`Applied::Now`]). `None` (nothing
     /// asked) without a builder task or while it holds the buffer: the caller makes the change
     /// in the sample path.
     #[cfg(feature = "spare-config")]
@@ -229,12 +231,18 @@ impl Estimation {
         arrangement: Option<&Arrangement<MAX_CHANNELS>>,
         model: Model,
         commanded: ChannelSet,
-    ) -> bool {
-        let Some(builds) = self.background() else {
-            return false;
-        };
+    ) -> Option<Applied> {
+        let builds = self.background()?;
         let mask = self.mask(self.excluded_parts(), commanded);
         let reconfigures = arrangement.is_some() || model != self.model;
+        if !reconfigures {
+            let before = self.estimator.model();
+            if builds.swap_back(&mut self.estimator, model, mask).is_some() {
+                self.pending = None;
+                self.take_order(commanded, model, false, before);
+                return Some(Applied::Now);
+            }
+        }
         // As the change in the sample path: a reconfiguration with the options configured, a
         // change of channels with those in force.
         let options = Options {
@@ -248,9 +256,7 @@ impl Estimation {
         let tested = self.tested_after(self.excluded, commanded, reconfigures);
         let arrangement = arrangement.unwrap_or(self.estimator.arrangement());
         let tickets = &mut self.tickets;
-        let Some(pending) = builds.post(arrangement, options, mask, model, tested, tickets) else {
-            return false;
-        };
+        let pending = builds.post(arrangement, options, mask, model, tested, tickets)?;
         // An automatic change waiting is superseded: it is asked again once this is in force.
         self.pending = None;
         self.order = Some(Order {
@@ -259,7 +265,34 @@ impl Estimation {
             commanded,
             reconfigures,
         });
-        true
+        Some(Applied::WhenBuilt)
+    }
+
+    /// A commanded change now in force (the estimator's configuration swapped in; the model in
+    /// force was `before`): the channels out by command, the configured model, the hint, the
+    /// fault monitor.
+    #[cfg(feature = "spare-config")]
+    fn take_order(
+        &mut self,
+        commanded: ChannelSet,
+        model: Model,
+        reconfigures: bool,
+        before: Model,
+    ) {
+        let tested_before = self.mask(self.excluded, self.commanded);
+        self.commanded = commanded;
+        let _ = self.estimator.set_hint(self.last_omega);
+        self.refresh_monitor(tested_before);
+        if reconfigures {
+            // The `reconfigured` event reports the model in force; what is set aside has the
+            // old arrangement or model.
+            self.model = model;
+            if let Some(builds) = self.builds {
+                builds.clear();
+            }
+        } else {
+            self.note_model(before);
+        }
     }
 
     /// Takes a commanded change once it is built (where no set is processed: standby).
@@ -279,18 +312,7 @@ impl Estimation {
         let outcome = match builds.collect(&mut self.estimator, order.pending) {
             background::Collected::Building => return true,
             background::Collected::Done(Ok(_)) => {
-                let tested_before = self.mask(self.excluded, self.commanded);
-                self.commanded = order.commanded;
-                let _ = self.estimator.set_hint(self.last_omega);
-                self.refresh_monitor(tested_before);
-                if order.reconfigures {
-                    // The `reconfigured` event reports the model in force; what is set aside
-                    // has the old arrangement or model.
-                    self.model = order.model;
-                    builds.clear();
-                } else {
-                    self.note_model(before);
-                }
+                self.take_order(order.commanded, order.model, order.reconfigures, before);
                 Ok(())
             }
             background::Collected::Done(Err(e)) => Err(e),
@@ -382,8 +404,8 @@ impl Estimation {
     /// With a builder task the change is built there ([`Applied::WhenBuilt`]).
     pub fn set_commanded(&mut self, commanded: ChannelSet) -> Result<Applied, ConfigError> {
         #[cfg(feature = "spare-config")]
-        if self.order(None, self.model, commanded) {
-            return Ok(Applied::WhenBuilt);
+        if let Some(applied) = self.order(None, self.model, commanded) {
+            return Ok(applied);
         }
         let mask = self.mask(self.excluded_parts(), commanded);
         self.take_mask(mask)?;
@@ -478,8 +500,8 @@ impl Estimation {
             });
         }
         #[cfg(feature = "spare-config")]
-        if self.order(Some(arrangement), model, self.commanded) {
-            return Ok(Applied::WhenBuilt);
+        if let Some(applied) = self.order(Some(arrangement), model, self.commanded) {
+            return Ok(applied);
         }
         let mask = self.mask(self.excluded_parts(), self.commanded);
         let options = Options {
