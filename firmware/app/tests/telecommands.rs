@@ -636,6 +636,16 @@ fn garbage_on_the_link_is_counted_and_reported() {
 /// A deterministic mutation run of the parser (the fuzz target's body): flipped bits, cut
 /// and extended packets of every command, none panics, and a mutated packet with a valid CRC
 /// that is still accepted is a well-formed command.
+/// A deterministic xorshift64 sequence from `x` (not zero).
+fn xorshift(mut x: u64) -> impl FnMut() -> u64 {
+    move || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x
+    }
+}
+
 #[test]
 fn mutated_commands_never_panic() {
     let cfg = config();
@@ -663,13 +673,7 @@ fn mutated_commands_never_panic() {
         &[0, 0, 3, 232, 0, 0, 0],
         3,
     ));
-    let mut x = 0x2545F4914F6CDD1Du64;
-    let mut rnd = || {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        x
-    };
+    let mut rnd = xorshift(0x2545F4914F6CDD1D);
     let mut accepted = 0;
     for i in 0..200_000 {
         let mut p = seeds[i % seeds.len()].clone();
@@ -1221,13 +1225,7 @@ fn commanded_changes_built_in_the_background_complete_once_in_force() {
 #[test]
 fn random_commands_sets_and_builds_keep_every_command_answered() {
     use ballisto_fw::estimation::Builds;
-    let mut x = 0x9E37_79B9_7F4A_7C15u64;
-    let mut rnd = move || {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        x
-    };
+    let mut rnd = xorshift(0x9E37_79B9_7F4A_7C15);
     let b = service::BALLISTOMETER;
     for run in 0..12 {
         let builds: &'static Builds = Box::leak(Box::new(Builds::background()));
@@ -1240,7 +1238,7 @@ fn random_commands_sets_and_builds_keep_every_command_answered() {
             match rnd() % 10 {
                 0 | 1 => {
                     let c = (rnd() % 12) as u8;
-                    let st = if rnd() % 2 == 0 {
+                    let st = if rnd().is_multiple_of(2) {
                         subtype::EXCLUDE
                     } else {
                         subtype::INCLUDE
