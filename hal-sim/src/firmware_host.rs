@@ -99,7 +99,8 @@ impl OutputPin for SimSyncPin {
 /// The firmware's second configuration buffer for one run, [`Builds::inline`]: changes are
 /// built in the sample path at once, as `ballisto estimate` makes them, since simulated time
 /// does not pass during a build. The application holds it for `'static`, so buffers are kept in
-/// a pool across runs (about 24 KB each, as many as runs at a time) instead of leaked per run.
+/// a pool across runs (about 26 KB each: configuration, request, parity space; as many as runs
+/// at a time) instead of leaked per run.
 struct SpareBuffer(&'static Builds);
 
 static SPARE_BUFFERS: std::sync::Mutex<Vec<&'static Builds>> = std::sync::Mutex::new(Vec::new());

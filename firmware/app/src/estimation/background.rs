@@ -319,11 +319,12 @@ fn build_asked(slot: &mut Slot) -> bool {
         r.mask,
         r.options,
     );
-    slot.done = Some((r.ticket, built));
+    // The parity space only for a configuration that will be swapped in.
     #[cfg(feature = "fault-isolation")]
-    if let Some((tested, part)) = r.tested {
+    if let (Ok(_), Some((tested, part))) = (&built, r.tested) {
         slot.parity = Some((tested, build_parity(&r.arrangement, tested, &part)));
     }
+    slot.done = Some((r.ticket, built));
     true
 }
 

@@ -351,21 +351,23 @@ impl Estimation {
 
     /// The fault monitor after a change built by the builder task (the channels it tested were
     /// `before`): the parity space built with it or set aside, where the buffer holds the one
-    /// for the channels now tested (the one replaced is set aside in turn); else built here.
+    /// for the channels now tested (the one replaced is set aside in turn); else, the same
+    /// channels tested, the one in force (only the model's test refitted, no SVD); else built
+    /// here. The buffer comes first: a new arrangement's parity space is built with it for the
+    /// same channels.
     #[cfg(feature = "spare-config")]
     fn refresh_monitor(&mut self, before: ChannelMask) {
         #[cfg(feature = "fault-isolation")]
         if let Some(builds) = self.background() {
             let tested = self.mask(self.excluded, self.commanded);
-            if tested == before {
-                // The same channels tested: the model's test alone (no SVD).
-                let checks = self.isolation.install(&self.estimator, None);
-                let _ = self.isolation.install(&self.estimator, checks);
-                return;
-            }
             if let Some(checks) = builds.take_parity(tested) {
                 let replaced = self.isolation.install(&self.estimator, checks);
                 builds.set_aside_parity(before, replaced);
+                return;
+            }
+            if tested == before {
+                let checks = self.isolation.install(&self.estimator, None);
+                let _ = self.isolation.install(&self.estimator, checks);
                 return;
             }
         }
@@ -455,10 +457,9 @@ impl Estimation {
 
     /// As [`Estimation::take_mask`] for the exclusions' and re-admissions' own changes, built
     /// by the builder task where there is one: `None` while it is being built (nothing
-    /// changes meanwhile).
+    /// changes meanwhile). `missing`: the parts out because they stopped answering once the
+    /// change is made (the fault monitor tests the others).
     #[cfg(feature = "spare-config")]
-    /// `missing`: the parts out because they stopped answering once the change is made (the
-    /// fault monitor tests the others).
     fn take_mask_when_built(
         &mut self,
         mask: ChannelMask,
@@ -612,11 +613,13 @@ impl Estimation {
         }
         // Parts whose exclusion waits for its configuration are out already: read as missing.
         #[cfg(feature = "spare-config")]
-        if self.pending.is_some() || self.order.is_some() {
+        {
             let leaving = self.channels_leaving();
-            for (c, x) in self.p[..self.n].iter_mut().enumerate() {
-                if leaving.contains(c) {
-                    *x = f32::NAN;
+            if leaving.0 != 0 {
+                for (c, x) in self.p[..self.n].iter_mut().enumerate() {
+                    if leaving.contains(c) {
+                        *x = f32::NAN;
+                    }
                 }
             }
         }
@@ -887,13 +890,20 @@ mod tests {
     /// `tetra-orbit` with two ADXL355s added).
     #[cfg(all(feature = "spare-config", feature = "fault-isolation"))]
     fn eighteen() -> AppConfig {
+        eighteen_turned(0)
+    }
+
+    /// [`eighteen`] with the two added parts' axes turned by `turn` places (another
+    /// arrangement of the same channels).
+    #[cfg(all(feature = "spare-config", feature = "fault-isolation"))]
+    fn eighteen_turned(turn: usize) -> AppConfig {
         let mut cfg = tetra();
         let extra = cfg.sampling.parts[0].expect("part 0");
         for (i, pos) in [[0.12, 0.0, 0.0], [0.0, 0.0, -0.12]].iter().enumerate() {
             let mut channels = [None; 3];
             for (k, ch) in channels.iter_mut().enumerate() {
                 let mut axis = [0.0; 3];
-                axis[(k + i) % 3] = 1.0;
+                axis[(k + i + turn) % 3] = 1.0;
                 let noise = cfg.arrangement.channels()[0].noise;
                 *ch = cfg
                     .arrangement
@@ -980,6 +990,34 @@ mod tests {
         assert_eq!(builds.parity_held(), Some(without0), "swapped back");
         for k in k..k + 20 {
             let m = e.process(&consistent_set(&cfg, k, true));
+            assert!(!m.estimate.flags.has(Flags::RESIDUAL_HIGH), "set {k}");
+        }
+    }
+
+    /// A new arrangement commanded with a builder task: the parity space built with its
+    /// configuration is the one installed (the channels tested are the same as before, which
+    /// must not keep the old arrangement's): readings consistent with the new arrangement are
+    /// not flagged once it is in force.
+    #[cfg(all(feature = "spare-config", feature = "fault-isolation"))]
+    #[test]
+    fn a_new_arrangement_built_in_the_background_brings_its_own_parity_space() {
+        let (cfg, turned) = (eighteen(), eighteen_turned(1));
+        let builds: &'static Builds =
+            std::boxed::Box::leak(std::boxed::Box::new(Builds::background()));
+        let mut e = Estimation::new(&cfg).unwrap();
+        e.attach_builds(builds);
+        for k in 0..50 {
+            let m = e.process(&consistent_set(&cfg, k, true));
+            assert!(!m.estimate.flags.has(Flags::RESIDUAL_HIGH), "set {k}");
+        }
+        let applied = e.configure(&turned.arrangement, Model::General);
+        assert_eq!(applied, Ok(Applied::WhenBuilt));
+        assert!(builds.build_now());
+        // Set 50 is tested before the swap, by the old arrangement's parity space.
+        e.process(&consistent_set(&turned, 50, true));
+        assert_eq!(e.take_order_outcome(), Some(Ok(())));
+        for k in 51..300 {
+            let m = e.process(&consistent_set(&turned, k, true));
             assert!(!m.estimate.flags.has(Flags::RESIDUAL_HIGH), "set {k}");
         }
     }
