@@ -18,6 +18,7 @@
 mod config;
 mod crossing;
 mod deviations;
+mod follower;
 mod frames;
 mod lock_monitor;
 mod output;
@@ -87,6 +88,8 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     work: Work<T, CAP>,
     /// Model F, m = 3: whether the chosen root's Ω integrates its Ω′ ([`lock_monitor`]).
     lock: LockMonitor<T>,
+    /// Model F, m = 3: the root taken through a crossing ([`follower`]).
+    follower: follower::Follower<T>,
 }
 
 /// The configuration and everything precomputed from it (paper eq. 10–11): read-only in the
@@ -263,6 +266,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             crossing_bias: [T::ZERO; 3],
             crossing_active: false,
             lock: LockMonitor::default(),
+            follower: follower::Follower::default(),
             work: Work::new(),
         };
         e.configure(arr, model, ChannelMask::all(arr.len()), options)?;
@@ -404,6 +408,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.crossing_bias = [T::ZERO; 3];
         self.crossing_active = false;
         self.lock.reset();
+        self.follower.stop();
     }
 
     /// The model in use.
@@ -600,12 +605,10 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 fit: b.fit,
             };
         }
-        if cfg.model == Model::FreeFloat {
-            // After the candidates took their first-order variances: the tracker keeps those
-            // (see `crossing`); the output's deviations are widened.
-            if crossing::widen_near_crossings(&mut branches[..nb]) {
-                self.crossing_active = true;
-            }
+        // After the candidates took their first-order variances: the tracker keeps those
+        // (see `crossing`); the output's deviations are widened.
+        if cfg.model == Model::FreeFloat && crossing::widen_near_crossings(&mut branches[..nb]) {
+            self.crossing_active = true;
         }
         let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
         // Several histories per output only where mirror branches exist and can merge (model
@@ -617,12 +620,23 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             } else {
                 1
             };
-        let Some(choice) =
+        let Some(mut choice) =
             self.tracker
                 .step(&cands[..nb], dt_t, self.domega_var, hint_var, histories)
         else {
             return (self.hold(t, dt_t, record), false);
         };
+        // Where mirror roots cross (model F, m = 3), the root whose slope continues the
+        // motion's.
+        if check == PathCheck::Full {
+            follower::follow(
+                &mut self.follower,
+                &mut choice,
+                (&cands[..nb], &branches[..nb]),
+                (dt_t, self.domega_var),
+                self.tracker.states(),
+            );
+        }
         let common = CommonFlags {
             fallback,
             excluded,

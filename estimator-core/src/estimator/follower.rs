@@ -1,0 +1,227 @@
+//! The root taken where mirror branches cross (model F, m = 3; issue 15): a kinematic filter
+//! of (Ω, Ω′) that follows the motion's slope through the crossing.
+//!
+//! **Why.** Where two roots of the quadratic forms cross, the tracker's hypotheses test only Ω,
+//! predicted by integrating each sample's own Ω′ — at 1 kHz a noisy one (≈ 0.9 rad/s² RMS) —
+//! so a hypothesis that leaves the crossing on the mirror root, which does not continue the
+//! slope the motion came in with, looks nearly as good as the true one, and the tracker took
+//! 0.1–0.4 s to leave it: the forward path's raw Ω was 1.03–2.07 × the truth-started maximum
+//! likelihood (README, issue 15). A filter that carries Ω′ as a state, driven by a white jerk,
+//! sees it at once: the mirror root's Ω does not continue the filtered slope, and its Ω′ jumps.
+//!
+//! **How.** The state (Ω, Ω′) with one isotropic 2×2 covariance for the three axes, predicted
+//! with a constant Ω′ and a jerk of [`JERK_PER_SAMPLE`] rad²/s⁴ per sample, then updated by a
+//! root's Ω and by its Ω′ (the output's variance) — `path_choice::PathState::step`'s recursion.
+//! At each sample every root with either sign is scored by the negative log-likelihood of those
+//! two innovations, `|ν|²/S + 3 ln S` each, and the cheapest is taken: a beam of one, which the
+//! causal beam of `tests/examples/two_way.rs` (`LAGS=0`, `BEAM=1`) showed to be as good as 16
+//! hypotheses (1 kHz, 2e-3 m/s², 0.12 m: 1.01 × ML in a tumble and a manoeuvre). A root's Ω
+//! variance is its first-order one plus **twice** its crossing widening ([`super::crossing`]):
+//! near a double root the root's error is biased by up to the half separation, alike from
+//! sample to sample, which a variance counted once does not cover (at 1 kHz, 1e-2 m/s², 0.12 m,
+//! manoeuvre, seed 1: 1.13 × ML in σ0 with it once, 1.01 twice, 1.92 without).
+//!
+//! **When.** At every sample where mirror roots can cross (the path check in full): its memory
+//! of the slope is what decides at a crossing, so it runs throughout, started from the
+//! tracker's choice. It is stopped — and started again at the tracker's next choice — when its
+//! own innovation is beyond [`STEP_CAP`] (it lost the motion: a wild sample, a fault) or when
+//! the tracker holds no hypothesis on the root it takes (ruled out beyond the tracker's
+//! memory). The tracker keeps the flags, the margins and the filtered output; where the two
+//! take different roots the output is the follower's, reported branch ambiguous (sign
+//! unresolved where only the sign differs) with a margin of 0.
+
+use super::Branch;
+use crate::linalg::{norm2, Vec3};
+use crate::real::Real;
+use crate::tracker::{Candidate, Choice, State, STEP_CAP};
+
+/// Variance (rad²/s⁴) by which the follower's Ω′ may wander per sample (its white jerk density
+/// is this times the sample rate). Measured with the forward path's raw accuracy
+/// (`tests/examples/forward_accuracy.rs`, the sixteen cases of `tests/tests/branch_lock.rs`,
+/// seeds 1–4, ideal parts apart from the jitter, declared Gaussian noise): 0.1 held seed 1 at
+/// 1.01 × ML in every case; 0.3 (the path choice's) left the 1 kHz, 1e-2 m/s² manoeuvre at
+/// 1.14 and 1 kHz seed-4 tumbles at 1.8; 0.03 1.22 on the former.
+pub const JERK_PER_SAMPLE: f64 = 0.1;
+
+/// How many times a root's crossing widening is counted in its Ω variance (see the module).
+const WIDENING_COUNT: f64 = 2.0;
+
+/// The root the follower takes at a sample.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Pick<T> {
+    /// Index of the candidate.
+    pub candidate: usize,
+    /// The sign applied to the candidate's Ω: +1 or −1.
+    pub sign: i8,
+    /// `|ν|² / S` of the root's Ω against the prediction (3 degrees of freedom).
+    pub nis: T,
+}
+
+/// The (Ω, Ω′) filter (see the module's documentation).
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Follower<T> {
+    active: bool,
+    omega: Vec3<T>,
+    domega: Vec3<T>,
+    p_ww: T,
+    p_wd: T,
+    p_dd: T,
+}
+
+impl<T: Real> Follower<T> {
+    /// Whether the follower is running (from its start at the tracker's choice to a stop).
+    pub fn active(&self) -> bool {
+        self.active
+    }
+
+    /// Stops following (the tracker's choice is the output's again).
+    pub fn stop(&mut self) {
+        self.active = false;
+    }
+
+    /// Starts at a hypothesis: its Ω and Ω′ with their per-component variances.
+    pub fn start(&mut self, (omega, omega_var): (Vec3<T>, T), (domega, domega_var): (Vec3<T>, T)) {
+        *self = Follower {
+            active: true,
+            omega,
+            domega,
+            p_ww: omega_var,
+            p_wd: T::ZERO,
+            p_dd: domega_var,
+        };
+    }
+
+    /// One sample: predicted by `dt`, every candidate with either sign scored, the cheapest
+    /// taken in. `widening(i)` is the mean per-component variance that the crossing adds to
+    /// candidate `i`'s Ω; `domega_var` the per-component variance of Ω′. `None` without a
+    /// candidate.
+    pub fn step(
+        &mut self,
+        cands: &[Candidate<T>],
+        widening: impl Fn(usize) -> T,
+        dt: T,
+        domega_var: T,
+    ) -> Option<Pick<T>> {
+        let jerk = T::of(JERK_PER_SAMPLE);
+        let dt2 = dt * dt;
+        let p_ww =
+            self.p_ww + T::of(2.0) * dt * self.p_wd + dt2 * self.p_dd + jerk * dt2 / T::of(3.0);
+        let p_wd = self.p_wd + dt * self.p_dd + T::of(0.5) * jerk * dt;
+        let p_dd = self.p_dd + jerk;
+        let w: Vec3<T> = core::array::from_fn(|k| self.omega[k] + self.domega[k] * dt);
+        let three = T::of(3.0);
+        // (cost, candidate, sign, ν, s)
+        let mut best: Option<(T, usize, i8, Vec3<T>, T)> = None;
+        let r_d = p_dd + domega_var;
+        for (ci, c) in cands.iter().enumerate() {
+            let s = (p_ww + c.omega_var + T::of(WIDENING_COUNT) * widening(ci)).max(T::of(1e-30));
+            // Ω′'s innovation variance after the Ω update is `s_d = r_d − p_wd²/s = num / s`:
+            // one logarithm (`ln s + ln s_d = ln num`) and one division per candidate.
+            let num = (s * r_d - p_wd * p_wd).max(T::of(1e-30) * s);
+            let inv = T::ONE / (s * num);
+            let (inv_s, inv_sd) = (num * inv, s * s * inv);
+            let kd = p_wd * inv_s;
+            let base = three * num.ln_approx();
+            for sign in [1i8, -1] {
+                let sg = T::of(f64::from(sign));
+                let nu: Vec3<T> = core::array::from_fn(|k| sg * c.omega[k] - w[k]);
+                let mu: Vec3<T> =
+                    core::array::from_fn(|k| c.domega[k] - (self.domega[k] + kd * nu[k]));
+                let cost = base + norm2(&nu) * inv_s + norm2(&mu) * inv_sd;
+                if best.is_none_or(|b| cost < b.0) {
+                    best = Some((cost, ci, sign, nu, s));
+                }
+            }
+        }
+        let (_, ci, sign, nu, s) = best?;
+        let c = &cands[ci];
+        // Ω, then Ω′ (`path_choice::PathState::step`).
+        let (kw, kd) = (p_ww / s, p_wd / s);
+        let mut w = w;
+        let mut d = self.domega;
+        for k in 0..3 {
+            w[k] += kw * nu[k];
+            d[k] += kd * nu[k];
+        }
+        let (p_ww, p_wd, p_dd) = ((T::ONE - kw) * p_ww, (T::ONE - kw) * p_wd, p_dd - kd * p_wd);
+        let s_d = (p_dd + domega_var).max(T::of(1e-30));
+        let (gw, gd) = (p_wd / s_d, p_dd / s_d);
+        for k in 0..3 {
+            let mu = c.domega[k] - d[k];
+            w[k] += gw * mu;
+            d[k] += gd * mu;
+        }
+        self.omega = w;
+        self.domega = d;
+        self.p_ww = p_ww - gw * p_wd;
+        self.p_wd = p_wd - gw * p_dd;
+        self.p_dd = p_dd - gd * p_dd;
+        Some(Pick {
+            candidate: ci,
+            sign,
+            nis: norm2(&nu) / s,
+        })
+    }
+}
+
+/// One sample of the follower beside the tracker (model F, m = 3): the output's root is the
+/// follower's where the two disagree — reported branch ambiguous (sign unresolved where only
+/// the sign differs) with a margin of 0, the filtered Ω the tracker's cheapest hypothesis on
+/// that root — and the tracker's `choice` unchanged elsewhere. Starts, steps and stops the
+/// follower (see the module's documentation).
+pub(super) fn follow<T: Real>(
+    follower: &mut Follower<T>,
+    choice: &mut Choice<T>,
+    (cands, branches): (&[Candidate<T>], &[Branch<T>]),
+    (dt, domega_var): (T, T),
+    states: &[State<T>],
+) {
+    let tracker_sign = states.get(choice.state).map_or(1, |s| s.sign);
+    if !follower.active() {
+        follower.start(
+            choice.filtered,
+            (cands[choice.candidate].domega, domega_var),
+        );
+        return;
+    }
+    let third = T::of(1.0 / 3.0);
+    let widening = |i: usize| {
+        branches.get(i).map_or(T::ZERO, |b| {
+            (b.widening[0] + b.widening[1] + b.widening[2]) * third
+        })
+    };
+    let Some(pick) = follower.step(cands, widening, dt, domega_var) else {
+        follower.stop();
+        return;
+    };
+    let agrees = pick.candidate == choice.candidate && pick.sign == tracker_sign;
+    // The tracker's cheapest hypothesis on the follower's root.
+    let held = states
+        .iter()
+        .filter(|s| usize::from(s.candidate) == pick.candidate && s.sign == pick.sign)
+        .min_by(|a, b| {
+            a.cost
+                .partial_cmp(&b.cost)
+                .unwrap_or(core::cmp::Ordering::Equal)
+        });
+    if pick.nis > T::of(STEP_CAP) || (!agrees && held.is_none()) {
+        follower.stop();
+        return;
+    }
+    if agrees {
+        return;
+    }
+    let c = &cands[pick.candidate];
+    let sg = T::of(f64::from(pick.sign));
+    choice.candidate = pick.candidate;
+    choice.omega = core::array::from_fn(|k| sg * c.omega[k]);
+    if let Some(s) = held {
+        choice.filtered = (s.omega, s.var);
+    }
+    if pick.candidate == usize::from(states[choice.state].candidate) {
+        choice.sign_unresolved = true;
+    } else {
+        choice.branch_ambiguous = true;
+    }
+    choice.branch_margin = T::ZERO;
+}
