@@ -31,7 +31,7 @@
 //! unresolved where only the sign differs) with a margin of 0.
 
 use super::Branch;
-use crate::linalg::{norm2, Vec3};
+use crate::linalg::Vec3;
 use crate::real::Real;
 use crate::tracker::{Candidate, Choice, State, STEP_CAP};
 
@@ -108,40 +108,52 @@ impl<T: Real> Follower<T> {
             self.p_ww + T::of(2.0) * dt * self.p_wd + dt2 * self.p_dd + jerk * dt2 / T::of(3.0);
         let p_wd = self.p_wd + dt * self.p_dd + T::of(0.5) * jerk * dt;
         let p_dd = self.p_dd + jerk;
-        let w: Vec3<T> = core::array::from_fn(|k| self.omega[k] + self.domega[k] * dt);
-        let three = T::of(3.0);
-        // (cost, candidate, sign, ν, s)
-        let mut best: Option<(T, usize, i8, Vec3<T>, T)> = None;
+        let mut w = self.omega;
+        for k in 0..3 {
+            w[k] += self.domega[k] * dt;
+        }
+        // Each candidate's innovation variances and gain, then both signs.
         let r_d = p_dd + domega_var;
-        for (ci, c) in cands.iter().enumerate() {
+        let variances = |c: &Candidate<T>, ci: usize| {
             let s = (p_ww + c.omega_var + T::of(WIDENING_COUNT) * widening(ci)).max(T::of(1e-30));
             // Ω′'s innovation variance after the Ω update is `s_d = r_d − p_wd²/s = num / s`:
             // one logarithm (`ln s + ln s_d = ln num`) and one division per candidate.
             let num = (s * r_d - p_wd * p_wd).max(T::of(1e-30) * s);
             let inv = T::ONE / (s * num);
-            let (inv_s, inv_sd) = (num * inv, s * s * inv);
+            (s, num * inv, s * s * inv, num)
+        };
+        let (mut best_cost, mut best_ci, mut best_sign) = (T::ZERO, usize::MAX, T::ONE);
+        for (ci, c) in cands.iter().enumerate() {
+            let (_, inv_s, inv_sd, num) = variances(c, ci);
             let kd = p_wd * inv_s;
-            let base = three * num.ln_approx();
-            for sign in [1i8, -1] {
-                let sg = T::of(f64::from(sign));
-                let nu: Vec3<T> = core::array::from_fn(|k| sg * c.omega[k] - w[k]);
-                let mu: Vec3<T> =
-                    core::array::from_fn(|k| c.domega[k] - (self.domega[k] + kd * nu[k]));
-                let cost = base + norm2(&nu) * inv_s + norm2(&mu) * inv_sd;
-                if best.is_none_or(|b| cost < b.0) {
-                    best = Some((cost, ci, sign, nu, s));
+            let base = T::of(3.0) * num.ln_approx();
+            let mut sg = T::ONE;
+            while sg >= -T::ONE {
+                let (mut nu2, mut mu2) = (T::ZERO, T::ZERO);
+                for k in 0..3 {
+                    let nu = sg * c.omega[k] - w[k];
+                    let mu = c.domega[k] - self.domega[k] - kd * nu;
+                    nu2 += nu * nu;
+                    mu2 += mu * mu;
                 }
+                let cost = base + nu2 * inv_s + mu2 * inv_sd;
+                if best_ci == usize::MAX || cost < best_cost {
+                    (best_cost, best_ci, best_sign) = (cost, ci, sg);
+                }
+                sg -= T::of(2.0);
             }
         }
-        let (_, ci, sign, nu, s) = best?;
-        let c = &cands[ci];
+        let c = cands.get(best_ci)?;
+        let (s, inv_s, _, _) = variances(c, best_ci);
         // Ω, then Ω′ (`path_choice::PathState::step`).
-        let (kw, kd) = (p_ww / s, p_wd / s);
-        let mut w = w;
+        let (kw, kd) = (p_ww * inv_s, p_wd * inv_s);
         let mut d = self.domega;
+        let mut nu2 = T::ZERO;
         for k in 0..3 {
-            w[k] += kw * nu[k];
-            d[k] += kd * nu[k];
+            let nu = best_sign * c.omega[k] - w[k];
+            nu2 += nu * nu;
+            w[k] += kw * nu;
+            d[k] += kd * nu;
         }
         let (p_ww, p_wd, p_dd) = ((T::ONE - kw) * p_ww, (T::ONE - kw) * p_wd, p_dd - kd * p_wd);
         let s_d = (p_dd + domega_var).max(T::of(1e-30));
@@ -157,9 +169,9 @@ impl<T: Real> Follower<T> {
         self.p_wd = p_wd - gw * p_dd;
         self.p_dd = p_dd - gd * p_dd;
         Some(Pick {
-            candidate: ci,
-            sign,
-            nis: norm2(&nu) / s,
+            candidate: best_ci,
+            sign: if best_sign > T::ZERO { 1 } else { -1 },
+            nis: nu2 / s,
         })
     }
 }
@@ -169,6 +181,7 @@ impl<T: Real> Follower<T> {
 /// the sign differs) with a margin of 0, the filtered Ω the tracker's cheapest hypothesis on
 /// that root — and the tracker's `choice` unchanged elsewhere. Starts, steps and stops the
 /// follower (see the module's documentation).
+#[inline(never)]
 pub(super) fn follow<T: Real>(
     follower: &mut Follower<T>,
     choice: &mut Choice<T>,
