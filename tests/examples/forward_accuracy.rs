@@ -6,7 +6,8 @@
 //!
 //! `SEEDS=1,2` the seeds (default 1), `CASES=0,3` the cases by index (default all: the four
 //! rates, the two other noises and the two other arms around 1 kHz, 2e-3 m/s², 0.12 m, in a
-//! tumble then a manoeuvre), `SECONDS` the record's length (default 20). The maximum
+//! tumble then a manoeuvre), `CASE=RATE,NOISE,ARM,tumble|manoeuvre` one case of the family
+//! instead, `SECONDS` the record's length (default 20). The maximum
 //! likelihood's RMS is cached per case in `target/ml-cache/` (slow at 4 kHz).
 
 use e2e_tests::nine::{self, Params, Score};
@@ -35,7 +36,15 @@ fn main() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(20.0);
-    let all = cases();
+    // `CASE=RATE,NOISE,ARM,manoeuvre|tumble`: one case of the family instead.
+    let all = match std::env::var("CASE") {
+        Ok(v) => {
+            let f: Vec<&str> = v.split(',').collect();
+            let num = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).expect("CASE");
+            vec![(num(0), num(1), num(2), f.get(3) == Some(&"manoeuvre"))]
+        }
+        Err(_) => cases(),
+    };
     let picked: Vec<usize> = list("CASES").unwrap_or_else(|| (0..all.len()).collect());
     let cache = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/ml-cache");
     std::fs::create_dir_all(&cache).expect("cache directory");

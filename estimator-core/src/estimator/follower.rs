@@ -27,8 +27,8 @@
 //! own innovation is beyond [`STEP_CAP`] (it lost the motion: a wild sample, a fault) or when
 //! the tracker holds no hypothesis on the root it takes (ruled out beyond the tracker's
 //! memory). The tracker keeps the flags, the margins and the filtered output; where the two
-//! take different roots the output is the follower's, reported branch ambiguous (sign
-//! unresolved where only the sign differs) with a margin of 0.
+//! take different roots the output is the follower's, reported branch ambiguous with a margin
+//! of 0 (sign unresolved where only the sign differs).
 
 use super::Branch;
 use crate::linalg::Vec3;
@@ -177,9 +177,9 @@ impl<T: Real> Follower<T> {
 }
 
 /// One sample of the follower beside the tracker (model F, m = 3): the output's root is the
-/// follower's where the two disagree — reported branch ambiguous (sign unresolved where only
-/// the sign differs) with a margin of 0, the filtered Ω the tracker's cheapest hypothesis on
-/// that root — and the tracker's `choice` unchanged elsewhere. Starts, steps and stops the
+/// follower's where the two disagree — reported branch ambiguous with a margin of 0 (sign
+/// unresolved, the margin kept, where only the sign differs), the filtered Ω the tracker's
+/// cheapest hypothesis on that root — and the tracker's `choice` unchanged elsewhere. Starts, steps and stops the
 /// follower (see the module's documentation).
 #[inline(never)]
 pub(super) fn follow<T: Real>(
@@ -191,6 +191,11 @@ pub(super) fn follow<T: Real>(
 ) {
     let tracker_sign = states.get(choice.state).map_or(1, |s| s.sign);
     if !follower.active() {
+        // Started only from a settled choice: a tracker still deciding among its first
+        // hypotheses (or after a stop) would hand the follower a root it may leave.
+        if choice.branch_ambiguous || choice.sign_unresolved {
+            return;
+        }
         follower.start(
             choice.filtered,
             (cands[choice.candidate].domega, domega_var),
@@ -232,9 +237,10 @@ pub(super) fn follow<T: Real>(
         choice.filtered = (s.omega, s.var);
     }
     if pick.candidate == usize::from(states[choice.state].candidate) {
+        // The same branch: its margin over the other branches stands.
         choice.sign_unresolved = true;
     } else {
         choice.branch_ambiguous = true;
+        choice.branch_margin = T::ZERO;
     }
-    choice.branch_margin = T::ZERO;
 }

@@ -18,6 +18,7 @@
 mod config;
 mod crossing;
 mod deviations;
+#[cfg(feature = "follower")]
 mod follower;
 mod frames;
 mod lock_monitor;
@@ -88,7 +89,8 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     work: Work<T, CAP>,
     /// Model F, m = 3: whether the chosen root's Ω integrates its Ω′ ([`lock_monitor`]).
     lock: LockMonitor<T>,
-    /// Model F, m = 3: the root taken through a crossing ([`follower`]).
+    /// Model F, m = 3: the root taken through a crossing (`follower`).
+    #[cfg(feature = "follower")]
     follower: follower::Follower<T>,
 }
 
@@ -266,6 +268,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             crossing_bias: [T::ZERO; 3],
             crossing_active: false,
             lock: LockMonitor::default(),
+            #[cfg(feature = "follower")]
             follower: follower::Follower::default(),
             work: Work::new(),
         };
@@ -408,6 +411,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.crossing_bias = [T::ZERO; 3];
         self.crossing_active = false;
         self.lock.reset();
+        #[cfg(feature = "follower")]
         self.follower.stop();
     }
 
@@ -620,6 +624,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             } else {
                 1
             };
+        #[cfg_attr(not(feature = "follower"), allow(unused_mut))]
         let Some(mut choice) =
             self.tracker
                 .step(&cands[..nb], dt_t, self.domega_var, hint_var, histories)
@@ -628,6 +633,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         };
         // Where mirror roots cross (model F, m = 3), the root whose slope continues the
         // motion's.
+        #[cfg(feature = "follower")]
         if check == PathCheck::Full {
             follower::follow(
                 &mut self.follower,
