@@ -76,7 +76,20 @@ fn main() {
                 std::fs::write(&key, format!("{},{},{}", r[0], r[1], r[2])).expect("cache");
                 r
             });
-            let raw = Score::of(&case.forward(true), &case.truth);
+            let fwd = case.forward(true);
+            if let Ok(n) = std::env::var("DUMP").map(|v| v.parse::<usize>().unwrap_or(0)) {
+                for (k, (e, tr)) in fwd.iter().zip(case.truth.iter()).take(n).enumerate() {
+                    let d = (0..3)
+                        .map(|i| (e.omega[i] - tr.omega[i]).powi(2))
+                        .sum::<f64>()
+                        .sqrt();
+                    println!(
+                        "{k} err {d:.4} flags {} margin {:.1} sd {:.4}",
+                        e.flags.0, e.branch_margin, e.sd_omega[0]
+                    );
+                }
+            }
+            let raw = Score::of(&fwd, &case.truth);
             let filtered = Score::of(&case.forward(false), &case.truth);
             let r = raw.rms();
             let ratio: [f64; 3] = core::array::from_fn(|i| r[i] / ml[i]);

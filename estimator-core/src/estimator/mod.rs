@@ -641,6 +641,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 (&cands[..nb], &branches[..nb]),
                 (dt_t, self.domega_var),
                 self.tracker.states(),
+                fallback,
             );
         }
         let common = CommonFlags {
