@@ -274,3 +274,123 @@ pub(super) fn follow<T: Real>(
         choice.branch_margin = T::ZERO;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const RATE: f64 = 1000.0;
+    const SD: f64 = 0.004;
+    const SD_D: f64 = 0.9;
+
+    /// A deterministic noise in [−1, 1].
+    fn noise(k: usize, axis: usize) -> f64 {
+        let x = ((k * 3 + axis) as f64 * 12.9898).sin() * 43_758.545;
+        2.0 * (x - x.floor()) - 1.0
+    }
+
+    /// The truth and, from `tc`, a mirror root that leaves it at 2 rad/s per s while its own
+    /// Ω′ says the opposite (as after a crossing): candidates `[mirror, truth]`, noisy.
+    fn candidates(k: usize, tc: f64) -> [Candidate<f64>; 2] {
+        let t = k as f64 / RATE;
+        let w = [1.0 + 0.5 * t, -0.4, 2.0 - 0.3 * t];
+        let d = [0.5, 0.0, -0.3];
+        let off = 2.0 * (t - tc).max(0.0);
+        let mirror_w = [w[0] + off, w[1] - off, w[2]];
+        let mirror_d = [d[0] - 2.0, d[1] + 2.0, d[2]];
+        let cand = |w: [f64; 3], d: [f64; 3], j: usize| Candidate {
+            omega: core::array::from_fn(|i| w[i] + SD * noise(k + 11 * j, i)),
+            omega_var: SD * SD,
+            domega: core::array::from_fn(|i| d[i] + SD_D * noise(k + 29 * j, i)),
+            fit: 0.0,
+        };
+        [cand(mirror_w, mirror_d, 1), cand(w, d, 0)]
+    }
+
+    /// After the roots part, the follower takes the one that continues the slope it came in
+    /// with, although the mirror is offered first and is within the noise of the truth at the
+    /// first samples.
+    #[test]
+    fn takes_the_root_that_continues_the_slope() {
+        let (tc, n) = (0.3, 600);
+        let mut f = Follower::<f64>::default();
+        let first = candidates(0, tc);
+        f.start((first[1].omega, SD * SD), (first[1].domega, SD_D * SD_D));
+        let mut wrong = Vec::new();
+        for k in 1..n {
+            let c = candidates(k, tc);
+            let pick = f.step(&c, |_| 0.0, 1.0 / RATE, SD_D * SD_D).unwrap();
+            let t = k as f64 / RATE;
+            if t > tc + 0.01 && (pick.candidate, pick.sign) != (1, 1) {
+                wrong.push(k);
+            }
+            assert!(
+                pick.nis < STEP_CAP,
+                "sample {k}: the follower lost the motion"
+            );
+        }
+        assert!(wrong.is_empty(), "mirror or other sign taken at {wrong:?}");
+    }
+
+    /// Beside a tracker that leaves a crossing on the mirror (its hypothesis on the truth 30
+    /// behind): the follower is started from a settled choice among real roots only, takes
+    /// nothing during its warm-up, and after the crossing puts the truth in the output — branch
+    /// ambiguous, margin 0, the filtered Ω the tracker's hypothesis on that root.
+    #[test]
+    fn overrides_the_tracker_after_its_warm_up_and_says_so() {
+        let tc = 0.2;
+        let branches = [Branch::default(); 2];
+        let mut f = Follower::<f64>::default();
+        for k in 0..400 {
+            let c = candidates(k, tc);
+            let t = k as f64 / RATE;
+            let settled = k >= 3;
+            // Before the crossing the tracker holds the truth; after it, the mirror.
+            let held = usize::from(t < tc);
+            // The tracker's best hypothesis first (on the root it holds), the other root's 30
+            // behind.
+            let hyp = |candidate: usize, cost: f64| State {
+                candidate: candidate as u8,
+                sign: 1,
+                cost,
+                omega: [7.0 + candidate as f64; 3],
+                var: 2.0 + candidate as f64,
+                ..State::default()
+            };
+            let states = [hyp(held, 0.0), hyp(1 - held, 30.0)];
+            let mut choice = Choice {
+                state: 0,
+                candidate: held,
+                omega: c[held].omega,
+                filtered: (c[held].omega, SD * SD),
+                sign_unresolved: false,
+                branch_ambiguous: !settled,
+                branch_margin: if settled { 40.0 } else { 3.0 },
+            };
+            let before = choice;
+            let dt = if k == 0 { 0.0 } else { 1.0 / RATE };
+            follow(
+                &mut f,
+                &mut choice,
+                (&c, &branches),
+                (dt, SD_D * SD_D),
+                &states,
+                k == 3,
+            );
+            if k <= 3 {
+                // Not settled, or the fallback: not started.
+                assert!(!f.active(), "sample {k}");
+            }
+            let warm = t >= 0.004 + WARM_UP_S + 0.002;
+            if !warm || held == 1 {
+                assert_eq!(choice.candidate, before.candidate, "sample {k}");
+                assert_eq!(choice.branch_margin, before.branch_margin, "sample {k}");
+            } else if t > tc + 0.01 {
+                assert_eq!(choice.candidate, 1, "sample {k}: the truth");
+                assert!(choice.branch_ambiguous && choice.branch_margin == 0.0);
+                let hyp = states.iter().find(|s| s.candidate == 1).unwrap();
+                assert_eq!(choice.filtered, (hyp.omega, hyp.var));
+            }
+        }
+    }
+}

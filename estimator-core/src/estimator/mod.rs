@@ -10,7 +10,9 @@
 //! - [`frames`]: the frames `V` of model G and the choice among them;
 //! - [`solve`]: one frame's per-sample solve (`W p`, the `a` solve, the branches);
 //! - [`deviations`]: `cov(a)` and the standard deviations;
-//! - [`output`]: the estimate of the chosen branch.
+//! - [`output`]: the estimate of the chosen branch;
+//! - `follower` (feature `follower`): where mirror roots cross, the root whose slope
+//!   continues the motion's (issue 15).
 //!
 //! This file holds the state (configuration, working storage, tracker, output slots) and the
 //! per-sample sequence that ties them together.
