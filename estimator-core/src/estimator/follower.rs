@@ -145,8 +145,7 @@ impl<T: Real> Follower<T> {
             let (_, inv_s, inv_sd, num) = variances(c, ci);
             let kd = p_wd * inv_s;
             let base = T::of(3.0) * num.ln_approx();
-            let mut sg = T::ONE;
-            while sg >= -T::ONE {
+            for sg in [T::ONE, -T::ONE] {
                 let (mut nu2, mut mu2) = (T::ZERO, T::ZERO);
                 for k in 0..3 {
                     let nu = sg * c.omega[k] - w[k];
@@ -158,7 +157,6 @@ impl<T: Real> Follower<T> {
                 if best_ci == usize::MAX || cost < best_cost {
                     (best_cost, best_ci, best_sign) = (cost, ci, sg);
                 }
-                sg -= T::of(2.0);
             }
         }
         let c = cands.get(best_ci)?;
@@ -197,8 +195,8 @@ impl<T: Real> Follower<T> {
 /// One sample of the follower beside the tracker (model F, m = 3): the output's root is the
 /// follower's where the two disagree — reported branch ambiguous with a margin of 0 (sign
 /// unresolved, the margin kept, where only the sign differs), the filtered Ω the tracker's
-/// cheapest hypothesis on that root — and the tracker's `choice` unchanged elsewhere. Starts, steps and stops the
-/// follower (see the module's documentation).
+/// cheapest hypothesis on that root — and the tracker's `choice` unchanged elsewhere. Starts,
+/// steps and stops the follower (see the module's documentation).
 #[inline(never)]
 pub(super) fn follow<T: Real>(
     follower: &mut Follower<T>,
@@ -208,18 +206,19 @@ pub(super) fn follow<T: Real>(
     states: &[State<T>],
     fallback: bool,
 ) {
-    let tracker_sign = states.get(choice.state).map_or(1, |s| s.sign);
+    let start_at_choice = |f: &mut Follower<T>| {
+        f.start(
+            choice.filtered,
+            (cands[choice.candidate].domega, domega_var),
+        )
+    };
     if !follower.active() {
         // Started only from a settled choice among real roots: a tracker still deciding, or
         // the least-squares fallback (no real root: its margin says nothing), would hand the
         // follower a root it may have to leave (see [`WARM_UP_S`]).
-        if fallback || choice.branch_ambiguous || choice.sign_unresolved {
-            return;
+        if !(fallback || choice.branch_ambiguous || choice.sign_unresolved) {
+            start_at_choice(follower);
         }
-        follower.start(
-            choice.filtered,
-            (cands[choice.candidate].domega, domega_var),
-        );
         return;
     }
     let third = T::of(1.0 / 3.0);
@@ -232,8 +231,28 @@ pub(super) fn follow<T: Real>(
         follower.stop();
         return;
     };
-    let agrees = pick.candidate == choice.candidate && pick.sign == tracker_sign;
-    // The tracker's cheapest hypothesis on the follower's root.
+    let tracker_sign = states.get(choice.state).map_or(1, |s| s.sign);
+    let same_branch = pick.candidate == choice.candidate;
+    let agrees = same_branch && pick.sign == tracker_sign;
+    let warm = follower.age >= T::of(WARM_UP_S) && follower.samples >= WARM_UP_SAMPLES;
+    if !warm {
+        follower.age += dt;
+        follower.samples = follower.samples.saturating_add(1);
+    }
+    if !agrees && !warm {
+        // Still warming up: taken back to the tracker's choice, the warm-up started again.
+        start_at_choice(follower);
+        return;
+    }
+    if pick.nis > T::of(STEP_CAP) {
+        follower.stop();
+        return;
+    }
+    if agrees {
+        return;
+    }
+    // The tracker's cheapest hypothesis on the follower's root; none: ruled out beyond the
+    // tracker's memory.
     let held = states
         .iter()
         .filter(|s| usize::from(s.candidate) == pick.candidate && s.sign == pick.sign)
@@ -242,34 +261,16 @@ pub(super) fn follow<T: Real>(
                 .partial_cmp(&b.cost)
                 .unwrap_or(core::cmp::Ordering::Equal)
         });
-    let warm = follower.age >= T::of(WARM_UP_S) && follower.samples >= WARM_UP_SAMPLES;
-    if !warm {
-        follower.age += dt;
-        follower.samples = follower.samples.saturating_add(1);
-    }
-    if !agrees && !warm {
-        // Still warming up: taken back to the tracker's choice, the warm-up started again.
-        follower.start(
-            choice.filtered,
-            (cands[choice.candidate].domega, domega_var),
-        );
-        return;
-    }
-    if pick.nis > T::of(STEP_CAP) || (!agrees && held.is_none()) {
+    let Some(held) = held else {
         follower.stop();
         return;
-    }
-    if agrees {
-        return;
-    }
+    };
     let c = &cands[pick.candidate];
     let sg = T::of(f64::from(pick.sign));
     choice.candidate = pick.candidate;
     choice.omega = core::array::from_fn(|k| sg * c.omega[k]);
-    if let Some(s) = held {
-        choice.filtered = (s.omega, s.var);
-    }
-    if pick.candidate == usize::from(states[choice.state].candidate) {
+    choice.filtered = (held.omega, held.var);
+    if same_branch {
         // The same branch: its margin over the other branches stands.
         choice.sign_unresolved = true;
     } else {

@@ -91,6 +91,14 @@ mod enabled {
             self.monitor.replace_parity(parity)
         }
 
+        /// The parity space in force kept, the rest made anew for the estimator's new
+        /// configuration (its model's test, the window restarted): the same channels tested,
+        /// no SVD.
+        pub fn refit(&mut self, estimator: &Estimator<f32, MAX_CHANNELS>) {
+            let checks = self.monitor.replace_parity(None);
+            self.install(estimator, checks);
+        }
+
         /// Each channel's part ([`NO_PART`] for none), as the parity space is built with.
         pub fn parts(&self) -> &[u8; MAX_CHANNELS] {
             &self.part

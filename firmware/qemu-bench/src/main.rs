@@ -331,8 +331,8 @@ fn run<P: Platform>(p: &mut P) -> i32 {
     }
     if only.is_none() {
         // The paper's layout, nine channels in model F (m = 3): where mirror roots cross, the
-        // path check and the follower run on every sample (issue 15). Reported, not budgeted
-        // (the budget is N = 12's; nine channels cost less in `W p`).
+        // closed-form roots, the path check and the follower run on every sample (issue 15).
+        // Reported, not budgeted: the budget is N = 12's.
         run_model(p, per_tick, Model::FreeFloat, 9, false);
         run_identification(p, per_tick);
         run_fault_monitor(p, per_tick);

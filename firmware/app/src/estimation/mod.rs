@@ -366,8 +366,7 @@ impl Estimation {
                 return;
             }
             if tested == before {
-                let checks = self.isolation.install(&self.estimator, None);
-                let _ = self.isolation.install(&self.estimator, checks);
+                self.isolation.refit(&self.estimator);
                 return;
             }
         }
