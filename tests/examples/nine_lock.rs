@@ -321,7 +321,13 @@ fn main() {
         seed: a[5].parse().expect("a seed"),
         manoeuvre: a.get(6).is_some_and(|s| s == "manoeuvre"),
     };
-    let case = nine::make(params);
+    // `FIRMWARE=1`: the readings the firmware got on `nine-channel` at RATE_HZ (the other
+    // arguments ignored).
+    let case = if std::env::var_os("FIRMWARE").is_some() {
+        nine::firmware_readings(params.rate_hz)
+    } else {
+        nine::make(params)
+    };
     let ml = std::env::var_os("ML").map(|_| case.ml_errors());
     if let Some(ml) = &ml {
         let n = ml.len() as f64;

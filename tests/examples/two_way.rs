@@ -53,7 +53,13 @@ fn main() {
         seed: a[5].parse().unwrap(),
         manoeuvre: a.get(6).is_some_and(|m| m == "manoeuvre"),
     };
-    let case = nine::make(p);
+    // `FIRMWARE=1`: the readings the firmware got on `nine-channel` at RATE (the other
+    // arguments ignored).
+    let case = if std::env::var_os("FIRMWARE").is_some() {
+        nine::firmware_readings(p.rate_hz)
+    } else {
+        nine::make(p)
+    };
     let fwd = case.forward(true);
     let n = fwd.len();
     let t_end = case.truth[n - 1].t;

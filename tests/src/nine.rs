@@ -263,3 +263,58 @@ impl Score {
         (self.z2 / self.rows.max(1) as f64).sqrt()
     }
 }
+
+/// The `nine-channel` scenario at `rate_hz` through the firmware (f32, hal-sim's buses, the
+/// sensors' registers aligned): the readings the estimator got, as a [`Case`] (the scenario's
+/// arrangement, the truth per set, the hint as initial Ω, raw), for the host paths and the
+/// maximum likelihood to be run on the very same readings.
+pub fn firmware_readings(rate_hz: f64) -> Case {
+    firmware_run(rate_hz, |_, _| {})
+}
+
+/// [`firmware_readings`], calling `each` with every set's estimate as the firmware made it and
+/// its truth.
+pub fn firmware_run(
+    rate_hz: f64,
+    mut each: impl FnMut(&ballisto_fw::estimation::SetEstimate, &Truth),
+) -> Case {
+    use ballisto_fw::config::Alignment;
+    use hal_sim::firmware_host::{firmware_config, run_firmware};
+    use hal_sim::scenario::Scenario;
+    let mut sc = Scenario::load("nine-channel").expect("built-in scenario");
+    sc.rate = rate_hz;
+    let loaded = sc
+        .arrangement()
+        .load("arrangement.toml")
+        .expect("arrangement");
+    let config = firmware_config(&sc, &loaded, Alignment::Interpolate).expect("config");
+    let (mut truth, mut outputs) = (Vec::new(), Vec::new());
+    let mut emit = |set: &ballisto_fw::sampler::SampleSet,
+                    m: &ballisto_fw::estimation::SetEstimate,
+                    tr: &Truth| {
+        let mut p = vec![0.0f64; loaded.arrangement.len()];
+        for (part, value) in config.sampling.parts.iter().zip(set.parts.iter()) {
+            if let (Some(part), Some(v)) = (part, value) {
+                for (axis, ch) in part.channels.iter().enumerate() {
+                    if let Some(c) = ch {
+                        p[usize::from(*c)] = f64::from(v[axis]);
+                    }
+                }
+            }
+        }
+        each(m, tr);
+        truth.push(*tr);
+        outputs.push(p);
+    };
+    run_firmware(&sc, &config, sc.samples() as u32, &mut emit).expect("firmware run");
+    Case {
+        options: Options {
+            raw: true,
+            initial_omega: config.hint,
+            ..Default::default()
+        },
+        loaded,
+        truth,
+        outputs,
+    }
+}

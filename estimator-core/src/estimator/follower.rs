@@ -194,8 +194,9 @@ impl<T: Real> Follower<T> {
 
 /// One sample of the follower beside the tracker (model F, m = 3): the output's root is the
 /// follower's where the two disagree — reported branch ambiguous with a margin of 0 (sign
-/// unresolved, the margin kept, where only the sign differs), the filtered Ω the tracker's
-/// cheapest hypothesis on that root — and the tracker's `choice` unchanged elsewhere. Starts,
+/// unresolved, the margin kept, where only the sign differs), the filtered Ω and the chosen
+/// state (the record's `best`, whence the host's smoother traces back) the tracker's cheapest
+/// hypothesis on that root — and the tracker's `choice` unchanged elsewhere. Starts,
 /// steps and stops the follower (see the module's documentation).
 #[inline(never)]
 pub(super) fn follow<T: Real>(
@@ -255,13 +256,14 @@ pub(super) fn follow<T: Real>(
     // tracker's memory.
     let held = states
         .iter()
-        .filter(|s| usize::from(s.candidate) == pick.candidate && s.sign == pick.sign)
-        .min_by(|a, b| {
+        .enumerate()
+        .filter(|(_, s)| usize::from(s.candidate) == pick.candidate && s.sign == pick.sign)
+        .min_by(|(_, a), (_, b)| {
             a.cost
                 .partial_cmp(&b.cost)
                 .unwrap_or(core::cmp::Ordering::Equal)
         });
-    let Some(held) = held else {
+    let Some((held_index, held)) = held else {
         follower.stop();
         return;
     };
@@ -270,6 +272,7 @@ pub(super) fn follow<T: Real>(
     choice.candidate = pick.candidate;
     choice.omega = core::array::from_fn(|k| sg * c.omega[k]);
     choice.filtered = (held.omega, held.var);
+    choice.state = held_index;
     if same_branch {
         // The same branch: its margin over the other branches stands.
         choice.sign_unresolved = true;

@@ -82,6 +82,12 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     /// The slot of `out` holding the last estimate (0 or 1).
     last: usize,
     has_last: bool,
+    /// Per-component variance of Ω′ that the tracker and the follower give the next sample's
+    /// roots: the last output's on a real root. A least-squares fallback (no real root, near a
+    /// double root) is skipped: its first-order variance goes through a nearly singular
+    /// Jacobian and was 10²–10⁴ times the true one (`nine-channel` at 1 kHz: 28–358 rad²/s⁴
+    /// against 0.04–0.08 on the rows about it), which made the next sample's Ω′ count for
+    /// nothing and let both take the mirror root for seconds (README, "Branch lock").
     domega_var: T,
     /// Model F: the bound on the rate filter's error from roots taken near crossings, per
     /// component ([`crossing::carry_bias`]).
@@ -667,12 +673,15 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         // whatever the tracker's margin. Contradicted for two windows on end where mirror
         // branches cross, none of the tracker's hypotheses is consistent: it re-opens both
         // signs of every root (`lock_monitor::REOPEN_WINDOWS`).
-        self.domega_var = lock_monitor::variance(&est.sd_domega);
+        let domega_var = lock_monitor::variance(&est.sd_domega);
+        if !fallback || self.domega_var == T::ZERO {
+            self.domega_var = domega_var;
+        }
         if check != PathCheck::Off
             && self.lock.check(
                 &choice.omega,
                 est,
-                self.domega_var,
+                domega_var,
                 dt_t,
                 check == PathCheck::Thinned,
             )
