@@ -6,13 +6,11 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
 
-use estimator_core::ambiguous_roots::{RootOption, Roots};
 use estimator_core::exclusion::MissingRuns;
 use estimator_core::fault_monitor::{
     FaultMonitor, NoParityTest, Settings, StuckCheck, Suspicion, TrustedRate, Verdict,
 };
 use estimator_core::parity::{Parity, NO_PART};
-use estimator_core::path_choice::{Links, PathChoice, PathState, MAX_OPTIONS};
 use estimator_core::smoother::Smoother;
 use estimator_core::two_way;
 use estimator_core::{ChannelMask, Estimate, Estimator, Flags, Model, Options, Real};
@@ -74,9 +72,15 @@ pub fn estimate_files(job: &EstimateJob) -> Result<Summary, Box<dyn Error>> {
     }
 }
 
-/// Samples by which each pass delays its outputs so that the branch and sign decisions see the
-/// samples that follow (fixed-lag smoothing); at 100 Hz, 1.28 s.
-pub const HOST_LAG: usize = 128;
+/// Records each pass's smoother holds ([`estimator_core::smoother`]): one, so each pass's
+/// output is its own forward decision, with no look-ahead. The look-ahead (128 samples until
+/// stop 39) traced the tracker's hypotheses back, which know nothing of the follower's slope
+/// (`estimator::follower`): on the nine-channel family (ideal parts apart from the jitter,
+/// declared Gaussian noise) it took `ballisto estimate --raw` from 1.00 to 1.19 × the
+/// truth-started maximum likelihood in Ω (4 kHz tumble), and on `nine-channel` at 1 kHz
+/// through the firmware to 1.25 where the plain passes by margin give 1.03 (README, "Branch
+/// lock"). The other pass is the look-ahead now ([`estimator_core::two_way`]).
+pub const HOST_LAG: usize = 1;
 
 /// Seconds of record decided per backward pass.
 pub const TWO_WAY_BLOCK_S: f64 = 4.0;
@@ -85,7 +89,8 @@ pub const TWO_WAY_BLOCK_S: f64 = 4.0;
 /// branch and sign when it reaches the block (a restart after a crossing takes 0.1–0.4 s).
 pub const TWO_WAY_RUN_IN_S: f64 = 2.0;
 
-/// One direction's estimator: the per-sample code of the firmware and the fixed-lag smoother.
+/// One direction's estimator: the per-sample code of the firmware and its smoother (without
+/// look-ahead: [`HOST_LAG`]).
 struct Pass<T: Real> {
     est: Estimator<T, HOST_CAP>,
     smoother: Box<Smoother<T, HOST_LAG>>,
@@ -113,25 +118,14 @@ impl<T: Real> Pass<T> {
         })
     }
 
-    /// One sample; returns the estimator's own (unsmoothed) estimate of it, and its roots
-    /// where it has more than one (the path's options where the two-way decision is
-    /// ambiguous: [`estimator_core::ambiguous_roots`]).
-    fn push(
-        &mut self,
-        t: f64,
-        p: &[T],
-        mut emit: impl FnMut(Estimate<T>),
-    ) -> (Estimate<T>, Option<Box<Roots<T>>>) {
+    /// One sample; returns the estimator's own estimate of it.
+    fn push(&mut self, t: f64, p: &[T], mut emit: impl FnMut(Estimate<T>)) -> Estimate<T> {
         if let Some((_, e)) = self.smoother.make_room() {
             emit(e);
         }
         let e = *self.est.update_with(t, p, Some(self.smoother.slot()));
-        let record = self.smoother.slot();
-        // Copied only where there is a choice (model G, and model F away from crossings, has
-        // one root).
-        let roots = (record.valid && record.n_candidates > 1).then(|| Box::new(Roots::of(record)));
         self.smoother.commit();
-        (e, roots)
+        e
     }
 
     /// Takes `mask` in the `preferred` model, or in model F where the channels do not carry
@@ -160,10 +154,12 @@ impl<T: Real> Pass<T> {
     }
 }
 
-/// The estimator as the host tools run it: the same per-sample code as the firmware, with
-/// fixed-lag smoothing ([`estimator_core::smoother`]), run forward and over the time-reversed
-/// record, each sample decided from the direction with more evidence
-/// ([`estimator_core::two_way`]). The backward pass runs per block of [`TWO_WAY_BLOCK_S`]
+/// The estimator as the host tools run it: the same per-sample code as the firmware, run
+/// forward and over the time-reversed record, each sample decided from the direction with more
+/// evidence ([`estimator_core::two_way::combine`]; the path through both passes' roots that
+/// decided where the margins did not, `estimator_core::path_choice`, is no longer taken: with
+/// the follower it cost accuracy, `nine-channel` at 1 kHz through the firmware 1.14 × the
+/// maximum likelihood in Ω against 1.03 without, README "Branch lock"). The backward pass runs per block of [`TWO_WAY_BLOCK_S`]
 /// from [`TWO_WAY_RUN_IN_S`] beyond it, started at the forward pass's rate there when that is
 /// settled; memory is one block and its run-in, whatever the record's length.
 pub struct HostEstimator<T: Real> {
@@ -177,16 +173,6 @@ pub struct HostEstimator<T: Real> {
     decided: std::collections::VecDeque<Estimate<T>>,
     /// The backward pass's outputs of one block, latest sample first (reused).
     scratch: Vec<Estimate<T>>,
-    /// The path's state after the last emitted sample ([`estimator_core::path_choice`]).
-    path: Option<(f64, PathState)>,
-    /// Per held sample: its roots as the forward pass solved them, where there is more than
-    /// one (model F, m = 3, near a crossing).
-    roots: std::collections::VecDeque<Option<Box<Roots<T>>>>,
-    /// Per sample of a block: the roots it offers the path (0: the two-way decision is not
-    /// ambiguous, or there is one root), the path's links and its picks (reused).
-    offered: Vec<u8>,
-    links: Vec<Links>,
-    picks: Vec<u8>,
     /// Fault isolation from the measurements (issue 17), run with the forward pass as the
     /// firmware runs it; `None` when off.
     faults: Option<Faults<T>>,
@@ -368,11 +354,6 @@ impl<T: Real> HostEstimator<T> {
             channels: loaded.names.len(),
             decided: Default::default(),
             scratch: Vec::new(),
-            path: None,
-            roots: Default::default(),
-            offered: Vec::new(),
-            links: Vec::new(),
-            picks: Vec::new(),
             faults: None,
             masks: Default::default(),
         };
@@ -413,8 +394,7 @@ impl<T: Real> HostEstimator<T> {
         let used = self.isolate(t, p);
         self.masks.push_back(used);
         let decided = &mut self.decided;
-        let (raw, roots) = self.forward.push(t, p, |e| decided.push_back(e));
-        self.roots.push_back(roots);
+        let raw = self.forward.push(t, p, |e| decided.push_back(e));
         if let Some(f) = &mut self.faults {
             // With no parity space, model G's known-field test or model F's own residual on
             // the forward estimate flags the row (as the firmware's).
@@ -556,7 +536,7 @@ impl<T: Real> HostEstimator<T> {
             if mask != self.backward.est.mask() || model != self.backward.est.model() {
                 let _ = self.backward.set_mask(mask, model, last);
             }
-            let (e, _) = self
+            let e = self
                 .backward
                 .push(t_end - self.times[k], p, |e| scratch.push(e));
             if e.is_finite() && !e.flags.has(Flags::INPUT_INVALID) {
@@ -564,106 +544,19 @@ impl<T: Real> HostEstimator<T> {
             }
         }
         self.backward.finish(|e| scratch.push(e));
-        let rate = self.choose_path(n);
-        let mut taken = Vec::with_capacity(if rate.is_some() { block } else { 0 });
         for (k, (t, fwd)) in self.times.iter().zip(&self.decided).take(block).enumerate() {
             let bwd = two_way::reversed(&self.scratch[n - 1 - k]);
             let mut out = two_way::combine(fwd, &bwd);
-            if let (Some(roots), true) = (&self.roots[k], self.offered[k] > 0) {
-                // The margins do not decide here (flagged ambiguous, or the passes on different
-                // roots within their margins): the root the path took.
-                let mut options = [RootOption::default(); MAX_OPTIONS];
-                let m = roots.options(fwd, &bwd, &mut options);
-                if let Some(o) = options[..m].get(usize::from(self.picks[k])) {
-                    out = roots.take(o, &out, fwd, &bwd, &self.forward.est.frame_uncertainty());
-                }
-            }
             let used = self.masks[k];
             if used.residual_high {
                 out.flags.0 |= Flags::RESIDUAL_HIGH;
             }
             emit(*t, &out, used.mask, used.model);
-            if rate.is_some() {
-                taken.push((*t, out));
-            }
         }
-        // The path's state after the emitted samples, for the next block's beam; without a
-        // choice in this block the next starts afresh.
-        self.path =
-            rate.and_then(|r| PathChoice::follow(r, self.path, taken.iter().map(|(t, e)| (*t, e))));
         self.times.drain(..block);
         self.readings.drain(..block * self.channels);
         self.decided.drain(..block);
         self.masks.drain(..block);
-        self.roots.drain(..block);
-    }
-
-    /// Decides the path through the `n` held samples ([`estimator_core::path_choice`], over
-    /// the block and its run-in): where the margins do not decide (the two-way decision is
-    /// ambiguous, or the passes hold different roots within their margins:
-    /// [`two_way::offers_choice`]) and the sample has more than one root, the path chooses
-    /// among the roots ([`Roots::options`]: `offered`, `picks`); elsewhere it takes the
-    /// decision's estimate. Returns the sample rate it
-    /// assumed, or `None` if no sample offered a choice (model G, or no crossing in the block:
-    /// every sample then takes [`two_way::combine`]'s estimate).
-    fn choose_path(&mut self, n: usize) -> Option<f64> {
-        let times = self.times.make_contiguous();
-        let backward = |k: usize| two_way::reversed(&self.scratch[n - 1 - k]);
-        let mut options = [RootOption::default(); MAX_OPTIONS];
-        self.picks.clear();
-        self.picks.resize(n, 0);
-        self.offered.clear();
-        for (k, fwd) in self.decided.iter().take(n).enumerate() {
-            // Only a sample with more than one root can offer a choice (none in model G): the
-            // decision is combined for those alone.
-            let m = self.roots[k].as_ref().map_or(0, |roots| {
-                let bwd = backward(k);
-                // Where the margins do not decide: the decision flagged ambiguous, or the
-                // passes on different roots within their margins (agreeing in Ω, so not
-                // flagged: near a crossing, where either root is within the noise of the other).
-                let open = two_way::combine(fwd, &bwd)
-                    .flags
-                    .has(Flags::BRANCH_AMBIGUOUS)
-                    || two_way::offers_choice(fwd, &bwd);
-                if open {
-                    roots.options(fwd, &bwd, &mut options)
-                } else {
-                    0
-                }
-            });
-            self.offered.push(m as u8);
-        }
-        if self.offered.iter().all(|m| *m == 0) {
-            return None;
-        }
-        let span = times[n - 1] - times[0];
-        let rate = if n > 1 && span > 0.0 {
-            (n - 1) as f64 / span
-        } else {
-            0.0
-        };
-        let mut beam = PathChoice::new(rate, self.path.map(|(_, s)| s));
-        self.links.clear();
-        self.links.resize(n, Links::default());
-        let mut last = self.path.map(|(t, _)| t);
-        let mut measurements = [Estimate::<T>::default(); MAX_OPTIONS];
-        for (k, (t, fwd)) in times.iter().zip(&self.decided).take(n).enumerate() {
-            let bwd = backward(k);
-            let dt = last.map_or(0.0, |l| t - l);
-            match (&self.roots[k], self.offered[k]) {
-                (Some(roots), m) if m > 0 => {
-                    let m = roots.options(fwd, &bwd, &mut options);
-                    for (slot, o) in measurements.iter_mut().zip(&options[..m]) {
-                        *slot = o.measurement;
-                    }
-                    beam.step(dt, &measurements[..m], &mut self.links[k]);
-                }
-                _ => beam.step(dt, &[two_way::combine(fwd, &bwd)], &mut self.links[k]),
-            }
-            last = Some(*t);
-        }
-        PathChoice::decide(&self.links, &mut self.picks);
-        Some(rate)
     }
 }
 

@@ -36,7 +36,6 @@
 // Matrix code indexes rows and columns by number; iterator chains would hide the algebra.
 #![allow(clippy::needless_range_loop)]
 
-pub mod ambiguous_roots;
 pub mod arrangement;
 pub mod error;
 pub mod estimate;

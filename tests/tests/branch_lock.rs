@@ -117,10 +117,10 @@ fn raw_accuracy_against_the_maximum_likelihood_in_a_tumble() {
 }
 
 /// The same in the manoeuvre (sinusoidal torque), where the passes' margins do not say which
-/// pass holds the true root after a crossing and the path through every root decides where
-/// they do not (`estimator_core::path_choice`, `estimator_core::ambiguous_roots`). Every case
-/// since stop 35: before, the 1e-2 m/s² case (σ0 1.13) and the 5 cm arm (σ0 1.37) were not
-/// met, both passes holding the wrong root in some crossing zones.
+/// pass holds the true root after a crossing. Every case since stop 35 (then with a path
+/// through every root deciding where the margins did not, `estimator_core::path_choice`; since
+/// stop 39 the passes' own followers, by margin): before, the 1e-2 m/s² case (σ0 1.13) and the
+/// 5 cm arm (σ0 1.37) were not met, both passes holding the wrong root in some crossing zones.
 #[test]
 fn raw_accuracy_against_the_maximum_likelihood_in_a_manoeuvre() {
     accuracy_against_the_maximum_likelihood(true);
@@ -290,8 +290,8 @@ fn firmware_path_at_1_khz_is_never_silently_wrong() {
 }
 
 /// Issue 15's accuracy requirement on the firmware path: σ0, Ω′ and Ω RMS within 1.10 × the
-/// truth-started maximum likelihood of the readings it got. Failed until stop 39 (1.46 / 1.47 /
-/// 1.60):
+/// truth-started maximum likelihood of the readings it got, and `ballisto estimate --raw` on
+/// them. Failed until stop 39 (1.46 / 1.47 / 1.60; `ballisto estimate` 1.44):
 /// after each least-squares fallback row the next sample's roots were given the fallback's
 /// Ω′ variance, 10²–10⁴ times too large, so Ω′ told the roots apart nowhere in the touch zone
 /// (README, "Branch lock").
@@ -302,5 +302,10 @@ fn firmware_path_at_1_khz_within_the_maximum_likelihood() {
         f.ratio.iter().all(|r| *r <= 1.10),
         "the firmware's RMS over the maximum likelihood's: σ0, Ω′, Ω {:?}",
         f.ratio
+    );
+    assert!(
+        f.two_way_ratio.iter().all(|r| *r <= 1.10),
+        "ballisto estimate's RMS over the maximum likelihood's: σ0, Ω′, Ω {:?}",
+        f.two_way_ratio
     );
 }
