@@ -107,10 +107,11 @@ fn never_silently_wrong_across_the_family() {
 }
 
 /// Issue 15's accuracy requirement on the issue's motion, the torque-free tumble: the raw σ0,
-/// Ω′ and Ω RMS within 1.10 × the truth-started maximum likelihood, seed 1, 20 s, on both
-/// paths: `ballisto estimate --raw` (two-way: forward and time-reversed passes) and the
-/// forward path alone (the firmware's, which cannot look ahead: 1.03–1.83 before the
-/// follower, `estimator/follower.rs`).
+/// Ω′ and Ω RMS within 1.10 × the truth-started maximum likelihood, 20 s, for `ballisto
+/// estimate --raw` (two-way: forward and time-reversed passes) on seeds 1–4 (since stop 39) and
+/// for the forward path alone (the firmware's, which cannot look ahead) on seed 1 (1.03–1.83
+/// before the follower, `estimator/follower.rs`; seed 4's tumbles, which start in a crossing
+/// zone, are up to 1.20 there: README, "Branch lock").
 #[test]
 fn raw_accuracy_against_the_maximum_likelihood_in_a_tumble() {
     accuracy_against_the_maximum_likelihood(false);
@@ -126,19 +127,22 @@ fn raw_accuracy_against_the_maximum_likelihood_in_a_manoeuvre() {
     accuracy_against_the_maximum_likelihood(true);
 }
 
-/// Prints the table and asserts 1.10 × ML for every case, two-way and forward.
+/// Prints the table and asserts 1.10 × ML for every case: two-way on every seed, forward on
+/// seed 1.
 fn accuracy_against_the_maximum_likelihood(manoeuvre: bool) {
-    println!("| rate | noise | arm | motion | σ0 / ML (two-way / forward) | Ω′ / ML | Ω / ML |");
-    println!("|---|---|---|---|---|---|---|");
+    println!(
+        "| rate | noise | arm | motion | seed | σ0 / ML (two-way / forward) | Ω′ / ML | Ω / ML |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
     let mut failures = Vec::new();
-    for (rate_hz, noise, arm) in nine::accuracy_cases() {
-        {
+    for seed in SEEDS {
+        for (rate_hz, noise, arm) in nine::accuracy_cases() {
             let case = nine::make(Params {
                 rate_hz,
                 noise,
                 arm,
                 seconds: SECONDS,
-                seed: 1,
+                seed,
                 manoeuvre,
             });
             let ml_rms = nine::rms_of(&case.ml_errors());
@@ -148,7 +152,7 @@ fn accuracy_against_the_maximum_likelihood(manoeuvre: bool) {
             };
             let (fwd, smoothed) = (ratio(&case.forward(true)), ratio(&case.smoothed(true)));
             println!(
-                "| {rate_hz} Hz | {noise:e} | {arm} | {} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} |",
+                "| {rate_hz} Hz | {noise:e} | {arm} | {} | {seed} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} |",
                 motion(manoeuvre),
                 smoothed[0],
                 fwd[0],
@@ -157,10 +161,11 @@ fn accuracy_against_the_maximum_likelihood(manoeuvre: bool) {
                 smoothed[2],
                 fwd[2]
             );
-            for (path, ratios) in [("two-way", smoothed), ("forward", fwd)] {
+            let asserted = [("two-way", smoothed, true), ("forward", fwd, seed == 1)];
+            for (path, ratios, _) in asserted.iter().filter(|a| a.2) {
                 if ratios.iter().any(|r| *r > 1.10) {
                     failures.push(format!(
-                        "{rate_hz} Hz {noise:e} {arm} {}, {path}: {ratios:?}",
+                        "{rate_hz} Hz {noise:e} {arm} {} seed {seed}, {path}: {ratios:?}",
                         motion(manoeuvre)
                     ));
                 }
