@@ -279,7 +279,7 @@ pub fn firmware_run(
     mut each: impl FnMut(&ballisto_fw::estimation::SetEstimate, &Truth),
 ) -> Case {
     use ballisto_fw::config::Alignment;
-    use hal_sim::firmware_host::{firmware_config, run_firmware};
+    use hal_sim::firmware_host::{firmware_config, for_each_channel, run_firmware};
     use hal_sim::scenario::Scenario;
     let mut sc = Scenario::load("nine-channel").expect("built-in scenario");
     sc.rate = rate_hz;
@@ -293,15 +293,7 @@ pub fn firmware_run(
                     m: &ballisto_fw::estimation::SetEstimate,
                     tr: &Truth| {
         let mut p = vec![0.0f64; loaded.arrangement.len()];
-        for (part, value) in config.sampling.parts.iter().zip(set.parts.iter()) {
-            if let (Some(part), Some(v)) = (part, value) {
-                for (axis, ch) in part.channels.iter().enumerate() {
-                    if let Some(c) = ch {
-                        p[usize::from(*c)] = f64::from(v[axis]);
-                    }
-                }
-            }
-        }
+        for_each_channel(&config.sampling, set, |c, x| p[c] = f64::from(x));
         each(m, tr);
         truth.push(*tr);
         outputs.push(p);
