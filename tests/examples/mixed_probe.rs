@@ -1,13 +1,51 @@
 //! Probe (issue 17): which parts the fault monitor takes out in fault-free runs of the mixed
 //! layout, and for how long, and when the rows flagged 64 fall (per second of the run).
 //!
-//! `cargo run --release -p e2e-tests --example mixed_probe`
+//! `cargo run --release -p e2e-tests --example mixed_probe`; `PARITY=SEED` the parity χ² per
+//! 0.2 s of one run (with `BIAS=PART,K` a bias jump of K σ of one ADXL355 sample on that part
+//! from 3 s) and the fault monitor's level and verdict on it; `ERR=SEED` each part's error
+//! against eq. (4) in its declared noise per 0.2 s (`LATEST=1`: the unaligned reference);
+//! `REMOVE=PART SEED=S` one fault-free run without that part, its Ω error per 0.25 s and every
+//! silently wrong row.
 use ballisto_fw::config::Alignment;
 use hal_sim::firmware_host::{firmware_config, for_each_channel, run_firmware};
 
 fn main() {
+    if let Some(seed) = std::env::var("ERR").ok().and_then(|s| s.parse().ok()) {
+        error_over_time(seed, std::env::var("LATEST").is_ok());
+        return;
+    }
     if let Some(seed) = std::env::var("PARITY").ok().and_then(|s| s.parse().ok()) {
         parity_over_time(seed);
+        return;
+    }
+    // `REMOVE=PART SEED=S`: one run without that part, its Ω error per 0.25 s.
+    if let Ok(r) = std::env::var("REMOVE") {
+        let part: usize = r.parse().unwrap();
+        let seed: u64 = std::env::var("SEED").unwrap().parse().unwrap();
+        let mut sc = e2e_tests::faults::mixed(seed);
+        sc.parts.remove(part);
+        let loaded = sc.arrangement().load("arrangement.toml").unwrap();
+        let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
+        run_firmware(&sc, &config, sc.samples() as u32, &mut |_, m, tr| {
+            let e = &m.estimate;
+            let (err, silent) = e2e_tests::faults::omega_error(
+                e.omega.map(f64::from),
+                tr.omega,
+                e.sd_omega.map(f64::from),
+                e.flags.0,
+            );
+            if ((tr.t * 100.0).round() as u64).is_multiple_of(25) || silent {
+                println!(
+                    "t {:.2} |Ω| {:.3} err {err:.4} sd {:.1e} flags {} silent {silent}",
+                    tr.t,
+                    (tr.omega.iter().map(|x| x * x).sum::<f64>()).sqrt(),
+                    e.sd_omega[0],
+                    e.flags.0
+                );
+            }
+        })
+        .unwrap();
         return;
     }
     for seed in 1000..1020u64 {
@@ -17,12 +55,14 @@ fn main() {
         let mut out = [0usize; 8];
         let mut first = [f64::NAN; 8];
         let mut flagged = 0;
+        let mut unresolved = 0;
         let mut hist = [0usize; 12];
         run_firmware(&sc, &config, sc.samples() as u32, &mut |_, m, tr| {
             // The set's simulated instant (the report's `t` is on-board time, from boot).
             let t = tr.t;
             let f = m.estimate.flags.has(estimator_core::Flags::RESIDUAL_HIGH);
             flagged += usize::from(f);
+            unresolved += usize::from(m.estimate.flags.has(estimator_core::Flags::SIGN_UNRESOLVED));
             if f {
                 hist[(t as usize).min(11)] += 1;
             }
@@ -36,7 +76,7 @@ fn main() {
             }
         })
         .unwrap();
-        println!("seed {seed}: rows out per part {out:?}, from {first:?}, flagged 64 {flagged} per second {hist:?}");
+        println!("seed {seed}: rows out per part {out:?}, from {first:?}, flagged 64 {flagged} per second {hist:?}, sign unresolved {unresolved}");
     }
 }
 
@@ -45,7 +85,29 @@ fn main() {
 fn parity_over_time(seed: u64) {
     use estimator_core::parity::Parity;
     use estimator_core::ChannelMask;
-    let sc = e2e_tests::faults::mixed(seed);
+    let mut sc = e2e_tests::faults::mixed(seed);
+    // `BIAS=PART,K`: a bias jump of K σ of one ADXL355 sample on that part from 3 s.
+    if let Ok(b) = std::env::var("BIAS") {
+        let (part, k) = b.split_once(',').unwrap();
+        let part: usize = part.parse().unwrap();
+        let k: f64 = k.parse().unwrap();
+        let sigma = sc
+            .arrangement()
+            .load("arrangement.toml")
+            .unwrap()
+            .arrangement
+            .channels()[0]
+            .noise;
+        let (_, mut f) = e2e_tests::faults::kinds(sigma)
+            .into_iter()
+            .find(|(_, f)| f.kind == "bias-jump")
+            .unwrap();
+        let b = k * sigma;
+        f.bias = Some([b, -b, 0.5 * b]);
+        f.part = sc.parts[part].name.clone();
+        f.start = 3.0;
+        sc.faults.push(f);
+    }
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
     let n = loaded.names.len();
@@ -63,9 +125,15 @@ fn parity_over_time(seed: u64) {
     .unwrap();
     let mut acc = (0.0, [0.0; 8], 0usize);
     let mut p = vec![f64::NAN; n];
+    let mut mon = estimator_core::fault_monitor::FaultMonitor::<
+        f64,
+        { hal_sim::arrangement_file::HOST_CAP },
+    >::new(Default::default(), 100.0);
+    mon.set_parity(Some(par.clone()));
     run_firmware(&sc, &config, sc.samples() as u32, &mut |set, _, tr| {
         let t = tr.t;
         for_each_channel(&config.sampling, set, |c, x| p[c] = f64::from(x));
+        let v = mon.step(&p);
         if let Some(s) = par.evaluate(&p) {
             acc.0 += s.chi2;
             for q in 0..8 {
@@ -77,11 +145,61 @@ fn parity_over_time(seed: u64) {
             let k = acc.2 as f64;
             let parts: Vec<String> = acc.1.iter().map(|x| format!("{:.1}", x / k)).collect();
             println!(
-                "t {t:5.2}: χ² {:6.1} (dof {}), explained by each part {parts:?}",
+                "t {t:5.2}: χ² {:6.1} (dof {}), explained by each part {parts:?} level {:.3} {v:?}",
                 acc.0 / k,
-                par.dof()
+                par.dof(),
+                mon.level()
             );
             acc = (0.0, [0.0; 8], 0);
+        }
+    })
+    .unwrap();
+}
+
+/// `ERR=SEED`: per part, the RMS and mean of (reading − eq. (4)) / declared noise per 0.2 s.
+fn error_over_time(seed: u64, latest: bool) {
+    let sc = e2e_tests::faults::mixed(seed);
+    let loaded = sc.arrangement().load("arrangement.toml").unwrap();
+    let al = if latest {
+        Alignment::Latest
+    } else {
+        Alignment::Interpolate
+    };
+    let config = firmware_config(&sc, &loaded, al).unwrap();
+    let n = loaded.names.len();
+    let mut part = vec![0usize; n];
+    for (i, p) in config.sampling.parts() {
+        for c in p.channels.iter().flatten() {
+            part[usize::from(*c)] = i;
+        }
+    }
+    let ch = loaded.arrangement.channels().to_vec();
+    let mut acc = ([0.0f64; 8], [0.0f64; 8], [0usize; 8]);
+    let mut p = vec![f64::NAN; n];
+    run_firmware(&sc, &config, sc.samples() as u32, &mut |set, _, tr| {
+        let t = tr.t;
+        p.iter_mut().for_each(|x| *x = f64::NAN);
+        for_each_channel(&config.sampling, set, |c, x| p[c] = f64::from(x));
+        for c in 0..n {
+            if p[c].is_finite() {
+                let e = (p[c] - tr.channel(&ch[c].position, &ch[c].axis)) / ch[c].noise;
+                acc.0[part[c]] += e * e;
+                acc.1[part[c]] += e;
+                acc.2[part[c]] += 1;
+            }
+        }
+        if (t * 100.0).round() as u64 % 20 == 19 {
+            let s: Vec<String> = (0..8)
+                .map(|q| {
+                    format!(
+                        "{:.2}/{:+.2}",
+                        (acc.0[q] / acc.2[q].max(1) as f64).sqrt(),
+                        acc.1[q] / acc.2[q].max(1) as f64
+                    )
+                })
+                .collect();
+            println!("t {t:5.2}: rms/mean per part {s:?}");
+            acc = ([0.0; 8], [0.0; 8], [0; 8]);
         }
     })
     .unwrap();

@@ -8,7 +8,8 @@
 //!
 //! `cargo run --release -p e2e-tests --example mixed_trace -- [KIND|none] [PART] [START] [SEED]`
 //! (KIND a hal-sim fault kind, e.g. `bias-jump`, 3 s from START on part PART; defaults
-//! `bias-jump 2 4.0 2003`).
+//! `bias-jump 2 4.0 2003`; `SIGMAS=K` makes a bias jump K σ of one ADXL355 sample instead of
+//! 0.1 m/s²; `REMOVE=PART` runs the layout without that part).
 use ballisto_fw::config::Alignment;
 use estimator_core::smoother::StepRecord;
 use estimator_core::{Estimator, Model, Options};
@@ -29,6 +30,13 @@ fn main() {
     let start: f64 = a.get(3).and_then(|s| s.parse().ok()).unwrap_or(4.0);
     let seed: u64 = a.get(4).and_then(|s| s.parse().ok()).unwrap_or(2003);
     let mut sc = e2e_tests::faults::mixed(seed);
+    // `REMOVE=PART`: the layout without that part.
+    if let Some(r) = std::env::var("REMOVE")
+        .ok()
+        .and_then(|s| s.parse::<usize>().ok())
+    {
+        sc.parts.remove(r);
+    }
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     let sigma = loaded.arrangement.channels()[0].noise;
     if let Some((_, mut f)) = e2e_tests::faults::kinds(sigma)
@@ -38,6 +46,14 @@ fn main() {
         f.part = sc.parts[part].name.clone();
         f.start = start;
         f.end = Some(start + 3.0);
+        // `SIGMAS=K`: a bias of K σ (of one ADXL355 sample) instead of 0.1 m/s².
+        if let Some(k) = std::env::var("SIGMAS")
+            .ok()
+            .and_then(|s| s.parse::<f64>().ok())
+        {
+            let b = k * sigma;
+            f.bias = Some([b, -b, 0.5 * b]);
+        }
         sc.faults.push(f);
     }
     let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
@@ -91,8 +107,8 @@ fn main() {
         );
         if silent || ((t * 100.0).round() as u64).is_multiple_of(step) {
             println!(
-                "dw true {:6.3} {:6.3} {:6.3} est {:6.3} {:6.3} {:6.3} t {t:6.2} true {:7.3} {:7.3} {:7.3} est {:7.3} {:7.3} {:7.3} sd {:.2e} err {err:.3} flags {:3} excl {:08b} silent {silent} verdict {:?}",
-                tr.domega[0], tr.domega[1], tr.domega[2], e.domega[0], e.domega[1], e.domega[2], tr.omega[0], tr.omega[1], tr.omega[2], e.omega[0], e.omega[1], e.omega[2], e.sd_omega[0], e.flags.0, m.excluded.0, m.verdict
+                "dw true {:6.3} {:6.3} {:6.3} est {:6.3} {:6.3} {:6.3} t {t:6.2} true {:7.3} {:7.3} {:7.3} est {:7.3} {:7.3} {:7.3} sd {:.2e} err {err:.3} chi2 {:.1} flags {:3} excl {:08b} silent {silent} verdict {:?}",
+                tr.domega[0], tr.domega[1], tr.domega[2], e.domega[0], e.domega[1], e.domega[2], tr.omega[0], tr.omega[1], tr.omega[2], e.omega[0], e.omega[1], e.omega[2], e.sd_omega[0], e.chi2, e.flags.0, m.excluded.0, m.verdict
             );
         }
     })

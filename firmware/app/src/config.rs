@@ -75,7 +75,8 @@ pub enum Alignment {
     /// to the common instant.
     Interpolate,
     /// Take the latest output at the common instant as if it had been sampled then (the
-    /// reference for showing what alignment gains).
+    /// reference for showing what alignment gains; feature `unaligned-reference`).
+    #[cfg(feature = "unaligned-reference")]
     Latest,
 }
 

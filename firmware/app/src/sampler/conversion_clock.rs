@@ -99,6 +99,12 @@ impl ConversionClock {
         0.5 * (lo + hi)
     }
 
+    /// The time by which conversion `i` has surely happened (s): the upper end of its
+    /// interval.
+    pub fn surely_by(&self, i: u64) -> f64 {
+        self.interval(i).1
+    }
+
     /// The instant at which reading the count tells the most: the predicted time of the first
     /// conversion after `t`; `t` itself when the phase is unknown.
     pub fn probe_after(&self, t: f64) -> f64 {
