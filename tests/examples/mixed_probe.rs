@@ -29,12 +29,7 @@ fn main() {
         let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
         run_firmware(&sc, &config, sc.samples() as u32, &mut |_, m, tr| {
             let e = &m.estimate;
-            let (err, silent) = e2e_tests::faults::omega_error(
-                e.omega.map(f64::from),
-                tr.omega,
-                e.sd_omega.map(f64::from),
-                e.flags.0,
-            );
+            let (err, silent) = e2e_tests::faults::firmware_omega_error(e, tr.omega);
             if ((tr.t * 100.0).round() as u64).is_multiple_of(25) || silent {
                 println!(
                     "t {:.2} |Ω| {:.3} err {err:.4} sd {:.1e} flags {} silent {silent}",
@@ -55,14 +50,18 @@ fn main() {
         let mut out = [0usize; 8];
         let mut first = [f64::NAN; 8];
         let mut flagged = 0;
-        let mut unresolved = 0;
+        let mut ambiguous = 0;
         let mut hist = [0usize; 12];
         run_firmware(&sc, &config, sc.samples() as u32, &mut |_, m, tr| {
             // The set's simulated instant (the report's `t` is on-board time, from boot).
             let t = tr.t;
             let f = m.estimate.flags.has(estimator_core::Flags::RESIDUAL_HIGH);
             flagged += usize::from(f);
-            unresolved += usize::from(m.estimate.flags.has(estimator_core::Flags::SIGN_UNRESOLVED));
+            ambiguous += usize::from(
+                m.estimate
+                    .flags
+                    .has(estimator_core::Flags::BRANCH_AMBIGUOUS),
+            );
             if f {
                 hist[(t as usize).min(11)] += 1;
             }
@@ -76,7 +75,7 @@ fn main() {
             }
         })
         .unwrap();
-        println!("seed {seed}: rows out per part {out:?}, from {first:?}, flagged 64 {flagged} per second {hist:?}, sign unresolved {unresolved}");
+        println!("seed {seed}: rows out per part {out:?}, from {first:?}, flagged 64 {flagged} per second {hist:?}, branch ambiguous {ambiguous}");
     }
 }
 

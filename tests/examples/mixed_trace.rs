@@ -99,12 +99,7 @@ fn main() {
             return;
         }
         let e = &m.estimate;
-        let (err, silent) = e2e_tests::faults::omega_error(
-            e.omega.map(f64::from),
-            tr.omega,
-            e.sd_omega.map(f64::from),
-            e.flags.0,
-        );
+        let (err, silent) = e2e_tests::faults::firmware_omega_error(e, tr.omega);
         if silent || ((t * 100.0).round() as u64).is_multiple_of(step) {
             println!(
                 "dw true {:6.3} {:6.3} {:6.3} est {:6.3} {:6.3} {:6.3} t {t:6.2} true {:7.3} {:7.3} {:7.3} est {:7.3} {:7.3} {:7.3} sd {:.2e} err {err:.3} chi2 {:.1} flags {:3} excl {:08b} silent {silent} verdict {:?}",

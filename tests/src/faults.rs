@@ -81,6 +81,16 @@ pub fn omega_error(omega: [f64; 3], truth: [f64; 3], sd: [f64; 3], flags: u16) -
     (err, silent)
 }
 
+/// [`omega_error`] of one of the firmware's estimates (f32) against the true Ω.
+pub fn firmware_omega_error(e: &estimator_core::Estimate<f32>, truth: [f64; 3]) -> (f64, bool) {
+    omega_error(
+        e.omega.map(f64::from),
+        truth,
+        e.sd_omega.map(f64::from),
+        e.flags.0,
+    )
+}
+
 /// What one run showed, from 1 s on (the start-up excluded).
 #[derive(Debug, Default)]
 pub struct FaultRun {
@@ -140,12 +150,7 @@ pub fn fault_run(sc: &Scenario, fault: Option<(usize, f64, f64)>) -> FaultRun {
         if vals.clone().any(|v| !v.is_finite()) {
             r.nan += 1;
         }
-        let (err, silent) = omega_error(
-            e.omega.map(f64::from),
-            tr.omega,
-            e.sd_omega.map(f64::from),
-            e.flags.0,
-        );
+        let (err, silent) = firmware_omega_error(e, tr.omega);
         let residual = e.flags.has(Flags::RESIDUAL_HIGH);
         let seen = residual || (m.missing.0 | m.excluded.0) & part_bit != 0;
         let out = m.excluded.0 & part_bit != 0;

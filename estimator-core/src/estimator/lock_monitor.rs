@@ -91,12 +91,46 @@ pub(crate) struct LockMonitor<T> {
     stat: T,
     /// Time the statistic has been above the threshold without a break, s.
     tripped_for: T,
+    /// The sign of Ω is in doubt: the last test that could tell it from the other one's
+    /// ([`sign_power`]) tripped. Kept over [`LockMonitor::reset`] (a restart keeps its Ω).
+    sign_doubt: bool,
+}
+
+/// How decisive a passing test must be to settle a doubted sign: the other sign's expected
+/// statistic, `4 |Ω′|² / Var(b)` (its `u` drifts at `−2 Ω′`), at least this many times
+/// [`THRESHOLD`].
+pub const SIGN_POWER: f64 = 4.0;
+
+/// The other sign's expected statistic over the threshold's: `4 |Ω′|² / (Var(b) THRESHOLD)`
+/// (`d2`: `|Ω′|²` less its noise's expectation). Above 1 a test can tell the signs apart.
+fn sign_power<T: Real>(d2: T, var: T) -> T {
+    T::of(4.0 / THRESHOLD) * d2 / var
 }
 
 impl<T: Real> LockMonitor<T> {
-    /// Forgets everything.
+    /// Forgets everything but a doubted sign.
     pub(crate) fn reset(&mut self) {
-        *self = Self::default();
+        *self = Self {
+            sign_doubt: self.sign_doubt,
+            ..Self::default()
+        };
+    }
+
+    /// Flags `est` as the path check flags an inconsistent path (branch ambiguous, margin 0)
+    /// while the sign is in doubt: the last trip of a test that could tell the two signs apart
+    /// has not been answered by a decisive pass. Without it a path held on the wrong sign
+    /// through a spin-up (flagged, the test tripping) went silent when the spin-up ended: with
+    /// `Ω′ = 0` both signs pass (the mixed layout without part 5, seed 2002: 6 rad/s off,
+    /// unflagged, from 5.2 s to the end). Flag 1 (sign unresolved) was tried first: where the
+    /// passes disagree in sign `two_way::combine` takes the one whose sign is settled, and on the
+    /// unaligned `ground-spin-mixed` record (the LIS3DHs' model error on Ω′ tripping the test on
+    /// the right sign) `ballisto sim --estimate` went from 0.12 to 5.1 rad/s RMS in Ω, flagged.
+    /// Flag 16 with the tracker's margin kept broke the flag's tie to the margin
+    /// (`branch_lock`'s check).
+    pub(crate) fn flag_sign(&self, est: &mut Estimate<T>) {
+        if self.sign_doubt {
+            mark_inconsistent(est);
+        }
     }
 
     /// [`LockMonitor::update`] with the chosen signed root's Ω and its estimate before the
@@ -118,6 +152,7 @@ impl<T: Real> LockMonitor<T> {
         if self.update((omega, &est.domega), vars, dt, thin) {
             mark_inconsistent(est);
         }
+        self.flag_sign(est);
         // Thinned (model G), nothing is re-opened: skip the bookkeeping.
         !thin && self.reopen_due(dt)
     }
@@ -141,7 +176,7 @@ impl<T: Real> LockMonitor<T> {
         let w = T::ONE / r.max(T::of(1e-30));
         if self.n == 0 || !(dt > T::ZERO) {
             // First sample (or no time step): the path starts here; u = Ω.
-            *self = Self::default();
+            self.reset();
             self.a = [w, T::ZERO, T::ZERO];
             self.b = [w, T::ZERO, T::ZERO];
             self.last_omega = *omega;
@@ -217,6 +252,14 @@ impl<T: Real> LockMonitor<T> {
         } else {
             T::ZERO
         };
+        // A trip that the other sign could explain puts the sign in doubt; only a decisive
+        // pass settles it (a test without power says nothing of the sign: steady spin).
+        let power = sign_power(d2, var);
+        if tripped && power > T::ONE {
+            self.sign_doubt = true;
+        } else if !tripped && power > T::of(SIGN_POWER) {
+            self.sign_doubt = false;
+        }
         tripped
     }
 
@@ -326,6 +369,73 @@ mod tests {
                     assert!(reopened.len() > 1, "{rate} Hz: once only");
                 }
             }
+        }
+    }
+
+    /// A path held on the wrong sign through a spin-up (`Ω = −Ω_true` while Ω′ is the true
+    /// one) trips the test and puts the sign in doubt; when the spin-up ends (`Ω′ = 0`) both
+    /// signs pass, and the doubt is kept (the estimate stays flagged, not silently wrong); a decisive pass (Ω′ large again, on a consistent path) settles it, and
+    /// a restart keeps it. A consistent spin-up and steady spin never raise it.
+    #[test]
+    fn a_sign_contradicted_stays_in_doubt_until_a_decisive_pass() {
+        for (rate, thin) in [(100.0, true), (100.0, false), (1000.0, true)] {
+            let dt = 1.0 / rate;
+            let sd = ([1e-2; 3], [0.1; 3]);
+            let vars = (variance(&sd.0), variance(&sd.1));
+            let run = |sign: f64| {
+                let mut m = LockMonitor::<f64>::default();
+                let mut doubt = Vec::new();
+                let mut w = 0.0;
+                for k in 0..(rate as usize * 8) {
+                    let t = k as f64 * dt;
+                    // Spin-up at 0.6 rad/s² for 5 s, then steady at 3 rad/s.
+                    let d = if t < 5.0 { 0.6 } else { 0.0 };
+                    if k > 0 {
+                        w += d * dt;
+                    }
+                    let omega = [0.0, 0.0, sign * w];
+                    m.update((&omega, &[0.0, 0.0, d]), vars, dt, thin);
+                    let mut est = Estimate::<f64>::default();
+                    m.flag_sign(&mut est);
+                    doubt.push(est.flags.has(Flags::BRANCH_AMBIGUOUS));
+                }
+                (m, doubt)
+            };
+            let (_, right) = run(1.0);
+            assert!(
+                right.iter().all(|d| !d),
+                "{rate} Hz: a consistent path doubted"
+            );
+            let (mut m, wrong) = run(-1.0);
+            let first = wrong
+                .iter()
+                .position(|d| *d)
+                .expect("the wrong sign is doubted");
+            assert!((first as f64) * dt < 1.0, "{rate} Hz: doubted from {first}");
+            assert!(
+                wrong[first..].iter().all(|d| *d),
+                "{rate} Hz: the doubt lapsed"
+            );
+            // A restart keeps the doubt; a decisive consistent pass settles it.
+            m.reset();
+            let mut w = 3.0;
+            let mut settled = None;
+            for k in 0..(rate as usize) {
+                w += 0.6 * dt;
+                m.update((&[0.0, 0.0, w], &[0.0, 0.0, 0.6]), vars, dt, thin);
+                let mut est = Estimate::<f64>::default();
+                m.flag_sign(&mut est);
+                if !est.flags.has(Flags::BRANCH_AMBIGUOUS) && settled.is_none() {
+                    settled = Some(k);
+                }
+                if k == 0 {
+                    assert!(
+                        est.flags.has(Flags::BRANCH_AMBIGUOUS),
+                        "{rate} Hz: lost at reset"
+                    );
+                }
+            }
+            assert!(settled.is_some(), "{rate} Hz: never settled");
         }
     }
 
