@@ -390,7 +390,7 @@ fn after_a_stuck_part_the_estimate_is_never_silently_wrong() {
 /// takes the wrong one at 0.44 s; the path check flags it through the spin-up, and when the
 /// spin-up ends (Ω′ = 0, both signs consistent) it was 6 rad/s off with no flag to the end of
 /// the run (stop 40). The sign a test could tell and found wrong stays in doubt (flag
-/// sign-unresolved) until a test that could tell passes: no row is silently wrong.
+/// 16, margin 0, as an inconsistent path) until a test that could tell passes: no row is silently wrong.
 #[test]
 fn a_sign_contradicted_in_a_spin_up_is_never_silently_wrong_after_it() {
     let mut sc = e2e_tests::faults::mixed(2002);
