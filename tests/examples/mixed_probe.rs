@@ -79,43 +79,37 @@ fn main() {
     }
 }
 
+/// Each channel's part (index in the configuration), channels the parts do not feed 0.
+fn channel_parts(config: &ballisto_fw::config::AppConfig) -> Vec<usize> {
+    let mut part = vec![0; config.arrangement.len()];
+    for (i, p) in config.sampling.parts() {
+        for c in p.channels.iter().flatten() {
+            part[usize::from(*c)] = i;
+        }
+    }
+    part
+}
+
 /// `PARITY=SEED`: the parity space's χ² per 0.2 s of one fault-free run (mean over the sets,
 /// against its degrees of freedom) and, per part, how much of it that part's removal explains.
 fn parity_over_time(seed: u64) {
     use estimator_core::parity::Parity;
     use estimator_core::ChannelMask;
     let mut sc = e2e_tests::faults::mixed(seed);
+    let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     // `BIAS=PART,K`: a bias jump of K σ of one ADXL355 sample on that part from 3 s.
     if let Ok(b) = std::env::var("BIAS") {
         let (part, k) = b.split_once(',').unwrap();
         let part: usize = part.parse().unwrap();
         let k: f64 = k.parse().unwrap();
-        let sigma = sc
-            .arrangement()
-            .load("arrangement.toml")
-            .unwrap()
-            .arrangement
-            .channels()[0]
-            .noise;
-        let (_, mut f) = e2e_tests::faults::kinds(sigma)
-            .into_iter()
-            .find(|(_, f)| f.kind == "bias-jump")
-            .unwrap();
-        let b = k * sigma;
-        f.bias = Some([b, -b, 0.5 * b]);
+        let mut f = e2e_tests::faults::bias_jump(k * loaded.arrangement.channels()[0].noise);
         f.part = sc.parts[part].name.clone();
         f.start = 3.0;
         sc.faults.push(f);
     }
-    let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
     let n = loaded.names.len();
-    let mut part = vec![0u8; n];
-    for (i, p) in config.sampling.parts() {
-        for c in p.channels.iter().flatten() {
-            part[usize::from(*c)] = i as u8;
-        }
-    }
+    let part: Vec<u8> = channel_parts(&config).iter().map(|&i| i as u8).collect();
     let par = Parity::<f64, { hal_sim::arrangement_file::HOST_CAP }>::build(
         &loaded.arrangement,
         ChannelMask::all(n),
@@ -166,12 +160,7 @@ fn error_over_time(seed: u64, latest: bool) {
     };
     let config = firmware_config(&sc, &loaded, al).unwrap();
     let n = loaded.names.len();
-    let mut part = vec![0usize; n];
-    for (i, p) in config.sampling.parts() {
-        for c in p.channels.iter().flatten() {
-            part[usize::from(*c)] = i;
-        }
-    }
+    let part = channel_parts(&config);
     let ch = loaded.arrangement.channels().to_vec();
     let mut acc = ([0.0f64; 8], [0.0f64; 8], [0usize; 8]);
     let mut p = vec![f64::NAN; n];

@@ -51,8 +51,7 @@ fn main() {
             .ok()
             .and_then(|s| s.parse::<f64>().ok())
         {
-            let b = k * sigma;
-            f.bias = Some([b, -b, 0.5 * b]);
+            f.bias = e2e_tests::faults::bias_jump(k * sigma).bias;
         }
         sc.faults.push(f);
     }

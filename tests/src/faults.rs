@@ -247,9 +247,9 @@ pub fn mixed(seed: u64) -> Scenario {
     mixed_layout(seed, DURATION)
 }
 
-/// The fault kinds of hal-sim, as scenario faults on `part` from `start`.
-pub fn kinds(sigma: f64) -> Vec<(&'static str, FaultSpec)> {
-    let f = |kind: &str| FaultSpec {
+/// A fault of `kind` with no part, start or parameters yet.
+fn fault(kind: &str) -> FaultSpec {
+    FaultSpec {
         part: String::new(),
         kind: kind.to_string(),
         start: 0.0,
@@ -259,11 +259,21 @@ pub fn kinds(sigma: f64) -> Vec<(&'static str, FaultSpec)> {
         density: None,
         probability: None,
         stall: None,
-    };
-    let bias = |b: f64| FaultSpec {
+    }
+}
+
+/// The matrix's bias jump of size `b` (m/s²): `(b, −b, b/2)` on the part's x, y, z.
+pub fn bias_jump(b: f64) -> FaultSpec {
+    FaultSpec {
         bias: Some([b, -b, 0.5 * b]),
-        ..f("bias-jump")
-    };
+        ..fault("bias-jump")
+    }
+}
+
+/// The fault kinds of hal-sim, as scenario faults on `part` from `start`.
+pub fn kinds(sigma: f64) -> Vec<(&'static str, FaultSpec)> {
+    let f = fault;
+    let bias = bias_jump;
     vec![
         ("stuck", f("stuck")),
         ("bias jump 0.1 m/s²", bias(0.1)),

@@ -374,8 +374,9 @@ mod tests {
 
     /// A path held on the wrong sign through a spin-up (`Ω = −Ω_true` while Ω′ is the true
     /// one) trips the test and puts the sign in doubt; when the spin-up ends (`Ω′ = 0`) both
-    /// signs pass, and the doubt is kept (the estimate stays flagged, not silently wrong); a decisive pass (Ω′ large again, on a consistent path) settles it, and
-    /// a restart keeps it. A consistent spin-up and steady spin never raise it.
+    /// signs pass, and the doubt is kept (the estimate stays flagged, not silently wrong); a
+    /// decisive pass (Ω′ large again, on a consistent path) settles it, and a restart keeps it.
+    /// A consistent spin-up and steady spin never raise it.
     #[test]
     fn a_sign_contradicted_stays_in_doubt_until_a_decisive_pass() {
         for (rate, thin) in [(100.0, true), (100.0, false), (1000.0, true)] {
