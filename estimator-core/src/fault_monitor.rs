@@ -103,7 +103,18 @@ pub struct FaultMonitor<T, const CAP: usize> {
     run: u32,
     confirm: u32,
     verdict: Verdict,
+    /// Per channel, its readings' noise variance over the declared one, as last set
+    /// ([`Self::set_variance`]), and the factors that bring the set's `χ²` and each part's
+    /// residual without it back to their degrees of freedom's mean under those variances.
+    variance: [T; CAP],
+    scale: T,
+    part_scale: [T; CAP],
 }
+
+/// A channel's variance factor moves the monitor's scales once it has changed by more than
+/// this since they were computed (an interpolated part's weight drifts with its clock offset:
+/// at 150 ppm its factor changes by at most 3·10⁻⁴ per set).
+const VARIANCE_STEP: f64 = 0.01;
 
 impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
     /// A monitor for sample sets at `rate_hz`, with no parity space yet ([`Verdict::NoTest`]).
@@ -127,6 +138,60 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
             run: 0,
             confirm: 1,
             verdict: Verdict::NoTest,
+            variance: [T::ONE; CAP],
+            scale: T::ONE,
+            part_scale: [T::ONE; CAP],
+        }
+    }
+
+    /// Declares each channel's noise variance over the one its arrangement declares
+    /// (`var[i]` for channel `i`; 1 for a reading taken at the set's instant; `w² + (1 − w)²`
+    /// for one interpolated with weight `w` between two samples, 0.5 midway). The set's `χ²`
+    /// and each part's residual without it are then scaled to the mean of their degrees of
+    /// freedom under these variances ([`Parity::expected`]), so that the window sits where its
+    /// limit assumes: left at the declared noise, the mixed layout's fault-free window sat at
+    /// 0.74 of its limit instead of about 0.88, and a small bias took that much longer to
+    /// cross it. (The scale matches the mean, not the variance: consecutive interpolated
+    /// values share a sample, which widens the window's spread a little.) Recomputed only
+    /// when a factor has moved by more than [`VARIANCE_STEP`].
+    pub fn set_variance(&mut self, var: &[T]) {
+        let step = T::of(VARIANCE_STEP);
+        let moved = var
+            .iter()
+            .zip(self.variance.iter())
+            .any(|(v, old)| (*v - *old).abs() > step);
+        if !moved {
+            return;
+        }
+        for (old, v) in self.variance.iter_mut().zip(var) {
+            *old = *v;
+        }
+        self.rescale();
+    }
+
+    /// The scales for the parity space in force and the variances declared.
+    fn rescale(&mut self) {
+        self.scale = T::ONE;
+        self.part_scale = [T::ONE; CAP];
+        let Some(par) = &self.parity else {
+            return;
+        };
+        if self.variance.iter().all(|v| *v == T::ONE) {
+            return; // exactly the declared noise: no rounding of the degrees of freedom
+        }
+        let (chi2, without) = par.expected(&self.variance);
+        let ratio = |dof: usize, mean: T| {
+            if mean > T::ZERO {
+                T::of(dof as f64) / mean
+            } else {
+                T::ONE
+            }
+        };
+        self.scale = ratio(par.dof(), chi2);
+        for (q, (s, mean)) in self.part_scale.iter_mut().zip(without).enumerate() {
+            if let Some(dof) = par.part_dof(q) {
+                *s = ratio(dof, mean);
+            }
         }
     }
 
@@ -176,6 +241,7 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
             None => self.verdict = Verdict::NoTest,
         }
         self.parity = parity;
+        self.rescale();
     }
 
     /// As [`FaultMonitor::set_parity`], handing back the parity space it replaces (the firmware
@@ -232,7 +298,7 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         // hides some of the faulty part's error (N = 18, parts 3 and 4) then never leaves its
         // limit, and nothing is isolated.
         let ceiling = T::of(CAP_FACTOR) * self.limit;
-        self.total = (self.lambda * self.total + s.chi2).min(ceiling);
+        self.total = (self.lambda * self.total + self.scale * s.chi2).min(ceiling);
         self.fill = self.lambda * self.fill + T::ONE;
         // The window's excess over its fault-free mean (ν per set).
         let excess = self.total - self.dof * self.fill;
@@ -243,7 +309,7 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         let mut known_restores = None;
         for q in 0..parts {
             let w = &mut self.without[q];
-            *w = (self.lambda * *w + s.without[q]).min(ceiling);
+            *w = (self.lambda * *w + self.part_scale[q] * s.without[q]).min(ceiling);
             if par.part_dof(q).is_none() {
                 continue;
             }
@@ -794,12 +860,75 @@ mod tests {
 
     /// As [`reading`] with white noise of `sigma` on every channel (declared: 1 mg).
     fn noisy_reading(arr: &Arrangement<24>, rng: &mut ChaCha8Rng, sigma: f64) -> [f32; 18] {
+        reading_with(arr, rng, |_| sigma)
+    }
+
+    /// As [`reading`] with white noise of `sigma(i)` on channel `i`.
+    fn reading_with(
+        arr: &Arrangement<24>,
+        rng: &mut ChaCha8Rng,
+        sigma: impl Fn(usize) -> f64,
+    ) -> [f32; 18] {
         core::array::from_fn(|i| {
             let ch = &arr.channels()[i];
             let (u1, u2): (f64, f64) = (rng.gen_range(1e-12..1.0), rng.gen());
             let z = (-2.0 * u1.ln()).sqrt() * (2.0 * core::f64::consts::PI * u2).cos();
-            (ch.axis[2] * 9.80665 + sigma * z) as f32
+            (ch.axis[2] * 9.80665 + sigma(i) * z) as f32
         })
+    }
+
+    /// Channels whose readings are less noisy than declared (here parts 3–5, as values
+    /// interpolated midway between two samples: variance 0.5 × the declared) pull the window
+    /// below the mean its limit assumes; declared to the monitor, they are scaled back to it
+    /// (the window's level as with every channel at its declared noise), and a bias on
+    /// another part crosses the limit sooner than when they are not declared.
+    #[test]
+    fn channels_declared_less_noisy_keep_the_window_at_its_mean_and_show_a_bias_sooner() {
+        let quiet = |i: usize| i >= 9;
+        let var: [f32; 18] = core::array::from_fn(|i| if quiet(i) { 0.5 } else { 1.0 });
+        let sigma = |i: usize| 1e-3 * if quiet(i) { 0.5f64.sqrt() } else { 1.0 };
+        let (mut declared, arr) = monitor();
+        declared.set_variance(&var);
+        let (mut ignored, _) = monitor();
+        let (mut reference, _) = monitor();
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let (mut levels, mut sets) = ([0.0f64; 3], 0);
+        for k in 0..4000 {
+            let p = reading_with(&arr, &mut rng, sigma);
+            assert_eq!(declared.step(&p), Verdict::Clean, "set {k}");
+            ignored.step(&p);
+            reference.step(&reading(&arr, &mut rng));
+            if k >= 500 {
+                sets += 1;
+                for (l, m) in levels.iter_mut().zip([&declared, &ignored, &reference]) {
+                    *l += f64::from(m.level());
+                }
+            }
+        }
+        let [declared_level, ignored_level, reference_level] = levels.map(|l| l / sets as f64);
+        assert!(
+            (declared_level - reference_level).abs() < 0.02,
+            "declared {declared_level}, all at the declared noise {reference_level}"
+        );
+        assert!(
+            ignored_level < reference_level - 0.1,
+            "not declared {ignored_level}, all at the declared noise {reference_level}"
+        );
+        // 5 σ of one reading on part 0's y channel.
+        let mut first = [None; 2];
+        for k in 0..400 {
+            let mut p = reading_with(&arr, &mut rng, sigma);
+            p[1] += 5e-3;
+            for (f, m) in first.iter_mut().zip([&mut declared, &mut ignored]) {
+                if m.step(&p) != Verdict::Clean && f.is_none() {
+                    *f = Some(k);
+                }
+            }
+        }
+        let [Some(d), i] = first else {
+            panic!("not detected with the variances declared: {first:?}");
+        };
+        assert!(i.is_none_or(|i| d < i), "declared {d}, not declared {i:?}");
     }
 
     /// Noise above the declared one on every channel is seen, and no part is blamed for it.

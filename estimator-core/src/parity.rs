@@ -330,6 +330,49 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
         }
         Some(ParitySample { chi2, without })
     }
+
+    /// The mean of [`Self::evaluate`]'s `χ²` and of each part's residual without it when the
+    /// readings are consistent but channel `i`'s noise variance is `var[i]` times the declared
+    /// one (a value interpolated between two samples with weight `w` has `w² + (1 − w)²`, 0.5
+    /// to 1): `tr(P V)` and `tr(P⁽ᵖ⁾ V)`, `P⁽ᵖ⁾ = P − P_{·S} (P_SS)⁻¹ P_{S·}` (with `var` all 1,
+    /// the degrees of freedom). A factor that is not finite and positive counts as 1.
+    /// `N (1 + 10 · parts)` multiply–adds: for a change of `var`, not for every set.
+    pub fn expected(&self, var: &[T]) -> (T, [T; CAP]) {
+        let rows = self.rows;
+        let factor = |a: usize| {
+            let v = var
+                .get(usize::from(self.index[a]))
+                .copied()
+                .unwrap_or(T::ONE);
+            if v > T::ZERO && v.is_finite() {
+                v
+            } else {
+                T::ONE
+            }
+        };
+        let mut chi2 = T::ZERO;
+        for a in 0..rows {
+            chi2 += factor(a) * self.projector[a][a];
+        }
+        let mut without = [chi2; CAP];
+        for (out, t) in without.iter_mut().zip(self.parts.iter()).take(self.n_parts) {
+            if !t.isolable {
+                continue;
+            }
+            let count = usize::from(t.count);
+            let mut acc = T::ZERO;
+            for a in 0..rows {
+                // `P_{aS}` (padded rows: zero) and its form with `(P_SS)⁻¹`.
+                let mut u = [T::ZERO; 3];
+                for (x, &row) in u.iter_mut().zip(t.rows.iter()).take(count) {
+                    *x = self.projector[a][usize::from(row)];
+                }
+                acc += factor(a) * (self.projector[a][a] - t.inverse.quad(&u));
+            }
+            *out = acc;
+        }
+        (chi2, without)
+    }
 }
 
 #[cfg(test)]
@@ -434,6 +477,47 @@ pub(crate) mod tests {
                 s.without[pt]
             );
         }
+    }
+
+    /// The means under declared variances: the degrees of freedom with every channel as
+    /// declared, and the sample mean of many draws with some channels at other variances.
+    #[test]
+    fn the_expected_residuals_are_the_degrees_of_freedom_and_follow_the_variances() {
+        let (arr, part) = six_parts();
+        let par = Parity::<f64, 24>::build(&arr, ChannelMask::all(18), &part).unwrap();
+        let (chi2, without) = par.expected(&[1.0; 18]);
+        assert!((chi2 - 6.0).abs() < 1e-9, "{chi2}");
+        for (pt, w) in without.iter().enumerate().take(6) {
+            let dof = par.part_dof(pt).unwrap() as f64;
+            assert!((w - dof).abs() < 1e-9, "part {pt}: {w}");
+        }
+        // Parts 0 and 1 at half their declared variance, part 5 at 1.5 times.
+        let var: [f64; 18] = core::array::from_fn(|i| match i / 3 {
+            0 | 1 => 0.5,
+            5 => 1.5,
+            _ => 1.0,
+        });
+        let (chi2, without) = par.expected(&var);
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let trials = 20_000;
+        let mut mean = [0.0f64; 7];
+        for _ in 0..trials {
+            let clean = readings(&arr, &mut rng, 0.0);
+            let z = rand_distr_normal(&mut rng);
+            let p: [f64; 18] = core::array::from_fn(|i| clean[i] + 1e-3 * var[i].sqrt() * z[i]);
+            let s = par.evaluate(&p).unwrap();
+            mean[0] += s.chi2 / trials as f64;
+            for pt in 0..6 {
+                mean[pt + 1] += s.without[pt] / trials as f64;
+            }
+        }
+        // Sample means of χ²-like sums of about 6 and 3 terms: deviation ≲ 0.03.
+        assert!((mean[0] - chi2).abs() < 0.1, "χ² {} vs {chi2}", mean[0]);
+        for pt in 0..6 {
+            let (got, want) = (mean[pt + 1], without[pt]);
+            assert!((got - want).abs() < 0.1, "part {pt}: {got} vs {want}");
+        }
+        assert!(!(5.7..=6.3).contains(&chi2), "{chi2}: the variances matter");
     }
 
     #[test]

@@ -63,9 +63,12 @@ fn main() {
         clean.lost
     );
     for (name, mut t) in rows {
-        let ratio = t
+        let mut ratio = t
             .error_ratio()
             .map_or("—".to_string(), |r| format!("{r:.2}"));
+        if t.wrong_references > 0 {
+            ratio += &format!(" ({} references wrong)", t.wrong_references);
+        }
         println!(
             "| {name} | {runs} | {} | {} | {} | {} | {:.2} % | {:.1} % | {:.1} % | {:.1} % | {ratio} | {} | {} |",
             t.detected.len(),

@@ -16,7 +16,7 @@ use ballisto_link::{ConsistencyTest, EventId, PartSet};
 use estimator_core::fault_monitor::Verdict;
 use estimator_core::{ChannelMask, Estimate, Estimator};
 
-use crate::config::{AppConfig, MAX_CHANNELS};
+use crate::config::{AppConfig, MAX_CHANNELS, MAX_PARTS};
 
 #[cfg(feature = "fault-isolation")]
 mod enabled {
@@ -111,8 +111,16 @@ mod enabled {
             self.no_parity.step(e)
         }
 
-        /// One set's readings (NaN where a part had no value).
-        pub fn step(&mut self, p: &[f32]) -> Verdict {
+        /// One set's readings (NaN where a part had no value) and each part's noise variance
+        /// over its declared one (the sampler's: below 1 for an interpolated value).
+        pub fn step(&mut self, p: &[f32], variance: &[f32; MAX_PARTS]) -> Verdict {
+            let mut var = [1.0f32; MAX_CHANNELS];
+            for (v, q) in var.iter_mut().zip(self.part.iter()) {
+                if let Some(x) = variance.get(usize::from(*q)) {
+                    *v = *x;
+                }
+            }
+            self.monitor.set_variance(&var);
             self.stuck_parts = self.stuck.step(p);
             self.monitor.step_with(p, self.stuck_parts)
         }
@@ -134,7 +142,7 @@ mod enabled {
             let isolated = self.isolated();
             let new = isolated.minus(self.reported_isolated);
             self.reported_isolated = isolated;
-            let part = (0..crate::config::MAX_PARTS).find(|p| new.contains(*p));
+            let part = (0..MAX_PARTS).find(|p| new.contains(*p));
             let named = part.map(|p| {
                 let mut bits = 0u32;
                 for (c, q) in self.part.iter().enumerate() {
@@ -221,7 +229,7 @@ mod enabled {
         }
 
         /// No test.
-        pub fn step(&mut self, _: &[f32]) -> Verdict {
+        pub fn step(&mut self, _: &[f32], _: &[f32; MAX_PARTS]) -> Verdict {
             Verdict::NoTest
         }
 

@@ -90,11 +90,7 @@ fn set(cfg: &AppConfig, k: u32) -> SampleSet {
         }
         parts[i] = Some(v);
     }
-    SampleSet {
-        k,
-        t: u64::from(k) * 10_000_000,
-        parts,
-    }
+    SampleSet::new(k, u64::from(k) * 10_000_000, parts)
 }
 
 fn health(cfg: &AppConfig) -> Health {

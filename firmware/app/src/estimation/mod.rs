@@ -601,7 +601,7 @@ impl Estimation {
                 None => {}
             }
         }
-        let verdict = self.isolation.step(&self.p[..self.n]);
+        let verdict = self.isolation.step(&self.p[..self.n], &set.variance);
         let isolated_before = self.isolated;
         #[cfg(feature = "spare-config")]
         let ordered = self.collect_order();
@@ -713,11 +713,7 @@ mod tests {
         if !part0 {
             parts[0] = None;
         }
-        SampleSet {
-            k,
-            t: u64::from(k) * 10_000_000,
-            parts,
-        }
+        SampleSet::new(k, u64::from(k) * 10_000_000, parts)
     }
 
     /// Model G on all twelve channels again, and the return from model F reported once.
@@ -931,11 +927,7 @@ mod tests {
             }
             parts[i] = (i != 0 || part0).then_some(v);
         }
-        SampleSet {
-            k,
-            t: u64::from(k) * 10_000_000,
-            parts,
-        }
+        SampleSet::new(k, u64::from(k) * 10_000_000, parts)
     }
 
     /// With redundancy (N = 18) the fault monitor's parity space is built by the builder task

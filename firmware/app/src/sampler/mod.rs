@@ -40,6 +40,22 @@ pub struct SampleSet {
     pub t: Nanos,
     /// Each part's x, y, z (m/s², part axes) at `t`, or `None`.
     pub parts: [Option<[f32; 3]>; MAX_PARTS],
+    /// Each part's noise variance over one sample's declared one: 1 for a sample taken at
+    /// `t`, `(1 − w)² + w²` for a value interpolated with weight `w` (0.5 midway), so that the
+    /// fault monitor expects of it what it has.
+    pub variance: [f32; MAX_PARTS],
+}
+
+impl SampleSet {
+    /// The set of index `k` at `t` with the parts' values (each a sample taken at `t`).
+    pub fn new(k: u32, t: Nanos, parts: [Option<[f32; 3]>; MAX_PARTS]) -> Self {
+        SampleSet {
+            k,
+            t,
+            parts,
+            variance: [1.0; MAX_PARTS],
+        }
+    }
 }
 
 /// Counters of the sampling loop itself.
@@ -156,11 +172,7 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
         for p in self.parts.iter_mut().flatten() {
             p.maybe_restart(k).await;
         }
-        let mut set = SampleSet {
-            k,
-            t,
-            parts: [None; MAX_PARTS],
-        };
+        let mut set = SampleSet::new(k, t, [None; MAX_PARTS]);
         // Parts on the SYNC line sample on this edge.
         if self.parts.iter().flatten().any(|p| p.synced()) {
             let ok = self.sync.set_high().is_ok() & self.sync.set_low().is_ok();
@@ -208,7 +220,12 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
                 Alignment::Latest => p.read_latest().await,
                 Alignment::Interpolate => {
                     time.wait_until(at).await;
-                    p.read_interpolated(time, t, latest).await
+                    p.read_interpolated(time, t, latest)
+                        .await
+                        .map(|(value, variance)| {
+                            set.variance[i] = variance;
+                            value
+                        })
                 }
             };
         }

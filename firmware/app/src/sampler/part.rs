@@ -209,7 +209,7 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
     }
 
     /// The part's value for the set, counting a set without one as missed.
-    fn or_missed(&mut self, value: Option<[f32; 3]>) -> Option<[f32; 3]> {
+    fn or_missed<V>(&mut self, value: Option<V>) -> Option<V> {
         if value.is_none() {
             self.health.missed += 1;
         }
@@ -253,7 +253,8 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
     }
 
     /// Reads the FIFO (level, then the samples, timestamped by the conversion clock) and
-    /// interpolates to the instant `t`. If the newest sample is still before `t` (the read came
+    /// interpolates to the instant `t`: the value and its noise variance over one sample's
+    /// (see [`value_at`]). If the newest sample is still before `t` (the read came
     /// before the next conversion, which happens about half the time while the conversion
     /// clock's interval is wide: the first ~0.7 s after a start, before its period is
     /// measured), reads once more when that conversion has surely happened, if that is not
@@ -266,7 +267,7 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
         time: &mut T,
         t: Nanos,
         latest: Nanos,
-    ) -> Option<[f32; 3]> {
+    ) -> Option<([f32; 3], f32)> {
         if !self.health.running {
             return self.or_missed(None);
         }
@@ -330,20 +331,24 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
         self.recent.write((index, value));
     }
 
-    /// The part's value at `t` from its recent samples (see [`value_at`]).
-    fn value_at(&self, t: f64) -> Option<[f32; 3]> {
+    /// The part's value at `t` from its recent samples, and its variance factor (see
+    /// [`value_at`]).
+    fn value_at(&self, t: f64) -> Option<([f32; 3], f32)> {
         value_at(&self.recent, &self.clock, t)
     }
 }
 
 /// Linear interpolation between the two recent samples around `t` (their conversion times
 /// from `clock`), or extrapolation from the last two by at most one and a half periods;
-/// `None` without two samples, without a locked clock, or too far from them.
+/// `None` without two samples, without a locked clock, or too far from them. With the value,
+/// its noise variance over one sample's, `(1 − w)² + w²` for the weight `w` of the later
+/// sample (0.5 midway, 1 at a sample, up to 5 extrapolated): what the fault monitor's test
+/// must expect of it (`FaultMonitor::set_variance`).
 fn value_at(
     recent: &HistoryBuf<Recent, RECENT>,
     clock: &ConversionClock,
     t: f64,
-) -> Option<[f32; 3]> {
+) -> Option<([f32; 3], f32)> {
     if recent.len() < 2 || !clock.is_locked() {
         return None;
     }
@@ -369,7 +374,8 @@ fn value_at(
     }
     let w = ((t - t0) / (t1 - t0)) as f32;
     let (a, b) = (sa.1, sb.1);
-    Some(core::array::from_fn(|k| a[k] + w * (b[k] - a[k])))
+    let variance = (1.0 - w) * (1.0 - w) + w * w;
+    Some((core::array::from_fn(|k| a[k] + w * (b[k] - a[k])), variance))
 }
 
 #[cfg(test)]
@@ -398,12 +404,14 @@ mod tests {
         let c = clock();
         let h = samples(0, 4);
         let (t1, t2) = (c.time_of(1), c.time_of(2));
-        let v = value_at(&h, &c, t1 + 0.25 * (t2 - t1)).unwrap();
+        let (v, variance) = value_at(&h, &c, t1 + 0.25 * (t2 - t1)).unwrap();
         for (got, want) in v.iter().zip([1.25f32, 2.5, -1.25]) {
             assert!((got - want).abs() < 1e-5, "{v:?}");
         }
+        // 0.75² + 0.25² of one sample's variance.
+        assert!((variance - 0.625).abs() < 1e-5, "{variance}");
         // At a sample's own time: that sample.
-        assert_eq!(value_at(&h, &c, t2), Some([2.0, 4.0, -2.0]));
+        assert_eq!(value_at(&h, &c, t2), Some(([2.0, 4.0, -2.0], 1.0)));
     }
 
     #[test]
@@ -411,8 +419,10 @@ mod tests {
         let c = clock();
         let h = samples(0, 4);
         let (t3, p) = (c.time_of(3), c.period());
-        let v = value_at(&h, &c, t3 + p).unwrap();
+        let (v, variance) = value_at(&h, &c, t3 + p).unwrap();
         assert!((v[0] - 4.0).abs() < 1e-4, "{v:?}");
+        // 2 × sample 3 − sample 2: (−1)² + 2².
+        assert!((variance - 5.0).abs() < 1e-3, "{variance}");
         assert_eq!(value_at(&h, &c, t3 + 1.6 * p), None);
         assert_eq!(value_at(&h, &c, c.time_of(0) - 1.6 * p), None);
     }
@@ -424,7 +434,10 @@ mod tests {
         let h = samples(0, 10);
         assert_eq!(h.len(), RECENT);
         assert_eq!(value_at(&h, &c, c.time_of(2)), None);
-        assert_eq!(value_at(&h, &c, c.time_of(7)), Some([7.0, 14.0, -7.0]));
+        assert_eq!(
+            value_at(&h, &c, c.time_of(7)),
+            Some(([7.0, 14.0, -7.0], 1.0))
+        );
         assert_eq!(value_at(&samples(0, 1), &c, c.time_of(0)), None);
         let unlocked = ConversionClock::new(0.0025, 1e-3, 5e-6);
         assert_eq!(value_at(&h, &unlocked, c.time_of(7)), None);

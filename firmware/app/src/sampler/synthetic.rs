@@ -126,7 +126,7 @@ impl Synthetic {
             *slot = Some(v);
         }
         self.health.sets = self.health.sets.wrapping_add(1);
-        SampleSet { k, t, parts: out }
+        SampleSet::new(k, t, out)
     }
 
     /// Every counter.
