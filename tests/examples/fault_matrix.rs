@@ -67,7 +67,8 @@ fn main() {
             .error_ratio()
             .map_or("—".to_string(), |r| format!("{r:.2}"));
         if t.wrong_references > 0 {
-            ratio += &format!(" ({} references wrong)", t.wrong_references);
+            let n = t.wrong_references;
+            ratio += &format!(" ({n} wrong reference{})", if n > 1 { "s" } else { "" });
         }
         println!(
             "| {name} | {runs} | {} | {} | {} | {} | {:.2} % | {:.1} % | {:.1} % | {:.1} % | {ratio} | {} | {} |",
