@@ -6,7 +6,8 @@
 //! from 3 s) and the fault monitor's level and verdict on it; `ERR=SEED` each part's error
 //! against eq. (4) in its declared noise per 0.2 s (`LATEST=1`: the unaligned reference);
 //! `REMOVE=PART SEED=S` one fault-free run without that part, its Ω error per 0.25 s and every
-//! silently wrong row.
+//! silently wrong row (with `HOST=1`: the same run through `ballisto sim --firmware`, then
+//! `ballisto estimate` (f32) on the samples the firmware read, both compared with the truth).
 use ballisto_fw::config::Alignment;
 use hal_sim::firmware_host::{firmware_config, for_each_channel, run_firmware};
 
@@ -25,6 +26,10 @@ fn main() {
         let seed: u64 = std::env::var("SEED").unwrap().parse().unwrap();
         let mut sc = e2e_tests::faults::mixed(seed);
         sc.parts.remove(part);
+        if std::env::var("HOST").is_ok() {
+            firmware_and_host(&sc);
+            return;
+        }
         let loaded = sc.arrangement().load("arrangement.toml").unwrap();
         let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
         run_firmware(&sc, &config, sc.samples() as u32, &mut |_, m, tr| {
@@ -76,6 +81,30 @@ fn main() {
         })
         .unwrap();
         println!("seed {seed}: rows out per part {out:?}, from {first:?}, flagged 64 {flagged} per second {hist:?}, branch ambiguous {ambiguous}");
+    }
+}
+
+/// `REMOVE=… HOST=1`: `sc` through the firmware and then `ballisto estimate`, each compared with
+/// the truth (Ω RMS, silently wrong rows).
+fn firmware_and_host(sc: &hal_sim::scenario::Scenario) {
+    let dir = std::env::temp_dir().join(format!("mixed-probe-{}", std::process::id()));
+    let host = e2e_tests::faults::firmware_then_host(sc, &dir);
+    for (name, path) in [
+        ("firmware", dir.join("estimates.csv")),
+        ("ballisto estimate", host),
+    ] {
+        let c = ballisto::compare::compare(&dir.join("truth.csv"), &path).unwrap();
+        println!(
+            "{name}: {} rows, Ω RMS {:.3} rad/s, silently wrong (Ω) {:?}",
+            c.rows,
+            c.omega,
+            c.silent.map(|s| s.omega)
+        );
+    }
+    if std::env::var("KEEP").is_ok() {
+        println!("kept in {}", dir.display());
+    } else {
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
 

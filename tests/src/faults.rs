@@ -487,3 +487,37 @@ pub fn fault_matrix(runs: u64, layout: fn(u64) -> Scenario) -> (Tally, Vec<(&'st
     }
     (clean, rows)
 }
+
+/// `sc` through the firmware on the simulated buses (`ballisto sim --firmware` into `dir`), then
+/// `ballisto estimate` (f32, as on board) on the samples the firmware read; returns the path of
+/// the host's estimates file (the firmware's is `dir/estimates.csv`).
+pub fn firmware_then_host(
+    sc: &hal_sim::scenario::Scenario,
+    dir: &std::path::Path,
+) -> std::path::PathBuf {
+    use ballisto::estimate::{estimate_files, EstimateJob, Precision};
+    use ballisto::sim::{run_sim, SimJob};
+    run_sim(&SimJob {
+        scenario: sc,
+        out: dir,
+        estimate: false,
+        progress: false,
+        firmware: Some(ballisto_fw::config::Alignment::Interpolate),
+        identify: false,
+    })
+    .unwrap();
+    let host = dir.join("host.csv");
+    estimate_files(&EstimateJob {
+        arrangement: &dir.join("arrangement.toml"),
+        samples: &dir.join("samples.csv"),
+        out: &host,
+        model: None,
+        options: estimator_core::Options {
+            initial_omega: sc.initial_omega,
+            ..Default::default()
+        },
+        precision: Precision::F32,
+    })
+    .unwrap();
+    host
+}

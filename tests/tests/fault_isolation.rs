@@ -115,7 +115,7 @@ fn ballisto_estimate_takes_out_the_part_the_firmware_takes_out_at_the_same_rows(
         stall: None,
     });
     let dir = std::env::temp_dir().join(format!("ballisto-faults-{}", std::process::id()));
-    let out = firmware_then_host(&sc, &dir);
+    let out = e2e_tests::faults::firmware_then_host(&sc, &dir);
     let names = ["t", "excluded", "flags"];
     let host = read_columns(&out, &names);
     let firmware = read_columns(&dir.join("estimates.csv"), &names);
@@ -238,7 +238,7 @@ fn twelve_channels_are_never_silently_wrong_under_the_named_faults() {
             "ballisto-field-{}-{name}-{free_float}",
             std::process::id()
         ));
-        let host = firmware_then_host(&sc, &dir);
+        let host = e2e_tests::faults::firmware_then_host(&sc, &dir);
         let truth = dir.join("truth.csv");
         let fw = silent_and_flagged(&dir.join("estimates.csv"), &truth);
         let h = silent_and_flagged(&host, &truth);
@@ -296,7 +296,7 @@ fn twelve_channels_are_never_silently_wrong_under_the_named_faults() {
 fn a_start_up_suspicion_on_twelve_channels_ends_when_the_field_test_passes() {
     let sc = hal_sim::scenario::Scenario::load("ground-spin-mixed").unwrap();
     let dir = std::env::temp_dir().join(format!("ballisto-gsm-{}", std::process::id()));
-    let host = firmware_then_host(&sc, &dir);
+    let host = e2e_tests::faults::firmware_then_host(&sc, &dir);
     let names = ["t", "flags"];
     let last_flagged = |path: &std::path::Path| {
         read_columns(path, &names)
@@ -357,40 +357,6 @@ fn the_mixed_layout_is_not_silently_wrong_after_a_fault() {
     }
 }
 
-/// `sc` through the firmware on the simulated buses (`ballisto sim --firmware` into `dir`), then
-/// `ballisto estimate` (f32, as on board) on the samples the firmware read; returns the path of
-/// the host's estimates file (the firmware's is `dir/estimates.csv`).
-fn firmware_then_host(
-    sc: &hal_sim::scenario::Scenario,
-    dir: &std::path::Path,
-) -> std::path::PathBuf {
-    use ballisto::estimate::{estimate_files, EstimateJob, Precision};
-    use ballisto::sim::{run_sim, SimJob};
-    run_sim(&SimJob {
-        scenario: sc,
-        out: dir,
-        estimate: false,
-        progress: false,
-        firmware: Some(ballisto_fw::config::Alignment::Interpolate),
-        identify: false,
-    })
-    .unwrap();
-    let host = dir.join("host.csv");
-    estimate_files(&EstimateJob {
-        arrangement: &dir.join("arrangement.toml"),
-        samples: &dir.join("samples.csv"),
-        out: &host,
-        model: None,
-        options: estimator_core::Options {
-            initial_omega: sc.initial_omega,
-            ..Default::default()
-        },
-        precision: Precision::F32,
-    })
-    .unwrap();
-    host
-}
-
 /// Range limits (issue 17: saturation "from its own signal"): a bias of 40 m/s² on one axis of
 /// a ±2 g ADXL355 drives that axis onto its rail (20.08 m/s²) while its other two still move, so
 /// only the range limit can name the part from its own signal. With redundancy (N = 18) the
@@ -425,7 +391,7 @@ fn one_axis_on_its_rail_names_its_part_at_the_first_clipped_set() {
         sc.faults.push(fault(&sc));
         let dir =
             std::env::temp_dir().join(format!("ballisto-range-{}-{redundant}", std::process::id()));
-        let host = firmware_then_host(&sc, &dir);
+        let host = e2e_tests::faults::firmware_then_host(&sc, &dir);
         let names = ["t", "excluded", "flags"];
         let h = read_columns(&host, &names);
         let f = read_columns(&dir.join("estimates.csv"), &names);

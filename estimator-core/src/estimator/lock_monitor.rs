@@ -83,6 +83,9 @@ pub(crate) struct LockMonitor<T> {
     /// The chosen root's Ω and Ω′ at the newest sample.
     last_omega: Vec3<T>,
     last_domega: Vec3<T>,
+    /// Ω′ averaged over the window (exponentially, its time constant): what the other sign's
+    /// `u` would have drifted by over it ([`sign_power`]).
+    mean_domega: Vec3<T>,
     /// Samples taken (saturating), 0: nothing yet.
     n: u16,
     /// Alternates every sample: the test is skipped on odd samples while the path passes.
@@ -181,6 +184,7 @@ impl<T: Real> LockMonitor<T> {
             self.b = [w, T::ZERO, T::ZERO];
             self.last_omega = *omega;
             self.last_domega = *domega;
+            self.mean_domega = *domega;
             self.n = 1;
             return false;
         }
@@ -206,6 +210,9 @@ impl<T: Real> LockMonitor<T> {
         self.b = shifted(self.b, lam * lam, dt, w);
         self.last_omega = *omega;
         self.last_domega = *domega;
+        for (m, d) in self.mean_domega.iter_mut().zip(domega) {
+            *m = lam * *m + alpha * *d;
+        }
         self.n = self.n.saturating_add(1);
         if T::of(f64::from(self.n)) * alpha < T::ONE {
             // Less than one window of history.
@@ -253,8 +260,16 @@ impl<T: Real> LockMonitor<T> {
             T::ZERO
         };
         // A trip that the other sign could explain puts the sign in doubt; only a decisive
-        // pass settles it (a test without power says nothing of the sign: steady spin).
-        let power = sign_power(d2, var);
+        // pass settles it (a test without power says nothing of the sign: steady spin). The
+        // power is that of the window's Ω′, not the newest sample's: where Ω′ steps (a spin-up
+        // ending, seen backward in time) the window has not yet seen the drift the other sign
+        // would give, and a pass there settled nothing — `ballisto estimate`'s backward pass
+        // cleared a wrong sign's doubt so at 5.0 s of the mixed layout without part 5 (seed
+        // 2002) and emitted it unflagged for 0.1 s (3 rows silently 6 rad/s off). Its noise:
+        // an average of white Ω′ over the window has `α / (2 − α)` of its variance.
+        let mean_noise = three * domega_var * alpha / (T::of(2.0) - alpha);
+        let d2_window = (norm2(&self.mean_domega) - mean_noise).max(T::ZERO);
+        let power = sign_power(d2_window, var);
         if tripped && power > T::ONE {
             self.sign_doubt = true;
         } else if !tripped && power > T::of(SIGN_POWER) {
