@@ -11,6 +11,7 @@ use estimator_core::fault_monitor::{
     FaultMonitor, NoParityTest, Settings, StuckCheck, Suspicion, TrustedRate, Verdict,
 };
 use estimator_core::parity::{Parity, NO_PART};
+use estimator_core::recent::{Recent, REPLAY_SETS};
 use estimator_core::smoother::Smoother;
 use estimator_core::two_way;
 use estimator_core::{ChannelMask, Estimate, Estimator, Flags, Model, Options, Real};
@@ -130,14 +131,19 @@ impl<T: Real> Pass<T> {
 
     /// Takes `mask` in the `preferred` model, or in model F where the channels do not carry
     /// it (if mask and model are not the ones in force: [`Estimator::set_mask_in`]), and
-    /// restarts branch and sign tracking from `hint`; false if the estimator refuses the mask
-    /// (too few channels left for either model).
-    fn set_mask(&mut self, mask: ChannelMask, preferred: Model, hint: Option<[f64; 3]>) -> bool {
+    /// restarts branch and sign tracking from `hint`; `None` if the estimator refuses the mask
+    /// (too few channels left for either model), else whether it restarted.
+    fn set_mask(
+        &mut self,
+        mask: ChannelMask,
+        preferred: Model,
+        hint: Option<[f64; 3]>,
+    ) -> Option<bool> {
         if self.est.mask() == mask && self.est.model() == preferred {
-            return true;
+            return Some(false);
         }
         let Ok(model) = self.est.set_mask_in(mask, preferred) else {
-            return false;
+            return None;
         };
         // The records still held by the smoother are drained with this setting (at most its
         // lag after a switch: model G rows whose smoothed Ω rebuilds A from the known Γ).
@@ -146,7 +152,7 @@ impl<T: Real> Pass<T> {
         if self.est.set_hint(hint).is_err() {
             let _ = self.est.set_hint(None);
         }
-        true
+        Some(true)
     }
 
     fn finish(&mut self, mut emit: impl FnMut(Estimate<T>)) {
@@ -226,6 +232,10 @@ struct Faults<T: Real> {
     /// The test where there is no parity space (model G's known field, or model F's own
     /// residual), once the rate is known.
     no_parity: NoParityTest<T>,
+    /// The last samples, replayed through the forward pass's new configuration when the
+    /// channels in use change (as the firmware's `Estimation`), and whether that is due.
+    recent: Box<Recent<T, HOST_CAP, REPLAY_SETS>>,
+    replay_due: bool,
 }
 
 impl<T: Real> Faults<T> {
@@ -261,6 +271,8 @@ impl<T: Real> Faults<T> {
             last_omega: None,
             rate: None,
             no_parity: NoParityTest::None,
+            recent: Box::new(Recent::new()),
+            replay_due: false,
         })
     }
 
@@ -393,6 +405,17 @@ impl<T: Real> HostEstimator<T> {
         self.readings.extend(p.iter().copied().take(self.channels));
         let used = self.isolate(t, p);
         self.masks.push_back(used);
+        if let Some(f) = &mut self.faults {
+            // A new channel set in force: the last samples through it first (their estimates
+            // dropped), so that the rate filter meets this one warm (as the firmware).
+            if std::mem::take(&mut f.replay_due) {
+                let est = &mut self.forward.est;
+                f.recent.replay(|t, p| {
+                    est.update(t, p);
+                });
+            }
+            f.recent.push(t, p);
+        }
         let decided = &mut self.decided;
         let raw = self.forward.push(t, p, |e| decided.push_back(e));
         if let Some(f) = &mut self.faults {
@@ -454,19 +477,27 @@ impl<T: Real> HostEstimator<T> {
         let isolated_before = f.isolated;
         let wanted = f.runs.wanted(f.missing);
         if wanted != f.missing || (isolated != f.isolated && f.refused != Some(isolated)) {
+            // Only a change that takes channels out is replayed (as in the firmware: the
+            // history of a part coming back may be what took it out); the hint is for the first
+            // sample the pass will see, the oldest replayed.
+            let mask = f.mask(wanted | isolated);
+            let replay = mask.0 & !self.forward.est.mask().0 == 0;
+            let from = if replay {
+                f.recent.first_t().unwrap_or(t)
+            } else {
+                t
+            };
             let hint = if isolated != f.isolated {
-                f.trusted.hint_at(t).or(f.last_omega)
+                f.trusted.hint_at(from).or(f.last_omega)
             } else {
                 f.last_omega
             };
             let model_before = self.forward.est.model();
-            if self
-                .forward
-                .set_mask(f.mask(wanted | isolated), f.preferred, hint)
-            {
+            if let Some(restarted) = self.forward.set_mask(mask, f.preferred, hint) {
                 let stale = wanted != f.missing || self.forward.est.model() != model_before;
                 f.missing = wanted;
                 f.isolated = isolated;
+                f.replay_due = restarted && replay;
                 if stale {
                     f.rebuild(&self.forward.est);
                 }

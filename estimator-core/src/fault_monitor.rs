@@ -801,10 +801,11 @@ impl TrustedRate {
         }
     }
 
-    /// The trusted Ω carried forward to `t` (s), if there is one.
+    /// The trusted Ω carried to `t` (s) by its Ω′, if there is one (back in time too: the
+    /// hint for the first of the sets replayed after an exclusion, `crate::recent`).
     pub fn hint_at(&self, t: f64) -> Option<[f64; 3]> {
         let (t0, omega, domega) = self.last?;
-        let age = (t - t0).max(0.0);
+        let age = t - t0;
         Some(core::array::from_fn(|k| omega[k] + domega[k] * age))
     }
 }

@@ -14,6 +14,7 @@
 //! - [`estimator`]: configuration (precomputation) and the per-sample solve.
 //! - [`estimate`]: the outputs and their status flags.
 //! - [`exclusion`]: when a part that stops answering leaves the solve and when it returns.
+//! - [`recent`]: the last sample sets, replayed into the estimator after a change of channels.
 //! - [`smoother`]: fixed-lag smoothing of branch and sign decisions (host tools).
 //! - [`two_way`]: each sample decided from the forward pass and the time-reversed one (host
 //!   tools).
@@ -48,6 +49,7 @@ pub mod linalg;
 pub mod parity;
 pub mod path_choice;
 pub mod real;
+pub mod recent;
 pub mod smoother;
 pub mod two_way;
 

@@ -81,9 +81,11 @@ fn the_matrix_holds(layout: fn(u64) -> hal_sim::scenario::Scenario) {
                 "{name}: silent while active"
             );
             // The goal: the estimate with the part out within 1.2 × that of the same
-            // run without the fault and without the part.
+            // run without the fault and without the part. With the last sets replayed through
+            // the new configuration (`estimator_core::recent`) within 1.05 (measured 0.98–1.01;
+            // restarted cold, 1.01–1.12).
             let ratio = t.error_ratio().expect("rows with the part out");
-            assert!(ratio <= 1.2, "{name}: Ω error ratio {ratio:.2}");
+            assert!(ratio <= 1.05, "{name}: Ω error ratio {ratio:.2}");
         }
         // Every fault is seen within 1 s in most runs (a 3 σ bias or a 3 σ/s drift in some
         // parts only later: the table in the README).
@@ -319,7 +321,8 @@ fn a_start_up_suspicion_on_twelve_channels_ends_when_the_field_test_passes() {
 /// its path check fails (README, "Fault detection"), the wrong sign taken near rest is given
 /// up: no fault-free row is silently wrong and at most 0.5 % of the rows after a fault (20 runs:
 /// 0 %; before, 8–17 %), and where the part was taken out the estimate is within the issue's
-/// 1.2 × that of the run without it (references that are themselves wrong left apart). Since
+/// 1.2 × that of the run without it (references that are themselves wrong left apart; since
+/// the replay of the last sets, within 1.05). Since
 /// stop 41 (the interpolated values' own variance declared to the monitor) no healthy part is
 /// taken out (until then up to 0.6 % of the rows after small or noisy faults). Not yet good
 /// enough, and so not asserted: small biases silently wrong while active (the README's table).
@@ -351,8 +354,11 @@ fn the_mixed_layout_is_not_silently_wrong_after_a_fault() {
             t.silent_after,
             t.after
         );
+        // The goal is 1.2 ×; with the last sets replayed through the new
+        // configuration (`estimator_core::recent`) within 1.05 (measured 0.99–1.02; restarted
+        // cold, 1.05–1.11).
         if let Some(ratio) = t.error_ratio() {
-            assert!(ratio <= 1.2, "{name}: Ω error ratio {ratio:.2}");
+            assert!(ratio <= 1.05, "{name}: Ω error ratio {ratio:.2}");
         }
     }
 }

@@ -5,7 +5,9 @@
 //! flagged. A part missing for [`EXCLUDE_AFTER`] sets in a row is excluded (the channel mask
 //! changes), and included again after [`INCLUDE_AFTER`] good sets (estimator-core's
 //! `exclusion`, which `ballisto estimate` shares); across such a change the last Ω is carried
-//! as the rate hint, so branch and sign are kept. Channels can also be taken out by command
+//! as the rate hint, so branch and sign are kept, and (feature `fault-isolation`) the last
+//! [`estimator_core::recent::REPLAY_SETS`] sets are replayed through the new configuration before the set at hand, so
+//! that its rate filter starts warm ([`estimator_core::recent`]). Channels can also be taken out by command
 //! ([`Estimation::set_commanded`]); the solve uses every channel neither excluded automatically
 //! nor by command.
 //!
@@ -35,6 +37,8 @@ pub use background::Builds;
 use ballisto_link::{ChannelSet, PartSet};
 use estimator_core::exclusion::MissingRuns;
 use estimator_core::fault_monitor::{Suspicion, TrustedRate, Verdict};
+#[cfg(feature = "fault-isolation")]
+use estimator_core::recent::{Recent, REPLAY_SETS};
 use estimator_core::{
     Arrangement, ChannelMask, ConfigError, Estimate, Estimator, Flags, Model, Options,
 };
@@ -130,6 +134,13 @@ pub struct Estimation {
     trusted: TrustedRate,
     /// A fault suspected and not isolated, held through sets without a test.
     suspicion: Suspicion,
+    /// The last sets read (every channel), replayed through the configuration an automatic
+    /// change of the channels in use puts in force.
+    #[cfg(feature = "fault-isolation")]
+    recent: Recent<f32, MAX_CHANNELS, REPLAY_SETS>,
+    /// Such a change was put in force at this set: replay [`Self::recent`] before its estimate.
+    #[cfg(feature = "fault-isolation")]
+    replay_due: bool,
 }
 
 impl Estimation {
@@ -171,6 +182,10 @@ impl Estimation {
             last_omega: None,
             trusted: TrustedRate::default(),
             suspicion: Suspicion::default(),
+            #[cfg(feature = "fault-isolation")]
+            recent: Recent::new(),
+            #[cfg(feature = "fault-isolation")]
+            replay_due: false,
         };
         e.rebuild_monitor();
         Ok(e)
@@ -610,6 +625,18 @@ impl Estimation {
         if !ordered {
             self.update_exclusions(set.t);
         }
+        #[cfg(feature = "fault-isolation")]
+        {
+            // A new channel set in force: the last sets through it first (their estimates
+            // are dropped), so that the rate filter meets this set warm.
+            if core::mem::take(&mut self.replay_due) {
+                let est = &mut self.estimator;
+                self.recent.replay(|t, p| {
+                    ballisto_fw_estimate::update(est, t, p);
+                });
+            }
+            self.recent.push(seconds(set.t), &self.p[..self.n]);
+        }
         // Parts whose exclusion waits for its configuration are out already: read as missing.
         #[cfg(feature = "spare-config")]
         {
@@ -668,6 +695,10 @@ impl Estimation {
         let mask = self.mask(PartSet(wanted.0 | isolated.0), self.commanded);
         // Too few channels left for either model: keep the mask (the sets stay flagged).
         let model_before = self.estimator.model();
+        // Only a change that takes channels out is replayed: the history of a part coming back
+        // may be what took it out (a stuck part returns as soon as it moves again).
+        #[cfg(feature = "fault-isolation")]
+        let replay = mask.0 & !self.estimator.mask().0 == 0;
         #[cfg(feature = "spare-config")]
         let Some(taken) = self.take_mask_when_built(mask, wanted) else {
             return; // being built: the estimate goes on with the configuration in force
@@ -676,8 +707,17 @@ impl Estimation {
         let taken = self.take_mask(mask);
         if taken.is_ok() {
             let monitor_stale = wanted != self.excluded || self.estimator.model() != model_before;
+            // The hint is for the first set the estimator will see: the oldest replayed.
+            #[cfg(feature = "fault-isolation")]
+            let from = if replay {
+                self.recent.first_t().unwrap_or(seconds(now))
+            } else {
+                seconds(now)
+            };
+            #[cfg(not(feature = "fault-isolation"))]
+            let from = seconds(now);
             let hint = if isolated != self.isolated {
-                self.trusted.hint_at(seconds(now)).or(self.last_omega)
+                self.trusted.hint_at(from).or(self.last_omega)
             } else {
                 self.last_omega
             };
@@ -686,6 +726,10 @@ impl Estimation {
             self.excluded = wanted;
             self.isolated = isolated;
             let _ = self.estimator.set_hint(hint);
+            #[cfg(feature = "fault-isolation")]
+            {
+                self.replay_due = replay;
+            }
             if monitor_stale {
                 #[cfg(feature = "spare-config")]
                 self.refresh_monitor(tested_before);
