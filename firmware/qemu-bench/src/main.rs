@@ -16,6 +16,7 @@ mod scenario;
 
 use core::fmt::Write;
 
+use estimator_core::recent::{Recent, REPLAY_SETS};
 use estimator_core::{ChannelMask, Estimator, FrameUncertainty, Model, Options};
 
 /// Per-sample budget for N = 12 (instructions).
@@ -109,6 +110,8 @@ fn run_model<P: Platform>(
     let (mut total, mut worst, mut count) = (0u64, 0u64, 0u64);
     let mut over = 0u64;
     let mut max_err = 0.0f64;
+    // The last sets, as the firmware keeps them to replay after an exclusion (issue 17).
+    let mut recent = Recent::<f32, 12, REPLAY_SETS>::new();
     let (gain, offset) = if calibrated {
         (CAL_SCALE, CAL_BIAS)
     } else {
@@ -121,6 +124,7 @@ fn run_model<P: Platform>(
             *a = (*b * gain + offset) as f32;
         }
         let (e, n) = measure(p, per_tick, || est.update(t, &p32));
+        recent.push(t, &p32);
         // The first sample has no prediction and tries every frame: reported apart.
         if k > 0 {
             total += n;
@@ -147,8 +151,18 @@ fn run_model<P: Platform>(
         })
         .1
     } else {
+        est.reset();
         0
     };
+    // The replay that follows an exclusion in the firmware (`estimator_core::recent`): the
+    // last sets through the configuration now in force, from a restarted history, in the
+    // sample path at the change.
+    let replay = measure(p, per_tick, || {
+        recent.replay(|t, x| {
+            est.update(t, x);
+        })
+    })
+    .1;
     let mean = total / count.max(1);
     if let Some(bytes) = stack {
         let _ = writeln!(
@@ -163,7 +177,7 @@ fn run_model<P: Platform>(
         p,
         "model {:<10} N = {channels}{}: per-sample estimate mean {mean} instructions, max {worst}, \
          {over} of {count} over {BUDGET}; precomputation (all frames) {setup}; mask change {reconf}; \
-         max |Ω error| after 0.5 s {max_err:.4} rad/s",
+         replay of the last {REPLAY_SETS} sets {replay}; max |Ω error| after 0.5 s {max_err:.4} rad/s",
         model.name(),
         if calibrated { ", calibrated" } else { "" }
     );
