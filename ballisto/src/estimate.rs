@@ -11,7 +11,7 @@ use estimator_core::fault_monitor::{
     FaultMonitor, NoParityTest, Settings, StuckCheck, Suspicion, TrustedRate, Verdict,
 };
 use estimator_core::parity::{Parity, NO_PART};
-use estimator_core::recent::{Recent, REPLAY_SETS};
+use estimator_core::recent::{replays, Recent, REPLAY_SETS};
 use estimator_core::smoother::Smoother;
 use estimator_core::two_way;
 use estimator_core::{ChannelMask, Estimate, Estimator, Flags, Model, Options, Real};
@@ -477,16 +477,11 @@ impl<T: Real> HostEstimator<T> {
         let isolated_before = f.isolated;
         let wanted = f.runs.wanted(f.missing);
         if wanted != f.missing || (isolated != f.isolated && f.refused != Some(isolated)) {
-            // Only a change that takes channels out is replayed (as in the firmware: the
-            // history of a part coming back may be what took it out); the hint is for the first
-            // sample the pass will see, the oldest replayed.
+            // Replayed as in the firmware (only a change that takes channels out); the hint is
+            // for the first sample the pass will see.
             let mask = f.mask(wanted | isolated);
-            let replay = mask.0 & !self.forward.est.mask().0 == 0;
-            let from = if replay {
-                f.recent.first_t().unwrap_or(t)
-            } else {
-                t
-            };
+            let replay = replays(self.forward.est.mask(), mask);
+            let from = f.recent.first_seen(replay, t);
             let hint = if isolated != f.isolated {
                 f.trusted.hint_at(from).or(f.last_omega)
             } else {

@@ -23,11 +23,20 @@
 //! 0.98–1.01 on the N = 18 layout. Only a change that takes channels out is replayed by the
 //! owners: the history of a part coming back may hold what took it out.
 
+use crate::arrangement::ChannelMask;
 use crate::real::Real;
 
 /// Sets replayed after a change of the channels in use: 0.16 s at 100 Hz, about the time the
 /// rate filter takes to settle from a restart on the mixed layout (README, "Fault detection").
 pub const REPLAY_SETS: usize = 16;
+
+/// Whether a change of the channels in use from `before` to `after` is replayed: only one that
+/// takes channels out. The history of a part coming back may be what took it out (a stuck part
+/// returns as soon as it moves again; replayed, `tetra-orbit-faults` in model F took the wrong
+/// sign), so a re-admission restarts from the set at hand.
+pub fn replays(before: ChannelMask, after: ChannelMask) -> bool {
+    after.0 & !before.0 == 0
+}
 
 /// The last `K` sample sets of up to `CAP` channels: their times (s) and readings.
 #[derive(Clone)]
@@ -81,6 +90,12 @@ impl<T: Real, const CAP: usize, const K: usize> Recent<T, CAP, K> {
         (self.len > 0).then(|| self.t[self.head])
     }
 
+    /// The time (s) of the first set the estimator sees after a change made at `now`: the
+    /// oldest held if the change is replayed, else `now` (the rate hint is for that instant).
+    pub fn first_seen(&self, replay: bool, now: f64) -> f64 {
+        self.first_t().filter(|_| replay).unwrap_or(now)
+    }
+
     /// Keeps the set `p` read at `t` (s), forgetting the oldest if `K` are held. The channels
     /// beyond `CAP` are dropped; a set of another channel count than those held (a new
     /// arrangement not cleared) starts the history again.
@@ -122,6 +137,15 @@ mod tests {
     use std::vec::Vec;
 
     #[test]
+    fn only_a_change_that_takes_channels_out_is_replayed() {
+        let all = ChannelMask::all(6);
+        assert!(replays(all, all.without(2)));
+        assert!(replays(all, all));
+        assert!(!replays(all.without(2), all));
+        assert!(!replays(all.without(2), all.without(3)));
+    }
+
+    #[test]
     fn keeps_the_last_k_sets_in_order() {
         let mut r = Recent::<f64, 4, 3>::new();
         assert!(r.is_empty());
@@ -155,8 +179,13 @@ mod tests {
             n += 1;
         });
         assert_eq!(n, 1);
+        assert_eq!(
+            (r.first_seen(true, 0.5), r.first_seen(false, 0.5)),
+            (0.2, 0.5)
+        );
         r.clear();
         assert_eq!((r.len(), r.first_t()), (0, None));
+        assert_eq!(r.first_seen(true, 0.5), 0.5);
         r.replay(|_, _| panic!("nothing to replay"));
     }
 }

@@ -5,9 +5,10 @@
 //! flagged. A part missing for [`EXCLUDE_AFTER`] sets in a row is excluded (the channel mask
 //! changes), and included again after [`INCLUDE_AFTER`] good sets (estimator-core's
 //! `exclusion`, which `ballisto estimate` shares); across such a change the last Ω is carried
-//! as the rate hint, so branch and sign are kept, and (feature `fault-isolation`) the last
-//! [`estimator_core::recent::REPLAY_SETS`] sets are replayed through the new configuration before the set at hand, so
-//! that its rate filter starts warm ([`estimator_core::recent`]). Channels can also be taken out by command
+//! as the rate hint, so branch and sign are kept, and (feature `fault-isolation`) where the
+//! change takes channels out the last [`estimator_core::recent::REPLAY_SETS`] sets are
+//! replayed through the new configuration before the set at hand, so that its rate filter
+//! starts warm ([`estimator_core::recent`]). Channels can also be taken out by command
 //! ([`Estimation::set_commanded`]); the solve uses every channel neither excluded automatically
 //! nor by command.
 //!
@@ -38,7 +39,7 @@ use ballisto_link::{ChannelSet, PartSet};
 use estimator_core::exclusion::MissingRuns;
 use estimator_core::fault_monitor::{Suspicion, TrustedRate, Verdict};
 #[cfg(feature = "fault-isolation")]
-use estimator_core::recent::{Recent, REPLAY_SETS};
+use estimator_core::recent::{replays, Recent, REPLAY_SETS};
 use estimator_core::{
     Arrangement, ChannelMask, ConfigError, Estimate, Estimator, Flags, Model, Options,
 };
@@ -695,10 +696,8 @@ impl Estimation {
         let mask = self.mask(PartSet(wanted.0 | isolated.0), self.commanded);
         // Too few channels left for either model: keep the mask (the sets stay flagged).
         let model_before = self.estimator.model();
-        // Only a change that takes channels out is replayed: the history of a part coming back
-        // may be what took it out (a stuck part returns as soon as it moves again).
         #[cfg(feature = "fault-isolation")]
-        let replay = mask.0 & !self.estimator.mask().0 == 0;
+        let replay = replays(self.estimator.mask(), mask);
         #[cfg(feature = "spare-config")]
         let Some(taken) = self.take_mask_when_built(mask, wanted) else {
             return; // being built: the estimate goes on with the configuration in force
@@ -707,13 +706,9 @@ impl Estimation {
         let taken = self.take_mask(mask);
         if taken.is_ok() {
             let monitor_stale = wanted != self.excluded || self.estimator.model() != model_before;
-            // The hint is for the first set the estimator will see: the oldest replayed.
+            // The hint is for the first set the estimator will see.
             #[cfg(feature = "fault-isolation")]
-            let from = if replay {
-                self.recent.first_t().unwrap_or(seconds(now))
-            } else {
-                seconds(now)
-            };
+            let from = self.recent.first_seen(replay, seconds(now));
             #[cfg(not(feature = "fault-isolation"))]
             let from = seconds(now);
             let hint = if isolated != self.isolated {
