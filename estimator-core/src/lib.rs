@@ -29,7 +29,8 @@
 //! per mask and frame), `quadratic` (the quadratic forms for `a`: closed form for m = 3,
 //! Kelvin's decomposition, Gauss–Newton), `tracker` (branch and sign tracking by kinematic
 //! consistency, a rate filter per hypothesis).
-#![cfg_attr(not(feature = "std"), no_std)]
+// Unit tests link std (the test harness); the library never does.
+#![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 #![deny(unsafe_op_in_unsafe_fn)]
 // `!(x > y)` is how this crate rejects NaN along with the out-of-range values: intentional.

@@ -17,7 +17,6 @@ use spacepackets::ecss::tc::PusTcReader;
 use spacepackets::ecss::PusError;
 
 use crate::codec::{Get, Put};
-#[cfg(feature = "identification")]
 use crate::identification;
 use crate::ids::{service, sid, subtype, APID, MAX_CHANNELS};
 use crate::mode::{Mode, ModelCode};
@@ -247,7 +246,6 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
                 housekeeping_every,
             })
         }
-        #[cfg(feature = "identification")]
         (service::BALLISTOMETER, subtype::START_IDENTIFICATION) => {
             length(7)?;
             let source = g.u8().unwrap_or(0);
@@ -268,7 +266,6 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
                 window_ms,
             })
         }
-        #[cfg(feature = "identification")]
         (service::BALLISTOMETER, subtype::REFERENCE_RATE) => {
             let n = usize::from(*data.first().ok_or((FailureCode::DataLength, 1))?);
             length(1 + identification::POINT_LEN * n)?;
@@ -298,12 +295,10 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
             }
             Ok(Command::ReferenceRate(data))
         }
-        #[cfg(feature = "identification")]
         (service::BALLISTOMETER, subtype::REPORT_IDENTIFICATION) => {
             length(0)?;
             Ok(Command::ReportIdentification)
         }
-        #[cfg(feature = "identification")]
         (service::BALLISTOMETER, subtype::COMMIT_CALIBRATION) => {
             length(2)?;
             Ok(Command::CommitCalibration {

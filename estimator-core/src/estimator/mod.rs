@@ -11,7 +11,7 @@
 //! - [`solve`]: one frame's per-sample solve (`W p`, the `a` solve, the branches);
 //! - [`deviations`]: `cov(a)` and the standard deviations;
 //! - [`output`]: the estimate of the chosen branch;
-//! - `follower` (feature `follower`): where mirror roots cross, the root whose slope
+//! - `follower`: where mirror roots cross, the root whose slope
 //!   continues the motion's (issue 15).
 //!
 //! This file holds the state (configuration, working storage, tracker, output slots) and the
@@ -20,7 +20,6 @@
 mod config;
 mod crossing;
 mod deviations;
-#[cfg(feature = "follower")]
 mod follower;
 mod frames;
 mod lock_monitor;
@@ -98,7 +97,6 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     /// Model F, m = 3: whether the chosen root's Ω integrates its Ω′ ([`lock_monitor`]).
     lock: LockMonitor<T>,
     /// Model F, m = 3: the root taken through a crossing (`follower`).
-    #[cfg(feature = "follower")]
     follower: follower::Follower<T>,
 }
 
@@ -276,7 +274,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             crossing_bias: [T::ZERO; 3],
             crossing_active: false,
             lock: LockMonitor::default(),
-            #[cfg(feature = "follower")]
             follower: follower::Follower::default(),
             work: Work::new(),
         };
@@ -419,7 +416,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.crossing_bias = [T::ZERO; 3];
         self.crossing_active = false;
         self.lock.reset();
-        #[cfg(feature = "follower")]
         self.follower.stop();
     }
 
@@ -632,7 +628,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             } else {
                 1
             };
-        #[cfg_attr(not(feature = "follower"), allow(unused_mut))]
         let Some(mut choice) =
             self.tracker
                 .step(&cands[..nb], dt_t, self.domega_var, hint_var, histories)
@@ -641,7 +636,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         };
         // Where mirror roots cross (model F, m = 3), the root whose slope continues the
         // motion's.
-        #[cfg(feature = "follower")]
         if check == PathCheck::Full {
             follower::follow(
                 &mut self.follower,

@@ -75,8 +75,7 @@ pub enum Alignment {
     /// to the common instant.
     Interpolate,
     /// Take the latest output at the common instant as if it had been sampled then (the
-    /// reference for showing what alignment gains; feature `unaligned-reference`).
-    #[cfg(feature = "unaligned-reference")]
+    /// reference for showing what alignment gains).
     Latest,
 }
 

@@ -646,7 +646,6 @@ fn xorshift(mut x: u64) -> impl FnMut() -> u64 {
 fn mutated_commands_never_panic() {
     let cfg = config();
     let mut seeds: Vec<Vec<u8>> = bad_commands(&cfg).into_iter().map(|c| c.1).collect();
-    #[cfg(feature = "identification")]
     seeds.extend(bad_identification_commands().into_iter().map(|c| c.1));
     seeds.push(tc(
         service::BALLISTOMETER,
@@ -712,7 +711,6 @@ fn start_data(source: u8, period_ms: u16, window_ms: u32) -> Vec<u8> {
 }
 
 /// The identification's commands refused at acceptance, each with its reason.
-#[cfg(feature = "identification")]
 fn bad_identification_commands() -> Vec<(&'static str, Vec<u8>, FailureCode, u32)> {
     let b = service::BALLISTOMETER;
     let p = |t: u64| (t, [0.0f32, 0.0, 0.5]);
@@ -839,7 +837,6 @@ fn bad_identification_commands() -> Vec<(&'static str, Vec<u8>, FailureCode, u32
     ]
 }
 
-#[cfg(feature = "identification")]
 #[test]
 fn identification_commands_are_refused_with_their_reason() {
     let mut u = Unit::new();
@@ -876,7 +873,6 @@ fn identification_commands_are_refused_with_their_reason() {
 /// what a single-axis spin cannot show (every lever arm along z, the scale always), a commit
 /// names the solution, waits for the store and is completed when it answers; a second commit
 /// meanwhile, a wrong solution number and a failed store are refused with their reasons.
-#[cfg(feature = "identification")]
 #[test]
 fn a_window_is_reported_and_committed_through_the_store() {
     let mut u = Unit::new();
@@ -1003,27 +999,6 @@ fn a_window_is_reported_and_committed_through_the_store() {
     assert_eq!(u.app.calibration(), ballisto_link::CalibrationId::default());
 }
 
-/// An image built without identification does not know its commands.
-#[cfg(not(feature = "identification"))]
-#[test]
-fn an_image_without_identification_does_not_know_its_commands() {
-    let mut u = Unit::new();
-    for (st, data) in [
-        (subtype::START_IDENTIFICATION, start_data(1, 50, 4_000)),
-        (subtype::REPORT_IDENTIFICATION, vec![]),
-        (subtype::COMMIT_CALIBRATION, vec![0, 1]),
-    ] {
-        let r = u.command(&tc(service::BALLISTOMETER, st, &data, 90));
-        assert_eq!(
-            verification(r.last().unwrap()),
-            (
-                subtype::NOT_ACCEPTED,
-                Some((FailureCode::UnknownCommand, (200 << 8) | u32::from(st)))
-            )
-        );
-    }
-}
-
 /// TC[9,128] correlates the unit's time to the spacecraft's: the boot's spacecraft time
 /// (given minus the unit's time at reception) is in housekeeping from then on; a time before
 /// the unit's own time since boot is refused with its reason and changes nothing.
@@ -1090,7 +1065,6 @@ fn the_spacecraft_time_sets_the_time_correlation() {
 /// missing: flagged predictions, finite); another configuration command meanwhile is refused
 /// as not ready. A refused change completes as refused, nothing changed. A channel back in to
 /// the configuration set aside is swapped in and completed at once.
-#[cfg(feature = "spare-config")]
 #[test]
 fn commanded_changes_built_in_the_background_complete_once_in_force() {
     use ballisto_fw::estimation::Builds;
@@ -1217,7 +1191,6 @@ fn commanded_changes_built_in_the_background_complete_once_in_force() {
 /// exactly one completion or failure report; the estimates stay finite;
 /// and once the builder has caught up and the part is back, the channels out are exactly the
 /// ones the completed commands left out.
-#[cfg(feature = "spare-config")]
 #[test]
 fn random_commands_sets_and_builds_keep_every_command_answered() {
     use ballisto_fw::estimation::Builds;

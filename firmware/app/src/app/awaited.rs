@@ -1,4 +1,4 @@
-//! Telecommands whose configuration the builder task builds (feature `spare-config`, a board
+//! Telecommands whose configuration the builder task builds (a board
 //! with [`crate::estimation::Builds::background`]): a model or arrangement change (TC[200,2],
 //! TC[200,6]) or a channel taken out or put back (TC[200,4], TC[200,5]) is accepted at once and
 //! completed — its event and TM[1,7], or TM[1,8] if the estimator refuses it — at the first

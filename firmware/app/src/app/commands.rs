@@ -41,14 +41,12 @@ impl App {
                 None
             }
             Command::SetModel(model) => {
-                #[cfg(feature = "spare-config")]
                 self.configuration_free()?;
                 let arrangement = self.estimation.estimator().arrangement().clone();
                 let applied = self
                     .estimation
                     .configure(&arrangement, model)
                     .map_err(refused)?;
-                #[cfg(feature = "spare-config")]
                 if applied == Applied::WhenBuilt {
                     return Ok(self.defer_reconfigured(None));
                 }
@@ -62,7 +60,6 @@ impl App {
                 None
             }
             Command::Exclude(c) | Command::Include(c) => {
-                #[cfg(feature = "spare-config")]
                 self.configuration_free()?;
                 let now = self.estimation.commanded();
                 let commanded = match command {
@@ -70,7 +67,6 @@ impl App {
                     _ => now.without(usize::from(c)),
                 };
                 let applied = self.estimation.set_commanded(commanded).map_err(refused)?;
-                #[cfg(feature = "spare-config")]
                 if applied == Applied::WhenBuilt {
                     self.deferring = Some(super::awaited::Deferred::ChannelsCommanded {
                         before: now,
@@ -82,10 +78,8 @@ impl App {
                 (commanded != now).then_some((EventId::ChannelsCommanded, now.0, commanded.0))
             }
             Command::LoadArrangement(data) => {
-                #[cfg(feature = "spare-config")]
                 self.configuration_free()?;
                 let (applied, calibration) = self.load_arrangement(data)?;
-                #[cfg(feature = "spare-config")]
                 if applied == Applied::WhenBuilt {
                     return Ok(self.defer_reconfigured(Some(calibration)));
                 }
@@ -154,7 +148,6 @@ impl App {
 
     /// A new model or arrangement (`calibration`: the new arrangement's identity) to be built
     /// by the builder task: its `reconfigured` event comes with the command's completion.
-    #[cfg(feature = "spare-config")]
     fn defer_reconfigured(
         &mut self,
         calibration: Option<ballisto_link::CalibrationId>,
@@ -164,7 +157,6 @@ impl App {
     }
 
     /// A configuration command may run: none is being built (with the builder task).
-    #[cfg(feature = "spare-config")]
     fn configuration_free(&self) -> Result<(), (FailureCode, u32)> {
         if self.estimation.order_awaited() {
             return Err((FailureCode::NotReady, not_ready::CONFIGURATION_BUSY));

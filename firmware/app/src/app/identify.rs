@@ -2,10 +2,6 @@
 //! commit of a solution through the storage task with its completion reported when the store
 //! answers.
 
-// Built without identification, the image never reaches most of this (its commands are
-// unknown at acceptance); the code stays one file and the optimiser drops what is unused.
-#![cfg_attr(not(feature = "identification"), allow(unused_imports, dead_code))]
-
 use ballisto_link::identification::IdentifiedChannel;
 use ballisto_link::telecommand::Command;
 use ballisto_link::verification::{config_error_code, not_ready};
@@ -37,7 +33,6 @@ pub(super) enum Store {
 impl App {
     /// TC[200,8–10] (TC[200,11] is handled before execution: its completion comes from the
     /// storage task).
-    #[cfg(feature = "identification")]
     pub(super) async fn identification_command<W: Write>(
         &mut self,
         command: Command<'_>,
@@ -68,17 +63,6 @@ impl App {
         Ok(())
     }
 
-    /// Without identification in the image the link refuses these commands at acceptance.
-    #[cfg(not(feature = "identification"))]
-    pub(super) async fn identification_command<W: Write>(
-        &mut self,
-        _: Command<'_>,
-        _: Nanos,
-        _: &mut Telemetry<W>,
-    ) -> Result<(), (FailureCode, u32)> {
-        Ok(())
-    }
-
     /// Says that a storage task takes commits (the board has a writable store).
     pub fn set_store_writable(&mut self, writable: bool) {
         self.store = if writable { Store::Idle } else { Store::None };
@@ -90,7 +74,6 @@ impl App {
     }
 
     /// TC[200,10]: solves the window and sends the summary and every channel.
-    #[cfg(feature = "identification")]
     async fn report_identification<W: Write>(
         &mut self,
         t: Nanos,

@@ -13,7 +13,6 @@
 //! [`reports`] (the application's state as the link's reports), [`uplink`] (the command link),
 //! [`task`] (the task and its links; observers subscribe to [`Observations`]).
 
-#[cfg(feature = "spare-config")]
 mod awaited;
 mod commands;
 mod identify;
@@ -93,9 +92,7 @@ pub struct App {
     outbox: Option<CommitRequest>,
     /// What the command being executed reports once its configuration is built (set by
     /// `execute`), and the command waiting for it.
-    #[cfg(feature = "spare-config")]
     deferring: Option<awaited::Deferred>,
-    #[cfg(feature = "spare-config")]
     awaited: Option<awaited::Awaited>,
 }
 
@@ -128,17 +125,14 @@ impl App {
             identification: Identification::new(),
             store: identify::Store::None,
             outbox: None,
-            #[cfg(feature = "spare-config")]
             deferring: None,
-            #[cfg(feature = "spare-config")]
             awaited: None,
         })
     }
 
-    /// Takes `builds` as the estimator's second configuration buffer (feature `spare-config`;
-    /// [`Estimation::attach_builds`]): with [`Builds::background`] the board must run
+    /// Takes `builds` as the estimator's second configuration buffer
+    /// ([`Estimation::attach_builds`]): with [`Builds::background`] the board must run
     /// [`Builds::run`] in a task of lower priority than this one's.
-    #[cfg(feature = "spare-config")]
     pub fn attach_builds(&mut self, builds: &'static crate::estimation::Builds) {
         self.estimation.attach_builds(builds);
     }
@@ -222,7 +216,6 @@ impl App {
             self.identification
                 .on_set(set.t, self.estimation.readings());
             // Only with the monitor: in the STM32H743 image even the empty loop costs flash.
-            #[cfg(feature = "fault-isolation")]
             for (id, a, b) in self
                 .estimation
                 .fault_events(m.verdict)
@@ -241,7 +234,6 @@ impl App {
         }
         // A commanded configuration built by the builder task is taken at a set (in standby
         // too), and its command completed.
-        #[cfg(feature = "spare-config")]
         {
             if self.mode != Mode::Operate {
                 self.estimation.poll_order();
@@ -315,7 +307,6 @@ impl App {
         if ack_acceptance {
             self.verify(t, tm, subtype::ACCEPTED, request, None).await;
         }
-        #[cfg(feature = "identification")]
         if let telecommand::Command::CommitCalibration { solution } = command {
             // Completed when the store answers (`on_commit_reply`).
             if let Err(failure) = self.commit_calibration(solution, request, ack_completion) {
@@ -325,7 +316,6 @@ impl App {
             return;
         }
         let (st, failure) = match self.execute(command, t, tm).await {
-            #[cfg(feature = "spare-config")]
             Ok(_) if self.deferring.is_some() => {
                 // Completed when its configuration is built (`complete_awaited`).
                 self.awaited = self.deferring.take().map(|report| awaited::Awaited {

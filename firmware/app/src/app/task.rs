@@ -3,9 +3,6 @@
 //! board ends its run) published on an embassy-sync `PubSubChannel` — no hooks in the
 //! application. With no subscriber (the flight board) nothing is queued.
 
-#[cfg(not(feature = "identification"))]
-use embassy_futures::select::{select, Either as Event};
-#[cfg(feature = "identification")]
 use embassy_futures::select::{select3, Either3 as Event};
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::channel::Receiver;
@@ -92,9 +89,7 @@ where
     app.set_store_writable(storage.is_some());
     app.boot(time.now(), tm).await;
     loop {
-        // Commits come only from identification (TC[200,11]); an image without it waits on
-        // sample sets and telecommands alone.
-        #[cfg(feature = "identification")]
+        // Commits come from identification (TC[200,11]) where the board has a writable store.
         let event = {
             let replies = async {
                 match &storage {
@@ -104,8 +99,6 @@ where
             };
             select3(samples.receive(), commands.receive(), replies).await
         };
-        #[cfg(not(feature = "identification"))]
-        let event = select(samples.receive(), commands.receive()).await;
         match event {
             Event::First(set) => {
                 let seen = app.on_set(&set, health, tm).await;
@@ -116,14 +109,12 @@ where
             Event::Second(incoming) => {
                 app.on_incoming(incoming, time.now(), tm).await;
                 commands.receive_done();
-                #[cfg(feature = "identification")]
                 if let (Some(request), Some(s)) = (app.take_commit(), &storage) {
                     // One commit at a time (the application refuses another while busy): the
                     // channel has room.
                     s.requests.send(request).await;
                 }
             }
-            #[cfg(feature = "identification")]
             Event::Third(reply) => app.on_commit_reply(reply, time.now(), tm).await,
         }
     }

@@ -1,5 +1,5 @@
 //! The precomputation of a channel-mask change outside the sample loop (issue 17): the second
-//! configuration buffer and the task that builds into it (feature `spare-config`).
+//! configuration buffer and the task that builds into it.
 //!
 //! ```text
 //! application task (sets)            Builds (spare buffer, request)          builder task
@@ -11,8 +11,8 @@
 //! ```
 //!
 //! The application never waits for the buffer: it only *tries* to lock it, and the builder
-//! holds it for the whole build, so the estimate never meets a half-built configuration. With
-//! the feature `fault-isolation` the fault monitor's parity space for the channels it will test
+//! holds it for the whole build, so the estimate never meets a half-built configuration. The
+//! fault monitor's parity space for the channels it will test
 //! is built with the configuration (an SVD in f64 as well: 4.2 M instructions at N = 18 on the
 //! M4F). What the swap replaces — configuration and parity space — stays in the buffer (set
 //! aside), so that the return when the part is back is a swap too. Commanded changes
@@ -29,13 +29,12 @@ use embassy_sync::mutex::{MappedMutexGuard, Mutex, MutexGuard};
 use embassy_sync::signal::Signal;
 use estimator_core::{Arrangement, ChannelMask, ConfigError, Model, Options};
 
-use ballisto_fw_precompute::{FwEstimator, FwSpare};
+use super::{FwEstimator, FwSpare};
 
 use crate::config::MAX_CHANNELS;
-#[cfg(feature = "fault-isolation")]
 use crate::isolation::{build_parity, Checks};
 
-/// The parity space a change needs (feature `fault-isolation`): the channels the fault monitor
+/// The parity space a change needs: the channels the fault monitor
 /// will test and each channel's part; `None` where the tested channels do not change, or
 /// there is no monitor.
 pub type Tested = Option<(ChannelMask, [u8; MAX_CHANNELS])>;
@@ -47,7 +46,6 @@ struct Request {
     options: Options,
     mask: ChannelMask,
     preferred: Model,
-    #[cfg_attr(not(feature = "fault-isolation"), allow(dead_code))]
     tested: Tested,
 }
 
@@ -59,7 +57,6 @@ struct Slot {
     done: Option<(u32, Result<Model, ConfigError>)>,
     /// The fault monitor's second buffer: a parity space and the channels it tests, built
     /// with a configuration or set aside when one was swapped in.
-    #[cfg(feature = "fault-isolation")]
     parity: Option<(ChannelMask, Checks)>,
 }
 
@@ -68,7 +65,6 @@ impl Slot {
     /// longer wanted, or set aside for an arrangement no longer in force).
     fn forget(&mut self) {
         self.spare.clear();
-        #[cfg(feature = "fault-isolation")]
         {
             self.parity = None;
         }
@@ -108,7 +104,6 @@ impl Builds {
                 spare: FwSpare::new(),
                 request: None,
                 done: None,
-                #[cfg(feature = "fault-isolation")]
                 parity: None,
             }),
             wake: Signal::new(),
@@ -274,7 +269,6 @@ impl Builds {
 
     /// The parity space built or set aside for the channels of `tested`, if the buffer holds
     /// it and no build holds the buffer.
-    #[cfg(feature = "fault-isolation")]
     pub fn take_parity(&self, tested: ChannelMask) -> Option<Checks> {
         let mut slot = self.slot.try_lock().ok()?;
         match slot.parity.take() {
@@ -288,7 +282,6 @@ impl Builds {
 
     /// The channels of the parity space the buffer holds (built or set aside), if no build
     /// holds the buffer.
-    #[cfg(feature = "fault-isolation")]
     pub fn parity_held(&self) -> Option<ChannelMask> {
         self.slot
             .try_lock()
@@ -299,7 +292,6 @@ impl Builds {
     }
 
     /// Sets aside the parity space of the channels of `tested` that a change replaced.
-    #[cfg(feature = "fault-isolation")]
     pub fn set_aside_parity(&self, tested: ChannelMask, checks: Checks) {
         if let Ok(mut slot) = self.slot.try_lock() {
             slot.parity = Some((tested, checks));
@@ -312,15 +304,10 @@ fn build_asked(slot: &mut Slot) -> bool {
     let Some(r) = slot.request.take() else {
         return false;
     };
-    let built = ballisto_fw_precompute::build_spare(
-        &mut slot.spare,
-        &r.arrangement,
-        r.preferred,
-        r.mask,
-        r.options,
-    );
+    let built = slot
+        .spare
+        .build(&r.arrangement, r.preferred, r.mask, r.options);
     // The parity space only for a configuration that will be swapped in.
-    #[cfg(feature = "fault-isolation")]
     if let (Ok(_), Some((tested, part))) = (&built, r.tested) {
         slot.parity = Some((tested, build_parity(&r.arrangement, tested, &part)));
     }

@@ -5,7 +5,7 @@
 //! flagged. A part missing for [`EXCLUDE_AFTER`] sets in a row is excluded (the channel mask
 //! changes), and included again after [`INCLUDE_AFTER`] good sets (estimator-core's
 //! `exclusion`, which `ballisto estimate` shares); across such a change the last Ω is carried
-//! as the rate hint, so branch and sign are kept, and (feature `fault-isolation`) where the
+//! as the rate hint, so branch and sign are kept, and where the
 //! change takes channels out the last [`estimator_core::recent::REPLAY_SETS`] sets are
 //! replayed through the new configuration before the set at hand, so that its rate filter
 //! starts warm ([`estimator_core::recent`]). Channels can also be taken out by command
@@ -17,28 +17,25 @@
 //! the channels left, and in model G again once they carry it (issue 17); each switch is
 //! reported ([`Estimation::take_model_switch`], the `model-switched` event).
 //!
-//! With the feature `fault-isolation` the measurements themselves are tested as well
+//! The measurements themselves are tested as well
 //! ([`crate::isolation`], issue 17): a part that the parity space isolates, or whose own
 //! signal is stuck, is kept out of the solve until the readings are consistent again, where
 //! the model can spare it; while a fault is seen but not isolated, or isolated and not left
 //! out, the estimate carries [`Flags::RESIDUAL_HIGH`].
 //!
-//! With the feature `spare-config` and a [`Builds`] buffer attached
+//! With a [`Builds`] buffer attached
 //! ([`Estimation::attach_builds`]) the configuration of an exclusion or a re-admission is
 //! built beside the one in force, by a task of lower priority where the board runs one
 //! ([`background`]): the estimate goes on meanwhile, the parts on their way out read as
 //! missing (flagged predictions), and the new configuration is swapped in at the first set
 //! after it is built.
 
-#[cfg(feature = "spare-config")]
 pub mod background;
-#[cfg(feature = "spare-config")]
 pub use background::Builds;
 
 use ballisto_link::{ChannelSet, PartSet};
 use estimator_core::exclusion::MissingRuns;
 use estimator_core::fault_monitor::{Suspicion, TrustedRate, Verdict};
-#[cfg(feature = "fault-isolation")]
 use estimator_core::recent::{replays, Recent, REPLAY_SETS};
 use estimator_core::{
     Arrangement, ChannelMask, ConfigError, Estimate, Estimator, Flags, Model, Options,
@@ -50,6 +47,12 @@ use crate::sampler::SampleSet;
 use crate::time::{seconds, Nanos};
 
 pub use estimator_core::exclusion::{EXCLUDE_AFTER, INCLUDE_AFTER};
+
+/// The firmware's estimator: f32, up to [`MAX_CHANNELS`] channels.
+pub type FwEstimator = Estimator<f32, MAX_CHANNELS>;
+
+/// The second configuration buffer of [`FwEstimator`].
+pub type FwSpare = estimator_core::SpareConfig<f32, MAX_CHANNELS>;
 
 /// The estimate of one sample set (what the estimation task outputs per set).
 #[derive(Clone, Copy, Debug)]
@@ -76,13 +79,12 @@ pub struct SetEstimate {
 pub enum Applied {
     /// It is in force.
     Now,
-    /// Once the builder task has built it (feature `spare-config`, [`Builds::background`]):
+    /// Once the builder task has built it ([`Builds::background`]):
     /// [`Estimation::take_order_outcome`] says how it ended.
     WhenBuilt,
 }
 
 /// A commanded configuration change being built by the builder task.
-#[cfg(feature = "spare-config")]
 #[derive(Clone, Copy, Debug)]
 struct Order {
     pending: background::Pending,
@@ -112,21 +114,16 @@ pub struct Estimation {
     options: Options,
     /// The configured model (the estimator's, unless the channels in use do not carry it).
     model: Model,
-    /// The second configuration buffer (feature `spare-config`, where the board attaches one):
+    /// The second configuration buffer (where the board attaches one):
     /// model G's configuration set aside while model F is in force, so that the return is a
     /// swap, and, with a builder task, where changes are built outside the sample loop.
-    #[cfg(feature = "spare-config")]
     builds: Option<&'static Builds>,
     /// The exclusion or re-admission waiting for its configuration (built in the background).
-    #[cfg(feature = "spare-config")]
     pending: Option<background::Pending>,
     /// Numbers the builds asked for.
-    #[cfg(feature = "spare-config")]
     tickets: u32,
     /// The commanded change being built, and how the last one ended (not yet taken).
-    #[cfg(feature = "spare-config")]
     order: Option<Order>,
-    #[cfg(feature = "spare-config")]
     order_outcome: Option<Result<(), ConfigError>>,
     /// A change of the model in force not yet reported: (before, after).
     switch: Option<(Model, Model)>,
@@ -137,10 +134,8 @@ pub struct Estimation {
     suspicion: Suspicion,
     /// The last sets read (every channel), replayed through the configuration an automatic
     /// change of the channels in use puts in force.
-    #[cfg(feature = "fault-isolation")]
     recent: Recent<f32, MAX_CHANNELS, REPLAY_SETS>,
     /// Such a change was put in force at this set: replay [`Self::recent`] before its estimate.
-    #[cfg(feature = "fault-isolation")]
     replay_due: bool,
 }
 
@@ -151,7 +146,7 @@ impl Estimation {
             initial_omega: config.hint,
             ..Options::default()
         };
-        let estimator = ballisto_fw_precompute::new(&config.arrangement, config.model, options)?;
+        let estimator = Estimator::new(&config.arrangement, config.model, options)?;
         let mut channels = [[None; 3]; MAX_PARTS];
         for (i, p) in config.sampling.parts() {
             channels[i] = p.channels;
@@ -169,23 +164,16 @@ impl Estimation {
             commanded: ChannelSet::EMPTY,
             options,
             model: config.model,
-            #[cfg(feature = "spare-config")]
             builds: None,
-            #[cfg(feature = "spare-config")]
             pending: None,
-            #[cfg(feature = "spare-config")]
             tickets: 0,
-            #[cfg(feature = "spare-config")]
             order: None,
-            #[cfg(feature = "spare-config")]
             order_outcome: None,
             switch: None,
             last_omega: None,
             trusted: TrustedRate::default(),
             suspicion: Suspicion::default(),
-            #[cfg(feature = "fault-isolation")]
             recent: Recent::new(),
-            #[cfg(feature = "fault-isolation")]
             replay_due: false,
         };
         e.rebuild_monitor();
@@ -195,7 +183,6 @@ impl Estimation {
     /// Takes `builds` as the second configuration buffer: mask changes keep the configuration
     /// they replace there, and, if it is [`Builds::background`], the exclusions' and
     /// re-admissions' configurations are built there by the board's builder task.
-    #[cfg(feature = "spare-config")]
     pub fn attach_builds(&mut self, builds: &'static Builds) {
         self.builds = Some(builds);
         self.pending = None;
@@ -205,7 +192,6 @@ impl Estimation {
     /// The channels whose exclusion (automatic or commanded) waits for its configuration
     /// (none without a builder task).
     pub fn channels_leaving(&self) -> ChannelMask {
-        #[cfg(feature = "spare-config")]
         if let Some(p) = self.order.map(|o| o.pending).or(self.pending) {
             return ChannelMask(self.estimator.mask().0 & !p.mask.0);
         }
@@ -214,23 +200,16 @@ impl Estimation {
 
     /// Whether a commanded configuration change is being built (another is refused meanwhile).
     pub fn order_awaited(&self) -> bool {
-        #[cfg(feature = "spare-config")]
-        return self.order.is_some();
-        #[cfg(not(feature = "spare-config"))]
-        false
+        self.order.is_some()
     }
 
     /// How the last commanded change built by the builder task ended, once (`None` while it
     /// is being built, or if none was).
     pub fn take_order_outcome(&mut self) -> Option<Result<(), ConfigError>> {
-        #[cfg(feature = "spare-config")]
-        return self.order_outcome.take();
-        #[cfg(not(feature = "spare-config"))]
-        None
+        self.order_outcome.take()
     }
 
     /// The builder task's buffer, if the board runs one.
-    #[cfg(feature = "spare-config")]
     fn background(&self) -> Option<&'static Builds> {
         self.builds.filter(|b| b.in_background())
     }
@@ -241,7 +220,6 @@ impl Estimation {
     /// (a channel commanded back in), swaps that in at once ([`Applied::Now`]). `None` (nothing
     /// asked) without a builder task or while it holds the buffer: the caller makes the change
     /// in the sample path.
-    #[cfg(feature = "spare-config")]
     fn order(
         &mut self,
         arrangement: Option<&Arrangement<MAX_CHANNELS>>,
@@ -287,7 +265,6 @@ impl Estimation {
     /// A commanded change now in force (the estimator's configuration swapped in; the model in
     /// force was `before`): the channels out by command, the configured model, the hint, the
     /// fault monitor.
-    #[cfg(feature = "spare-config")]
     fn take_order(
         &mut self,
         commanded: ChannelSet,
@@ -312,14 +289,12 @@ impl Estimation {
     }
 
     /// Takes a commanded change once it is built (where no set is processed: standby).
-    #[cfg(feature = "spare-config")]
     pub fn poll_order(&mut self) {
         self.collect_order();
     }
 
     /// The commanded change being built, swapped in once it is: `true` while it is still
     /// being built (the exclusions wait for it).
-    #[cfg(feature = "spare-config")]
     fn collect_order(&mut self) -> bool {
         let (Some(order), Some(builds)) = (self.order, self.builds) else {
             return false;
@@ -345,23 +320,16 @@ impl Estimation {
     /// What a change needs built besides the configuration: the fault monitor's parity space
     /// for the channels neither `missing` nor `commanded` out, if they are not those it tests
     /// now (or, `anew`, a new arrangement: whatever they are).
-    #[cfg(feature = "spare-config")]
     fn tested_after(
         &self,
         missing: PartSet,
         commanded: ChannelSet,
         anew: bool,
     ) -> background::Tested {
-        #[cfg(feature = "fault-isolation")]
         {
             let tested = self.mask(missing, commanded);
             let now = self.mask(self.excluded, self.commanded);
             (anew || tested != now).then(|| (tested, *self.isolation.parts()))
-        }
-        #[cfg(not(feature = "fault-isolation"))]
-        {
-            let _ = (missing, commanded, anew);
-            None
         }
     }
 
@@ -371,9 +339,7 @@ impl Estimation {
     /// channels tested, the one in force (only the model's test refitted, no SVD); else built
     /// here. The buffer comes first: a new arrangement's parity space is built with it for the
     /// same channels.
-    #[cfg(feature = "spare-config")]
     fn refresh_monitor(&mut self, before: ChannelMask) {
-        #[cfg(feature = "fault-isolation")]
         if let Some(builds) = self.background() {
             let tested = self.mask(self.excluded, self.commanded);
             if let Some(checks) = builds.take_parity(tested) {
@@ -420,7 +386,6 @@ impl Estimation {
     /// (too few channels left, or a degenerate geometry) nothing changes.
     /// With a builder task the change is built there ([`Applied::WhenBuilt`]).
     pub fn set_commanded(&mut self, commanded: ChannelSet) -> Result<Applied, ConfigError> {
-        #[cfg(feature = "spare-config")]
         if let Some(applied) = self.order(None, self.model, commanded) {
             return Ok(applied);
         }
@@ -444,28 +409,22 @@ impl Estimation {
     }
 
     /// Takes the channels of `mask` in the configured model, or in model F where they do not
-    /// carry it (estimator-core's `Estimator::set_mask_in`; with the feature `spare-config`
-    /// `set_mask_keeping`: back in the configured model, its configuration set aside at the
+    /// carry it (estimator-core's `Estimator::set_mask_in`;
+    /// with a second buffer attached `set_mask_keeping`: back in the configured model, its configuration set aside at the
     /// switch is swapped in), and notes a change of the model in force. On error nothing
     /// changes.
     fn take_mask(&mut self, mask: ChannelMask) -> Result<(), ConfigError> {
         let before = self.estimator.model();
-        #[cfg(feature = "spare-config")]
         {
             // Made here and now: a change waiting for the builder is no longer wanted.
             self.pending = None;
             match self.builds.and_then(|b| b.spare_now()) {
-                Some(mut spare) => ballisto_fw_precompute::set_mask_keeping(
-                    &mut self.estimator,
-                    mask,
-                    self.model,
-                    &mut spare,
-                )?,
-                None => ballisto_fw_precompute::set_mask_in(&mut self.estimator, mask, self.model)?,
+                Some(mut spare) => self
+                    .estimator
+                    .set_mask_keeping(mask, self.model, &mut spare)?,
+                None => self.estimator.set_mask_in(mask, self.model)?,
             };
         }
-        #[cfg(not(feature = "spare-config"))]
-        ballisto_fw_precompute::set_mask_in(&mut self.estimator, mask, self.model)?;
         self.note_model(before);
         Ok(())
     }
@@ -474,7 +433,6 @@ impl Estimation {
     /// by the builder task where there is one: `None` while it is being built (nothing
     /// changes meanwhile). `missing`: the parts out because they stopped answering once the
     /// change is made (the fault monitor tests the others).
-    #[cfg(feature = "spare-config")]
     fn take_mask_when_built(
         &mut self,
         mask: ChannelMask,
@@ -515,7 +473,6 @@ impl Estimation {
                 channel: arrangement.len().min(self.n),
             });
         }
-        #[cfg(feature = "spare-config")]
         if let Some(applied) = self.order(Some(arrangement), model, self.commanded) {
             return Ok(applied);
         }
@@ -524,16 +481,14 @@ impl Estimation {
             initial_omega: self.last_omega,
             ..self.options
         };
-        #[cfg(feature = "spare-config")]
         {
             self.pending = None; // an exclusion waiting was for the old configuration
         }
         let est = &mut self.estimator;
-        ballisto_fw_precompute::configure_preferring(est, arrangement, model, mask, options)?;
+        est.configure_preferring(arrangement, model, mask, options)?;
         // A commanded change: the `reconfigured` event reports the model in force; a
         // configuration set aside has the old arrangement.
         self.model = model;
-        #[cfg(feature = "spare-config")]
         if let Some(b) = self.builds {
             b.clear();
         }
@@ -577,7 +532,7 @@ impl Estimation {
     }
 
     /// The events the fault monitor's `verdict` of the last set calls for (part isolated,
-    /// fault suspected or no longer; none without the feature `fault-isolation`).
+    /// fault suspected or no longer).
     pub fn fault_events(
         &mut self,
         verdict: Verdict,
@@ -586,7 +541,7 @@ impl Estimation {
     }
 
     /// The consistency test the fault monitor runs on the readings of the channels in use
-    /// (housekeeping; "not built" without the feature `fault-isolation`).
+    /// (housekeeping).
     pub fn consistency_test(&self) -> ballisto_link::ConsistencyTest {
         self.isolation.test()
     }
@@ -619,27 +574,22 @@ impl Estimation {
         }
         let verdict = self.isolation.step(&self.p[..self.n], &set.variance);
         let isolated_before = self.isolated;
-        #[cfg(feature = "spare-config")]
         let ordered = self.collect_order();
-        #[cfg(not(feature = "spare-config"))]
-        let ordered = false;
         if !ordered {
             self.update_exclusions(set.t);
         }
-        #[cfg(feature = "fault-isolation")]
         {
             // A new channel set in force: the last sets through it first (their estimates
             // are dropped), so that the rate filter meets this set warm.
             if core::mem::take(&mut self.replay_due) {
                 let est = &mut self.estimator;
                 self.recent.replay(|t, p| {
-                    ballisto_fw_estimate::update(est, t, p);
+                    est.update(t, p);
                 });
             }
             self.recent.push(seconds(set.t), &self.p[..self.n]);
         }
         // Parts whose exclusion waits for its configuration are out already: read as missing.
-        #[cfg(feature = "spare-config")]
         {
             let leaving = self.channels_leaving();
             if leaving.0 != 0 {
@@ -651,9 +601,7 @@ impl Estimation {
             }
         }
         let newly_out = !self.isolated.minus(isolated_before).is_empty();
-        // Through the speed-built crate: this crate is built for size.
-        let mut estimate =
-            *ballisto_fw_estimate::update(&mut self.estimator, seconds(set.t), &self.p[..self.n]);
+        let mut estimate = *self.estimator.update(seconds(set.t), &self.p[..self.n]);
         if estimate.is_finite() && !estimate.flags.has(Flags::INPUT_INVALID) {
             self.last_omega = Some(estimate.omega.map(f64::from));
         }
@@ -687,7 +635,6 @@ impl Estimation {
         let isolated = self.isolation.isolated();
         if wanted == self.excluded && (isolated == self.isolated || Some(isolated) == self.refused)
         {
-            #[cfg(feature = "spare-config")]
             {
                 self.pending = None; // a change no longer wanted
             }
@@ -696,40 +643,28 @@ impl Estimation {
         let mask = self.mask(PartSet(wanted.0 | isolated.0), self.commanded);
         // Too few channels left for either model: keep the mask (the sets stay flagged).
         let model_before = self.estimator.model();
-        #[cfg(feature = "fault-isolation")]
         let replay = replays(self.estimator.mask(), mask);
-        #[cfg(feature = "spare-config")]
         let Some(taken) = self.take_mask_when_built(mask, wanted) else {
             return; // being built: the estimate goes on with the configuration in force
         };
-        #[cfg(not(feature = "spare-config"))]
-        let taken = self.take_mask(mask);
         if taken.is_ok() {
             let monitor_stale = wanted != self.excluded || self.estimator.model() != model_before;
             // The hint is for the first set the estimator will see.
-            #[cfg(feature = "fault-isolation")]
             let from = self.recent.first_seen(replay, seconds(now));
-            #[cfg(not(feature = "fault-isolation"))]
-            let from = seconds(now);
             let hint = if isolated != self.isolated {
                 self.trusted.hint_at(from).or(self.last_omega)
             } else {
                 self.last_omega
             };
-            #[cfg(feature = "spare-config")]
             let tested_before = self.mask(self.excluded, self.commanded);
             self.excluded = wanted;
             self.isolated = isolated;
             let _ = self.estimator.set_hint(hint);
-            #[cfg(feature = "fault-isolation")]
             {
                 self.replay_due = replay;
             }
             if monitor_stale {
-                #[cfg(feature = "spare-config")]
                 self.refresh_monitor(tested_before);
-                #[cfg(not(feature = "spare-config"))]
-                self.rebuild_monitor();
             }
         } else {
             self.refused = Some(isolated);
@@ -746,7 +681,7 @@ mod tests {
 
     fn set(k: u32, part0: bool) -> SampleSet {
         // The same small change in every part's reading each set (a uniform σ0: consistent),
-        // so that no part repeats its values (the stuck check of `fault-isolation`).
+        // so that no part repeats its values (the fault monitor's stuck check).
         let d = 1e-4 * (k % 7) as f32;
         let mut parts = [Some([0.1 + d, 0.2 - d, 9.8 + d]); MAX_PARTS];
         if !part0 {
@@ -831,7 +766,6 @@ mod tests {
 
     /// The tetrahedron's estimation with a builder task's buffer (the test builds at once with
     /// `Builds::build_now` where the board's task would build).
-    #[cfg(feature = "spare-config")]
     fn with_builder() -> (Estimation, &'static Builds) {
         let builds: &'static Builds =
             std::boxed::Box::leak(std::boxed::Box::new(Builds::background()));
@@ -846,7 +780,6 @@ mod tests {
     /// configuration; the first set after the build is made in model F without the part. The
     /// return, once the part has answered for `INCLUDE_AFTER` sets, swaps model G's
     /// configuration back from the buffer at once, with no build.
-    #[cfg(feature = "spare-config")]
     #[test]
     fn an_exclusion_built_in_the_background_never_stops_the_estimates() {
         let (mut e, builds) = with_builder();
@@ -897,7 +830,6 @@ mod tests {
     /// A part back before its exclusion's configuration is built: the change is abandoned —
     /// the estimator keeps its configuration and the part, and the build, when the builder
     /// gets to it, is not swapped in.
-    #[cfg(feature = "spare-config")]
     #[test]
     fn an_exclusion_no_longer_wanted_is_not_swapped_in() {
         let (mut e, builds) = with_builder();
@@ -922,14 +854,12 @@ mod tests {
 
     /// Eighteen channels: the tetrahedron and two more parts on the axes (the host simulator's
     /// `tetra-orbit` with two ADXL355s added).
-    #[cfg(all(feature = "spare-config", feature = "fault-isolation"))]
     fn eighteen() -> AppConfig {
         eighteen_turned(0)
     }
 
     /// [`eighteen`] with the two added parts' axes turned by `turn` places (another
     /// arrangement of the same channels).
-    #[cfg(all(feature = "spare-config", feature = "fault-isolation"))]
     fn eighteen_turned(turn: usize) -> AppConfig {
         let mut cfg = tetra();
         let extra = cfg.sampling.parts[0].expect("part 0");
@@ -951,7 +881,6 @@ mod tests {
     }
 
     /// Readings consistent with a uniform specific force (no rotation), `part0` absent.
-    #[cfg(all(feature = "spare-config", feature = "fault-isolation"))]
     fn consistent_set(cfg: &AppConfig, k: u32, part0: bool) -> SampleSet {
         let d = 1e-3 * f64::from(k % 7);
         let f = [0.1 + d, 0.2 - d, 9.8 + d];
@@ -973,7 +902,6 @@ mod tests {
     /// with the exclusion's configuration, not in the sample path: at the swap the monitor
     /// tests the fifteen channels left with it, and the one for all eighteen is set aside; the
     /// part's return takes that one back (and sets the other aside) with no build at all.
-    #[cfg(all(feature = "spare-config", feature = "fault-isolation"))]
     #[test]
     fn the_parity_space_is_built_with_the_configuration_in_the_background() {
         let cfg = eighteen();
@@ -1028,7 +956,6 @@ mod tests {
     /// configuration is the one installed (the channels tested are the same as before, which
     /// must not keep the old arrangement's): readings consistent with the new arrangement are
     /// not flagged once it is in force.
-    #[cfg(all(feature = "spare-config", feature = "fault-isolation"))]
     #[test]
     fn a_new_arrangement_built_in_the_background_brings_its_own_parity_space() {
         let (cfg, turned) = (eighteen(), eighteen_turned(1));

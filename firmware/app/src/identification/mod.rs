@@ -11,16 +11,9 @@
 //! orbit, 4e-7 m/s² on a 0.1 m arm) is left out.
 
 mod reference;
-#[cfg(feature = "identification")]
 mod window;
 
-#[cfg(not(feature = "identification"))]
-mod absent;
-
-#[cfg(not(feature = "identification"))]
-pub use absent::Identification;
 pub use reference::{Push, ReferenceTrack};
-#[cfg(feature = "identification")]
 pub use window::Identification;
 
 /// Sample sets that can wait for the reference to cover them. At sample rates where that is

@@ -216,7 +216,6 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
                 continue;
             };
             set.parts[i] = match self.alignment {
-                #[cfg(feature = "unaligned-reference")]
                 Alignment::Latest => p.read_latest().await,
                 Alignment::Interpolate => {
                     time.wait_until(at).await;

@@ -233,7 +233,6 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
     }
 
     /// The latest output as if sampled now ([`Alignment::Latest`]).
-    #[cfg(feature = "unaligned-reference")]
     pub async fn read_latest(&mut self) -> Option<[f32; 3]> {
         if !self.health.running {
             return self.or_missed(None);
