@@ -110,3 +110,130 @@ fn the_crate_table_matches_the_workspace() {
         assert_eq!(&workspace, deps, "{name}: workspace dependencies");
     }
 }
+
+/// A manifest parsed.
+fn manifest_toml(path: &str) -> toml::Table {
+    read(&root().join(path).join("Cargo.toml"))
+        .parse()
+        .unwrap_or_else(|e| panic!("{path}/Cargo.toml: {e}"))
+}
+
+/// The features a manifest declares.
+fn declared_features(path: &str) -> BTreeSet<String> {
+    manifest_toml(path)
+        .get("features")
+        .and_then(toml::Value::as_table)
+        .map(|t| t.keys().cloned().collect())
+        .unwrap_or_default()
+}
+
+/// Every declaration of `dep` in a manifest (normal and target-specific dependencies): its
+/// features and whether it keeps the default ones.
+fn uses_of(path: &str, dep: &str) -> Vec<(BTreeSet<String>, bool)> {
+    let m = manifest_toml(path);
+    let mut tables: Vec<&toml::Table> = Vec::new();
+    if let Some(t) = m.get("dependencies").and_then(toml::Value::as_table) {
+        tables.push(t);
+    }
+    if let Some(targets) = m.get("target").and_then(toml::Value::as_table) {
+        for t in targets.values() {
+            if let Some(d) = t.get("dependencies").and_then(toml::Value::as_table) {
+                tables.push(d);
+            }
+        }
+    }
+    tables
+        .iter()
+        .filter_map(|t| t.get(dep))
+        .map(|v| {
+            let features = v
+                .get("features")
+                .and_then(toml::Value::as_array)
+                .map(|a| {
+                    a.iter()
+                        .filter_map(|f| f.as_str().map(str::to_string))
+                        .collect()
+                })
+                .unwrap_or_default();
+            let defaults = v
+                .get("default-features")
+                .and_then(toml::Value::as_bool)
+                .unwrap_or(true);
+            (features, defaults)
+        })
+        .collect()
+}
+
+fn set(names: &[&str]) -> BTreeSet<String> {
+    names.iter().map(|s| s.to_string()).collect()
+}
+
+/// Issue 43: no cargo feature changes what the firmware does. The crates the flashed image is
+/// made of declare only features that add without changing behaviour — `defmt` (the log's
+/// transport), `demo` (the built-in scenario's modules, for boards without parts), `ground`
+/// (the link's decoder), `double-fpu` (the same square roots by the M7's instruction) — and no
+/// default features.
+#[test]
+fn no_feature_changes_what_the_firmware_does() {
+    for (path, allowed) in [
+        ("firmware/app", set(&["defmt", "demo"])),
+        ("estimator-core", set(&["defmt", "double-fpu"])),
+        ("link", set(&["defmt", "ground"])),
+        ("firmware/calstore", set(&["defmt"])),
+    ] {
+        let declared = declared_features(path);
+        assert!(
+            declared.is_subset(&allowed),
+            "{path} declares {:?}: only {allowed:?} may exist (features that add, not change)",
+            declared.difference(&allowed).collect::<Vec<_>>()
+        );
+        assert!(!declared.contains("default"), "{path}: default features");
+    }
+}
+
+/// Issue 43: the STM32H743 flight image runs the application the QEMU board, the host
+/// simulator and the ground tool run: each depends on `ballisto-fw` with its default features
+/// and nothing but the features that only add (`defmt` routes the log; `demo` adds the
+/// built-in scenario of a board without parts).
+#[test]
+fn the_flashed_application_is_the_tested_one() {
+    let only_adding = set(&["defmt", "demo"]);
+    let mut seen = BTreeMap::new();
+    for path in [
+        "firmware/boards/stm32h743",
+        "firmware/boards/qemu",
+        "hal-sim",
+        "ballisto",
+        "firmware/qemu-bench",
+        "tests",
+    ] {
+        let uses = uses_of(path, "ballisto-fw");
+        assert_eq!(uses.len(), 1, "{path}: one dependency on ballisto-fw");
+        let (features, defaults) = &uses[0];
+        assert!(
+            *defaults,
+            "{path}: ballisto-fw with default-features = false"
+        );
+        assert!(
+            features.is_subset(&only_adding),
+            "{path}: ballisto-fw with {features:?}"
+        );
+        seen.insert(path, features.clone());
+    }
+    assert_eq!(seen["firmware/boards/stm32h743"], set(&["defmt"]));
+    // The estimator-core and link every build gets: no feature beyond those that add.
+    for path in [
+        "firmware/boards/stm32h743",
+        "firmware/boards/qemu",
+        "hal-sim",
+    ] {
+        for dep in ["estimator-core", "ballisto-link"] {
+            for (features, _) in uses_of(path, dep) {
+                assert!(
+                    features.is_subset(&set(&["defmt", "double-fpu", "ground"])),
+                    "{path}: {dep} with {features:?}"
+                );
+            }
+        }
+    }
+}

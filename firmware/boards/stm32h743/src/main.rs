@@ -11,10 +11,17 @@
 //! Time base: embassy-time (TIM2, 1 MHz ticks). Log: defmt over RTT. Flash and run from this
 //! directory with `cargo run --profile flight` (probe-rs runner, see `.cargo/config.toml`).
 //!
-//! Calibration: the store in bank 2's first two sectors (`CAL_RANGE`), opened read-only at
-//! boot; its newest whole record replaces the built-in arrangement if it is for the same
+//! Two priorities, as on the QEMU board: sampling, the application and the uplink on an
+//! interrupt executor (UART4's vector, a peripheral this board does not use), and below them,
+//! in thread mode, the builder of the estimator's configurations (a part's exclusion is
+//! precomputed there while the estimates go on) and the calibration storage task (a sector
+//! erase blocks for up to seconds).
+//!
+//! Calibration: the store in bank 2's first two sectors (`CAL_RANGE`), read at boot without
+//! writing; its newest whole record replaces the built-in arrangement if it is for the same
 //! channels (`calstore::select_at_boot`), and the choice is logged and reported in
-//! housekeeping.
+//! housekeeping. The storage task then takes the store and commits what identification in
+//! flight (TC[200,11]) asks.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 #[cfg(target_os = "none")]
@@ -28,17 +35,21 @@ mod board {
     };
     use ballisto_fw::config::AppConfig;
     use ballisto_fw::config::{builtin, PartKind, MAX_PARTS};
+    use ballisto_fw::estimation::Builds;
     use ballisto_fw::sampler::{sampling_task, HealthBoard, PartBus, SampleSet, Sampler};
+    use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
     use ballisto_fw::telemetry::Telemetry;
     use ballisto_fw::time::{Nanos, TimeBase};
     use defmt::{error, info};
     use defmt_rtt as _;
     use embassy_embedded_hal::adapter::BlockingAsync;
     use embassy_embedded_hal::shared_bus::asynch::{i2c::I2cDevice, spi::SpiDevice};
-    use embassy_executor::Spawner;
-    use embassy_stm32::flash::Flash;
+    use embassy_executor::{InterruptExecutor, Spawner};
+    use embassy_stm32::flash::{Blocking, Flash};
     use embassy_stm32::gpio::{Level, Output, Speed};
     use embassy_stm32::i2c::{self, I2c};
+    use embassy_stm32::interrupt;
+    use embassy_stm32::interrupt::{InterruptExt, Priority};
     use embassy_stm32::mode::Async;
     use embassy_stm32::peripherals;
     use embassy_stm32::spi::{self, Spi};
@@ -70,6 +81,17 @@ mod board {
     type Part = SpiDevice<'static, Cs, SpiBus, Output<'static>>;
     type I2cPart = I2cDevice<'static, Cs, I2cBus>;
     type Board = Sampler<Part, I2cPart, Output<'static>>;
+    type Store = CalibrationStore<BlockingAsync<Flash<'static, Blocking>>>;
+
+    /// Sampling, the application and the uplink: above thread mode, where the builder and the
+    /// storage task run.
+    static UPPER: InterruptExecutor = InterruptExecutor::new();
+
+    #[interrupt]
+    unsafe fn UART4() {
+        // SAFETY: UART4's vector is the upper executor's alone (the peripheral is not used).
+        unsafe { UPPER.on_interrupt() }
+    }
 
     /// The time base: embassy-time's instant in nanoseconds.
     #[derive(Clone, Copy)]
@@ -95,6 +117,10 @@ mod board {
     static SLOTS: StaticCell<[Incoming; COMMAND_QUEUE]> = StaticCell::new();
     static COMMANDS: StaticCell<ZeroCopyChannel<'static, Cs, Incoming>> = StaticCell::new();
     static RX_DMA: StaticCell<[u8; 256]> = StaticCell::new();
+    static BUILDS: StaticCell<Builds> = StaticCell::new();
+    static STORE: StaticCell<Store> = StaticCell::new();
+    static COMMIT_REQUESTS: CommitRequests<Cs> = CommitRequests::new();
+    static COMMIT_REPLIES: CommitReplies<Cs> = CommitReplies::new();
     /// The calibration store: bank 2's first two 128 KiB sectors (offsets from 0x0800_0000;
     /// `memory.x` keeps the image in bank 1).
     const CAL_RANGE: core::ops::Range<u32> = 0x10_0000..0x14_0000;
@@ -139,19 +165,17 @@ mod board {
     }
 
     /// The calibration to run: the store's newest whole record for the configured channels,
-    /// else the built-in arrangement (logged either way). Out of the main task and polled to
-    /// completion here (the H7's flash operations block anyway): in the main task's state
-    /// machine the store's futures cost more flash.
-    #[inline(never)]
+    /// else the built-in arrangement (logged either way), and the store for the storage task.
+    /// Polled to completion here (the H7's flash operations block anyway).
     fn calibration_at_boot(
         flash: embassy_stm32::Peri<'static, embassy_stm32::peripherals::FLASH>,
         config: &mut AppConfig,
-    ) -> CalibrationId {
-        // Read only: booting never writes (and the driver's program and erase code stays out).
+    ) -> (CalibrationId, Option<Store>) {
+        // Read only: booting never writes (a damaged record is left for the next commit).
         let flash = ReadOnly(BlockingAsync::new(Flash::new_blocking(flash)));
         let Ok(mut store) = CalibrationStore::new(flash, CAL_RANGE) else {
             error!("calibration store range invalid: built-in arrangement");
-            return CalibrationId::default();
+            return (CalibrationId::default(), None);
         };
         let (arrangement, id, why) =
             embassy_futures::block_on(select_at_boot(&mut store, &config.arrangement));
@@ -168,7 +192,8 @@ mod board {
             id.id, id.crc, reason
         );
         config.arrangement = arrangement;
-        id
+        let store = CalibrationStore::new(store.into_flash().0, CAL_RANGE).ok();
+        (id, store)
     }
     /// No observer on the flight board: nothing is queued there.
     static OBSERVATIONS: Observations<Cs> = Observations::new();
@@ -178,6 +203,18 @@ mod board {
         let mut time = EmbassyTime;
         sampler.start(&time, None).await;
         sampling_task(sampler, &mut time, SAMPLES.sender(), &HEALTH, None).await;
+    }
+
+    /// Builds the estimator's configurations (thread mode: below everything else).
+    #[embassy_executor::task]
+    async fn builder(builds: &'static Builds) {
+        builds.run().await
+    }
+
+    /// Commits calibrations (thread mode).
+    #[embassy_executor::task]
+    async fn storage(store: &'static mut Store) {
+        storage_task(store, COMMIT_REQUESTS.receiver(), COMMIT_REPLIES.sender()).await
     }
 
     #[embassy_executor::task]
@@ -194,6 +231,7 @@ mod board {
         app: &'static mut App,
         tm: &'static mut Telemetry<UartTx<'static, Async>>,
         commands: zerocopy_channel::Receiver<'static, Cs, Incoming>,
+        writable: bool,
     ) {
         let links = Links {
             samples: SAMPLES.receiver(),
@@ -201,7 +239,10 @@ mod board {
             health: &HEALTH,
             telemetry: tm,
             observations: &OBSERVATIONS,
-            storage: None,
+            storage: writable.then(|| StorageLinks {
+                requests: COMMIT_REQUESTS.sender(),
+                replies: COMMIT_REPLIES.receiver(),
+            }),
         };
         app_task(app, &EmbassyTime, links).await;
     }
@@ -239,7 +280,7 @@ mod board {
             error!("no built-in configuration");
             return;
         };
-        let calibration = calibration_at_boot(p.FLASH, &mut config);
+        let (calibration, store) = calibration_at_boot(p.FLASH, &mut config);
 
         let mut spi_config = spi::Config::default();
         spi_config.frequency = Hertz(10_000_000);
@@ -292,10 +333,12 @@ mod board {
         let (tx, rx) = uart.split();
         let rx = rx.into_ring_buffered(RX_DMA.init([0; 256]));
 
+        let builds = BUILDS.init_with(Builds::background);
         let app = match App::new(&config, Mode::Operate) {
             Ok(mut app) => {
                 app.set_calibration(calibration);
                 app.set_boot_info(boot);
+                app.attach_builds(builds);
                 app
             }
             Err(e) => {
@@ -308,9 +351,16 @@ mod board {
         let slots = SLOTS.init_with(|| core::array::from_fn(|_| Incoming::new()));
         let (command_tx, command_rx) = COMMANDS.init(ZeroCopyChannel::new(slots)).split();
 
-        spawner.spawn(sampling(sampler).unwrap());
-        spawner.spawn(uplink(rx, command_tx).unwrap());
-        spawner.spawn(application(app, tm, command_rx).unwrap());
+        spawner.spawn(builder(builds).unwrap());
+        let writable = store.is_some();
+        if let Some(store) = store {
+            spawner.spawn(storage(STORE.init(store)).unwrap());
+        }
+        interrupt::UART4.set_priority(Priority::P6);
+        let upper = UPPER.start(interrupt::UART4);
+        upper.spawn(sampling(sampler).unwrap());
+        upper.spawn(uplink(rx, command_tx).unwrap());
+        upper.spawn(application(app, tm, command_rx, writable).unwrap());
     }
 }
 
