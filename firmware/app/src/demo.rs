@@ -1,6 +1,7 @@
 //! The built-in scenario: what a board without accelerometers runs (QEMU in CI), and what
 //! the host recomputes to check it. The `tetra` board on the synthetic motion of
-//! [`crate::sampler::synthetic`] for [`SETS`] sets, one part silent for half a second, and a
+//! [`crate::sampler::synthetic`] for [`SETS`] sets, one part silent for half a second, one
+//! stuck for 0.4 s ([`STUCK`]), and a
 //! script of telecommands on the uplink ([`SCRIPT`]) that exercises every path: mode changes,
 //! a housekeeping request, line noise, a damaged command, a model change, an exclusion.
 
@@ -27,6 +28,14 @@ pub const OUTAGE: Outage = Outage {
     part: 3,
     from: 4.0,
     to: 4.5,
+};
+
+/// Part u1's output stuck from 8.3 s to 8.7 s: the fault monitor isolates it (its own signal
+/// frozen), the estimate goes on without it, and it is re-admitted once it moves again.
+pub const STUCK: Outage = Outage {
+    part: 1,
+    from: 8.3,
+    to: 8.7,
 };
 
 /// The configuration: the built-in `tetra` board.

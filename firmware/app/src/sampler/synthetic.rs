@@ -3,8 +3,9 @@
 //!
 //! The body tumbles smoothly ([`motion`]); each channel reads paper eq. (4),
 //! `p = s·(σ0 + Ω′×R + Ω×(Ω×R))`, plus a deterministic pseudo-noise of the channel's RMS. One
-//! part can be silenced for a while ([`Outage`]) so that the health, event and exclusion paths
-//! run too.
+//! part can be silenced for a while ([`Outage`]), and one stuck (its output frozen at its last
+//! value over the same kind of window), so that the health, event, exclusion and fault
+//! isolation paths run too.
 
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::channel::Sender;
@@ -31,7 +32,7 @@ pub fn motion(t: f64) -> (Vec3<f64>, Vec3<f64>, Vec3<f64>) {
     (sigma0, domega, omega)
 }
 
-/// A part silenced from `from` to `to` (s since the first instant).
+/// A part silenced (or stuck) from `from` to `to` (s since the first instant).
 #[derive(Clone, Copy, Debug)]
 pub struct Outage {
     /// The part slot.
@@ -53,14 +54,18 @@ pub struct Synthetic {
     period: Nanos,
     channels: [[Option<Geometry>; 3]; MAX_PARTS],
     outage: Option<Outage>,
+    stuck: Option<Outage>,
+    /// Each part's last output (what a stuck part repeats).
+    last: [[f32; 3]; MAX_PARTS],
     parts: [Option<PartHealth>; MAX_PARTS],
     silent: [u32; MAX_PARTS],
     health: LoopHealth,
 }
 
 impl Synthetic {
-    /// Samples for the parts and arrangement of `config`.
-    pub fn new(config: &AppConfig, outage: Option<Outage>) -> Self {
+    /// Samples for the parts and arrangement of `config`, a part silent over `outage` and one
+    /// whose output is frozen over `stuck`.
+    pub fn new(config: &AppConfig, outage: Option<Outage>, stuck: Option<Outage>) -> Self {
         let mut channels = [[None; 3]; MAX_PARTS];
         let mut parts = [None; MAX_PARTS];
         for (i, p) in config.sampling.parts() {
@@ -78,6 +83,8 @@ impl Synthetic {
             period: config.sampling.period_ns(),
             channels,
             outage,
+            stuck,
+            last: [[0.0; 3]; MAX_PARTS],
             parts,
             silent: [0; MAX_PARTS],
             health: LoopHealth::default(),
@@ -112,6 +119,13 @@ impl Synthetic {
             }
             self.silent[i] = 0;
             h.running = true;
+            if self
+                .stuck
+                .is_some_and(|o| o.part == i && s >= o.from && s < o.to)
+            {
+                *slot = Some(self.last[i]);
+                continue;
+            }
             let mut v = [0.0f32; 3];
             for (j, (x, g)) in v.iter_mut().zip(chans.iter()).enumerate() {
                 let Some((r, axis, noise)) = g else { continue };
@@ -123,6 +137,7 @@ impl Synthetic {
                 let n = noise * 1.732 * pseudo_uniform(k, (3 * i + j) as u32);
                 *x = (dot(axis, &field) + n) as f32;
             }
+            self.last[i] = v;
             *slot = Some(v);
         }
         self.health.sets = self.health.sets.wrapping_add(1);

@@ -333,7 +333,11 @@ mod board {
         let builds = BUILDS.init_with(Builds::background);
         app.attach_builds(builds);
         let app = APP.init(app);
-        let source = SOURCE.init(Synthetic::new(&config, Some(demo::OUTAGE)));
+        let source = SOURCE.init(Synthetic::new(
+            &config,
+            Some(demo::OUTAGE),
+            Some(demo::STUCK),
+        ));
         let tm = TELEMETRY.init(Telemetry::new(file));
         spawner.spawn(builder(builds).unwrap());
         let upper = UPPER.start(SoftwareInterrupt);
