@@ -121,7 +121,7 @@ fn motions(s: &Stream) -> Vec<(f64, MotionReport)> {
 /// channels'), and re-admitted.
 fn in_stuck_fault(k: u32) -> bool {
     let s = f64::from(k) * 0.01;
-    s >= demo::STUCK.from && s < demo::STUCK.to + 0.2
+    (demo::STUCK.from..demo::STUCK.to + 0.2).contains(&s)
 }
 
 /// |Ω − truth| and the reported |sd_Ω| of one motion report.
