@@ -138,7 +138,8 @@ pub enum ConsistencyTest {
     KnownField = 2,
     /// Model F's own residual, windowed (10–12 channels): tests.
     OwnResidual = 3,
-    /// The image carries no fault monitor (the STM32H743 flight image, for flash).
+    /// The image carries no fault monitor (images before issue 43's one build; kept so that
+    /// their telemetry still decodes).
     NotBuilt = 255,
 }
 

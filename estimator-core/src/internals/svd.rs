@@ -87,10 +87,7 @@ impl<const CAP: usize> Svd<CAP> {
             }
             if best != a {
                 s.swap(a, best);
-                // Row by row, not `u.swap`: that copied the rows through `memmove`, which
-                // nothing else in the firmware calls (1.5 KB of the STM32H743 image).
-                let (lo, hi) = u.split_at_mut(best);
-                lo[a].swap_with_slice(&mut hi[0]);
+                u.swap(a, best);
                 for row in v.iter_mut().take(k) {
                     row.swap(a, best);
                 }

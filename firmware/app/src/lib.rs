@@ -20,7 +20,7 @@
 //! - [`config`] — what runs: parts, channels, rate, arrangement, model (built-in table or
 //!   command); [`time`] — the time base; [`calstore`] — calibration records in flash;
 //!   [`storage`] — the task that commits a calibration to them (app → storage).
-//! - Feature `demo` (not in the flight image): `demo` — the built-in scenario of boards
+//! - Feature `demo` (adds; the STM32H743 does not enable it): `demo` — the built-in scenario of boards
 //!   without parts (sample sets from `sampler::synthetic`, a scripted uplink), run by the QEMU
 //!   board and checked on the host.
 //!

@@ -326,8 +326,7 @@ fn model_name(model: Model) -> &'static str {
     }
 }
 
-/// Issue 17's fault monitor beside the estimate, counted and not budgeted (the STM32H743 image
-/// does not carry it; the QEMU board and the host simulator do): the parity space's
+/// Issue 17's fault monitor alone (the whole per-set path with it: [`run_per_set`]): the parity space's
 /// detection and isolation per set at the 24-channel capacity (8 tri-axial parts, 12 degrees
 /// of freedom), and model G's known-field test where 12 channels have no parity space, on the
 /// same motion with the declared (Gaussian) noise.

@@ -215,7 +215,6 @@ impl App {
             // After the estimate: the identification only reads the channel vector.
             self.identification
                 .on_set(set.t, self.estimation.readings());
-            // Only with the monitor: in the STM32H743 image even the empty loop costs flash.
             for (id, a, b) in self
                 .estimation
                 .fault_events(m.verdict)
