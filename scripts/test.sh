@@ -2,7 +2,9 @@
 # The test command: formatting, lints, every test, the target builds and their figures:
 # instruction counts of the estimate under QEMU in the flashed profile (which fail if a mean
 # exceeds the per-sample budget), the STM32H743 build, the QEMU board running the built-in
-# scenario with its telemetry decoded and checked against the host, and the flash / RAM report
+# scenario (boot 1: identification and commit; a reset; boot 2 on the stored calibration, a part
+# stuck and isolated) with both boots' telemetry decoded and checked against the host, and the
+# flash / RAM report
 # (which fails if the STM32H743 build is over its budget).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -26,6 +28,8 @@ bash scripts/qemu-bench-m7.sh
 (cd firmware/boards/stm32h743 && cargo build --profile flight)
 cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf
 cargo build --release --bin ballisto
+./target/release/ballisto decode out/qemu/telemetry-boot1.bin --out out/qemu/estimates-boot1.csv \
+  --log out/qemu/log-boot1.txt
 ./target/release/ballisto decode out/qemu/telemetry.bin --out out/qemu/estimates.csv \
   --log out/qemu/log.txt
 BOARD_QEMU_TELEMETRY="$PWD/out/qemu/telemetry.bin" \

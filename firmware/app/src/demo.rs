@@ -1,27 +1,58 @@
 //! The built-in scenario: what a board without accelerometers runs (QEMU in CI), and what
-//! the host recomputes to check it. The `tetra` board on the synthetic motion of
-//! [`crate::sampler::synthetic`] for [`SETS`] sets, one part silent for half a second, one
-//! stuck for 0.4 s ([`STUCK`]), and a
-//! script of telecommands on the uplink ([`SCRIPT`]) that exercises every path: mode changes,
-//! a housekeeping request, line noise, a damaged command, a model change, an exclusion.
+//! the host recomputes to check it, in two boots of the `tetra` board on the synthetic motion
+//! of [`crate::sampler::synthetic`], whose true geometry is not the nominal one ([`truth`]:
+//! u2 mounted 3 mm off).
+//!
+//! 1. Power-on, the store erased: the nominal arrangement, in free flight, for [`BOOT1_SETS`]
+//!    sets; the ground identifies the geometry from a reference rate ([`identification`]:
+//!    TC[200,8], the reference in TC[200,9] batches, TC[200,10]) and commits the solution
+//!    (TC[200,11]) through the storage task. Then a reset.
+//! 2. The calibration read back from the store, for [`SETS`] sets: one part silent for half a
+//!    second ([`OUTAGE`]), one stuck for 0.4 s ([`STUCK`]), and a script of telecommands
+//!    ([`SCRIPT`]) that exercises every path: mode changes, a housekeeping request, line
+//!    noise, a damaged command, a model change, an exclusion.
 
-use ballisto_link::framing;
+use ballisto_link::identification::{POINT_LEN, SOURCE_REFERENCE};
 use ballisto_link::telecommand::{self, ACK_ACCEPTANCE, ACK_COMPLETION};
-use ballisto_link::{service, sid, subtype};
+use ballisto_link::{cuc, framing, service, sid, subtype};
 use embedded_io_async::{ErrorType, Read};
 
 use core::ops::Range;
 
-use ballisto_link::{BootInfo, CalibrationId, ResetCause};
+use ballisto_link::CalibrationId;
 use embedded_storage_async::nor_flash::NorFlash;
+use estimator_core::Arrangement;
 
-use crate::calstore::{select_at_boot, CalibrationRecord, CalibrationStore};
-use crate::config::{tetra, AppConfig};
-use crate::sampler::synthetic::Outage;
+use crate::calstore::{select_at_boot, CalibrationStore};
+use crate::config::{tetra, AppConfig, MAX_CHANNELS};
+use crate::sampler::synthetic::{motion, Outage};
 use crate::time::{Nanos, TimeBase};
 
-/// Sample sets of the run (10 s at 100 Hz).
+/// Sample sets of the second boot (10 s at 100 Hz).
 pub const SETS: u32 = 1000;
+
+/// Sample sets of the first boot, the identification's (28 s at 100 Hz: the window, the solve
+/// — seconds of the QEMU board's M4F in soft f64 — and the commit).
+pub const BOOT1_SETS: u32 = 2800;
+
+/// The part mounted off its nominal position, and by how much (m, body frame).
+pub const MOUNTING_ERROR: (usize, [f64; 3]) = (2, [0.003, -0.002, 0.0]);
+
+/// The identification window: from set 50 (0.5 s) for 20 s — about one period of the motion's
+/// slowest component, so that Ω turns enough to tell a channel's position from its bias —
+/// the reference every fifth set (20 Hz), four points per TC[200,9], each batch 50 ms after
+/// its last point.
+const WINDOW_FIRST: u32 = 50;
+const WINDOW_SETS: u32 = 2000;
+const REFERENCE_EVERY: u32 = 5;
+const BATCH: u32 = 4;
+/// TC[200,8]: the reference source, its period (50 ms) and the window (ms), which ends half a
+/// period after a set, so that the same sets are in it wherever between two sets the command
+/// is taken (on the host at a set's instant, on the board just before it).
+const START: [u8; 7] = {
+    let w = (WINDOW_SETS * 10 + 5).to_be_bytes();
+    [SOURCE_REFERENCE, 0, 50, w[0], w[1], w[2], w[3]]
+};
 
 /// Part u3 silent from 4.0 s to 4.5 s.
 pub const OUTAGE: Outage = Outage {
@@ -43,66 +74,40 @@ pub fn config() -> AppConfig {
     tetra()
 }
 
-/// What the calibration boots of the scenario found ([`calibration_boots`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct CalibrationBoots {
-    /// The first boot, on an erased store: the built-in arrangement.
-    pub first: CalibrationId,
-    /// The second, after the commit and a reset: the stored record.
-    pub second: CalibrationId,
-    /// The second boot's count and cause: the second since power-on, by a software reset (the
-    /// QEMU board's SYSRESETREQ), as [`crate::boot::count_boot`] counts them.
-    pub boot: BootInfo,
+/// The board as built: [`config`] with part [`MOUNTING_ERROR`]'s channels off their nominal
+/// position (what the synthetic parts read; the estimator knows only the nominal geometry
+/// until it is identified).
+pub fn truth() -> AppConfig {
+    let mut config = config();
+    let (part, offset) = MOUNTING_ERROR;
+    let channels = config.sampling.parts[part].map_or([None; 3], |p| p.channels);
+    let mut arrangement = Arrangement::<MAX_CHANNELS>::new();
+    for (c, ch) in config.arrangement.channels().iter().enumerate() {
+        let mut position = ch.position;
+        if channels.contains(&Some(c as u8)) {
+            for (x, d) in position.iter_mut().zip(offset) {
+                *x += d;
+            }
+        }
+        // The nominal channels are valid and a few mm change none of that.
+        let _ = arrangement.push(position, ch.axis, ch.noise);
+    }
+    config.arrangement = arrangement;
+    config
 }
 
-/// The scenario's first boot on `flash` (erased; `range` of it, whole sectors): the empty
-/// store gives the built-in arrangement; the built-in arrangement is then committed as
-/// calibration 1 (what a ground calibration uploaded by command would be). Returns what the
-/// boot chose and the flash; a reset follows.
-pub async fn first_boot<F: NorFlash>(
-    flash: F,
-    range: Range<u32>,
-) -> Result<(CalibrationId, F), &'static str> {
-    let builtin = config().arrangement;
-    let mut store = CalibrationStore::new(flash, range).map_err(|_| "store range")?;
-    let (_, first, _) = select_at_boot(&mut store, &builtin).await;
-    let record = CalibrationRecord {
-        id: 1,
-        arrangement: builtin,
-    };
-    store.commit(&record).await.map_err(|_| "commit")?;
-    Ok((first, store.into_flash()))
-}
-
-/// A boot after it: the configuration with the arrangement the store gives, and its identity.
+/// A boot on `flash` (`range` of it, whole sectors): the configuration with the arrangement
+/// the store gives (the nominal one on an erased store), its identity and the store, which
+/// the board's storage task takes.
 pub async fn boot<F: NorFlash>(
     flash: F,
     range: Range<u32>,
-) -> Result<(AppConfig, CalibrationId, F), &'static str> {
+) -> Result<(AppConfig, CalibrationId, CalibrationStore<F>), &'static str> {
     let mut config = config();
     let mut store = CalibrationStore::new(flash, range).map_err(|_| "store range")?;
     let (arrangement, id, _) = select_at_boot(&mut store, &config.arrangement).await;
     config.arrangement = arrangement;
-    Ok((config, id, store.into_flash()))
-}
-
-/// [`first_boot`], a reset (here: the flash given back, everything else dropped) and [`boot`]:
-/// what the host runs; the QEMU board runs the two with a reset of the machine between them.
-pub async fn calibration_boots<F: NorFlash>(
-    flash: F,
-    range: Range<u32>,
-) -> Result<(AppConfig, CalibrationBoots, F), &'static str> {
-    let mut retained = [0u32; 2];
-    crate::boot::count_boot(&mut retained, ResetCause::PowerOn);
-    let (first, flash) = first_boot(flash, range.clone()).await?;
-    let boot_info = crate::boot::count_boot(&mut retained, ResetCause::Software);
-    let (config, second, flash) = boot(flash, range).await?;
-    let boots = CalibrationBoots {
-        first,
-        second,
-        boot: boot_info,
-    };
-    Ok((config, boots, flash))
+    Ok((config, id, store))
 }
 
 /// What arrives on the uplink.
@@ -114,6 +119,64 @@ pub enum Step {
     Damaged(u8, u8, &'static [u8]),
     /// Line noise.
     Noise(&'static [u8]),
+    /// TC[200,9]: the reference rate (the synthetic motion's Ω) at `points` sample instants,
+    /// every `every`-th from set `first`, on the unit's time.
+    Reference {
+        /// The set of the first point.
+        first: u32,
+        /// Sets between points.
+        every: u32,
+        /// Points (at most `MAX_POINTS`).
+        points: u32,
+    },
+}
+
+/// A script: its `i`-th step (seconds after the first instant, what arrives), in time order.
+pub type Script = fn(usize) -> Option<(f64, Step)>;
+
+/// [`SCRIPT`] as a [`Script`] (the second boot's uplink).
+pub fn script(i: usize) -> Option<(f64, Step)> {
+    SCRIPT.get(i).copied()
+}
+
+/// The first boot's uplink: the identification, as the ground runs it. TC[200,8] just before
+/// the window; the reference, every fifth set of the window, in batches of four points each
+/// sent 50 ms after its last point; TC[200,10] after the last batch; TC[200,11] committing
+/// solution 1.
+pub fn identification(i: usize) -> Option<(f64, Step)> {
+    let batches = WINDOW_SETS.div_ceil(REFERENCE_EVERY * BATCH) as usize;
+    let at = |set: u32| f64::from(set) * 0.01;
+    let last = WINDOW_FIRST + WINDOW_SETS;
+    match i {
+        0 => Some((
+            at(WINDOW_FIRST) - 0.005,
+            Step::Command(
+                service::BALLISTOMETER,
+                subtype::START_IDENTIFICATION,
+                &START,
+            ),
+        )),
+        i if i <= batches => {
+            let first = WINDOW_FIRST + (i as u32 - 1) * REFERENCE_EVERY * BATCH;
+            let points = BATCH.min((last - first).div_ceil(REFERENCE_EVERY));
+            let end = first + (points - 1) * REFERENCE_EVERY;
+            let step = Step::Reference {
+                first,
+                every: REFERENCE_EVERY,
+                points,
+            };
+            Some((at(end) + 0.055, step))
+        }
+        i if i == batches + 1 => Some((
+            at(last) + 0.205,
+            Step::Command(service::BALLISTOMETER, subtype::REPORT_IDENTIFICATION, &[]),
+        )),
+        i if i == batches + 2 => Some((
+            at(last) + 0.405,
+            Step::Command(service::BALLISTOMETER, subtype::COMMIT_CALIBRATION, &[0, 1]),
+        )),
+        _ => None,
+    }
 }
 
 /// The uplink script: (seconds after the first instant, what arrives). Times sit between
@@ -158,8 +221,13 @@ pub const SCRIPT: [(f64, Step); 9] = [
     ),
 ];
 
-/// The frame of a script step with sequence count `seq`; its length.
-pub fn frame(step: Step, seq: u16, out: &mut [u8]) -> usize {
+/// Octets of the largest application data a step carries: four reference points.
+const DATA_MAX: usize = 1 + BATCH as usize * POINT_LEN;
+
+/// The frame of a script step with sequence count `seq`, the first sample instant at `t0`
+/// and sets `period` apart (the reference's times); its length.
+pub fn frame(step: Step, seq: u16, t0: Nanos, period: Nanos, out: &mut [u8]) -> usize {
+    let mut points = [0u8; DATA_MAX];
     let (s, st, data, damaged) = match step {
         Step::Noise(bytes) => {
             let n = bytes.len().min(out.len());
@@ -168,8 +236,36 @@ pub fn frame(step: Step, seq: u16, out: &mut [u8]) -> usize {
         }
         Step::Command(s, st, d) => (s, st, d, false),
         Step::Damaged(s, st, d) => (s, st, d, true),
+        Step::Reference {
+            first,
+            every,
+            points: n,
+        } => {
+            let n = n.min(BATCH);
+            points[0] = n as u8;
+            for (j, chunk) in points[1..]
+                .chunks_exact_mut(POINT_LEN)
+                .take(n as usize)
+                .enumerate()
+            {
+                let set = u64::from(first + j as u32 * every);
+                let (_, _, omega) = motion(crate::time::seconds(set * period));
+                chunk[..cuc::TIME_LEN].copy_from_slice(&cuc::cuc(t0 + set * period));
+                for (k, w) in omega.iter().enumerate() {
+                    let at = cuc::TIME_LEN + 4 * k;
+                    chunk[at..at + 4].copy_from_slice(&(*w as f32).to_be_bytes());
+                }
+            }
+            let len = 1 + n as usize * POINT_LEN;
+            (
+                service::BALLISTOMETER,
+                subtype::REFERENCE_RATE,
+                &points[..len],
+                false,
+            )
+        }
     };
-    let mut raw = [0u8; 64];
+    let mut raw = [0u8; 16 + DATA_MAX];
     // Every acknowledgement asked (start and progress too: accepted, not reported).
     let ack = ACK_ACCEPTANCE | 0x4 | 0x2 | ACK_COMPLETION;
     let Some(n) = telecommand::build(&mut raw, seq, ack, s, st, data) else {
@@ -181,18 +277,36 @@ pub fn frame(step: Step, seq: u16, out: &mut [u8]) -> usize {
     framing::encode(&raw[..n], out).unwrap_or(0)
 }
 
-/// The uplink of the built-in scenario: each step of [`SCRIPT`] once the time base reaches
+/// The uplink of the built-in scenario: each step of a [`Script`] once the time base reaches
 /// it, then nothing.
 pub struct ScriptedUplink<'a, T> {
     time: &'a T,
     t0: Nanos,
+    period: Nanos,
+    script: Script,
     next: usize,
+    /// The step on the line, and how much of it has been read.
+    frame: [u8; FRAME_MAX],
+    len: usize,
+    sent: usize,
 }
 
+/// Octets of the longest framed step.
+const FRAME_MAX: usize = 2 * (16 + DATA_MAX);
+
 impl<'a, T: TimeBase> ScriptedUplink<'a, T> {
-    /// The script, its times counted from the first sample instant `t0`.
-    pub fn new(time: &'a T, t0: Nanos) -> Self {
-        ScriptedUplink { time, t0, next: 0 }
+    /// `script`, its times counted from the first sample instant `t0`, sets `period` apart.
+    pub fn new(time: &'a T, t0: Nanos, period: Nanos, script: Script) -> Self {
+        ScriptedUplink {
+            time,
+            t0,
+            period,
+            script,
+            next: 0,
+            frame: [0; FRAME_MAX],
+            len: 0,
+            sent: 0,
+        }
     }
 }
 
@@ -202,14 +316,28 @@ impl<T> ErrorType for ScriptedUplink<'_, T> {
 
 impl<T: TimeBase> Read for ScriptedUplink<'_, T> {
     async fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
-        let Some(&(at, step)) = SCRIPT.get(self.next) else {
-            return core::future::pending().await;
-        };
-        let at = self.t0 + (at * 1e9) as Nanos;
-        while self.time.now() < at {
-            embassy_futures::yield_now().await;
+        if self.sent == self.len {
+            let Some((at, step)) = (self.script)(self.next) else {
+                return core::future::pending().await;
+            };
+            let at = self.t0 + (at * 1e9) as Nanos;
+            while self.time.now() < at {
+                embassy_futures::yield_now().await;
+            }
+            self.next += 1;
+            self.len = frame(
+                step,
+                self.next as u16,
+                self.t0,
+                self.period,
+                &mut self.frame,
+            );
+            self.sent = 0;
         }
-        self.next += 1;
-        Ok(frame(step, self.next as u16, buf))
+        // As a line delivers it: as much of the frame as the reader takes.
+        let n = buf.len().min(self.len - self.sent);
+        buf[..n].copy_from_slice(&self.frame[self.sent..self.sent + n]);
+        self.sent += n;
+        Ok(n)
     }
 }

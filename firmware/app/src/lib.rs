@@ -51,5 +51,8 @@ pub mod storage;
 pub mod telemetry;
 pub mod time;
 
-/// Depth of the queue between the sampling and the estimation task.
-pub const QUEUE: usize = 4;
+/// Depth of the queue between the sampling and the estimation task: the sets the application
+/// task may fall behind before one is lost. Its longest hold is the identification's solve on
+/// TC[200,10] (1.5 M instructions on the M7, ≈ 4 ms: four sets at 1 kHz; 31 M on the QEMU
+/// board's M4F) and a reference batch moving its sets into the sums (≈ 0.8 M on the M4F).
+pub const QUEUE: usize = 16;

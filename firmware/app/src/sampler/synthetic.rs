@@ -55,6 +55,8 @@ pub struct Synthetic {
     channels: [[Option<Geometry>; 3]; MAX_PARTS],
     outage: Option<Outage>,
     stuck: Option<Outage>,
+    /// Free flight: no specific force at the origin (the identification's field).
+    free_flight: bool,
     /// Each part's last output (what a stuck part repeats).
     last: [[f32; 3]; MAX_PARTS],
     parts: [Option<PartHealth>; MAX_PARTS],
@@ -84,11 +86,19 @@ impl Synthetic {
             channels,
             outage,
             stuck,
+            free_flight: false,
             last: [[0.0; 3]; MAX_PARTS],
             parts,
             silent: [0; MAX_PARTS],
             health: LoopHealth::default(),
         }
+    }
+
+    /// The same motion in free flight, the origin at the centre of mass: σ0 = 0 (the field
+    /// identification in flight takes).
+    pub fn in_free_flight(mut self) -> Self {
+        self.free_flight = true;
+        self
     }
 
     /// The sample period, ns.
@@ -99,7 +109,10 @@ impl Synthetic {
     /// The set of index `k`, at instant `t` (time base), `k` periods after the first.
     pub fn set(&mut self, k: u32, t: Nanos) -> SampleSet {
         let s = seconds(u64::from(k) * self.period);
-        let (sigma0, domega, omega) = motion(s);
+        let (mut sigma0, domega, omega) = motion(s);
+        if self.free_flight {
+            sigma0 = [0.0; 3];
+        }
         let mut out = [None; MAX_PARTS];
         for (i, (chans, slot)) in self.channels.iter().zip(out.iter_mut()).enumerate() {
             let Some(h) = self.parts[i].as_mut() else {

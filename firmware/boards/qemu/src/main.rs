@@ -5,17 +5,20 @@
 //! - two priorities: sampling, the application and the observer on an interrupt executor (a
 //!   software-pended interrupt), and below them, in thread mode, the builder of the
 //!   estimator's configurations (issue 17: a part's exclusion is precomputed there, in soft
-//!   f64 on this Cortex-M4F, while the estimates go on) and the scripted uplink,
+//!   f64 on this Cortex-M4F, while the estimates go on), the calibration storage task and the
+//!   scripted uplink,
 //! - the built-in scenario in place of the parts (QEMU has no accelerometers) and its
 //!   scripted uplink,
-//! - the telemetry link written to `telemetry.bin` in QEMU's working directory through
-//!   semihosting,
+//! - the telemetry link written through semihosting into QEMU's working directory:
+//!   `telemetry-boot1.bin`, then `telemetry.bin`,
 //! - a RAM-backed flash for the calibration store in the SSRAM QEMU maps as flash, beyond the
-//!   image: at power-on the first boot commits calibration 1 and resets the machine
-//!   (`demo::first_boot`); the second boot runs the arrangement read back (`demo::boot`).
+//!   image. At power-on (the store erased) boot 1 runs the nominal arrangement while the
+//!   scripted ground identifies the geometry and commits it (`demo::identification`), then
+//!   resets the machine; boot 2 runs the calibration read back (`demo::boot`) through the
+//!   built-in scenario's faults and commands.
 //!
-//! It runs [`ballisto_fw::demo::SETS`] sets, prints a summary and exits with status 0, or 1
-//! if telemetry was lost, the file could not be written or nothing was estimated.
+//! Boot 2 runs [`ballisto_fw::demo::SETS`] sets, prints a summary and exits with status 0, or
+//! 1 if telemetry was lost, a file could not be written or nothing was estimated.
 //! `cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf` (the runner,
 //! `.cargo/qemu-runner.sh`, writes into `out/qemu/`).
 #![cfg_attr(target_os = "none", no_std, no_main)]
@@ -30,11 +33,12 @@ mod board {
         app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
     };
     use ballisto_fw::boot::{count_boot, ResetCause};
-    use ballisto_fw::calstore::{Programming, RamFlash};
-    use ballisto_fw::demo::{self, ScriptedUplink, SETS};
+    use ballisto_fw::calstore::{CalibrationStore, Programming, RamFlash};
+    use ballisto_fw::demo::{self, Script, ScriptedUplink, BOOT1_SETS, SETS};
     use ballisto_fw::estimation::Builds;
     use ballisto_fw::sampler::synthetic::{synthetic_task, Synthetic};
     use ballisto_fw::sampler::{HealthBoard, SampleSet};
+    use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
     use ballisto_fw::telemetry::Telemetry;
     use ballisto_fw::time::{Nanos, TimeBase};
     use cortex_m::interrupt::InterruptNumber;
@@ -182,17 +186,36 @@ mod board {
     /// The boot count's two words (`ballisto_fw::boot`), after the stage marker.
     const BOOTS_ADDR: usize = STAGE_ADDR + 4;
     static CAL_ERASES: StaticCell<[u32; 2]> = StaticCell::new();
+    type Store = CalibrationStore<RamFlash<'static, CAL_SECTOR, 32>>;
+    static STORE: StaticCell<Store> = StaticCell::new();
+    static COMMIT_REQUESTS: CommitRequests<Cs> = CommitRequests::new();
+    static COMMIT_REPLIES: CommitReplies<Cs> = CommitReplies::new();
     static OBSERVATIONS: Observations<Cs> = Observations::new();
 
     #[embassy_executor::task]
-    async fn sampling(source: &'static mut Synthetic, t0: Nanos) {
+    async fn sampling(source: &'static mut Synthetic, t0: Nanos, sets: u32) {
         let queue = SAMPLES.sender();
-        synthetic_task(source, &mut SysTickTime, queue, &HEALTH, t0, Some(SETS)).await;
+        synthetic_task(source, &mut SysTickTime, queue, &HEALTH, t0, Some(sets)).await;
     }
 
     #[embassy_executor::task]
-    async fn uplink(t0: Nanos, commands: zerocopy_channel::Sender<'static, Cs, Incoming>) {
-        uplink_task(ScriptedUplink::new(&SysTickTime, t0), commands).await;
+    async fn uplink(
+        t0: Nanos,
+        period: Nanos,
+        script: Script,
+        commands: zerocopy_channel::Sender<'static, Cs, Incoming>,
+    ) {
+        uplink_task(
+            ScriptedUplink::new(&SysTickTime, t0, period, script),
+            commands,
+        )
+        .await;
+    }
+
+    /// Commits calibrations (thread mode: a flash erase must not hold up the estimate).
+    #[embassy_executor::task]
+    async fn storage(store: &'static mut Store) {
+        storage_task(store, COMMIT_REQUESTS.receiver(), COMMIT_REPLIES.sender()).await
     }
 
     #[embassy_executor::task]
@@ -207,7 +230,10 @@ mod board {
             health: &HEALTH,
             telemetry: tm,
             observations: &OBSERVATIONS,
-            storage: None,
+            storage: Some(StorageLinks {
+                requests: COMMIT_REQUESTS.sender(),
+                replies: COMMIT_REPLIES.receiver(),
+            }),
         };
         app_task(app, &SysTickTime, links).await;
     }
@@ -218,18 +244,22 @@ mod board {
         builds.run().await
     }
 
-    /// Ends the run once the application has handled the last set of the scenario.
+    /// Ends the boot once the application has handled its last set: boot 1 resets the
+    /// machine, boot 2 ends the run.
     #[embassy_executor::task]
-    async fn observer() {
+    async fn observer(sets: u32, first: bool) {
         let Ok(mut seen) = OBSERVATIONS.subscriber() else {
             finish(false)
         };
         loop {
             let o = seen.next_message_pure().await;
-            if o.set.k + 1 >= SETS {
+            // The last set, or the first after the source's last (the last may have been
+            // dropped while the application was busy: the identification's solve).
+            if o.set.k + 1 >= sets || o.status.sampling.sets >= sets {
                 let s = o.status;
                 hprintln!(
-                    "board-qemu: {} sets, {} estimates, {} packets sent ({} lost), {} telecommands accepted, {} refused, {} garbage frames; {} s on board",
+                    "board-qemu: boot {}: {} sets, {} estimates, {} packets sent ({} lost), {} telecommands accepted, {} refused, {} garbage frames; {} s on board",
+                    if first { 1 } else { 2 },
                     s.sampling.sets,
                     s.estimates,
                     s.tm_sent,
@@ -239,6 +269,14 @@ mod board {
                     s.frames_garbage,
                     SysTickTime.now() / 1_000_000_000
                 );
+                if first {
+                    if s.tm_lost != 0 {
+                        finish(false);
+                    }
+                    // SAFETY: as in `main` (the stage marker's word, used by nothing else).
+                    unsafe { (STAGE_ADDR as *mut u32).write_volatile(FIRST_BOOT_DONE) };
+                    cortex_m::peripheral::SCB::sys_reset();
+                }
                 finish(s.tm_lost == 0 && s.estimates > 0);
             }
         }
@@ -273,20 +311,15 @@ mod board {
         p.SYST.enable_interrupt();
         p.SYST.enable_counter();
 
-        // Calibration: the scenario's store → reset → boot, with a reset of the machine. The
-        // store is a RAM-backed flash of the STM32H743's word size in the part of the SSRAM
-        // QEMU maps as flash beyond the image (`CAL_ADDR`): QEMU reloads only the image's
+        // Calibration: identification → commit → reset → boot, with a reset of the machine.
+        // The store is a RAM-backed flash of the STM32H743's word size in the part of the
+        // SSRAM QEMU maps as flash beyond the image (`CAL_ADDR`): QEMU reloads only the image's
         // segments on a reset, so it keeps its contents as a flash would.
-        // SAFETY: `CAL_ADDR .. + 2 sectors` and `STAGE_ADDR` lie in the 4 MiB flash region
-        // (memory.x) far beyond the image (≈ 120 KiB); nothing else refers to them.
-        let mem = unsafe { core::slice::from_raw_parts_mut(CAL_ADDR as *mut u8, 2 * CAL_SECTOR) };
-        let stage = STAGE_ADDR as *mut u32;
-        let erases = CAL_ERASES.init([0u32; 2]);
-        let mut flash = RamFlash::<CAL_SECTOR, 32>::new(mem, erases, Programming::WordOnce);
-        let range = 0..(2 * CAL_SECTOR) as u32;
         // QEMU has no reset-cause register: the stage marker is zero after power-on (QEMU
         // starts with that memory zeroed), set after the board's own SYSRESETREQ.
-        // SAFETY: as above.
+        let stage = STAGE_ADDR as *mut u32;
+        // SAFETY: `STAGE_ADDR` lies in the 4 MiB flash region (memory.x) far beyond the image
+        // (≈ 220 KiB), below `CAL_ADDR`; nothing else refers to it.
         let cause = if unsafe { stage.read_volatile() } == FIRST_BOOT_DONE {
             ResetCause::Software
         } else {
@@ -295,33 +328,50 @@ mod board {
         // SAFETY: `BOOTS_ADDR .. + 8` lies between the stage marker and `CAL_ADDR`, used by
         // nothing else; aligned.
         let boot_info = count_boot(unsafe { &mut *(BOOTS_ADDR as *mut [u32; 2]) }, cause);
-        if cause == ResetCause::PowerOn {
-            // Power-on: an erased part; the first boot (built-in), the commit, a reset.
-            flash.erase_all();
-            let Ok((first, _)) = demo::first_boot(flash, range).await else {
-                hprintln!("board-qemu: the calibration store failed at boot 1");
-                finish(false)
+        let first = cause == ResetCause::PowerOn;
+        if !first {
+            // SAFETY: as above (a later power-on starts from an erased part again).
+            unsafe { stage.write_volatile(0) };
+            // The store as boot 1 left it, read out for the host's check (as a ground test
+            // reads a flash through the debug port).
+            // SAFETY: `CAL_ADDR .. + 2 sectors` lies in the flash region beyond the image;
+            // read here before the store below takes it.
+            let bytes =
+                unsafe { core::slice::from_raw_parts(CAL_ADDR as *const u8, 2 * CAL_SECTOR) };
+            let written = match HostFile::create("calibration-store.bin\0") {
+                Some(mut f) => f.write_all(bytes).await.is_ok(),
+                None => false,
             };
-            hprintln!(
-                "board-qemu: boot 1 runs {:?}; calibration 1 committed; reset",
-                first
-            );
-            // SAFETY: as above.
-            unsafe { stage.write_volatile(FIRST_BOOT_DONE) };
-            cortex_m::peripheral::SCB::sys_reset();
+            if !written {
+                hprintln!("board-qemu: cannot write calibration-store.bin");
+                finish(false)
+            }
         }
-        // SAFETY: as above (a later power-on starts from an erased part again).
-        unsafe { stage.write_volatile(0) };
-        let Ok((config, calibration, _)) = demo::boot(flash, range).await else {
-            hprintln!("board-qemu: the calibration store failed at boot 2");
+        // SAFETY: as above; the store is the only user of this memory from here on.
+        let mem = unsafe { core::slice::from_raw_parts_mut(CAL_ADDR as *mut u8, 2 * CAL_SECTOR) };
+        let erases = CAL_ERASES.init([0u32; 2]);
+        let mut flash = RamFlash::<CAL_SECTOR, 32>::new(mem, erases, Programming::WordOnce);
+        let range = 0..(2 * CAL_SECTOR) as u32;
+        if first {
+            // Power-on: an erased part.
+            flash.erase_all();
+        }
+        let Ok((config, calibration, store)) = demo::boot(flash, range).await else {
+            hprintln!("board-qemu: the calibration store failed at boot");
             finish(false)
         };
         hprintln!(
-            "board-qemu: boot 2, after the reset, runs {:?}",
+            "board-qemu: boot {} runs {:?}",
+            if first { 1 } else { 2 },
             calibration
         );
-        let Some(file) = HostFile::create("telemetry.bin\0") else {
-            hprintln!("board-qemu: cannot create telemetry.bin");
+        let name = if first {
+            "telemetry-boot1.bin\0"
+        } else {
+            "telemetry.bin\0"
+        };
+        let Some(file) = HostFile::create(name) else {
+            hprintln!("board-qemu: cannot create {}", name);
             finish(false)
         };
         let Ok(mut app) = App::new(&config, Mode::Operate) else {
@@ -333,22 +383,29 @@ mod board {
         let builds = BUILDS.init_with(Builds::background);
         app.attach_builds(builds);
         let app = APP.init(app);
-        let source = SOURCE.init(Synthetic::new(
-            &config,
-            Some(demo::OUTAGE),
-            Some(demo::STUCK),
-        ));
+        // The parts as mounted (`demo::truth`); boot 1 in free flight for the identification,
+        // boot 2 with the scenario's faults.
+        let (source, sets, script): (Synthetic, u32, Script) = if first {
+            let source = Synthetic::new(&demo::truth(), None, None).in_free_flight();
+            (source, BOOT1_SETS, demo::identification)
+        } else {
+            let source = Synthetic::new(&demo::truth(), Some(demo::OUTAGE), Some(demo::STUCK));
+            (source, SETS, demo::script)
+        };
+        let source = SOURCE.init(source);
         let tm = TELEMETRY.init(Telemetry::new(file));
         spawner.spawn(builder(builds).unwrap());
+        spawner.spawn(storage(STORE.init(store)).unwrap());
         let upper = UPPER.start(SoftwareInterrupt);
-        let t0 = SysTickTime.now() + source.period();
-        upper.spawn(sampling(source, t0).unwrap());
+        let period = source.period();
+        let t0 = SysTickTime.now() + period;
+        upper.spawn(sampling(source, t0, sets).unwrap());
         let slots = SLOTS.init_with(|| core::array::from_fn(|_| Incoming::new()));
         let (command_tx, command_rx) = COMMANDS.init(ZeroCopyChannel::new(slots)).split();
         // The scripted uplink looks at the time by yielding (on the host it must not drive the
         // simulated clock): in thread mode, beside the builder, it cannot starve it.
-        spawner.spawn(uplink(t0, command_tx).unwrap());
-        upper.spawn(observer().unwrap());
+        spawner.spawn(uplink(t0, period, script, command_tx).unwrap());
+        upper.spawn(observer(sets, first).unwrap());
         upper.spawn(application(app, tm, command_rx).unwrap());
     }
 
