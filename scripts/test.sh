@@ -25,6 +25,9 @@ bash scripts/qemu-bench-m7.sh
 
 # The boards. STM32H743: built from its directory (its .cargo/config.toml: Cortex-M7 FPU,
 # probe-rs runner). QEMU: runs the built-in scenario, writes out/qemu/telemetry.bin.
+# The STM32H743 image from a user's board file (BALLISTO_ARRANGEMENT, read by its build.rs), then
+# the built-in board's, which the size report measures.
+(cd firmware/boards/stm32h743 && BALLISTO_ARRANGEMENT=example-board.toml cargo build --profile flight)
 (cd firmware/boards/stm32h743 && cargo build --profile flight)
 cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf
 cargo build --release --bin ballisto

@@ -11,6 +11,7 @@
 
 pub mod arrangement_file;
 pub mod bench;
+pub mod board_file;
 pub mod bus;
 pub mod clock;
 pub mod faults;

@@ -8,6 +8,11 @@
 //! | LIS3DH | I2C1 at 400 kHz, DMA1 ch2/3 | SCL PB8 (D15), SDA PB9 (D14) |
 //! | spacecraft link (RS-422 transceiver) | USART2 at 921 600 Bd, DMA1 ch4/5 | TX PD5, RX PD6 |
 //!
+//! Parts and arrangement: the built-in `tetra` board, or, built with
+//! `BALLISTO_ARRANGEMENT=my-board.toml` (and optionally `BALLISTO_CALIBRATION=calibrated.toml`,
+//! `BALLISTO_RATE_HZ`), the file's `[[sensor]]` tables: ADXL355 among the first four sensors
+//! (one chip select each), LIS3DH at 0x18 or 0x19 by the sensor's place (see build.rs).
+//!
 //! Time base: embassy-time (TIM2, 1 MHz ticks). Log: defmt over RTT. Flash and run from this
 //! directory with `cargo run --profile flight` (probe-rs runner, see `.cargo/config.toml`).
 //!
@@ -34,7 +39,7 @@ mod board {
         select_at_boot, CalibrationId, CalibrationStore, NotUsed, ReadOnly,
     };
     use ballisto_fw::config::AppConfig;
-    use ballisto_fw::config::{builtin, PartKind, MAX_PARTS};
+    use ballisto_fw::config::{PartKind, MAX_PARTS};
     use ballisto_fw::estimation::Builds;
     use ballisto_fw::sampler::{sampling_task, HealthBoard, PartBus, SampleSet, Sampler};
     use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
@@ -106,6 +111,10 @@ mod board {
             Timer::at(Instant::from_micros(at / 1000)).await;
         }
     }
+
+    // `fn board_config()`: the built-in `tetra` board, or the parts and arrangement of the file
+    // `BALLISTO_ARRANGEMENT` named at build time (build.rs).
+    include!(concat!(env!("OUT_DIR"), "/board_config.rs"));
 
     static SAMPLES: Channel<Cs, SampleSet, { ballisto_fw::QUEUE }> = Channel::new();
     static HEALTH: HealthBoard<Cs> = HealthBoard::new();
@@ -276,8 +285,8 @@ mod board {
         let boot = boot_info();
         let p = embassy_stm32::init(clocks());
         info!("ballistometer {}", env!("CARGO_PKG_VERSION"));
-        let Some(mut config) = builtin("tetra") else {
-            error!("no built-in configuration");
+        let Some(mut config) = board_config() else {
+            error!("the board's configuration is refused");
             return;
         };
         let (calibration, store) = calibration_at_boot(p.FLASH, &mut config);
