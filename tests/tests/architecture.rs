@@ -170,13 +170,12 @@ fn set(names: &[&str]) -> BTreeSet<String> {
 
 /// Issue 43: no cargo feature changes what the firmware does. The crates the flashed image is
 /// made of declare only features that add without changing behaviour — `defmt` (the log's
-/// transport), `demo` (the built-in scenario's modules, for boards without parts), `ground`
-/// (the link's decoder), `double-fpu` (the same square roots by the M7's instruction) — and no
-/// default features.
+/// transport), `ground` (the link's decoder), `double-fpu` (the same square roots by the M7's
+/// instruction) — and no default features.
 #[test]
 fn no_feature_changes_what_the_firmware_does() {
     for (path, allowed) in [
-        ("firmware/app", set(&["defmt", "demo"])),
+        ("firmware/app", set(&["defmt"])),
         ("estimator-core", set(&["defmt", "double-fpu"])),
         ("link", set(&["defmt", "ground"])),
         ("firmware/calstore", set(&["defmt"])),
@@ -193,11 +192,10 @@ fn no_feature_changes_what_the_firmware_does() {
 
 /// Issue 43: the STM32H743 flight image runs the application the QEMU board, the host
 /// simulator and the ground tool run: each depends on `ballisto-fw` with its default features
-/// and nothing but the features that only add (`defmt` routes the log; `demo` adds the
-/// built-in scenario of a board without parts).
+/// and nothing but `defmt`, which only routes the log.
 #[test]
 fn the_flashed_application_is_the_tested_one() {
-    let only_adding = set(&["defmt", "demo"]);
+    let only_adding = set(&["defmt"]);
     let mut seen = BTreeMap::new();
     for path in [
         "firmware/boards/stm32h743",

@@ -13,8 +13,6 @@ use ballisto_fw::app::{
 use ballisto_fw::boot::count_boot;
 use ballisto_fw::calstore::{CalibrationStore, Programming, RamFlash};
 use ballisto_fw::config::AppConfig;
-use ballisto_fw::demo::{self, Script, ScriptedUplink, BOOT1_SETS, SETS};
-use ballisto_fw::sampler::synthetic::{motion, synthetic_task, Synthetic};
 use ballisto_fw::sampler::{HealthBoard, SampleSet};
 use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
 use ballisto_fw::telemetry::Telemetry;
@@ -23,6 +21,8 @@ use ballisto_link::decode::Report;
 use ballisto_link::{
     BootEvent, BootInfo, CalibrationId, EventId, FailureCode, MotionReport, ResetCause,
 };
+use board_qemu::demo::{self, Script, ScriptedUplink, BOOT1_SETS, SETS};
+use board_qemu::synthetic::{motion, synthetic_task, Synthetic};
 use embassy_futures::join::join;
 use embassy_futures::select::select;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
@@ -429,7 +429,7 @@ fn qemu_stream_matches_the_host_run() {
     // its EXCLUDE_AFTER-th missing set) and the switch to model F, at set 404. The host builds
     // its configuration in the sample path (simulated time does not pass); the QEMU board in
     // thread mode below the sample loop (issue 17), so from there the two streams differ.
-    let first_reconfiguration = (ballisto_fw::demo::OUTAGE.from * 100.0).round() as u32
+    let first_reconfiguration = (demo::OUTAGE.from * 100.0).round() as u32
         + u32::from(ballisto_fw::estimation::EXCLUDE_AFTER)
         - 1;
     let mut same = 0;

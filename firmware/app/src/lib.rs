@@ -20,9 +20,6 @@
 //! - [`config`] — what runs: parts, channels, rate, arrangement, model (built-in table or
 //!   command); [`time`] — the time base; [`calstore`] — calibration records in flash;
 //!   [`storage`] — the task that commits a calibration to them (app → storage).
-//! - Feature `demo` (adds; the STM32H743 does not enable it): `demo` — the built-in scenario of boards
-//!   without parts (sample sets from `sampler::synthetic`, a scripted uplink), run by the QEMU
-//!   board and checked on the host.
 //!
 //! The tasks are async functions ([`sampler::sampling_task`], [`app::app_task`],
 //! [`app::uplink_task`]) joined by bounded queues; a board spawns them on the embassy
@@ -37,11 +34,9 @@ mod fmt;
 
 pub mod app;
 pub mod boot;
-/// Calibration records in flash (its own crate, compiled for size: `firmware/calstore`).
+/// Calibration records in flash (its own crate: `firmware/calstore`).
 pub use ballisto_calstore as calstore;
 pub mod config;
-#[cfg(feature = "demo")]
-pub mod demo;
 pub mod drivers;
 pub mod estimation;
 pub mod identification;

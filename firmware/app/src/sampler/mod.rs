@@ -15,8 +15,6 @@
 pub mod conversion_clock;
 pub mod health;
 pub mod part;
-#[cfg(feature = "demo")]
-pub mod synthetic;
 
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::channel::Sender;

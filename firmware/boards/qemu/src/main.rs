@@ -17,7 +17,7 @@
 //!   resets the machine; boot 2 runs the calibration read back (`demo::boot`) through the
 //!   built-in scenario's faults and commands.
 //!
-//! Boot 2 runs [`ballisto_fw::demo::SETS`] sets, prints a summary and exits with status 0, or
+//! Boot 2 runs [`board_qemu::demo::SETS`] sets, prints a summary and exits with status 0, or
 //! 1 if telemetry was lost, a file could not be written or nothing was estimated.
 //! `cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf` (the runner,
 //! `.cargo/qemu-runner.sh`, writes into `out/qemu/`).
@@ -34,13 +34,13 @@ mod board {
     };
     use ballisto_fw::boot::{count_boot, ResetCause};
     use ballisto_fw::calstore::{CalibrationStore, Programming, RamFlash};
-    use ballisto_fw::demo::{self, Script, ScriptedUplink, BOOT1_SETS, SETS};
     use ballisto_fw::estimation::Builds;
-    use ballisto_fw::sampler::synthetic::{synthetic_task, Synthetic};
     use ballisto_fw::sampler::{HealthBoard, SampleSet};
     use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
     use ballisto_fw::telemetry::Telemetry;
     use ballisto_fw::time::{Nanos, TimeBase};
+    use board_qemu::demo::{self, Script, ScriptedUplink, BOOT1_SETS, SETS};
+    use board_qemu::synthetic::{synthetic_task, Synthetic};
     use cortex_m::interrupt::InterruptNumber;
     use cortex_m::peripheral::scb::SystemHandler;
     use cortex_m::peripheral::syst::SystClkSource;

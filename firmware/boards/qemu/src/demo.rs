@@ -1,6 +1,6 @@
 //! The built-in scenario: what a board without accelerometers runs (QEMU in CI), and what
 //! the host recomputes to check it, in two boots of the `tetra` board on the synthetic motion
-//! of [`crate::sampler::synthetic`], whose true geometry is not the nominal one ([`truth`]:
+//! of [`crate::synthetic`], whose true geometry is not the nominal one ([`truth`]:
 //! u2 mounted 3 mm off).
 //!
 //! 1. Power-on, the store erased: the nominal arrangement, in free flight, for [`BOOT1_SETS`]
@@ -23,10 +23,11 @@ use ballisto_link::CalibrationId;
 use embedded_storage_async::nor_flash::NorFlash;
 use estimator_core::Arrangement;
 
-use crate::calstore::{select_at_boot, CalibrationStore};
-use crate::config::{tetra, AppConfig, MAX_CHANNELS};
-use crate::sampler::synthetic::{motion, Outage};
-use crate::time::{Nanos, TimeBase};
+use ballisto_fw::calstore::{select_at_boot, CalibrationStore};
+use ballisto_fw::config::{tetra, AppConfig, MAX_CHANNELS};
+use ballisto_fw::time::{Nanos, TimeBase};
+
+use crate::synthetic::{motion, Outage};
 
 /// Sample sets of the second boot (10 s at 100 Hz).
 pub const SETS: u32 = 1000;
@@ -249,7 +250,7 @@ pub fn frame(step: Step, seq: u16, t0: Nanos, period: Nanos, out: &mut [u8]) -> 
                 .enumerate()
             {
                 let set = u64::from(first + j as u32 * every);
-                let (_, _, omega) = motion(crate::time::seconds(set * period));
+                let (_, _, omega) = motion(ballisto_fw::time::seconds(set * period));
                 chunk[..cuc::TIME_LEN].copy_from_slice(&cuc::cuc(t0 + set * period));
                 for (k, w) in omega.iter().enumerate() {
                     let at = cuc::TIME_LEN + 4 * k;

@@ -11,9 +11,9 @@ use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::channel::Sender;
 use estimator_core::linalg::{add, cross, dot, Vec3};
 
-use super::{Health, HealthBoard, LoopHealth, PartHealth, SampleSet};
-use crate::config::{AppConfig, MAX_PARTS};
-use crate::time::{seconds, Nanos, TimeBase};
+use ballisto_fw::config::{AppConfig, MAX_PARTS};
+use ballisto_fw::sampler::{Health, HealthBoard, LoopHealth, PartHealth, SampleSet};
+use ballisto_fw::time::{seconds, Nanos, TimeBase};
 
 /// The motion at time `t` (s since the first instant): σ0, Ω′, Ω (body frame).
 pub fn motion(t: f64) -> (Vec3<f64>, Vec3<f64>, Vec3<f64>) {
