@@ -11,7 +11,7 @@
 //! from f (`A + {Ω′}` constant, e.g. no rotation) writes empty fields, not a guess.
 
 use std::error::Error;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::Path;
 
 use estimator_core::{Estimate, Flags, Model, Options};
@@ -64,6 +64,7 @@ pub fn com_files(
     if !(window.is_finite() && window > 0.0) {
         return Err(format!("--window {window}: must be a positive number of seconds").into());
     }
+    crate::output::check_distinct(&[out], &[arrangement, samples])?;
     let loaded = load_arrangement(arrangement)?;
     let (model, note) = crate::model_choice::recommend(model, &loaded);
     if let Some(note) = note {
@@ -106,16 +107,15 @@ pub fn com_files(
         est.push(t, &p, &mut emit);
     }
     est.finish(&mut emit);
-    let mut w = BufWriter::new(
-        std::fs::File::create(out).map_err(|e| format!("{}: cannot create: {e}", out.display()))?,
-    );
+    // Written beside the final path, put in place once complete (`crate::output`).
+    let (pending, mut w) = crate::output::create(out)?;
     writeln!(w, "{COLUMNS}")?;
     let mut summary = ComSummary {
         model: Some(model),
         ..Default::default()
     };
     let Some((t0, t1)) = span else {
-        w.flush()?;
+        crate::output::finish(pending, w)?;
         return Ok(summary);
     };
     let mut start = t0;
@@ -143,7 +143,7 @@ pub fn com_files(
         }
         start += window / 2.0;
     }
-    w.flush()?;
+    crate::output::finish(pending, w)?;
     Ok(summary)
 }
 

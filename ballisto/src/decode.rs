@@ -327,15 +327,16 @@ pub fn decode_file(
     log: Option<&Path>,
     time_offset: f64,
 ) -> Result<(Stream, usize, String), String> {
+    let outputs: Vec<&Path> = std::iter::once(out).chain(log).collect();
+    crate::output::check_distinct(&outputs, &[input])?;
     let bytes =
         std::fs::read(input).map_err(|e| format!("{}: cannot read: {e}", input.display()))?;
     let stream = decode_stream(&bytes);
-    let file =
-        std::fs::File::create(out).map_err(|e| format!("{}: cannot create: {e}", out.display()))?;
-    let mut w = std::io::BufWriter::new(file);
+    // Written beside the final path, put in place once complete (`crate::output`).
+    let (pending, mut w) = crate::output::create(out)?;
     let rows = write_estimates(&mut w, &stream, time_offset)
-        .and_then(|n| w.flush().map(|_| n))
         .map_err(|e| format!("{}: {e}", out.display()))?;
+    crate::output::finish(pending, w)?;
     let mut text = String::new();
     for p in &stream.packets {
         if let Some(l) = log_line(p, time_offset) {
@@ -347,7 +348,7 @@ pub fn decode_file(
         let _ = writeln!(text, "PROBLEM {p}");
     }
     if let Some(log) = log {
-        std::fs::write(log, &text).map_err(|e| format!("{}: cannot write: {e}", log.display()))?;
+        crate::output::write(log, text.as_bytes())?;
     }
     Ok((stream, rows, text))
 }

@@ -2,8 +2,6 @@
 //! (host tools decide branch and sign with a fixed lag, forward and over the reversed record).
 
 use std::error::Error;
-use std::fs::File;
-use std::io::BufWriter;
 use std::path::Path;
 
 use estimator_core::exclusion::MissingRuns;
@@ -62,6 +60,7 @@ pub struct Summary {
 /// Runs the estimator over a samples file, streaming rows to the estimates file. Rows written
 /// before an error stay in the output (flushed); the error names file and line.
 pub fn estimate_files(job: &EstimateJob) -> Result<Summary, Box<dyn Error>> {
+    crate::output::check_distinct(&[job.out], &[job.arrangement, job.samples])?;
     let loaded = load_arrangement(job.arrangement)?;
     let (model, note) = crate::model_choice::recommend(job.model, &loaded);
     if let Some(note) = note {
@@ -594,9 +593,9 @@ fn run_typed<T: Real + Send + 'static>(
     let mut est = HostEstimator::<T>::new(loaded, model, job.options)
         .map_err(|e| format!("{}: {e}", job.arrangement.display()))?;
     let mut reader = SamplesReader::open(job.samples, &loaded.names)?;
-    let out =
-        File::create(job.out).map_err(|e| format!("{}: cannot create: {e}", job.out.display()))?;
-    let mut w = ThreadedWriter::<T>::new(BufWriter::with_capacity(1 << 16, out));
+    // Written beside the final path, put in place once complete (`crate::output`).
+    let (pending, out) = crate::output::create(job.out)?;
+    let mut w = ThreadedWriter::<T>::new(out);
     let mut row = vec![0.0f64; loaded.names.len()];
     let mut p = vec![T::ZERO; loaded.names.len()];
     let mut summary = Summary {
@@ -635,6 +634,8 @@ fn run_typed<T: Real + Send + 'static>(
     if let Some(e) = io_err.or(written.err()) {
         return Err(format!("{}: write failed: {e}", job.out.display()).into());
     }
+    // The rows accepted before an input error are a whole output: in place, then the error.
+    pending.commit()?;
     result?;
     Ok(summary)
 }

@@ -17,6 +17,7 @@ pub mod decode;
 pub mod estimate;
 pub mod estimates_csv;
 pub mod model_choice;
+pub mod output;
 pub mod plot;
 pub mod samples_csv;
 pub mod sim;

@@ -1,6 +1,6 @@
 //! `ballisto`: the host binary (interfaces.md).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use ballisto::estimate::{estimate_files, EstimateJob, Precision, FLAG_NAMES};
@@ -458,12 +458,20 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             calibration,
             arrangement,
         } => {
+            // Every output checked against every input before anything is written.
+            let outputs: Vec<&Path> = std::iter::once(out.as_path())
+                .chain(log.as_deref())
+                .chain(calibration.as_deref())
+                .collect();
+            let inputs: Vec<&Path> = std::iter::once(input.as_path())
+                .chain(arrangement.as_deref())
+                .collect();
+            ballisto::output::check_distinct(&outputs, &inputs)?;
             let (stream, rows, text) =
                 ballisto::decode::decode_file(&input, &out, log.as_deref(), time_offset)?;
             if let (Some(cal), Some(nominal)) = (&calibration, &arrangement) {
                 let file = ballisto::decode::identified_arrangement(&stream, &input, nominal)?;
-                std::fs::write(cal, file)
-                    .map_err(|e| format!("{}: cannot write: {e}", cal.display()))?;
+                ballisto::output::write(cal, file.as_bytes())?;
                 eprintln!("{}: identification solution written", cal.display());
             }
             if log.is_none() {

@@ -4,8 +4,7 @@
 //! plot.
 
 use std::error::Error;
-use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use hal_sim::arrangement_file::LoadedArrangement;
@@ -80,17 +79,22 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
         .map_err(|e| format!("{}: cannot create the directory: {e}", job.out.display()))?;
     let path = |name: &str| job.out.join(name);
     let arrangement = sc.arrangement();
-    std::fs::write(path("arrangement.toml"), arrangement.to_toml())
-        .map_err(|e| format!("{}: {e}", path("arrangement.toml").display()))?;
+    // Every file written beside its final path and put in place once complete
+    // (`crate::output`).
+    crate::output::write(&path("arrangement.toml"), arrangement.to_toml().as_bytes())?;
     let loaded = arrangement
         .load("arrangement.toml")
         .map_err(|e| format!("the scenario's arrangement: {e}"))?;
-    let mut samples = create(&path("samples.csv"))?;
-    let reference = match hal_sim::reference::ReferenceSensor::of(sc) {
-        Some(sensor) => Some((create(&path("reference.csv"))?, sensor)),
-        None => None,
+    let (samples_out, mut samples) = crate::output::create(&path("samples.csv"))?;
+    let (reference_out, reference) = match hal_sim::reference::ReferenceSensor::of(sc) {
+        Some(sensor) => {
+            let (out, w) = crate::output::create(&path("reference.csv"))?;
+            (Some(out), Some((w, sensor)))
+        }
+        None => (None, None),
     };
-    let mut truth = TruthFiles::new(create(&path("truth.csv"))?, reference)?;
+    let (truth_out, truth_w) = crate::output::create(&path("truth.csv"))?;
+    let mut truth = TruthFiles::new(truth_w, reference)?;
     writeln!(samples, "t,{}", loaded.names.join(","))?;
     let mut report = match job.firmware {
         Some(alignment) => record_firmware(job, &loaded, alignment, &mut samples, &mut truth)?,
@@ -98,6 +102,12 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
     };
     samples.flush()?;
     truth.flush()?;
+    for out in [Some(samples_out), Some(truth_out), reference_out]
+        .into_iter()
+        .flatten()
+    {
+        out.commit()?;
+    }
     report.files = vec![
         path("arrangement.toml"),
         path("samples.csv"),
@@ -108,8 +118,7 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
     }
     if sc.has_part_errors() {
         let file = path("truth_geometry.toml");
-        std::fs::write(&file, sc.truth_geometry().to_toml())
-            .map_err(|e| format!("{}: {e}", file.display()))?;
+        crate::output::write(&file, sc.truth_geometry().to_toml().as_bytes())?;
         report.files.push(file);
     }
     let est = path("estimates.csv");
@@ -131,7 +140,9 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
         report.errors = Some(compare(&path("truth.csv"), &est)?);
         report.files.push(est.clone());
         let png = path("estimates.png");
-        crate::plot::plot_files(&path("truth.csv"), &est, &png)?;
+        let plot = crate::output::Pending::new(&png);
+        crate::plot::plot_files(&path("truth.csv"), &est, plot.path())?;
+        plot.commit()?;
         report.files.push(png);
     }
     if job.firmware.is_some() {
@@ -141,12 +152,6 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
         report.files.push(path("telemetry-identify.bin"));
     }
     Ok(report)
-}
-
-fn create(path: &Path) -> Result<BufWriter<File>, String> {
-    File::create(path)
-        .map(|f| BufWriter::with_capacity(1 << 16, f))
-        .map_err(|e| format!("{}: cannot create: {e}", path.display()))
 }
 
 /// The bench reader's record.
@@ -239,7 +244,7 @@ fn record_firmware(
     let sc = job.scenario;
     let config = firmware_config(sc, loaded, alignment)?;
     let path = job.out.join("estimates.csv");
-    let mut estimates = create(&path)?;
+    let (estimates_out, mut estimates) = crate::output::create(&path)?;
     crate::estimates_csv::write_header(&mut estimates)?;
     let n = sc.samples();
     let bar = progress_bar(job.progress, n as u64);
@@ -272,7 +277,7 @@ fn record_firmware(
         }
     };
     let tm_path = job.out.join("telemetry.bin");
-    let mut downlink = create(&tm_path)?;
+    let (downlink_out, mut downlink) = crate::output::create(&tm_path)?;
     let mut identification = Vec::new();
     let fw = if job.identify {
         use hal_sim::in_flight::{identify_and_reboot, uplink, Plan};
@@ -281,8 +286,7 @@ fn record_firmware(
         let mut first = Vec::new();
         let (_, second, id) =
             identify_and_reboot(sc, &config, &up, &mut first, &mut downlink, &mut emit)?;
-        std::fs::write(&first_path, &first)
-            .map_err(|e| format!("{}: cannot write: {e}", first_path.display()))?;
+        crate::output::write(&first_path, &first)?;
         let stream = crate::decode::decode_stream(&first);
         use ballisto_link::decode::Report;
         for p in &stream.packets {
@@ -311,10 +315,8 @@ fn record_firmware(
     if let Some(e) = failure {
         return Err(e.into());
     }
-    estimates.flush()?;
-    downlink
-        .flush()
-        .map_err(|e| format!("{}: cannot write: {e}", tm_path.display()))?;
+    crate::output::finish(estimates_out, estimates)?;
+    crate::output::finish(downlink_out, downlink)?;
     Ok(SimReport {
         samples: fw.estimates as usize,
         channels: loaded.names.len(),

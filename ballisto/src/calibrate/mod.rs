@@ -132,6 +132,16 @@ fn plausibility(
 
 /// Runs `ballisto calibrate`.
 pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn Error>> {
+    let png = job.report.map(|r| r.with_extension("png"));
+    let outputs: Vec<&Path> = std::iter::once(job.out)
+        .chain(job.report)
+        .chain(png.as_deref())
+        .collect();
+    let inputs: Vec<&Path> = [job.arrangement, job.samples]
+        .into_iter()
+        .chain(job.reference)
+        .collect();
+    crate::output::check_distinct(&outputs, &inputs)?;
     let file = ArrangementFile::read(job.arrangement)?;
     let loaded = file.load(&job.arrangement.display().to_string())?;
     let names = loaded.names.clone();
@@ -244,8 +254,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         warnings.push(note);
     }
     let text = calibrated_file(&file, &loaded, &identification, model, job, &warnings)?;
-    std::fs::write(job.out, text)
-        .map_err(|e| format!("{}: cannot write: {e}", job.out.display()))?;
+    crate::output::write(job.out, text.as_bytes())?;
     let summary = CalibrationSummary {
         poses: poses.len(),
         motion: motion.len(),
@@ -257,10 +266,12 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     if let Some(path) = job.report {
         // The PNG beside the Markdown, same name (`REPORT.png`).
         let png = path.with_extension("png");
-        report::residual_png(&summary, &times, &png)?;
+        let plot = crate::output::Pending::new(&png);
+        report::residual_png(&summary, &times, plot.path())?;
+        plot.commit()?;
         let png_name = png.file_name().map(|n| n.to_string_lossy().into_owned());
-        std::fs::write(path, report::markdown(&summary, job, png_name.as_deref()))
-            .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        let markdown = report::markdown(&summary, job, png_name.as_deref());
+        crate::output::write(path, markdown.as_bytes())?;
     }
     Ok(summary)
 }
