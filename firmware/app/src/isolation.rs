@@ -154,11 +154,6 @@ impl Isolation {
             .unwrap_or_else(|| self.monitor.level())
     }
 
-    /// Whether the monitor is built in.
-    pub fn enabled(&self) -> bool {
-        true
-    }
-
     /// The consistency test on the readings (housekeeping).
     pub fn test(&self) -> ConsistencyTest {
         if self.monitor.has_parity() {

@@ -233,12 +233,10 @@ impl App {
         }
         // A commanded configuration built by the builder task is taken at a set (in standby
         // too), and its command completed.
-        {
-            if self.mode != Mode::Operate {
-                self.estimation.poll_order();
-            }
-            self.complete_awaited(set.t, tm).await;
+        if self.mode != Mode::Operate {
+            self.estimation.poll_order();
         }
+        self.complete_awaited(set.t, tm).await;
         // Exclusions (or a command) left the configured model unobservable, or no longer do.
         if let Some((before, after)) = self.estimation.take_model_switch() {
             let (before, after) = (ModelCode::from(before), ModelCode::from(after));

@@ -326,11 +326,9 @@ impl Estimation {
         commanded: ChannelSet,
         anew: bool,
     ) -> background::Tested {
-        {
-            let tested = self.mask(missing, commanded);
-            let now = self.mask(self.excluded, self.commanded);
-            (anew || tested != now).then(|| (tested, *self.isolation.parts()))
-        }
+        let tested = self.mask(missing, commanded);
+        let now = self.mask(self.excluded, self.commanded);
+        (anew || tested != now).then(|| (tested, *self.isolation.parts()))
     }
 
     /// The fault monitor after a change built by the builder task (the channels it tested were
@@ -415,16 +413,14 @@ impl Estimation {
     /// changes.
     fn take_mask(&mut self, mask: ChannelMask) -> Result<(), ConfigError> {
         let before = self.estimator.model();
-        {
-            // Made here and now: a change waiting for the builder is no longer wanted.
-            self.pending = None;
-            match self.builds.and_then(|b| b.spare_now()) {
-                Some(mut spare) => self
-                    .estimator
-                    .set_mask_keeping(mask, self.model, &mut spare)?,
-                None => self.estimator.set_mask_in(mask, self.model)?,
-            };
-        }
+        // Made here and now: a change waiting for the builder is no longer wanted.
+        self.pending = None;
+        match self.builds.and_then(|b| b.spare_now()) {
+            Some(mut spare) => self
+                .estimator
+                .set_mask_keeping(mask, self.model, &mut spare)?,
+            None => self.estimator.set_mask_in(mask, self.model)?,
+        };
         self.note_model(before);
         Ok(())
     }
@@ -481,9 +477,7 @@ impl Estimation {
             initial_omega: self.last_omega,
             ..self.options
         };
-        {
-            self.pending = None; // an exclusion waiting was for the old configuration
-        }
+        self.pending = None; // an exclusion waiting was for the old configuration
         let est = &mut self.estimator;
         est.configure_preferring(arrangement, model, mask, options)?;
         // A commanded change: the `reconfigured` event reports the model in force; a
@@ -578,25 +572,21 @@ impl Estimation {
         if !ordered {
             self.update_exclusions(set.t);
         }
-        {
-            // A new channel set in force: the last sets through it first (their estimates
-            // are dropped), so that the rate filter meets this set warm.
-            if core::mem::take(&mut self.replay_due) {
-                let est = &mut self.estimator;
-                self.recent.replay(|t, p| {
-                    est.update(t, p);
-                });
-            }
-            self.recent.push(seconds(set.t), &self.p[..self.n]);
+        // A new channel set in force: the last sets through it first (their estimates
+        // are dropped), so that the rate filter meets this set warm.
+        if core::mem::take(&mut self.replay_due) {
+            let est = &mut self.estimator;
+            self.recent.replay(|t, p| {
+                est.update(t, p);
+            });
         }
+        self.recent.push(seconds(set.t), &self.p[..self.n]);
         // Parts whose exclusion waits for its configuration are out already: read as missing.
-        {
-            let leaving = self.channels_leaving();
-            if leaving.0 != 0 {
-                for (c, x) in self.p[..self.n].iter_mut().enumerate() {
-                    if leaving.contains(c) {
-                        *x = f32::NAN;
-                    }
+        let leaving = self.channels_leaving();
+        if leaving.0 != 0 {
+            for (c, x) in self.p[..self.n].iter_mut().enumerate() {
+                if leaving.contains(c) {
+                    *x = f32::NAN;
                 }
             }
         }
@@ -614,9 +604,7 @@ impl Estimation {
         if verdict == Verdict::NotIsolated {
             estimate.flags.0 |= Flags::RESIDUAL_HIGH;
         }
-        if self.isolation.enabled() {
-            self.trusted.observe(seconds(set.t), &estimate, verdict);
-        }
+        self.trusted.observe(seconds(set.t), &estimate, verdict);
         SetEstimate {
             k: set.k,
             t: set.t,
@@ -635,9 +623,7 @@ impl Estimation {
         let isolated = self.isolation.isolated();
         if wanted == self.excluded && (isolated == self.isolated || Some(isolated) == self.refused)
         {
-            {
-                self.pending = None; // a change no longer wanted
-            }
+            self.pending = None; // a change no longer wanted
             return;
         }
         let mask = self.mask(PartSet(wanted.0 | isolated.0), self.commanded);
@@ -660,9 +646,7 @@ impl Estimation {
             self.excluded = wanted;
             self.isolated = isolated;
             let _ = self.estimator.set_hint(hint);
-            {
-                self.replay_due = replay;
-            }
+            self.replay_due = replay;
             if monitor_stale {
                 self.refresh_monitor(tested_before);
             }
