@@ -135,38 +135,29 @@ pub fn board_config(
 /// The part a `[[sensor]]` table's `type` names, at the smallest range that holds its
 /// `range` (full scale, m/s²; the part's smallest without one), sampled at `rate_hz`.
 fn part_kind(part: Option<&str>, range: Option<f64>, rate_hz: f32) -> Result<PartKind, String> {
-    let g = range.map_or(0.0, |r| r / G);
-    let too_wide = |most: u8| {
-        format!(
-            "range = {} m/s² is more than the part's widest ({most} g)",
-            range.unwrap_or(0.0)
-        )
-    };
     match part.map(str::to_ascii_uppercase).as_deref() {
         Some("ADXL355") => Ok(PartKind::Adxl355 {
-            range: [
-                (2.0, adxl355::Range::G2),
-                (4.0, adxl355::Range::G4),
-                (8.0, adxl355::Range::G8),
-            ]
-            .into_iter()
-            .find(|(full, _)| g <= *full)
-            .map(|(_, r)| r)
-            .ok_or_else(|| too_wide(8))?,
+            range: smallest_range(
+                range,
+                &[
+                    (2.0, adxl355::Range::G2),
+                    (4.0, adxl355::Range::G4),
+                    (8.0, adxl355::Range::G8),
+                ],
+            )?,
             odr: adxl355::Odr::at_least(rate_hz),
             sync: true,
         }),
         Some("LIS3DH") => Ok(PartKind::Lis3dh {
-            range: [
-                (2.0, lis3dh::Range::G2),
-                (4.0, lis3dh::Range::G4),
-                (8.0, lis3dh::Range::G8),
-                (16.0, lis3dh::Range::G16),
-            ]
-            .into_iter()
-            .find(|(full, _)| g <= *full)
-            .map(|(_, r)| r)
-            .ok_or_else(|| too_wide(16))?,
+            range: smallest_range(
+                range,
+                &[
+                    (2.0, lis3dh::Range::G2),
+                    (4.0, lis3dh::Range::G4),
+                    (8.0, lis3dh::Range::G8),
+                    (16.0, lis3dh::Range::G16),
+                ],
+            )?,
             odr: lis3dh::Odr::at_least(rate_hz),
         }),
         Some(other) => Err(format!(
@@ -174,6 +165,23 @@ fn part_kind(part: Option<&str>, range: Option<f64>, rate_hz: f32) -> Result<Par
         )),
         None => Err("no type: the board needs the part (type = \"ADXL355\" or \"LIS3DH\")".into()),
     }
+}
+
+/// The first of a part's ranges (full scale in g, widest last) that holds `range` (m/s²; the
+/// smallest without one).
+fn smallest_range<R: Copy>(range: Option<f64>, ranges: &[(f64, R)]) -> Result<R, String> {
+    let g = range.map_or(0.0, |r| r / G);
+    ranges
+        .iter()
+        .find(|(full, _)| g <= *full)
+        .map(|(_, r)| *r)
+        .ok_or_else(|| {
+            format!(
+                "range = {} m/s² is more than the part's widest ({} g)",
+                range.unwrap_or(0.0),
+                ranges.last().map_or(0.0, |(full, _)| *full)
+            )
+        })
 }
 
 /// Rust source of `fn board_config() -> Option<AppConfig>` that builds `config` on the board

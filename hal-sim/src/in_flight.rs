@@ -7,9 +7,9 @@ use ballisto_fw::boot::count_boot;
 use ballisto_fw::calstore::ram_flash::{Programming, RamFlash};
 use ballisto_fw::calstore::store::{select_at_boot, CalibrationStore};
 use ballisto_fw::config::AppConfig;
-use ballisto_link::identification::{MAX_POINTS, SOURCE_REFERENCE};
+use ballisto_link::identification::{ReferencePoint, MAX_POINTS, POINT_LEN, SOURCE_REFERENCE};
 use ballisto_link::telecommand::{build, ACK_ACCEPTANCE, ACK_COMPLETION};
-use ballisto_link::{cuc, framing, service, subtype, CalibrationId, ResetCause};
+use ballisto_link::{framing, service, subtype, CalibrationId, ResetCause};
 
 use crate::firmware_host::{run_firmware_boot, Boot, Emit, FirmwareReport, SimTime, HOST_SECTOR};
 use crate::motion::Propagator;
@@ -88,7 +88,7 @@ pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String>
         &mut out,
     )?;
     // The reference's points in the window: (scenario time, TC[200,9] octets).
-    let mut points: Vec<(f64, Vec<u8>)> = Vec::new();
+    let mut points: Vec<(f64, [u8; POINT_LEN])> = Vec::new();
     for k in 0..sc.samples() {
         let t = k as f64 / sc.rate;
         if t > plan.end {
@@ -101,11 +101,11 @@ pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String>
         if t < plan.start {
             continue;
         }
-        let mut octets = cuc::cuc(SimTime::nanos(t)).to_vec();
-        for v in w {
-            octets.extend_from_slice(&(v as f32).to_be_bytes());
-        }
-        points.push((t, octets));
+        let point = ReferencePoint {
+            t: SimTime::nanos(t),
+            omega: w.map(|v| v as f32),
+        };
+        points.push((t, point.encode()));
     }
     for chunk in points.chunks(batch) {
         let mut data = vec![chunk.len() as u8];

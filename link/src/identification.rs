@@ -27,6 +27,16 @@ pub struct ReferencePoint {
     pub omega: [f32; 3],
 }
 
+impl ReferencePoint {
+    /// The point as TC[200,9] carries it (the inverse of [`points`], to the CUC resolution).
+    pub fn encode(&self) -> [u8; POINT_LEN] {
+        let mut out = [0u8; POINT_LEN];
+        out[..TIME_LEN].copy_from_slice(&crate::cuc::cuc(self.t));
+        Put::new(&mut out[TIME_LEN..]).f32s(&self.omega);
+        out
+    }
+}
+
 /// The points of TC[200,9] application data, already checked by acceptance (u8 n, then n ×
 /// [`POINT_LEN`]); stops at the first that does not read.
 pub fn points(data: &[u8]) -> impl Iterator<Item = ReferencePoint> + '_ {
@@ -236,5 +246,10 @@ mod tests {
         // CUC fine resolution 2⁻²⁴ s ≈ 60 ns.
         assert!(got[1].t.abs_diff(2_000_123_456) <= 60);
         assert_eq!(got[1].omega, [1.0, -2.0, 0.5]);
+        // The encoder writes what was read.
+        for (i, p) in got.iter().enumerate() {
+            let off = 1 + i * POINT_LEN;
+            assert_eq!(p.encode()[..], data[off..off + POINT_LEN]);
+        }
     }
 }

@@ -693,11 +693,8 @@ fn mutated_commands_never_panic() {
 /// TC[200,9] application data: `points` as (on-board ns, Ω).
 fn reference_data(points: &[(u64, [f32; 3])]) -> Vec<u8> {
     let mut d = vec![points.len() as u8];
-    for (t, w) in points {
-        d.extend_from_slice(&ballisto_link::cuc::cuc(*t));
-        for v in w {
-            d.extend_from_slice(&v.to_be_bytes());
-        }
+    for &(t, omega) in points {
+        d.extend_from_slice(&ballisto_link::identification::ReferencePoint { t, omega }.encode());
     }
     d
 }

@@ -12,9 +12,9 @@
 //!    ([`SCRIPT`]) that exercises every path: mode changes, a housekeeping request, line
 //!    noise, a damaged command, a model change, an exclusion.
 
-use ballisto_link::identification::{POINT_LEN, SOURCE_REFERENCE};
+use ballisto_link::identification::{ReferencePoint, POINT_LEN, SOURCE_REFERENCE};
 use ballisto_link::telecommand::{self, ACK_ACCEPTANCE, ACK_COMPLETION};
-use ballisto_link::{cuc, framing, service, sid, subtype};
+use ballisto_link::{framing, service, sid, subtype};
 use embedded_io_async::{ErrorType, Read};
 
 use core::ops::Range;
@@ -251,11 +251,11 @@ pub fn frame(step: Step, seq: u16, t0: Nanos, period: Nanos, out: &mut [u8]) -> 
             {
                 let set = u64::from(first + j as u32 * every);
                 let (_, _, omega) = motion(ballisto_fw::time::seconds(set * period));
-                chunk[..cuc::TIME_LEN].copy_from_slice(&cuc::cuc(t0 + set * period));
-                for (k, w) in omega.iter().enumerate() {
-                    let at = cuc::TIME_LEN + 4 * k;
-                    chunk[at..at + 4].copy_from_slice(&(*w as f32).to_be_bytes());
-                }
+                let point = ReferencePoint {
+                    t: t0 + set * period,
+                    omega: omega.map(|w| w as f32),
+                };
+                chunk.copy_from_slice(&point.encode());
             }
             let len = 1 + n as usize * POINT_LEN;
             (
