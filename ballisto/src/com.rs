@@ -37,6 +37,8 @@ pub struct ComSummary {
     pub undetermined: usize,
     /// The model used.
     pub model: Option<Model>,
+    /// Why the model differs from the file's, if it does (said once, after the run).
+    pub model_note: Option<String>,
 }
 
 struct Row {
@@ -66,10 +68,7 @@ pub fn com_files(
     }
     crate::output::check_distinct(&[out], &[arrangement, samples])?;
     let loaded = load_arrangement(arrangement)?;
-    let (model, note) = crate::model_choice::recommend(model, &loaded);
-    if let Some(note) = note {
-        eprintln!("ballisto com: {}: {note}", arrangement.display());
-    }
+    let (model, model_note) = crate::model_choice::recommend(model, &loaded, arrangement)?;
     let mut est = HostEstimator::<f64>::new(&loaded, model, Options::default())
         .map_err(|e| format!("{}: {e}", arrangement.display()))?;
     let mut reader = SamplesReader::open(samples, &loaded.names)?;
@@ -107,16 +106,20 @@ pub fn com_files(
         est.push(t, &p, &mut emit);
     }
     est.finish(&mut emit);
+    let Some((t0, t1)) = span else {
+        return Err(format!(
+            "{}: no sample rows after the header: nothing written",
+            samples.display()
+        )
+        .into());
+    };
     // Written beside the final path, put in place once complete (`crate::output`).
     let (pending, mut w) = crate::output::create(out)?;
     writeln!(w, "{COLUMNS}")?;
     let mut summary = ComSummary {
         model: Some(model),
+        model_note,
         ..Default::default()
-    };
-    let Some((t0, t1)) = span else {
-        crate::output::finish(pending, w)?;
-        return Ok(summary);
     };
     let mut start = t0;
     let mut first = 0;

@@ -2,6 +2,7 @@
 //! checked (COBS frame, length, CRC, APID, layout) and its sequence count followed, → the
 //! estimates file and a readable log of housekeeping, events and verification reports.
 
+use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::io::Write;
 use std::path::Path;
@@ -11,6 +12,7 @@ use ballisto_link::framing::{max_encoded_len, Deframed, Deframer};
 use ballisto_link::ids::TC_MAX;
 use ballisto_link::{
     subtype, BootEvent, CalibrationSource, EventId, Housekeeping, Mode, ModelCode, PartState,
+    RequestId,
 };
 
 /// Extra columns of the decoded estimates file, after the estimates-file columns.
@@ -326,11 +328,14 @@ pub fn decode_file(
     out: &Path,
     log: Option<&Path>,
     time_offset: f64,
+    sent: &HashMap<RequestId, String>,
 ) -> Result<(Stream, usize, String), String> {
     let outputs: Vec<&Path> = std::iter::once(out).chain(log).collect();
     crate::output::check_distinct(&outputs, &[input])?;
-    let bytes =
-        std::fs::read(input).map_err(|e| format!("{}: cannot read: {e}", input.display()))?;
+    let bytes = crate::output::read_input(input)?;
+    if bytes.is_empty() {
+        return Err(format!("{}: empty: no telemetry", input.display()));
+    }
     let stream = decode_stream(&bytes);
     // Written beside the final path, put in place once complete (`crate::output`).
     let (pending, mut w) = crate::output::create(out)?;
@@ -338,11 +343,30 @@ pub fn decode_file(
         .map_err(|e| format!("{}: {e}", out.display()))?;
     crate::output::finish(pending, w)?;
     let mut text = String::new();
+    let mut answered = std::collections::HashSet::new();
     for p in &stream.packets {
         if let Some(l) = log_line(p, time_offset) {
             text.push_str(&l);
+            if let Report::Verification(v) = &p.report {
+                if let Some(what) = sent.get(&v.request) {
+                    let _ = write!(text, " -- {what}");
+                    answered.insert(v.request);
+                }
+            }
             text.push('\n');
         }
+    }
+    let mut unanswered: Vec<(&RequestId, &String)> = sent
+        .iter()
+        .filter(|(id, _)| !answered.contains(*id))
+        .collect();
+    unanswered.sort_by_key(|(id, _)| id.sequence);
+    for (id, what) in unanswered {
+        let _ = writeln!(
+            text,
+            "NO VERIFICATION TC {:#06x}/{:#06x} -- {what} (not received, refused before its header, or sent without acknowledgement flags)",
+            id.packet_id, id.sequence
+        );
     }
     for p in &stream.problems {
         let _ = writeln!(text, "PROBLEM {p}");

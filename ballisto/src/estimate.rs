@@ -55,6 +55,10 @@ pub struct Summary {
     pub model: Option<Model>,
     /// Channels.
     pub channels: usize,
+    /// Why the model differs from the file's, if it does (said once, after the run).
+    pub model_note: Option<String>,
+    /// What looks implausible in the inputs, naming the likely cause.
+    pub warnings: Vec<String>,
 }
 
 /// Runs the estimator over a samples file, streaming rows to the estimates file. Rows written
@@ -62,14 +66,15 @@ pub struct Summary {
 pub fn estimate_files(job: &EstimateJob) -> Result<Summary, Box<dyn Error>> {
     crate::output::check_distinct(&[job.out], &[job.arrangement, job.samples])?;
     let loaded = load_arrangement(job.arrangement)?;
-    let (model, note) = crate::model_choice::recommend(job.model, &loaded);
-    if let Some(note) = note {
-        eprintln!("ballisto estimate: {}: {note}", job.arrangement.display());
-    }
-    match job.precision {
+    let (model, model_note) = crate::model_choice::recommend(job.model, &loaded, job.arrangement)?;
+    let summary = match job.precision {
         Precision::F64 => run_typed::<f64>(job, &loaded, model),
         Precision::F32 => run_typed::<f32>(job, &loaded, model),
-    }
+    }?;
+    Ok(Summary {
+        model_note,
+        ..summary
+    })
 }
 
 /// Records each pass's smoother holds ([`estimator_core::smoother`]): one, so each pass's
@@ -633,6 +638,15 @@ fn run_typed<T: Real + Send + 'static>(
     let written = w.finish();
     if let Some(e) = io_err.or(written.err()) {
         return Err(format!("{}: write failed: {e}", job.out.display()).into());
+    }
+    if summary.rows == 0 {
+        // The pending output is dropped: a previous file of that name stays as it was.
+        result?;
+        return Err(format!(
+            "{}: no sample rows after the header: nothing written",
+            job.samples.display()
+        )
+        .into());
     }
     // The rows accepted before an input error are a whole output: in place, then the error.
     pending.commit()?;

@@ -31,7 +31,16 @@ const SIM_HELP: &str = "Named scenarios:
 The scenario file format: hal-sim/scenarios/README.md.";
 
 const DECODE_HELP: &str = "Packet layouts: docs/telemetry.md. Exit status: 0 all packets intact and
-contiguous, 1 error (file), 2 damaged frames or sequence gaps (listed on stderr).";
+contiguous, 1 an input is wrong (unreadable, empty, an output that is an input), 2 the command
+line is wrong, 3 damaged frames or sequence gaps (listed on stderr; the good packets are written).";
+
+const TC_HELP: &str =
+    "Each command is checked by the unit's own acceptance before it is written: a command
+the unit would refuse is an error, and nothing is written. Frames are COBS between zero
+delimiters (docs/telemetry.md), as the unit reads its command link; several commands in one
+run get consecutive sequence counts from --sequence. Binary frames are not written to a
+terminal: name --out FILE, redirect, or use --hex. Example:
+  ballisto tc --sequence 7 exclude u1.x --arrangement arrangement.toml --out exclude.bin";
 
 /// `--model` (interfaces.md).
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -73,9 +82,16 @@ enum AlignArg {
 #[command(
     name = "ballisto",
     version,
-    about = "Ballistometer host tools: σ0, Ω′ and Ω from accelerometers alone"
+    about = "Ballistometer host tools: σ0, Ω′ and Ω from accelerometers alone",
+    after_help = ballisto::exit::HELP
 )]
 struct Cli {
+    /// Say nothing but warnings and errors (no summaries, no notices).
+    #[arg(short, long, global = true, conflicts_with = "verbose")]
+    quiet: bool,
+    /// Say more: timings, every problem listed.
+    #[arg(short, long, global = true)]
+    verbose: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -88,10 +104,10 @@ enum Command {
         /// Arrangement file (TOML).
         #[arg(long, value_name = "FILE.toml")]
         arrangement: PathBuf,
-        /// Samples file (CSV: t and one column per channel).
+        /// Samples file (CSV: t and one column per channel); `-` reads stdin.
         #[arg(long, value_name = "FILE.csv")]
         samples: PathBuf,
-        /// Estimates file to write (CSV: the interfaces.md columns, then chi2, dof, branches,
+        /// Estimates file to write, `-` for stdout (CSV: the interfaces.md columns, then chi2, dof, branches,
         /// frame, the standard deviations — with the arrangement's frame uncertainty when it
         /// has one — epsilon, and the gravity gradient gamma_* with sd_gamma_*, model G only).
         #[arg(long, value_name = "FILE.csv")]
@@ -135,19 +151,29 @@ enum Command {
         /// calibration (the first boot's telemetry in telemetry-identify.bin).
         #[arg(long, requires = "firmware")]
         identify: bool,
+        /// With --firmware: send the telecommand frames of FILE (as `ballisto tc` writes them)
+        /// on the unit's command link at scenario time SECONDS; repeatable. The unit's
+        /// verification reports are in telemetry.bin (`ballisto decode --commands FILE`).
+        #[arg(
+            long,
+            value_name = "SECONDS:FILE",
+            requires = "firmware",
+            conflicts_with = "identify"
+        )]
+        uplink: Vec<String>,
     },
     /// Decode a telemetry stream (COBS-framed PUS packets, as `sim --firmware` writes in
     /// telemetry.bin or the unit sends on its link): motion reports to an estimates file,
     /// housekeeping, events and verification reports to readable text. Every frame's CRC
-    /// and the sequence count are checked; exit status 2 if anything was damaged or lost
+    /// and the sequence count are checked; exit status 3 if anything was damaged or lost
     /// (the good packets are still written).
     #[command(after_help = DECODE_HELP)]
     Decode {
-        /// The raw stream.
+        /// The raw stream; `-` reads stdin.
         #[arg(value_name = "FILE")]
         input: PathBuf,
-        /// Estimates file to write (CSV: the estimates columns, then k, missing_parts,
-        /// excluded_parts, excluded_channels).
+        /// Estimates file to write, `-` for stdout (CSV: the estimates columns, then k,
+        /// missing_parts, excluded_parts, excluded_channels).
         #[arg(long, value_name = "FILE.csv")]
         out: PathBuf,
         /// Write housekeeping, events and verification reports here (default: stdout).
@@ -168,6 +194,11 @@ enum Command {
         /// The nominal arrangement the unit runs (its channel names), for --calibration.
         #[arg(long, value_name = "FILE.toml")]
         arrangement: Option<PathBuf>,
+        /// Telecommands sent (frames as `ballisto tc` writes them; repeatable): each
+        /// verification report names the command it answers, and a command with no report is
+        /// listed.
+        #[arg(long, value_name = "TC.bin")]
+        commands: Vec<PathBuf>,
     },
     /// Identify every channel's position, axis, scale and bias from a record of static poses
     /// and motion (paper §6); writes a calibrated arrangement file with standard deviations
@@ -228,6 +259,133 @@ enum Command {
         /// Estimates file (CSV, as written by `ballisto estimate`).
         estimates: PathBuf,
     },
+    /// Build telecommands for the unit (PUS packets, COBS-framed as on its command link):
+    /// to a file, or stdout.
+    #[command(after_help = TC_HELP)]
+    Tc {
+        /// Where to write the frames (default: stdout, `-`).
+        #[arg(long, value_name = "TC.bin", global = true, default_value = "-")]
+        out: PathBuf,
+        /// Sequence count of the (first) packet, 0–16383: the verification reports carry it.
+        #[arg(long, value_name = "N", global = true, default_value = "0")]
+        sequence: u16,
+        /// Verification reports asked for: acceptance, completion (comma-separated), or none.
+        #[arg(
+            long,
+            value_name = "LIST",
+            global = true,
+            default_value = "acceptance,completion"
+        )]
+        ack: String,
+        /// Write the frames as hexadecimal text, one per line, instead of binary.
+        #[arg(long, global = true)]
+        hex: bool,
+        #[command(subcommand)]
+        command: TcCommand,
+    },
+}
+
+/// The telecommands of `ballisto tc` (docs/telemetry.md, "Telecommands").
+#[derive(Subcommand)]
+enum TcCommand {
+    /// TC[200,1]: standby (sampling, housekeeping) or operate (estimating).
+    Mode {
+        /// standby or operate.
+        #[arg(value_enum)]
+        mode: ModeArg,
+    },
+    /// TC[200,2]: the estimator model.
+    Model {
+        /// general or free-float.
+        #[arg(value_enum)]
+        model: ModelArg,
+    },
+    /// TC[200,3]: an approximate Ω (rad/s, body) to settle sign and branch.
+    Hint {
+        /// "X,Y,Z" in rad/s (each at most 50).
+        #[arg(value_name = "X,Y,Z", allow_hyphen_values = true)]
+        omega: String,
+    },
+    /// TC[200,4]: take a channel out of the solve.
+    Exclude {
+        /// The channel: its index (file order, sensors expanded x, y, z) or, with
+        /// --arrangement, its name.
+        channel: String,
+        /// The unit's arrangement file: channel names, and the range of the index.
+        #[arg(long, value_name = "FILE.toml")]
+        arrangement: Option<PathBuf>,
+    },
+    /// TC[200,5]: put a commanded-out channel back.
+    Include {
+        /// The channel: index or, with --arrangement, name.
+        channel: String,
+        /// The unit's arrangement file.
+        #[arg(long, value_name = "FILE.toml")]
+        arrangement: Option<PathBuf>,
+    },
+    /// TC[200,6]: load a geometry (positions, axes, noise) for the unit's channels.
+    LoadArrangement {
+        /// Arrangement file (TOML), e.g. `ballisto calibrate`'s output.
+        #[arg(value_name = "FILE.toml")]
+        arrangement: PathBuf,
+    },
+    /// TC[200,7]: telemetry rates.
+    Rates {
+        /// Sample sets per motion report (1 = every set; at most 10 000).
+        #[arg(long, value_name = "N")]
+        motion_every: u16,
+        /// Sample sets per housekeeping report.
+        #[arg(long, value_name = "N")]
+        housekeeping_every: u16,
+    },
+    /// TC[200,8]: start an identification window with a reference rate sent by TC[200,9].
+    Identify {
+        /// The reference's period on the bus, ms (a longer interval is a gap).
+        #[arg(long, value_name = "MS")]
+        period_ms: u16,
+        /// The window's length from reception, s (at most one hour).
+        #[arg(long, value_name = "SECONDS")]
+        window: f64,
+    },
+    /// TC[200,9]: reference rate points from a file (CSV: t, omega_x, omega_y, omega_z; t on
+    /// the unit's clock, s since boot), 16 points per packet.
+    Reference {
+        /// Reference rate file.
+        #[arg(value_name = "REFERENCE.csv")]
+        file: PathBuf,
+        /// First time to send, s.
+        #[arg(long, value_name = "S", default_value = "0")]
+        from: f64,
+        /// Last time to send, s.
+        #[arg(long, value_name = "S", default_value = "inf")]
+        to: f64,
+    },
+    /// TC[200,10]: solve the identification window and report the solution.
+    ReportIdentification,
+    /// TC[200,11]: commit a reported solution to the calibration store.
+    Commit {
+        /// The solution number its TM[200,128] gave.
+        solution: u16,
+    },
+    /// TC[3,27]: report housekeeping now.
+    Housekeeping,
+    /// TC[9,128]: the spacecraft time at the command's reception (s; CUC 4+3).
+    SetTime {
+        /// Seconds of the spacecraft's time scale.
+        #[arg(value_name = "SECONDS")]
+        seconds: f64,
+    },
+    /// TC[17,1]: are you alive.
+    Ping,
+}
+
+/// `tc mode`.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum ModeArg {
+    /// Sampling and housekeeping only.
+    Standby,
+    /// Estimating at sample rate.
+    Operate,
 }
 
 fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
@@ -273,7 +431,38 @@ fn parse_fit(s: &str) -> Result<ballisto::calibrate::fit::FitSet, String> {
     Ok(fit)
 }
 
+/// What is said on stderr besides errors and warnings (`--quiet`, `--verbose`).
+#[derive(Clone, Copy)]
+struct Say {
+    quiet: bool,
+    verbose: bool,
+}
+
+impl Say {
+    /// A summary or notice: left out with `--quiet`.
+    fn info(self, text: impl std::fmt::Display) {
+        if !self.quiet {
+            eprintln!("{text}");
+        }
+    }
+
+    /// A detail: only with `--verbose`.
+    fn detail(self, text: impl std::fmt::Display) {
+        if self.verbose {
+            eprintln!("{text}");
+        }
+    }
+}
+
+/// Problems listed without `--verbose`.
+const PROBLEMS_LISTED: usize = 10;
+
 fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    let say = Say {
+        quiet: cli.quiet,
+        verbose: cli.verbose,
+    };
+    let started = std::time::Instant::now();
     match cli.command {
         Command::Estimate {
             arrangement,
@@ -303,19 +492,33 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 precision,
             };
             let s = estimate_files(&job)?;
-            eprintln!(
+            if let Some(note) = &s.model_note {
+                say.info(format!(
+                    "ballisto estimate: {}: {note}",
+                    arrangement.display()
+                ));
+            }
+            for w in &s.warnings {
+                eprintln!("ballisto estimate: WARNING: {w}");
+            }
+            say.info(format!(
                 "ballisto estimate: {} rows, {} channels, model {} -> {}",
                 s.rows,
                 s.channels,
                 s.model.map(|m| m.name()).unwrap_or("?"),
                 out.display()
-            );
+            ));
             for (bit, name) in FLAG_NAMES {
                 let c = s.flag_counts[bit.trailing_zeros() as usize];
                 if c > 0 {
-                    eprintln!("  {c:>8} rows flagged {name} ({bit})");
+                    say.info(format!("  {c:>8} rows flagged {name} ({bit})"));
                 }
             }
+            let secs = started.elapsed().as_secs_f64();
+            say.detail(format!(
+                "  {secs:.2} s wall time, {:.0} rows/s",
+                s.rows as f64 / secs.max(1e-9)
+            ));
             Ok(ExitCode::SUCCESS)
         }
         Command::Calibrate {
@@ -338,28 +541,32 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 model,
                 report: report.as_deref(),
             })?;
-            eprintln!(
+            say.info(format!(
                 "ballisto calibrate: {} static poses, {} samples in motion, {} alternations, model {} -> {}",
                 s.poses,
                 s.motion,
                 s.identification.iterations,
                 s.model.name(),
                 out.display()
-            );
+            ));
             for w in &s.warnings {
                 eprintln!("  WARNING: {w}");
             }
             for c in &s.identification.conventions {
-                eprintln!("  held by convention: {c}");
+                say.info(format!("  held by convention: {c}"));
             }
             for (name, c) in s.names.iter().zip(s.identification.channels.iter()) {
                 if !c.held.is_empty() {
-                    eprintln!(
+                    say.info(format!(
                         "  {name}: not identified (kept nominal): {}",
                         c.held.join("; ")
-                    );
+                    ));
                 }
             }
+            say.detail(format!(
+                "  {:.2} s wall time",
+                started.elapsed().as_secs_f64()
+            ));
             Ok(ExitCode::SUCCESS)
         }
         Command::Com {
@@ -371,13 +578,16 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
         } => {
             let model = model.map(Model::from);
             let s = ballisto::com::com_files(&arrangement, &samples, &out, window, model)?;
-            eprintln!(
+            if let Some(note) = &s.model_note {
+                say.info(format!("ballisto com: {}: {note}", arrangement.display()));
+            }
+            say.info(format!(
                 "ballisto com: {} windows of {window} s ({} could not separate rho from f), model {} -> {}",
                 s.windows,
                 s.undetermined,
                 s.model.map(|m| m.name()).unwrap_or("?"),
                 out.display()
-            );
+            ));
             Ok(ExitCode::SUCCESS)
         }
         Command::Sim {
@@ -387,67 +597,27 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             firmware,
             align,
             identify,
+            uplink,
         } => {
             let alignment = match align {
                 AlignArg::Interpolate => Alignment::Interpolate,
                 AlignArg::Latest => Alignment::Latest,
             };
             let sc = hal_sim::scenario::Scenario::load(&scenario)?;
-            let started = std::time::Instant::now();
+            let uplink = uplink
+                .iter()
+                .map(|u| read_uplink(u))
+                .collect::<Result<Vec<_>, _>>()?;
             let r = ballisto::sim::run_sim(&ballisto::sim::SimJob {
                 scenario: &sc,
                 out: &out,
                 estimate,
-                progress: true,
+                progress: !say.quiet,
                 firmware: firmware.then_some(alignment),
                 identify,
+                uplink,
             })?;
-            println!("ballisto sim: {scenario}: {}", sc.description);
-            println!(
-                "  {} sample sets at {} Hz ({} s), {} parts, {} channels, {:.2} s wall time",
-                r.samples,
-                sc.rate,
-                sc.duration,
-                r.parts.len(),
-                r.channels,
-                started.elapsed().as_secs_f64()
-            );
-            for (name, bytes, busy) in &r.buses {
-                println!(
-                    "  bus {name}: {bytes} bytes, {:.1} us busy per sample set",
-                    busy / r.samples as f64 * 1e6
-                );
-            }
-            for p in r.parts.iter().filter(|p| p.errors > 0) {
-                println!(
-                    "  part {}: {} of {} reads failed (empty fields)",
-                    p.name, p.errors, p.reads
-                );
-            }
-            if !sc.faults.is_empty() {
-                println!("  faults scheduled: {}", sc.faults.len());
-            }
-            if let Some(fw) = &r.firmware {
-                print_firmware(&sc, fw);
-            }
-            for line in &r.identification {
-                println!("  identify: {line}");
-            }
-            if let Some(c) = &r.errors {
-                println!(
-                    "  RMS error  sigma0 {:.3e} m/s^2  domega {:.3e} rad/s^2  omega {:.3e} rad/s  A {:.3e} 1/s^2",
-                    c.sigma0, c.domega, c.omega, c.field
-                );
-                for (bit, name) in FLAG_NAMES {
-                    let c = r.flag_counts[bit.trailing_zeros() as usize];
-                    if c > 0 {
-                        println!("  {c:>8} rows flagged {name} ({bit})");
-                    }
-                }
-            }
-            for f in &r.files {
-                println!("  wrote {}", f.display());
-            }
+            print_sim(say, &scenario, &sc, &r, started);
             Ok(ExitCode::SUCCESS)
         }
         Command::Decode {
@@ -457,6 +627,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             time_offset,
             calibration,
             arrangement,
+            commands,
         } => {
             // Every output checked against every input before anything is written.
             let outputs: Vec<&Path> = std::iter::once(out.as_path())
@@ -465,32 +636,58 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 .collect();
             let inputs: Vec<&Path> = std::iter::once(input.as_path())
                 .chain(arrangement.as_deref())
+                .chain(commands.iter().map(PathBuf::as_path))
                 .collect();
             ballisto::output::check_distinct(&outputs, &inputs)?;
+            let mut sent = std::collections::HashMap::new();
+            for c in &commands {
+                let bytes = ballisto::output::read_input(c)?;
+                sent.extend(ballisto::tc::sent(&bytes, &c.display().to_string())?);
+            }
             let (stream, rows, text) =
-                ballisto::decode::decode_file(&input, &out, log.as_deref(), time_offset)?;
+                ballisto::decode::decode_file(&input, &out, log.as_deref(), time_offset, &sent)?;
             if let (Some(cal), Some(nominal)) = (&calibration, &arrangement) {
                 let file = ballisto::decode::identified_arrangement(&stream, &input, nominal)?;
                 ballisto::output::write(cal, file.as_bytes())?;
-                eprintln!("{}: identification solution written", cal.display());
+                say.info(format!(
+                    "{}: identification solution written",
+                    cal.display()
+                ));
             }
             if log.is_none() {
-                print!("{text}");
+                if ballisto::output::is_std(&out) {
+                    // The estimates own stdout: the log goes with the diagnostics.
+                    say.info(&text);
+                } else {
+                    print!("{text}");
+                }
             }
-            eprintln!(
+            say.info(format!(
                 "{}: {} packets, {rows} motion reports to {}, {} problems",
                 input.display(),
                 stream.packets.len(),
                 out.display(),
                 stream.problems.len()
-            );
-            for p in &stream.problems {
+            ));
+            let listed = if say.verbose {
+                stream.problems.len()
+            } else {
+                PROBLEMS_LISTED
+            };
+            for p in stream.problems.iter().take(listed) {
                 eprintln!("ballisto: {}: {p}", input.display());
+            }
+            if stream.problems.len() > listed {
+                eprintln!(
+                    "ballisto: {}: {} more problems (-v lists them all; the log has every one)",
+                    input.display(),
+                    stream.problems.len() - listed
+                );
             }
             Ok(if stream.problems.is_empty() {
                 ExitCode::SUCCESS
             } else {
-                ExitCode::from(2)
+                ExitCode::from(ballisto::exit::DAMAGED_TELEMETRY)
             })
         }
         Command::Compare { truth, estimates } => {
@@ -510,36 +707,255 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             }
             Ok(ExitCode::SUCCESS)
         }
+        Command::Tc {
+            out,
+            sequence,
+            ack,
+            hex,
+            command,
+        } => {
+            let ack = ballisto::tc::ack_flags(&ack)?;
+            let frames = telecommands(command, sequence, ack, say)?;
+            let bytes = if hex {
+                ballisto::tc::hex(&frames).into_bytes()
+            } else {
+                frames
+                    .iter()
+                    .flat_map(|f| f.frame.iter().copied())
+                    .collect()
+            };
+            if ballisto::output::is_std(&out) && !hex {
+                use std::io::IsTerminal;
+                if std::io::stdout().is_terminal() {
+                    return Err("refusing to write binary telecommand frames to a terminal: name --out FILE, redirect stdout, or add --hex".into());
+                }
+            }
+            ballisto::output::write(&out, &bytes)?;
+            for f in &frames {
+                say.info(format!("ballisto tc: {} -> {}", f.text, out.display()));
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
+/// The frames of a `tc` command: consecutive sequence counts from `sequence`.
+fn telecommands(
+    command: TcCommand,
+    sequence: u16,
+    ack: u8,
+    say: Say,
+) -> Result<Vec<ballisto::tc::Framed>, Box<dyn std::error::Error>> {
+    use ballisto::tc;
+    use ballisto_link::telecommand::Command as Tc;
+    if sequence > 0x3FFF {
+        return Err(format!("--sequence {sequence}: at most 16383 (14 bits)").into());
+    }
+    let one = |c: Tc, channels: Option<usize>| tc::frame(&c, sequence, ack, channels);
+    let channels_of = |a: &Option<PathBuf>| -> Result<Option<usize>, String> {
+        a.as_deref()
+            .map(|p| {
+                hal_sim::arrangement_file::load_arrangement(p)
+                    .map(|l| l.names.len())
+                    .map_err(|e| e.to_string())
+            })
+            .transpose()
+    };
+    let frames = match command {
+        TcCommand::Mode { mode } => vec![one(
+            Tc::SetMode(match mode {
+                ModeArg::Standby => ballisto_link::Mode::Standby,
+                ModeArg::Operate => ballisto_link::Mode::Operate,
+            }),
+            None,
+        )?],
+        TcCommand::Model { model } => vec![one(Tc::SetModel(model.into()), None)?],
+        TcCommand::Hint { omega } => {
+            let w = parse_vec3(&omega).map_err(|e| e.replace("--initial-omega", "hint"))?;
+            vec![one(Tc::SetHint(w.map(|v| v as f32)), None)?]
+        }
+        TcCommand::Exclude {
+            channel,
+            arrangement,
+        } => {
+            let c = tc::channel_index(&channel, arrangement.as_deref())?;
+            vec![one(Tc::Exclude(c), channels_of(&arrangement)?)?]
+        }
+        TcCommand::Include {
+            channel,
+            arrangement,
+        } => {
+            let c = tc::channel_index(&channel, arrangement.as_deref())?;
+            vec![one(Tc::Include(c), channels_of(&arrangement)?)?]
+        }
+        TcCommand::LoadArrangement { arrangement } => {
+            let (data, warnings) = tc::arrangement_data(&arrangement)?;
+            for w in warnings {
+                eprintln!("ballisto tc: WARNING: {w}");
+            }
+            vec![one(Tc::LoadArrangement(&data), None)?]
+        }
+        TcCommand::Rates {
+            motion_every,
+            housekeeping_every,
+        } => vec![one(
+            Tc::SetRates {
+                motion_every,
+                housekeeping_every,
+            },
+            None,
+        )?],
+        TcCommand::Identify { period_ms, window } => {
+            let ms = (window * 1000.0).round();
+            if !(ms >= 1.0 && ms <= f64::from(u32::MAX)) {
+                return Err(format!("--window {window}: not a window length in seconds").into());
+            }
+            vec![one(
+                Tc::StartIdentification {
+                    period_ms,
+                    window_ms: ms as u32,
+                },
+                None,
+            )?]
+        }
+        TcCommand::Reference { file, from, to } => {
+            let batches = tc::reference_batches(&file, from, to)?;
+            say.detail(format!(
+                "ballisto tc: {}: {} packets of reference points",
+                file.display(),
+                batches.len()
+            ));
+            batches
+                .iter()
+                .enumerate()
+                .map(|(i, data)| {
+                    tc::frame(
+                        &Tc::ReferenceRate(data),
+                        sequence.wrapping_add(i as u16) & 0x3FFF,
+                        ack,
+                        None,
+                    )
+                })
+                .collect::<Result<_, _>>()?
+        }
+        TcCommand::ReportIdentification => vec![one(Tc::ReportIdentification, None)?],
+        TcCommand::Commit { solution } => {
+            vec![one(Tc::CommitCalibration { solution }, None)?]
+        }
+        TcCommand::Housekeeping => vec![one(Tc::ReportHousekeeping, None)?],
+        TcCommand::SetTime { seconds } => {
+            vec![one(Tc::SetTime(tc::time_ticks(seconds)?), None)?]
+        }
+        TcCommand::Ping => vec![one(Tc::AreYouAlive, None)?],
+    };
+    Ok(frames)
+}
+
+/// `--uplink SECONDS:FILE`: the file's bytes, sent at that scenario time.
+fn read_uplink(arg: &str) -> Result<(f64, Vec<u8>), String> {
+    let (at, file) = arg
+        .split_once(':')
+        .ok_or_else(|| format!("--uplink \"{arg}\": expected SECONDS:FILE"))?;
+    let at: f64 = at
+        .trim()
+        .parse()
+        .ok()
+        .filter(|t: &f64| t.is_finite() && *t >= 0.0)
+        .ok_or_else(|| format!("--uplink \"{arg}\": \"{at}\" is not a time in seconds"))?;
+    let bytes = ballisto::output::read_input(Path::new(file))?;
+    if bytes.is_empty() {
+        return Err(format!("{file}: empty: no telecommand to send"));
+    }
+    Ok((at, bytes))
+}
+
+/// `sim`'s summary (stderr: its results are the files).
+fn print_sim(
+    say: Say,
+    scenario: &str,
+    sc: &hal_sim::scenario::Scenario,
+    r: &ballisto::sim::SimReport,
+    started: std::time::Instant,
+) {
+    say.info(format!("ballisto sim: {scenario}: {}", sc.description));
+    say.info(format!(
+        "  {} sample sets at {} Hz ({} s), {} parts, {} channels, {:.2} s wall time",
+        r.samples,
+        sc.rate,
+        sc.duration,
+        r.parts.len(),
+        r.channels,
+        started.elapsed().as_secs_f64()
+    ));
+    for (name, bytes, busy) in &r.buses {
+        say.info(format!(
+            "  bus {name}: {bytes} bytes, {:.1} us busy per sample set",
+            busy / r.samples as f64 * 1e6
+        ));
+    }
+    for p in r.parts.iter().filter(|p| p.errors > 0) {
+        say.info(format!(
+            "  part {}: {} of {} reads failed (empty fields)",
+            p.name, p.errors, p.reads
+        ));
+    }
+    if !sc.faults.is_empty() {
+        say.info(format!("  faults scheduled: {}", sc.faults.len()));
+    }
+    if let Some(fw) = &r.firmware {
+        print_firmware(say, sc, fw);
+    }
+    for line in &r.identification {
+        say.info(format!("  identify: {line}"));
+    }
+    if let Some(c) = &r.errors {
+        say.info(format!(
+            "  RMS error  sigma0 {:.3e} m/s^2  domega {:.3e} rad/s^2  omega {:.3e} rad/s  A {:.3e} 1/s^2",
+            c.sigma0, c.domega, c.omega, c.field
+        ));
+        for (bit, name) in FLAG_NAMES {
+            let c = r.flag_counts[bit.trailing_zeros() as usize];
+            if c > 0 {
+                say.info(format!("  {c:>8} rows flagged {name} ({bit})"));
+            }
+        }
+    }
+    for f in &r.files {
+        say.info(format!("  wrote {}", f.display()));
     }
 }
 
 /// The firmware's own counts and figures.
-fn print_firmware(sc: &hal_sim::scenario::Scenario, fw: &hal_sim::firmware_host::FirmwareReport) {
+fn print_firmware(
+    say: Say,
+    sc: &hal_sim::scenario::Scenario,
+    fw: &hal_sim::firmware_host::FirmwareReport,
+) {
     let l = &fw.sampling;
-    println!(
+    say.info(format!(
         "  firmware: {} sets sampled, {} instants skipped (overrun), {} sets dropped (queue full), {} SYNC errors",
         l.sets, l.skipped, l.dropped, l.sync_errors
-    );
+    ));
     for ((p, h), u) in sc.parts.iter().zip(&fw.parts).zip(&fw.clock_uncertainty) {
         let clock = match u {
             Some(u) => format!(", conversion time known to +-{:.1} us", u * 1e6),
             None => String::new(),
         };
-        println!(
+        say.info(format!(
             "  part {}: {} reads, {} bus errors, {} implausible, {} sets missed, {} resyncs, {} failed starts{clock}",
             p.name, h.reads, h.bus_errors, h.implausible, h.missed, h.resyncs, h.failed_starts
-        );
+        ));
     }
-    println!(
-        "  task futures {} + {} + {} bytes (sampling, application, uplink), application state {} bytes (estimation {}); host CPU per set: cargo bench -p hal-sim --bench firmware_per_set",
+    say.detail(format!(
+        "  task futures {} + {} + {} bytes (sampling, application, uplink), application state {} bytes (estimation {})",
         fw.task_sizes.0,
         fw.task_sizes.1,
         fw.task_sizes.2,
         fw.app_size,
         fw.estimation_size
-    );
+    ));
     let h = &fw.housekeeping;
-    println!(
+    say.info(format!(
         "  telemetry: {} bytes in telemetry.bin ({:.0} bytes/s), {} estimates, {} telecommands accepted, {} refused, {} packets lost",
         fw.telemetry_bytes,
         fw.telemetry_bytes as f64 / (f64::from(l.sets.max(1)) / sc.rate),
@@ -547,24 +963,29 @@ fn print_firmware(sc: &hal_sim::scenario::Scenario, fw: &hal_sim::firmware_host:
         h.tc_accepted,
         h.tc_rejected,
         h.tm_lost
-    );
+    ));
 }
 
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => e.exit(),
+        Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            // Bare `ballisto` (or `ballisto tc`): the help as clap lays it out, on stderr.
+            eprint!("{}", e.render());
+            return ExitCode::from(ballisto::exit::USAGE);
+        }
         Err(e) => {
             // interfaces.md: an error is one sentence on stderr (clap's own spans lines).
             eprintln!("ballisto: {}", one_line(&e.to_string()));
-            return ExitCode::from(2);
+            return ExitCode::from(ballisto::exit::USAGE);
         }
     };
     match run(cli) {
         Ok(code) => code,
         Err(e) => {
             eprintln!("ballisto: {e}");
-            ExitCode::FAILURE
+            ExitCode::from(ballisto::exit::code_of(e.as_ref()))
         }
     }
 }

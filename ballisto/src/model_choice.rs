@@ -49,28 +49,42 @@ pub fn model_g_diagonal_sd(loaded: &LoadedArrangement) -> Option<[f64; 3]> {
 /// The model to use: `asked` (the command line) if given; else free-float where the file asks
 /// for it or model G cannot be used or resolves the field's diagonal worse than
 /// [`MAX_DIAGONAL_SD`]; else general. The second value says why, when the file's model was
-/// overridden.
-pub fn recommend(asked: Option<Model>, loaded: &LoadedArrangement) -> (Model, Option<String>) {
+/// overridden. A file that names model G on an arrangement that cannot carry it at all (fewer
+/// than 12 channels, or a singular design) is an error naming the `file`: an explicit request
+/// that cannot be honoured is not silently replaced.
+pub fn recommend(
+    asked: Option<Model>,
+    loaded: &LoadedArrangement,
+    file: &std::path::Path,
+) -> Result<(Model, Option<String>), String> {
     if let Some(m) = asked {
-        return (m, None);
+        return Ok((m, None));
     }
     if loaded.model == Some(Model::FreeFloat) {
-        return (Model::FreeFloat, None);
+        return Ok((Model::FreeFloat, None));
     }
-    match model_g_diagonal_sd(loaded) {
+    Ok(match model_g_diagonal_sd(loaded) {
         Some(sd) if sd.iter().all(|v| *v <= MAX_DIAGONAL_SD) => (Model::General, None),
         Some(sd) => (
             Model::FreeFloat,
             Some(format!(
-                "model general would resolve the field's diagonal only to {:.2}, {:.2}, {:.2} 1/s^2 per sample on this arrangement (more than {MAX_DIAGONAL_SD}): using free-float (gravity gradient known, 0 by default); --model general insists",
+                "using model free-float: model general would resolve the field's diagonal only to {:.2}, {:.2}, {:.2} 1/s^2 per sample here (--model general insists)",
                 sd[0], sd[1], sd[2]
             )),
         ),
+        None if loaded.model == Some(Model::General) => {
+            return Err(format!(
+                "{}: model = \"general\" needs at least {} channels in a non-singular layout, this arrangement has {}: name model = \"free-float\" (or leave the key out to let ballisto choose)",
+                file.display(),
+                Model::General.min_channels(),
+                loaded.names.len()
+            ))
+        }
         None => (
             Model::FreeFloat,
-            Some("model general cannot be solved on this arrangement (fewer than 12 channels or a singular design): using free-float".into()),
+            Some("using model free-float: model general cannot be solved on this arrangement (fewer than 12 channels or a singular design)".into()),
         ),
-    }
+    })
 }
 
 #[cfg(test)]
@@ -106,16 +120,58 @@ mod tests {
     #[test]
     fn a_small_flat_board_gets_model_f_and_a_large_cube_keeps_model_g() {
         // The MIMU4444's geometry: 18.9 mm square, 2 mm thick.
-        let (m, note) = recommend(None, &board(0.00945, 0.001));
+        let file = std::path::Path::new("board.toml");
+        let (m, note) = recommend(None, &board(0.00945, 0.001), file).unwrap();
         assert_eq!(m, Model::FreeFloat);
         assert!(note.unwrap().contains("diagonal"));
         // A 0.2 m cube with the same parts.
-        let (m, note) = recommend(None, &board(0.1, 0.1));
+        let (m, note) = recommend(None, &board(0.1, 0.1), file).unwrap();
         assert_eq!(m, Model::General, "{note:?}");
         // Asked for, it is used.
         assert_eq!(
-            recommend(Some(Model::General), &board(0.00945, 0.001)).0,
+            recommend(Some(Model::General), &board(0.00945, 0.001), file)
+                .unwrap()
+                .0,
             Model::General
         );
+    }
+}
+
+#[cfg(test)]
+mod explicit {
+    use super::*;
+    use hal_sim::arrangement_file::ArrangementFile;
+
+    /// Nine channels from three tri-axial parts.
+    fn nine(model: &str) -> LoadedArrangement {
+        let mut text = format!("{model}\n");
+        for (i, p) in [[0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.1]]
+            .iter()
+            .enumerate()
+        {
+            text.push_str(&format!(
+                "[[sensor]]\nname = \"u{i}\"\nposition = [{}, {}, {}]\nnoise = 0.002\n",
+                p[0], p[1], p[2]
+            ));
+        }
+        ArrangementFile::parse(&text, "nine")
+            .unwrap()
+            .load("nine")
+            .unwrap()
+    }
+
+    #[test]
+    fn a_named_model_general_on_nine_channels_is_an_error_and_no_name_lets_ballisto_choose() {
+        let file = std::path::Path::new("nine.toml");
+        let e = recommend(None, &nine("model = \"general\""), file).unwrap_err();
+        assert!(
+            e.starts_with("nine.toml: model = \"general\" needs at least 12"),
+            "{e}"
+        );
+        let (m, note) = recommend(None, &nine(""), file).unwrap();
+        assert_eq!(m, Model::FreeFloat);
+        assert!(note.is_some());
+        let (m, note) = recommend(None, &nine("model = \"free-float\""), file).unwrap();
+        assert_eq!((m, note), (Model::FreeFloat, None));
     }
 }

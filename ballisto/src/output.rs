@@ -3,15 +3,45 @@
 //! hard link to it counts — is refused before anything is written. Every output is written to
 //! a temporary file beside its final path and renamed into place only when it is complete: a
 //! failed or interrupted run leaves the previous file (or none), never half of one.
+//!
+//! `-` names stdout as an output (and stdin as an input, [`open_input`]): it is never the same
+//! file as another path, and is written as it goes.
 
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::{BufRead, BufReader, BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
-/// Refuses outputs that are the same file as an input, or as each other.
+/// Whether `path` is `-`: stdin as an input, stdout as an output.
+pub fn is_std(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// Opens an input for buffered reading: the file, or stdin for `-`.
+pub fn open_input(path: &Path) -> Result<Box<dyn BufRead + Send>, String> {
+    if is_std(path) {
+        return Ok(Box::new(BufReader::with_capacity(
+            1 << 16,
+            std::io::stdin(),
+        )));
+    }
+    let f = File::open(path).map_err(|e| format!("{}: cannot open: {e}", path.display()))?;
+    Ok(Box::new(BufReader::with_capacity(1 << 16, f)))
+}
+
+/// Reads a whole input: the file, or stdin for `-`.
+pub fn read_input(path: &Path) -> Result<Vec<u8>, String> {
+    let mut bytes = Vec::new();
+    open_input(path)?
+        .read_to_end(&mut bytes)
+        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    Ok(bytes)
+}
+
+/// Refuses outputs that are the same file as an input, or as each other (two outputs both on
+/// stdout included).
 pub fn check_distinct(outputs: &[&Path], inputs: &[&Path]) -> Result<(), String> {
     for (i, out) in outputs.iter().enumerate() {
-        for input in inputs {
+        for input in inputs.iter().filter(|p| !is_std(p)) {
             if same_file(out, input) {
                 return Err(format!(
                     "{}: is the input {}: refusing to overwrite an input (name another output)",
@@ -33,8 +63,11 @@ pub fn check_distinct(outputs: &[&Path], inputs: &[&Path]) -> Result<(), String>
     Ok(())
 }
 
-/// Whether `a` and `b` name one existing file.
+/// Whether `a` and `b` name one existing file (stdout is no file).
 fn same_file(a: &Path, b: &Path) -> bool {
+    if is_std(a) || is_std(b) {
+        return false;
+    }
     let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
         return false;
     };
@@ -54,12 +87,44 @@ fn same_file(a: &Path, b: &Path) -> bool {
 }
 
 /// An output being written: a temporary file beside `dest`, renamed onto it by
-/// [`Pending::commit`]; removed if dropped uncommitted.
+/// [`Pending::commit`]; removed if dropped uncommitted. For `-` (stdout) there is nothing to
+/// rename.
 #[derive(Debug)]
 pub struct Pending {
     tmp: PathBuf,
     dest: PathBuf,
     committed: bool,
+}
+
+/// Where an output's bytes go: its temporary file, or stdout.
+pub enum Sink {
+    /// The temporary file beside the destination.
+    File(BufWriter<File>),
+    /// Stdout (`-`).
+    Stdout(BufWriter<std::io::Stdout>),
+}
+
+impl Write for Sink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        match self {
+            Sink::File(w) => w.write(buf),
+            Sink::Stdout(w) => w.write(buf),
+        }
+    }
+
+    fn write_all(&mut self, buf: &[u8]) -> std::io::Result<()> {
+        match self {
+            Sink::File(w) => w.write_all(buf),
+            Sink::Stdout(w) => w.write_all(buf),
+        }
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        match self {
+            Sink::File(w) => w.flush(),
+            Sink::Stdout(w) => w.flush(),
+        }
+    }
 }
 
 impl Pending {
@@ -95,6 +160,10 @@ impl Pending {
 
     /// Puts the complete file in place (one rename: atomic on one file system).
     pub fn commit(mut self) -> Result<(), String> {
+        if is_std(&self.dest) {
+            self.committed = true;
+            return Ok(());
+        }
         std::fs::rename(&self.tmp, &self.dest)
             .map_err(|e| format!("{}: cannot write: {e}", self.dest.display()))?;
         self.committed = true;
@@ -104,29 +173,38 @@ impl Pending {
 
 impl Drop for Pending {
     fn drop(&mut self) {
-        if !self.committed {
+        if !self.committed && !is_std(&self.dest) {
             let _ = std::fs::remove_file(&self.tmp);
         }
     }
 }
 
-/// An output file opened for writing (buffered), and its [`Pending`] to commit once the file
-/// is flushed.
-pub fn create(dest: &Path) -> Result<(Pending, BufWriter<File>), String> {
+/// An output opened for writing (buffered), and its [`Pending`] to commit once it is
+/// flushed; `-` is stdout.
+pub fn create(dest: &Path) -> Result<(Pending, Sink), String> {
     let pending = Pending::new(dest);
+    if is_std(dest) {
+        return Ok((
+            pending,
+            Sink::Stdout(BufWriter::with_capacity(1 << 16, std::io::stdout())),
+        ));
+    }
     let file = File::create(pending.path())
         .map_err(|e| format!("{}: cannot create: {e}", dest.display()))?;
-    Ok((pending, BufWriter::with_capacity(1 << 16, file)))
+    Ok((pending, Sink::File(BufWriter::with_capacity(1 << 16, file))))
 }
 
-/// Flushes `w` to disk and puts the file in place.
-pub fn finish(pending: Pending, w: BufWriter<File>) -> Result<(), String> {
+/// Flushes `w` (to disk) and puts the file in place.
+pub fn finish(pending: Pending, w: Sink) -> Result<(), String> {
     let dest = pending.dest().display().to_string();
-    let file = w
-        .into_inner()
-        .map_err(|e| format!("{dest}: write failed: {}", e.error()))?;
-    file.sync_all()
-        .map_err(|e| format!("{dest}: write failed: {e}"))?;
+    let failed = |e: std::io::Error| format!("{dest}: write failed: {e}");
+    match w {
+        Sink::File(w) => {
+            let file = w.into_inner().map_err(|e| failed(e.into_error()))?;
+            file.sync_all().map_err(failed)?;
+        }
+        Sink::Stdout(mut w) => w.flush().map_err(failed)?,
+    }
     pending.commit()
 }
 

@@ -6,7 +6,7 @@
 
 use std::fmt;
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Write};
+use std::io::{BufWriter, Write};
 use std::path::Path;
 
 use hal_sim::motion::Truth;
@@ -44,16 +44,19 @@ pub struct SamplesReader<R: std::io::Read> {
     record: csv::StringRecord,
 }
 
-impl SamplesReader<BufReader<File>> {
-    /// Opens `path` and matches its header against the channel `names`.
+impl SamplesReader<Box<dyn std::io::BufRead + Send>> {
+    /// Opens `path` (stdin for `-`) and matches its header against the channel `names`.
     pub fn open(path: &Path, names: &[String]) -> Result<Self, SamplesError> {
         let file = path.display().to_string();
-        let f = File::open(path).map_err(|e| SamplesError {
+        let reader = crate::output::open_input(path).map_err(|e| SamplesError {
             file: file.clone(),
             line: None,
-            message: format!("cannot open: {e}"),
+            message: e
+                .strip_prefix(&format!("{file}: "))
+                .unwrap_or(&e)
+                .to_string(),
         })?;
-        Self::new(BufReader::with_capacity(1 << 16, f), &file, names)
+        Self::new(reader, &file, names)
     }
 }
 

@@ -35,6 +35,9 @@ pub struct SimJob<'a> {
     /// `telemetry-identify.bin`); the unit is reset, boots with the stored calibration and
     /// runs the scenario again: that second boot is what the other files hold.
     pub identify: bool,
+    /// With `firmware` (not `identify`): telecommand frames sent on the unit's command link,
+    /// each chunk at its scenario time (s), e.g. what `ballisto tc` wrote.
+    pub uplink: Vec<(f64, Vec<u8>)>,
 }
 
 /// Reads and failures of one part.
@@ -308,7 +311,7 @@ fn record_firmware(
         ));
         second
     } else {
-        run_firmware_with(sc, &config, n as u32, &[], &mut downlink, &mut emit)
+        run_firmware_with(sc, &config, n as u32, &job.uplink, &mut downlink, &mut emit)
             .map_err(|e| format!("{}: {e}", tm_path.display()))?
     };
     bar.finish_and_clear();

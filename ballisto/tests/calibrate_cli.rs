@@ -137,6 +137,11 @@ fn bad_input_is_refused_by_name() {
     ] {
         let out = calibrate(&dir, &rest, &extra);
         refused(&out, &dir, "not exciting enough");
+        assert_eq!(
+            out.status.code(),
+            Some(4),
+            "a refused result, not a bad input"
+        );
         refused(&out, &dir, "1 static poses");
         refused(&out, &dir, "bias 18 of 18");
     }

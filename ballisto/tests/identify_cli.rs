@@ -56,12 +56,7 @@ fn decode_with_calibration(
 fn identify_in_flight_then_decode_the_solution_as_an_arrangement_file() {
     let d = common::tmpdir("identify", "orbit");
     let r = sim_identify(true, "orbit-identify", &d);
-    let stdout = String::from_utf8_lossy(&r.stdout);
-    assert!(
-        r.status.success(),
-        "{stdout}{}",
-        String::from_utf8_lossy(&r.stderr)
-    );
+    let stdout = common::summary(&r);
     assert!(
         stdout.contains("IDENTIFICATION solution=1 channels=12"),
         "{stdout}"

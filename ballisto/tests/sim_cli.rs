@@ -81,7 +81,7 @@ fn every_named_scenario_parses_and_its_arrangement_loads() {
 fn sim_writes_the_three_files_and_the_estimate_follows_the_truth() {
     let d = tmpdir("tetra");
     let out = sim("tetra-orbit", &d, true);
-    let stdout = common::succeeded(&out);
+    let stdout = common::summary(&out);
     assert_wrote_every_file(&d);
     // samples.csv: t then one column per channel of the arrangement, 2001 rows.
     let loaded = load_arrangement(&d.join("arrangement.toml")).unwrap();
@@ -117,7 +117,7 @@ fn sim_reports_failed_reads_as_empty_fields() {
     let file = d.join("s.toml");
     std::fs::write(&file, src).unwrap();
     let out = sim(file.to_str().unwrap(), &d.join("out"), false);
-    let stdout = common::succeeded(&out);
+    let stdout = common::summary(&out);
     assert!(
         stdout.contains("part l1: 100 of 2001 reads failed"),
         "{stdout}"
@@ -232,7 +232,7 @@ fn sim_firmware(scenario: &str, out: &Path, align: &str) -> std::process::Output
 fn sim_firmware_writes_the_firmwares_record_with_its_counters() {
     let d = tmpdir("firmware");
     let out = sim_firmware("tetra-orbit", &d, "interpolate");
-    let stdout = common::succeeded(&out);
+    let stdout = common::summary(&out);
     assert_wrote_every_file(&d);
     assert_eq!(
         &header(&d.join("estimates.csv"))[..16],
@@ -274,7 +274,7 @@ fn decode(input: &Path, out: &Path) -> std::process::Output {
 fn decoding_the_firmwares_telemetry_gives_its_estimates() {
     let d = tmpdir("decode");
     let out = sim_firmware("tetra-orbit", &d, "interpolate");
-    let stdout = common::succeeded(&out);
+    let stdout = common::summary(&out);
     assert!(stdout.contains("telemetry: "), "{stdout}");
     assert!(stdout.contains("telemetry.bin\n"), "{stdout}");
     let decoded = d.join("decoded.csv");
@@ -320,7 +320,7 @@ fn decode_reports_damage_and_keeps_the_rest() {
     std::fs::write(&damaged, &bytes).unwrap();
     let decoded = d.join("decoded.csv");
     let out = decode(&damaged, &decoded);
-    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(out.status.code(), Some(3), "damaged telemetry");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains("not a PUS-C TM packet (length or CRC)") || err.contains("not a COBS frame"),

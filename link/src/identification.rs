@@ -37,6 +37,18 @@ impl ReferencePoint {
     }
 }
 
+/// The application data of TC[200,9] carrying `points` (u8 n, then each [`ReferencePoint::encode`]d)
+/// into `out`; `None` if `out` is too small or there are more than 255 points ([`MAX_POINTS`]
+/// is what the unit accepts: acceptance says so, not the encoder).
+pub fn points_data(points: &[ReferencePoint], out: &mut [u8]) -> Option<usize> {
+    let mut p = Put::new(out);
+    p.u8(u8::try_from(points.len()).ok()?);
+    for point in points {
+        p.bytes(&point.encode());
+    }
+    p.finish()
+}
+
 /// The points of TC[200,9] application data, already checked by acceptance (u8 n, then n ×
 /// [`POINT_LEN`]); stops at the first that does not read.
 pub fn points(data: &[u8]) -> impl Iterator<Item = ReferencePoint> + '_ {

@@ -7,7 +7,9 @@
 //! estimator refusing a geometry or a mask) is reported by the application as a completion
 //! failure, and the estimator then keeps its previous configuration.
 //!
-//! [`build`] is the other side: a telecommand packet as the ground sends it.
+//! [`build`] is the other side: a telecommand packet as the ground sends it, and
+//! [`build_command`] the packet of a [`Command`] (its application data by
+//! [`Command::encode`], the inverse of parsing).
 //!
 //! Application data layouts are in `docs/telemetry.md`.
 
@@ -34,8 +36,8 @@ pub const MOTION_EVERY_MAX: u16 = 10_000;
 /// Octets per channel in TC[200,6]: position (3 × f32), axis (3 × f32), noise (f32).
 pub const CHANNEL_LEN: usize = 28;
 
-/// One accepted command (borrowing the received packet).
-#[derive(Clone, Copy, Debug)]
+/// One accepted command (borrowing the received packet), or one the ground builds.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Command<'a> {
     /// TC[200,1].
     SetMode(Mode),
@@ -84,6 +86,79 @@ pub enum Command<'a> {
     SetTime(u64),
     /// TC[17,1].
     AreYouAlive,
+}
+
+impl Command<'_> {
+    /// Its service and subtype: TC[s,st].
+    pub fn kind(&self) -> (u8, u8) {
+        let b = service::BALLISTOMETER;
+        match self {
+            Command::SetMode(_) => (b, subtype::SET_MODE),
+            Command::SetModel(_) => (b, subtype::SET_MODEL),
+            Command::SetHint(_) => (b, subtype::SET_HINT),
+            Command::Exclude(_) => (b, subtype::EXCLUDE),
+            Command::Include(_) => (b, subtype::INCLUDE),
+            Command::LoadArrangement(_) => (b, subtype::LOAD_ARRANGEMENT),
+            Command::SetRates { .. } => (b, subtype::SET_RATES),
+            Command::StartIdentification { .. } => (b, subtype::START_IDENTIFICATION),
+            Command::ReferenceRate(_) => (b, subtype::REFERENCE_RATE),
+            Command::ReportIdentification => (b, subtype::REPORT_IDENTIFICATION),
+            Command::CommitCalibration { .. } => (b, subtype::COMMIT_CALIBRATION),
+            Command::ReportHousekeeping => (service::HOUSEKEEPING, subtype::HK_ONE_SHOT),
+            Command::SetTime(_) => (service::TIME, subtype::SET_TIME),
+            Command::AreYouAlive => (service::TEST, subtype::ARE_YOU_ALIVE),
+        }
+    }
+
+    /// Writes its application data into `out` as [`parse`] reads it (the ground's side);
+    /// returns the length, or `None` if `out` is too small. Whether the unit accepts it is
+    /// [`parse`]'s to say: encoding checks nothing.
+    pub fn encode(&self, out: &mut [u8]) -> Option<usize> {
+        let mut p = Put::new(out);
+        match *self {
+            Command::SetMode(m) => p.u8(m as u8),
+            Command::SetModel(m) => p.u8(ModelCode::from(m) as u8),
+            Command::SetHint(w) => p.f32s(&w),
+            Command::Exclude(c) | Command::Include(c) => p.u8(c),
+            Command::LoadArrangement(data) | Command::ReferenceRate(data) => p.bytes(data),
+            Command::SetRates {
+                motion_every,
+                housekeeping_every,
+            } => p.u16(motion_every).u16(housekeeping_every),
+            Command::StartIdentification {
+                period_ms,
+                window_ms,
+            } => p
+                .u8(identification::SOURCE_REFERENCE)
+                .u16(period_ms)
+                .u32(window_ms),
+            Command::CommitCalibration { solution } => p.u16(solution),
+            Command::ReportHousekeeping => p.u8(1).u16(sid::HOUSEKEEPING),
+            Command::SetTime(ticks) => p.bytes(&ticks.to_be_bytes()[1..]),
+            Command::ReportIdentification | Command::AreYouAlive => &mut p,
+        };
+        p.finish()
+    }
+}
+
+/// The application data of TC[200,6] for `channels` (position m, axis, noise m/s² each; the
+/// inverse of [`arrangement`]) into `out`; `None` if `out` is too small or there are more
+/// than [`MAX_CHANNELS`].
+pub fn arrangement_data(
+    channels: impl ExactSizeIterator<Item = ([f64; 3], [f64; 3], f64)>,
+    out: &mut [u8],
+) -> Option<usize> {
+    let n = u8::try_from(channels.len())
+        .ok()
+        .filter(|n| usize::from(*n) <= MAX_CHANNELS)?;
+    let mut p = Put::new(out);
+    p.u8(n);
+    for (position, axis, noise) in channels {
+        p.f32s(&position.map(|v| v as f32))
+            .f32s(&axis.map(|v| v as f32))
+            .f32(noise as f32);
+    }
+    p.finish()
 }
 
 /// A command that passed acceptance.
@@ -402,21 +477,42 @@ pub fn build(
     subtype: u8,
     data: &[u8],
 ) -> Option<usize> {
-    let len = PRIMARY_LEN + SECONDARY_LEN + data.len() + CRC_LEN;
-    let data_len = u16::try_from(len - 7).ok()?;
-    let mut p = Put::new(out.get_mut(..len)?);
+    let at = PRIMARY_LEN + SECONDARY_LEN;
+    out.get_mut(at..at + data.len())?.copy_from_slice(data);
+    frame_packet(out, sequence, ack, (service, subtype), data.len())
+}
+
+/// Builds the telecommand packet of `command` ([`build`] with its kind and
+/// [`Command::encode`]'s data): the ground's side of [`parse`].
+pub fn build_command(out: &mut [u8], sequence: u16, ack: u8, command: &Command) -> Option<usize> {
+    let n = command.encode(out.get_mut(PRIMARY_LEN + SECONDARY_LEN..)?)?;
+    frame_packet(out, sequence, ack, command.kind(), n)
+}
+
+/// Writes the headers before and the CRC after `data_len` octets of application data that
+/// are already in place in `out`; returns the packet length.
+fn frame_packet(
+    out: &mut [u8],
+    sequence: u16,
+    ack: u8,
+    (service, subtype): (u8, u8),
+    data_len: usize,
+) -> Option<usize> {
+    let len = PRIMARY_LEN + SECONDARY_LEN + data_len + CRC_LEN;
+    let length_field = u16::try_from(len - 7).ok()?;
+    let mut p = Put::new(out.get_mut(..PRIMARY_LEN + SECONDARY_LEN)?);
     // Version 0, type TC, secondary header; unsegmented.
     p.u16(0x1800 | APID)
         .u16(0xC000 | (sequence & 0x3FFF))
-        .u16(data_len)
+        .u16(length_field)
         .u8(0x20 | (ack & 0x0F))
         .u8(service)
         .u8(subtype)
-        .u16(0)
-        .bytes(data);
-    let body = p.finish()?;
-    let crc = CRC_CCITT_FALSE.checksum(&out[..body]);
-    out[body..len].copy_from_slice(&crc.to_be_bytes());
+        .u16(0);
+    p.finish()?;
+    let body = len - CRC_LEN;
+    let crc = CRC_CCITT_FALSE.checksum(out.get(..body)?);
+    out.get_mut(body..len)?.copy_from_slice(&crc.to_be_bytes());
     Some(len)
 }
 
@@ -425,4 +521,72 @@ pub fn build(
 pub fn fuzz_one(data: &[u8]) -> bool {
     let channels = data.first().map_or(12, |b| usize::from(b % 25));
     parse(data, Context { channels }).is_ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identification::{points_data, ReferencePoint};
+
+    /// Every command the ground builds is accepted by the unit as that same command, and a
+    /// buffer one octet short is refused rather than overrun.
+    #[test]
+    fn every_command_built_is_parsed_back_as_itself() {
+        let mut arrangement = [0u8; 1 + 12 * CHANNEL_LEN];
+        let channels = (0..12).map(|i| {
+            let s = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]][i % 3];
+            ([0.1 * (i / 3) as f64, -0.05, 0.02], s, 2e-3)
+        });
+        let n = arrangement_data(channels, &mut arrangement).unwrap();
+        assert_eq!(n, arrangement.len());
+        let points = [
+            ReferencePoint {
+                t: 1_000_000_000,
+                omega: [0.1, -0.2, 0.3],
+            },
+            ReferencePoint {
+                t: 1_050_000_000,
+                omega: [0.1, -0.2, 0.35],
+            },
+        ];
+        let mut reference = [0u8; 1 + 2 * identification::POINT_LEN];
+        assert_eq!(points_data(&points, &mut reference), Some(reference.len()));
+        let commands = [
+            Command::SetMode(Mode::Standby),
+            Command::SetModel(Model::FreeFloat),
+            Command::SetHint([0.5, -1.0, 2.0]),
+            Command::Exclude(3),
+            Command::Include(11),
+            Command::LoadArrangement(&arrangement),
+            Command::SetRates {
+                motion_every: 10,
+                housekeeping_every: 500,
+            },
+            Command::StartIdentification {
+                period_ms: 50,
+                window_ms: 20_000,
+            },
+            Command::ReferenceRate(&reference),
+            Command::ReportIdentification,
+            Command::CommitCalibration { solution: 7 },
+            Command::ReportHousekeeping,
+            Command::SetTime(0x0102_0304_0506_07),
+            Command::AreYouAlive,
+        ];
+        for (i, c) in commands.iter().enumerate() {
+            let mut out = [0u8; crate::ids::TC_MAX];
+            let n = build_command(&mut out, i as u16, ACK_ACCEPTANCE, c).unwrap();
+            let got = parse(&out[..n], Context { channels: 12 }).unwrap();
+            assert_eq!(&got.command, c);
+            assert_eq!(got.request.sequence & 0x3FFF, i as u16);
+            assert!(got.ack_acceptance && !got.ack_completion);
+            assert_eq!(build_command(&mut out[..n - 1], 0, 0, c), None);
+        }
+        // The points come back to the CUC's resolution (2⁻²⁴ s ≈ 60 ns).
+        for (got, sent) in identification::points(&reference).zip(points.iter()) {
+            assert!(got.t.abs_diff(sent.t) <= 30, "{got:?} {sent:?}");
+            assert_eq!(got.omega, sent.omega);
+        }
+        assert_eq!(identification::points(&reference).count(), 2);
+    }
 }

@@ -141,7 +141,7 @@ pub fn config_error_code(e: &estimator_core::ConfigError) -> u32 {
 }
 
 /// Request identifier of a telecommand: its packet ID and sequence control words.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct RequestId {
     /// Packet version, type, secondary header flag, APID.
     pub packet_id: u16,

@@ -504,6 +504,7 @@ pub fn firmware_then_host(
         progress: false,
         firmware: Some(ballisto_fw::config::Alignment::Interpolate),
         identify: false,
+        uplink: Vec::new(),
     })
     .unwrap();
     let host = dir.join("host.csv");

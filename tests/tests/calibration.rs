@@ -62,6 +62,7 @@ fn sim(sc: &Scenario, out: &Path) {
         progress: false,
         firmware: Some(Alignment::Interpolate),
         identify: false,
+        uplink: Vec::new(),
     })
     .unwrap();
 }

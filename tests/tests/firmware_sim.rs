@@ -204,6 +204,7 @@ fn named_scenarios_through_the_firmware_match_estimator_core_on_the_same_samples
             progress: false,
             firmware: Some(Alignment::Interpolate),
             identify: false,
+            uplink: Vec::new(),
         })
         .unwrap();
         assert_eq!(report.samples, sc.samples(), "{name}: every set estimated");

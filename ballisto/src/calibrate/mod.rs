@@ -198,7 +198,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         .filter(|&k| !in_pose[k])
         .filter(|&k| reference.as_ref().is_none_or(|r| r.covered[k]))
         .collect();
-    let (model, model_note) = crate::model_choice::recommend(job.model, &loaded);
+    let (model, model_note) = crate::model_choice::recommend(job.model, &loaded, job.arrangement)?;
     let record = Record {
         rows: &rows,
         times: &times,
@@ -227,18 +227,18 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             .filter(|(_, h, _)| *h > 0)
             .map(|(kind, h, n)| format!("{kind} {h} of {n}"))
             .collect();
-        return Err(format!(
+        return Err(crate::exit::Refused(format!(
             "{}: the record is not exciting enough: it determines only {identified} of the {fitted} parameters ({} static poses, {} samples in motion; not determined: {}), and a calibration needs static poses in at least 6 well-spread attitudes, or rotation about several axes with a reference rate: nothing written",
             job.samples.display(),
             poses.len(),
             motion.len(),
             what.join(", ")
-        )
+        ))
         .into());
     }
     let converged = identification.last_step <= fit::CONVERGED_STEP;
     if !converged {
-        return Err(format!(
+        return Err(crate::exit::Refused(format!(
             "{}: the identification did not converge ({} alternations, the last still moved a parameter by {:.3} of its tolerance; {} static poses, {} samples in motion{}): nothing written",
             job.samples.display(),
             identification.iterations,
@@ -246,7 +246,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             poses.len(),
             motion.len(),
             if job.reference.is_none() { "; a reference rate would help" } else { "" }
-        )
+        ))
         .into());
     }
     let mut warnings = plausibility(&mut identification, &nominal, &names, &tolerance);

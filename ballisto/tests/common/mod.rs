@@ -33,6 +33,13 @@ pub fn succeeded(out: &Output) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
+/// Asserts that the command succeeded; its summary (stderr: diagnostics, where every command
+/// but `compare` and `decode`'s log says what it did).
+pub fn summary(out: &Output) -> String {
+    succeeded(out);
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 /// Runs `cmd` and asserts that it succeeded ([`succeeded`]).
 pub fn run_ok(cmd: &mut Command) -> Output {
     let out = cmd.output().unwrap();

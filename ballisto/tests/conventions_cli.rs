@@ -1,0 +1,255 @@
+//! The ground tool's conventions: telecommands built by `ballisto tc` go through the firmware
+//! and their verification reports come back named by `decode --commands`; exit codes are
+//! distinct; `-` is stdin/stdout; `--quiet` is quiet; empty inputs are errors.
+
+mod common;
+
+use std::io::Write;
+use std::path::Path;
+use std::process::{Output, Stdio};
+
+use common::{ballisto, read_table, run_ok, summary, tmpdir};
+
+fn tc(dir: &Path, file: &str, args: &[&str]) -> Output {
+    ballisto()
+        .arg("tc")
+        .args(args)
+        .arg("--out")
+        .arg(dir.join(file))
+        .output()
+        .unwrap()
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// `tc` → the firmware's command link (`sim --firmware --uplink`) → `decode --commands`: each
+/// verification report names its command, the exclusion shows in the decoded estimates, a
+/// command the unit refuses is reported refused, and a command never sent has no report.
+#[test]
+fn telecommands_built_on_the_ground_reach_the_firmware_and_their_reports_come_back_named() {
+    let d = tmpdir("conventions", "tc");
+    // The unit's arrangement: what the scenario writes.
+    run_ok(
+        ballisto()
+            .args(["sim", "--scenario", "tetra-orbit", "--out"])
+            .arg(d.join("first")),
+    );
+    let arrangement = d.join("first/arrangement.toml");
+    let a = arrangement.to_str().unwrap();
+    summary(&tc(
+        &d,
+        "exclude.bin",
+        &["exclude", "u1.x", "--arrangement", a, "--sequence", "5"],
+    ));
+    summary(&tc(&d, "include.bin", &["include", "3", "--sequence", "6"]));
+    summary(&tc(&d, "ping.bin", &["ping", "--sequence", "9"]));
+    // Within what the link carries, so the ground passes it; the unit has 12 channels.
+    summary(&tc(
+        &d,
+        "refused.bin",
+        &["exclude", "20", "--sequence", "10"],
+    ));
+    summary(&tc(&d, "unsent.bin", &["housekeeping", "--sequence", "11"]));
+    // The ground refuses what it knows the unit would: nothing is written.
+    let out = tc(&d, "bad.bin", &["exclude", "12", "--arrangement", a]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("the unit would refuse it"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!d.join("bad.bin").exists());
+
+    let uplink = |t: &str, f: &str| format!("{t}:{}", d.join(f).display());
+    run_ok(
+        ballisto()
+            .args([
+                "sim",
+                "--scenario",
+                "tetra-orbit",
+                "--firmware",
+                "-q",
+                "--out",
+            ])
+            .arg(d.join("sim"))
+            .args(["--uplink", &uplink("2", "exclude.bin")])
+            .args(["--uplink", &uplink("4", "include.bin")])
+            .args(["--uplink", &uplink("5", "ping.bin")])
+            .args(["--uplink", &uplink("6", "refused.bin")]),
+    );
+    let decoded = d.join("decoded.csv");
+    let mut decode = ballisto();
+    decode
+        .arg("decode")
+        .arg(d.join("sim/telemetry.bin"))
+        .arg("--out")
+        .arg(&decoded);
+    for f in [
+        "exclude.bin",
+        "include.bin",
+        "ping.bin",
+        "refused.bin",
+        "unsent.bin",
+    ] {
+        decode.arg("--commands").arg(d.join(f));
+    }
+    let out = run_ok(&mut decode);
+    let log = String::from_utf8_lossy(&out.stdout);
+    for line in [
+        "TC 0x18ba/0xc005 accepted -- TC[200,4] exclude channel 3",
+        "TC 0x18ba/0xc005 completed -- TC[200,4] exclude channel 3",
+        "TC 0x18ba/0xc006 completed -- TC[200,5] include channel 3",
+        "TC 0x18ba/0xc009 completed -- TC[17,1] are you alive",
+        "NO VERIFICATION TC 0x18ba/0xc00b -- TC[3,27] report housekeeping",
+    ] {
+        assert!(log.contains(line), "no \"{line}\" in\n{log}");
+    }
+    assert!(log.contains("ALIVE"), "{log}");
+    let refused = log
+        .lines()
+        .find(|l| l.contains("0xc00a"))
+        .unwrap_or_else(|| panic!("no report of seq 10:\n{log}"));
+    assert!(
+        refused.contains("NOT ACCEPTED") && refused.ends_with("-- TC[200,4] exclude channel 20"),
+        "{refused}"
+    );
+    // The exclusion in the estimates the unit sent: channel 3 out from 2 s to 4 s.
+    let (names, rows) = read_table(&decoded);
+    let col = |n: &str| names.iter().position(|h| h == n).unwrap();
+    let (t, excluded) = (col("t"), col("excluded_channels"));
+    let mut out_rows = 0;
+    for r in &rows {
+        let t: f64 = r[t].parse().unwrap();
+        let e: u32 = r[excluded].parse().unwrap();
+        if t < 1.9 || t > 4.2 {
+            assert_eq!(e, 0, "t = {t}");
+        }
+        if t > 2.2 && t < 3.9 {
+            assert_eq!(e, 1 << 3, "t = {t}");
+            out_rows += 1;
+        }
+    }
+    assert!(out_rows > 150, "{out_rows}");
+}
+
+/// Usage, bad input, damaged telemetry and refused results have their own codes (the last two
+/// are checked in sim_cli.rs and calibrate_cli.rs); bare `ballisto` shows its help, laid out.
+#[test]
+fn exit_codes_and_bare_help() {
+    let out = ballisto().output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let help = stderr(&out);
+    assert!(
+        help.lines().count() > 10 && help.contains("Commands:"),
+        "{help}"
+    );
+    assert!(
+        help.contains("Exit status: 0 done; 1 an input is wrong"),
+        "{help}"
+    );
+    let out = ballisto()
+        .args(["estimate", "--samples", "x.csv"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "usage: {}", stderr(&out));
+    let d = tmpdir("conventions", "codes");
+    let out = ballisto()
+        .args(["estimate", "--arrangement"])
+        .arg(d.join("missing.toml"))
+        .args(["--samples", "s.csv", "--out"])
+        .arg(d.join("e.csv"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1), "bad input: {}", stderr(&out));
+    assert!(stderr(&out).contains("missing.toml"), "{}", stderr(&out));
+}
+
+/// A samples file with a header and no rows, and an empty telemetry file, are errors: nothing
+/// is written, an earlier output of that name is kept.
+#[test]
+fn empty_inputs_are_errors() {
+    let d = tmpdir("conventions", "empty");
+    run_ok(
+        ballisto()
+            .args(["sim", "--scenario", "tetra-orbit", "-q", "--out"])
+            .arg(&d),
+    );
+    let samples = std::fs::read_to_string(d.join("samples.csv")).unwrap();
+    let header_only = d.join("header-only.csv");
+    std::fs::write(
+        &header_only,
+        samples.lines().next().unwrap().to_string() + "\n",
+    )
+    .unwrap();
+    let out_file = d.join("estimates-old.csv");
+    std::fs::write(&out_file, "kept\n").unwrap();
+    let out = common::estimate(&d.join("arrangement.toml"), &header_only, &out_file)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("no sample rows"), "{}", stderr(&out));
+    assert_eq!(std::fs::read_to_string(&out_file).unwrap(), "kept\n");
+
+    let empty = d.join("empty.bin");
+    std::fs::write(&empty, b"").unwrap();
+    let out = ballisto()
+        .arg("decode")
+        .arg(&empty)
+        .arg("--out")
+        .arg(d.join("decoded.csv"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("empty: no telemetry"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!d.join("decoded.csv").exists());
+}
+
+/// `--samples -` reads stdin and `--out -` writes stdout: the same bytes as through files;
+/// `--quiet` leaves stderr empty, and the summary is on stderr otherwise.
+#[test]
+fn dash_is_stdin_and_stdout_and_quiet_is_quiet() {
+    let d = tmpdir("conventions", "dash");
+    run_ok(
+        ballisto()
+            .args(["sim", "--scenario", "tetra-orbit", "-q", "--out"])
+            .arg(&d),
+    );
+    let arrangement = d.join("arrangement.toml");
+    let through_files = d.join("estimates-files.csv");
+    let out = run_ok(&mut common::estimate(
+        &arrangement,
+        &d.join("samples.csv"),
+        &through_files,
+    ));
+    assert!(out.stdout.is_empty(), "results go to the file");
+    assert!(
+        stderr(&out).contains("ballisto estimate: 2001 rows"),
+        "{}",
+        stderr(&out)
+    );
+
+    let mut child = ballisto()
+        .args(["estimate", "-q", "--arrangement"])
+        .arg(&arrangement)
+        .args(["--samples", "-", "--out", "-"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let samples = std::fs::read(d.join("samples.csv")).unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let writer = std::thread::spawn(move || stdin.write_all(&samples));
+    let out = child.wait_with_output().unwrap();
+    writer.join().unwrap().unwrap();
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(stderr(&out), "", "--quiet");
+    assert_eq!(out.stdout, std::fs::read(&through_files).unwrap());
+    assert!(!Path::new("-").exists(), "no file named -");
+}
