@@ -570,7 +570,7 @@ mod tests {
             Command::ReportIdentification,
             Command::CommitCalibration { solution: 7 },
             Command::ReportHousekeeping,
-            Command::SetTime(0x0102_0304_0506_07),
+            Command::SetTime(0x0001_0203_0405_0607),
             Command::AreYouAlive,
         ];
         for (i, c) in commands.iter().enumerate() {
