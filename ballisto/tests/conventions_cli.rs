@@ -123,10 +123,10 @@ fn telecommands_built_on_the_ground_reach_the_firmware_and_their_reports_come_ba
     for r in &rows {
         let t: f64 = r[t].parse().unwrap();
         let e: u32 = r[excluded].parse().unwrap();
-        if t < 1.9 || t > 4.2 {
+        if !(1.9..=4.2).contains(&t) {
             assert_eq!(e, 0, "t = {t}");
         }
-        if t > 2.2 && t < 3.9 {
+        if (2.2..3.9).contains(&t) {
             assert_eq!(e, 1 << 3, "t = {t}");
             out_rows += 1;
         }
