@@ -39,6 +39,8 @@ pub struct ComSummary {
     pub model: Option<Model>,
     /// Why the model differs from the file's, if it does (said once, after the run).
     pub model_note: Option<String>,
+    /// What looks implausible in the inputs ([`crate::plausibility`]).
+    pub warnings: Vec<String>,
 }
 
 struct Row {
@@ -71,7 +73,8 @@ pub fn com_files(
     let (model, model_note) = crate::model_choice::recommend(model, &loaded, arrangement)?;
     let mut est = HostEstimator::<f64>::new(&loaded, model, Options::default())
         .map_err(|e| format!("{}: {e}", arrangement.display()))?;
-    let mut reader = SamplesReader::open(samples, &loaded.names)?;
+    let bounds = crate::plausibility::reading_bounds(&loaded.ranges);
+    let mut reader = SamplesReader::open(samples, &loaded.names)?.with_bounds(bounds.clone());
     let mut rows: Vec<Row> = Vec::new();
     let undecided = Flags::FALLBACK
         | Flags::ILL_CONDITIONED
@@ -121,6 +124,15 @@ pub fn com_files(
         model_note,
         ..Default::default()
     };
+    summary.warnings.extend(crate::plausibility::arrangement(
+        &loaded,
+        &arrangement.display().to_string(),
+    ));
+    summary.warnings.extend(crate::plausibility::absurd(
+        reader.absurd_counts(),
+        &loaded.names,
+        &bounds,
+    ));
     let mut start = t0;
     let mut first = 0;
     while start + window <= t1 + 1e-9 || (start == t0 && t1 - t0 < window) {

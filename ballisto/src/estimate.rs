@@ -16,6 +16,7 @@ use estimator_core::{ChannelMask, Estimate, Estimator, Flags, Model, Options, Re
 use hal_sim::arrangement_file::{load_arrangement, LoadedArrangement, HOST_CAP};
 
 use crate::estimates_csv::ThreadedWriter;
+use crate::plausibility;
 use crate::samples_csv::SamplesReader;
 
 /// The sample-loop scalar of a host run.
@@ -597,7 +598,8 @@ fn run_typed<T: Real + Send + 'static>(
 ) -> Result<Summary, Box<dyn Error>> {
     let mut est = HostEstimator::<T>::new(loaded, model, job.options)
         .map_err(|e| format!("{}: {e}", job.arrangement.display()))?;
-    let mut reader = SamplesReader::open(job.samples, &loaded.names)?;
+    let bounds = plausibility::reading_bounds(&loaded.ranges);
+    let mut reader = SamplesReader::open(job.samples, &loaded.names)?.with_bounds(bounds.clone());
     // Written beside the final path, put in place once complete (`crate::output`).
     let (pending, out) = crate::output::create(job.out)?;
     let mut w = ThreadedWriter::<T>::new(out);
@@ -610,22 +612,47 @@ fn run_typed<T: Real + Send + 'static>(
     };
     let mut io_err: Option<std::io::Error> = None;
     let all = ChannelMask::all(loaded.names.len());
+    // The times of rows with an absurd reading, not yet emitted (the estimator emits in order).
+    let absurd_rows = std::cell::RefCell::new(std::collections::VecDeque::<f64>::new());
+    // |σ0| of every row, for the median ([`plausibility::specific_force`]).
+    let mut sigma0 = Vec::new();
     let mut emit = |t: f64, e: &Estimate<T>, mask: ChannelMask, row_model: Model| {
         if io_err.is_some() {
             return;
         }
+        let mut e = *e;
+        let mut absurd = absurd_rows.borrow_mut();
+        while absurd.front().is_some_and(|&a| a < t) {
+            absurd.pop_front();
+        }
+        if absurd.front() == Some(&t) {
+            absurd.pop_front();
+            e.flags.0 |= plausibility::INPUT_ABSURD;
+        }
         let gamma = row_model == Model::General;
-        if let Err(err) = w.push(t, e, all.0 & !mask.0, gamma) {
+        if let Err(err) = w.push(t, &e, all.0 & !mask.0, gamma) {
             io_err = Some(err);
         }
         summary.rows += 1;
         count_flags(&mut summary.flag_counts, e.flags);
+        let s = e
+            .sigma0
+            .iter()
+            .map(|v| v.to_f64().powi(2))
+            .sum::<f64>()
+            .sqrt();
+        if s.is_finite() && !e.flags.has(Flags::INPUT_INVALID) {
+            sigma0.push(s as f32);
+        }
     };
     let result = loop {
         match reader.next_row(&mut row) {
             Ok(Some(t)) => {
                 for (pi, ri) in p.iter_mut().zip(row.iter()) {
                     *pi = T::of(*ri);
+                }
+                if reader.row_absurd() {
+                    absurd_rows.borrow_mut().push_back(t);
                 }
                 est.push_masked(t, &p, &mut emit);
             }
@@ -651,11 +678,27 @@ fn run_typed<T: Real + Send + 'static>(
     // The rows accepted before an input error are a whole output: in place, then the error.
     pending.commit()?;
     result?;
+    let file = job.arrangement.display().to_string();
+    summary
+        .warnings
+        .extend(plausibility::arrangement(loaded, &file));
+    summary.warnings.extend(plausibility::absurd(
+        reader.absurd_counts(),
+        &loaded.names,
+        &bounds,
+    ));
+    if !sigma0.is_empty() {
+        let mid = sigma0.len() / 2;
+        let median = f64::from(*sigma0.select_nth_unstable_by(mid, f32::total_cmp).1);
+        summary.warnings.extend(
+            plausibility::specific_force(median).map(|w| format!("{}: {w}", job.samples.display())),
+        );
+    }
     Ok(summary)
 }
 
 /// Names of the flag bits, for summaries and `--help`.
-pub const FLAG_NAMES: [(u16, &str); 7] = [
+pub const FLAG_NAMES: [(u16, &str); 8] = [
     (Flags::SIGN_UNRESOLVED, "sign unresolved"),
     (Flags::FALLBACK, "no real solution for a / fallback used"),
     (Flags::ILL_CONDITIONED, "ill-conditioned"),
@@ -663,6 +706,10 @@ pub const FLAG_NAMES: [(u16, &str); 7] = [
     (Flags::BRANCH_AMBIGUOUS, "branch ambiguous"),
     (Flags::INPUT_INVALID, "input invalid (prediction output)"),
     (Flags::RESIDUAL_HIGH, "residual high (fault suspected)"),
+    (
+        Flags::INPUT_ABSURD,
+        "reading absurd (beyond the part's range; read as missing)",
+    ),
 ];
 
 /// Adds one row's flags to the counts per flag bit.

@@ -19,6 +19,7 @@ pub mod estimates_csv;
 pub mod exit;
 pub mod model_choice;
 pub mod output;
+pub mod plausibility;
 pub mod plot;
 pub mod samples_csv;
 pub mod sim;

@@ -14,9 +14,12 @@ const FLAGS_HELP: &str = "The flags column of estimates.csv is a bit set:
   4   ill-conditioned: the a solve is nearly singular (rate near zero or at a frame plane)
   8   channel(s) excluded (which: the excluded column, bit i = the file's i-th channel)
   16  branch ambiguous: another branch is nearly as consistent
-  32  input invalid: a reading was missing (empty field); the row is the prediction
+  32  input invalid: a reading was missing (empty field) or absurd (128); the row is the
+      prediction
   64  residual high: χ² above its 99.9 % point, or (model G) the fault monitor's window
       inconsistent with no part isolated (fault suspected)
+  128 reading absurd: beyond twice its part's full scale (`range`), or 10 000 m/s^2 where
+      none is declared: read as missing (32 is set too), counted in a warning
 Model G: with redundancy to spare (16 or more channels for tri-axial parts) a part the fault
 monitor isolates from the measurements is left out of the estimate (flag 8, the excluded
 column) until its readings fit again; with 12 channels, the readings are tested against the
@@ -581,6 +584,9 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             if let Some(note) = &s.model_note {
                 say.info(format!("ballisto com: {}: {note}", arrangement.display()));
             }
+            for w in &s.warnings {
+                eprintln!("ballisto com: WARNING: {w}");
+            }
             say.info(format!(
                 "ballisto com: {} windows of {window} s ({} could not separate rho from f), model {} -> {}",
                 s.windows,
@@ -789,7 +795,12 @@ fn telecommands(
             vec![one(Tc::Include(c), channels_of(&arrangement)?)?]
         }
         TcCommand::LoadArrangement { arrangement } => {
-            let (data, warnings) = tc::arrangement_data(&arrangement)?;
+            let (data, mut warnings) = tc::arrangement_data(&arrangement)?;
+            let loaded = hal_sim::arrangement_file::load_arrangement(&arrangement)?;
+            warnings.extend(ballisto::plausibility::arrangement(
+                &loaded,
+                &arrangement.display().to_string(),
+            ));
             for w in warnings {
                 eprintln!("ballisto tc: WARNING: {w}");
             }

@@ -11,6 +11,8 @@ use std::path::Path;
 
 use hal_sim::motion::Truth;
 
+use crate::plausibility::AbsurdCount;
+
 /// An error in a samples file, naming the file and line.
 #[derive(Debug)]
 pub struct SamplesError {
@@ -42,6 +44,12 @@ pub struct SamplesReader<R: std::io::Read> {
     file: String,
     last_t: Option<(f64, u64)>,
     record: csv::StringRecord,
+    /// Per channel: the largest plausible magnitude ([`crate::plausibility`]).
+    bounds: Vec<f64>,
+    /// Per channel: readings beyond its bound, read as missing.
+    absurd: Vec<AbsurdCount>,
+    /// Whether the last row read had one.
+    row_absurd: bool,
 }
 
 impl SamplesReader<Box<dyn std::io::BufRead + Send>> {
@@ -111,7 +119,27 @@ impl<R: std::io::Read> SamplesReader<R> {
             file: file.to_string(),
             last_t: None,
             record: csv::StringRecord::new(),
+            bounds: vec![f64::INFINITY; names.len()],
+            absurd: vec![AbsurdCount::default(); names.len()],
+            row_absurd: false,
         })
+    }
+
+    /// Reads a reading beyond `bounds[channel]` in magnitude as missing (NaN), and counts it
+    /// ([`Self::absurd_counts`], [`Self::row_absurd`]).
+    pub fn with_bounds(mut self, bounds: Vec<f64>) -> Self {
+        self.bounds = bounds;
+        self
+    }
+
+    /// Per channel: the readings read as missing for being beyond its bound.
+    pub fn absurd_counts(&self) -> &[AbsurdCount] {
+        &self.absurd
+    }
+
+    /// Whether the last row read had a reading beyond its bound.
+    pub fn row_absurd(&self) -> bool {
+        self.row_absurd
     }
 
     /// Reads the next row into `out` (channel order, NaN for empty fields); returns its time,
@@ -156,7 +184,8 @@ impl<R: std::io::Read> SamplesReader<R> {
             }
         }
         self.last_t = Some((t, line));
-        for (o, &c) in out.iter_mut().zip(self.column.iter()) {
+        self.row_absurd = false;
+        for (i, (o, &c)) in out.iter_mut().zip(self.column.iter()).enumerate() {
             let field = self.record[c].trim();
             *o = if field.is_empty() {
                 f64::NAN
@@ -170,7 +199,15 @@ impl<R: std::io::Read> SamplesReader<R> {
                         c + 1
                     )));
                 }
-                v
+                if v.abs() > self.bounds[i] {
+                    let a = &mut self.absurd[i];
+                    a.count += 1;
+                    a.largest = a.largest.max(v.abs());
+                    self.row_absurd = true;
+                    f64::NAN
+                } else {
+                    v
+                }
             };
         }
         Ok(Some(t))

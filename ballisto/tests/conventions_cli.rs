@@ -253,3 +253,99 @@ fn dash_is_stdin_and_stdout_and_quiet_is_quiet() {
     assert_eq!(out.stdout, std::fs::read(&through_files).unwrap());
     assert!(!Path::new("-").exists(), "no file named -");
 }
+
+/// A wrong unit does not pass silently: readings in mg, positions in mm and a reading no part
+/// can give are each named in a warning, and the absurd reading's row carries its own flag.
+#[test]
+fn implausible_units_and_absurd_readings_are_named() {
+    let d = tmpdir("conventions", "plausible");
+    run_ok(
+        ballisto()
+            .args(["sim", "--scenario", "tetra-orbit", "-q", "--out"])
+            .arg(&d),
+    );
+    let arrangement = std::fs::read_to_string(d.join("arrangement.toml")).unwrap();
+    let samples = std::fs::read_to_string(d.join("samples.csv")).unwrap();
+    let map_readings = |f: &dyn Fn(usize, f64) -> String| -> String {
+        let mut lines = samples.lines();
+        let mut out = lines.next().unwrap().to_string() + "\n";
+        for (k, line) in lines.enumerate() {
+            let mut fields = line.split(',');
+            out.push_str(fields.next().unwrap());
+            for v in fields {
+                out.push(',');
+                out.push_str(&f(k, v.parse().unwrap()));
+            }
+            out.push('\n');
+        }
+        out
+    };
+    let run = |name: &str, arrangement: &str, samples: &str| -> String {
+        let a = d.join(format!("{name}.toml"));
+        let s = d.join(format!("{name}.csv"));
+        std::fs::write(&a, arrangement).unwrap();
+        std::fs::write(&s, samples).unwrap();
+        summary(
+            &common::estimate(&a, &s, &d.join(format!("{name}-est.csv")))
+                .output()
+                .unwrap(),
+        )
+    };
+    // As simulated: no warning.
+    let clean = run("clean", &arrangement, &samples);
+    assert!(!clean.contains("WARNING"), "{clean}");
+    // Readings in mg (no full scale declared, so they are not absurd).
+    let no_range: String = arrangement
+        .lines()
+        .filter(|l| !l.starts_with("range"))
+        .map(|l| l.to_string() + "\n")
+        .collect();
+    let mg = run(
+        "mg",
+        &no_range,
+        &map_readings(&|_, v| (v * 1000.0).to_string()),
+    );
+    assert!(
+        mg.contains("WARNING") && mg.contains("raw counts or mg"),
+        "{mg}"
+    );
+    // Positions in millimetres.
+    let mm: String = arrangement
+        .lines()
+        .map(|l| match l.strip_prefix("position = [") {
+            Some(rest) => {
+                let v: Vec<f64> = rest
+                    .trim_end_matches(']')
+                    .split(',')
+                    .map(|x| x.trim().parse::<f64>().unwrap() * 1000.0)
+                    .collect();
+                format!("position = [{}, {}, {}]\n", v[0], v[1], v[2])
+            }
+            None => l.to_string() + "\n",
+        })
+        .collect();
+    let out = run("mm", &mm, &samples);
+    assert!(out.contains("positions look like millimetres"), "{out}");
+    // Every reading of row 100 set to 1e300.
+    let absurd = map_readings(&|k, v| {
+        if k == 100 {
+            "1e300".to_string()
+        } else {
+            v.to_string()
+        }
+    });
+    let out = run("absurd", &arrangement, &absurd);
+    assert!(
+        out.contains("readings beyond") && out.contains("rows flagged 128"),
+        "{out}"
+    );
+    let (names, rows) = read_table(&d.join("absurd-est.csv"));
+    let flags = names.iter().position(|n| n == "flags").unwrap();
+    for (k, r) in rows.iter().enumerate() {
+        let f: u32 = r[flags].parse().unwrap();
+        assert_eq!(f & 128 != 0, k == 100, "row {k}: flags {f}");
+        if k == 100 {
+            assert_ne!(f & 32, 0, "read as missing: the row is the prediction");
+        }
+    }
+}

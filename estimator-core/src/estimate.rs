@@ -24,6 +24,10 @@ impl Flags {
     pub const INPUT_INVALID: u16 = 1 << 5;
     /// Whitened residual χ² above the 99.9 % point for its degrees of freedom (fault suspected).
     pub const RESIDUAL_HIGH: u16 = 1 << 6;
+    /// A reading no accelerometer can give (beyond twice its part's full scale, or 10⁴ m/s²
+    /// where none is declared): treated as missing, so [`Flags::INPUT_INVALID`] is set too.
+    /// Set by the ground tool's reader (`ballisto estimate`), which checks the file's readings.
+    pub const INPUT_ABSURD: u16 = 1 << 7;
 
     /// True if `bit` is set.
     pub const fn has(self, bit: u16) -> bool {

@@ -250,6 +250,10 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         .into());
     }
     let mut warnings = plausibility(&mut identification, &nominal, &names, &tolerance);
+    warnings.extend(crate::plausibility::arrangement(
+        &loaded,
+        &job.arrangement.display().to_string(),
+    ));
     if let Some(note) = model_note {
         warnings.push(note);
     }
