@@ -1,6 +1,8 @@
 //! `ballisto estimate` end to end on a large record: rows per second of reading the samples
-//! file, estimating (f64, smoothed) and writing the estimates file. Prints figures, asserts
-//! nothing (speed is checked by reading them, not by a timed test).
+//! file, estimating (f64, smoothed) and writing the estimates file; the reader alone; and, as
+//! the I/O yardstick (issue 44), a Python loop that only counts the samples file's lines, with
+//! the ratio. Prints figures, asserts nothing (speed is checked by reading them, not by a
+//! timed test).
 //!
 //! `cargo bench -p ballisto --bench estimate_io` (`ESTIMATE_IO_ROWS`, default 1 000 000).
 
@@ -8,6 +10,7 @@ use std::io::{BufWriter, Write};
 use std::time::Instant;
 
 use ballisto::estimate::{estimate_files, EstimateJob, Precision};
+use ballisto::samples_csv::SamplesReader;
 use estimator_core::Options;
 use hal_sim::ideal::simulate_outputs;
 use test_fixtures::{families, motions};
@@ -66,5 +69,47 @@ fn main() {
         rows as f64 / best,
         rows as f64 / worst
     );
+    // The reader alone (parsing every field into channel order).
+    let read = best_of(3, || {
+        let mut reader = SamplesReader::open(&samples, &loaded.names).expect("samples");
+        let mut row = vec![0.0; loaded.names.len()];
+        let mut n = 0usize;
+        while reader.next_row(&mut row).expect("row").is_some() {
+            n += 1;
+        }
+        assert_eq!(n, rows);
+    });
+    println!(
+        "estimate_io: reading alone {read:.2} s = {:.0} rows/s",
+        rows as f64 / read
+    );
+    // The yardstick: Python counting the file's lines.
+    let script = "import sys\nn = 0\nfor line in open(sys.argv[1]):\n    n += 1\n";
+    let python = best_of(3, || {
+        let ok = std::process::Command::new("python3")
+            .args(["-c", script])
+            .arg(&samples)
+            .status()
+            .is_ok_and(|s| s.success());
+        if !ok {
+            println!("estimate_io: python3 not available: no yardstick");
+        }
+    });
+    println!(
+        "estimate_io: python line loop {python:.2} s; ballisto estimate {:.1} x (best), {:.1} x (worst); the issue's budget is 6 x",
+        best / python,
+        worst / python
+    );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The shortest of `n` runs of `f`, s.
+fn best_of(n: usize, mut f: impl FnMut()) -> f64 {
+    (0..n)
+        .map(|_| {
+            let started = Instant::now();
+            f();
+            started.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min)
 }
