@@ -93,7 +93,16 @@ pub fn compare(truth: &Path, estimates: &Path) -> Result<Comparison, Box<dyn Err
         }
         rows += 1;
     }
-    let n = rows.max(1) as f64;
+    if rows == 0 {
+        // An RMS of nothing would read as a perfect score.
+        return Err(format!(
+            "{}: no row matches a row of {} by t: nothing to compare",
+            estimates.display(),
+            truth.display()
+        )
+        .into());
+    }
+    let n = rows as f64;
     Ok(Comparison {
         rows,
         sigma0: (sums[0] / n).sqrt(),

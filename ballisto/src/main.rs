@@ -609,6 +609,18 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 AlignArg::Interpolate => Alignment::Interpolate,
                 AlignArg::Latest => Alignment::Latest,
             };
+            // A scenario file or an uplink file in the output directory is not overwritten.
+            let outputs: Vec<PathBuf> =
+                ballisto::sim::OUTPUTS.iter().map(|f| out.join(f)).collect();
+            let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
+            let uplink_files: Vec<&Path> = uplink
+                .iter()
+                .filter_map(|u| u.split_once(':').map(|(_, f)| Path::new(f)))
+                .collect();
+            let inputs: Vec<&Path> = std::iter::once(Path::new(&scenario))
+                .chain(uplink_files)
+                .collect();
+            ballisto::output::check_distinct(&outputs, &inputs)?;
             let sc = hal_sim::scenario::Scenario::load(&scenario)?;
             let uplink = uplink
                 .iter()

@@ -75,6 +75,20 @@ pub struct SimReport {
     pub identification: Vec<String>,
 }
 
+/// Every file a run may write in its output directory (which ones: the scenario and the
+/// options decide).
+pub const OUTPUTS: [&str; 9] = [
+    "arrangement.toml",
+    "samples.csv",
+    "reference.csv",
+    "truth.csv",
+    "truth_geometry.toml",
+    "estimates.csv",
+    "estimates.png",
+    "telemetry.bin",
+    "telemetry-identify.bin",
+];
+
 /// Runs a scenario (see the module doc).
 pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
     let sc = job.scenario;

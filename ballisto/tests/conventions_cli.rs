@@ -349,3 +349,37 @@ fn implausible_units_and_absurd_readings_are_named() {
         }
     }
 }
+
+/// `compare` with no rows to compare is an error, not an RMS error of 0.
+#[test]
+fn compare_without_rows_is_an_error() {
+    let d = tmpdir("conventions", "compare");
+    run_ok(
+        ballisto()
+            .args([
+                "sim",
+                "--scenario",
+                "tetra-orbit",
+                "-q",
+                "--estimate",
+                "--out",
+            ])
+            .arg(&d),
+    );
+    let est = std::fs::read_to_string(d.join("estimates.csv")).unwrap();
+    let header_only = d.join("header-only.csv");
+    std::fs::write(&header_only, est.lines().next().unwrap().to_string() + "\n").unwrap();
+    let out = ballisto()
+        .arg("compare")
+        .arg(d.join("truth.csv"))
+        .arg(&header_only)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("nothing to compare"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(out.stdout.is_empty());
+}

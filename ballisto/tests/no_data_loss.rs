@@ -141,3 +141,26 @@ fn decode_refuses_to_overwrite_its_telemetry_or_arrangement() {
     refused(decode(&d.join("estimates.csv"), Some(&tm), None), &d, &tm);
     refused(decode(&d.join("estimates.csv"), None, Some(&arr)), &d, &arr);
 }
+
+#[test]
+fn sim_refuses_to_overwrite_its_scenario_or_uplink() {
+    let d = common::tmpdir("no-data-loss", "sim");
+    // A scenario file saved under the name of one of sim's outputs, in its output directory.
+    let scenario = d.join("arrangement.toml");
+    std::fs::write(&scenario, common::scenario_text("tetra-orbit")).unwrap();
+    let mut c = common::ballisto();
+    c.args(["sim", "--scenario"])
+        .arg(&scenario)
+        .arg("--out")
+        .arg(&d);
+    refused(c, &d, &scenario);
+    // An uplink file named like the telemetry it would be answered in.
+    let uplink = d.join("telemetry.bin");
+    std::fs::write(&uplink, [0u8, 1, 2, 0]).unwrap();
+    let mut c = common::ballisto();
+    c.args(["sim", "--scenario", "tetra-orbit", "--firmware", "--out"])
+        .arg(&d)
+        .arg("--uplink")
+        .arg(format!("1:{}", uplink.display()));
+    refused(c, &d, &uplink);
+}

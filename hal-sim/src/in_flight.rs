@@ -7,9 +7,10 @@ use ballisto_fw::boot::count_boot;
 use ballisto_fw::calstore::ram_flash::{Programming, RamFlash};
 use ballisto_fw::calstore::store::{select_at_boot, CalibrationStore};
 use ballisto_fw::config::AppConfig;
-use ballisto_link::identification::{ReferencePoint, MAX_POINTS, POINT_LEN, SOURCE_REFERENCE};
-use ballisto_link::telecommand::{build, ACK_ACCEPTANCE, ACK_COMPLETION};
-use ballisto_link::{framing, service, subtype, CalibrationId, ResetCause};
+use ballisto_link::identification::{points_data, ReferencePoint, MAX_POINTS, POINT_LEN};
+use ballisto_link::ids::TC_MAX;
+use ballisto_link::telecommand::{build_command, Command, ACK_ACCEPTANCE, ACK_COMPLETION};
+use ballisto_link::{framing, CalibrationId, ResetCause};
 
 use crate::firmware_host::{run_firmware_boot, Boot, Emit, FirmwareReport, SimTime, HOST_SECTOR};
 use crate::motion::Propagator;
@@ -63,10 +64,9 @@ pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String>
     let mut truth = Propagator::new(sc.motion(), TRUTH_STEP);
     let mut out = Vec::new();
     let mut seq = 0u16;
-    let mut frame = |at: f64, st: u8, ack: u8, data: &[u8], out: &mut Vec<(f64, Vec<u8>)>| {
-        let mut raw = vec![0u8; 16 + data.len()];
-        let n = build(&mut raw, seq, ack, service::BALLISTOMETER, st, data)
-            .ok_or("telecommand too long")?;
+    let mut frame = |at: f64, ack: u8, command: Command, out: &mut Vec<(f64, Vec<u8>)>| {
+        let mut raw = vec![0u8; TC_MAX];
+        let n = build_command(&mut raw, seq, ack, &command).ok_or("telecommand too long")?;
         let mut framed = vec![0u8; framing::max_encoded_len(n)];
         let m = framing::encode(&raw[..n], &mut framed).ok_or("framing")?;
         framed.truncate(m);
@@ -77,18 +77,17 @@ pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String>
     let acks = ACK_ACCEPTANCE | ACK_COMPLETION;
     let period_ms = (1000.0 / reference_rate).round().clamp(1.0, 1000.0) as u16;
     let window_ms = ((plan.end - plan.start) * 1000.0).round() as u32;
-    let mut start = vec![SOURCE_REFERENCE];
-    start.extend_from_slice(&period_ms.to_be_bytes());
-    start.extend_from_slice(&window_ms.to_be_bytes());
     frame(
         plan.start - 0.002,
-        subtype::START_IDENTIFICATION,
         acks,
-        &start,
+        Command::StartIdentification {
+            period_ms,
+            window_ms,
+        },
         &mut out,
     )?;
-    // The reference's points in the window: (scenario time, TC[200,9] octets).
-    let mut points: Vec<(f64, [u8; POINT_LEN])> = Vec::new();
+    // The reference's points in the window, with their scenario times.
+    let mut points: Vec<(f64, ReferencePoint)> = Vec::new();
     for k in 0..sc.samples() {
         let t = k as f64 / sc.rate;
         if t > plan.end {
@@ -105,30 +104,22 @@ pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String>
             t: SimTime::nanos(t),
             omega: w.map(|v| v as f32),
         };
-        points.push((t, point.encode()));
+        points.push((t, point));
     }
     for chunk in points.chunks(batch) {
-        let mut data = vec![chunk.len() as u8];
-        for (_, octets) in chunk {
-            data.extend_from_slice(octets);
-        }
+        let batch: Vec<ReferencePoint> = chunk.iter().map(|(_, p)| *p).collect();
+        let mut data = vec![0u8; 1 + POINT_LEN * batch.len()];
+        let n = points_data(&batch, &mut data).ok_or("reference batch")?;
         let at = chunk.last().map_or(plan.start, |p| p.0) + plan.latency;
-        frame(at, subtype::REFERENCE_RATE, 0, &data, &mut out)?;
+        frame(at, 0, Command::ReferenceRate(&data[..n]), &mut out)?;
     }
     let last = points.last().map_or(plan.start, |p| p.0);
     let report_at = last + plan.latency + 0.1;
-    frame(
-        report_at,
-        subtype::REPORT_IDENTIFICATION,
-        acks,
-        &[],
-        &mut out,
-    )?;
+    frame(report_at, acks, Command::ReportIdentification, &mut out)?;
     frame(
         report_at + 0.1,
-        subtype::COMMIT_CALIBRATION,
         acks,
-        &1u16.to_be_bytes(),
+        Command::CommitCalibration { solution: 1 },
         &mut out,
     )?;
     Ok(out)

@@ -12,10 +12,11 @@
 //!    ([`SCRIPT`]) that exercises every path: mode changes, a housekeeping request, line
 //!    noise, a damaged command, a model change, an exclusion.
 
-use ballisto_link::identification::{ReferencePoint, POINT_LEN, SOURCE_REFERENCE};
-use ballisto_link::telecommand::{self, ACK_ACCEPTANCE, ACK_COMPLETION};
-use ballisto_link::{framing, service, sid, subtype};
+use ballisto_link::identification::{ReferencePoint, POINT_LEN};
+use ballisto_link::telecommand::{self, Command, ACK_ACCEPTANCE, ACK_COMPLETION};
+use ballisto_link::{framing, Mode};
 use embedded_io_async::{ErrorType, Read};
+use estimator_core::Model;
 
 use core::ops::Range;
 
@@ -50,9 +51,9 @@ const BATCH: u32 = 4;
 /// TC[200,8]: the reference source, its period (50 ms) and the window (ms), which ends half a
 /// period after a set, so that the same sets are in it wherever between two sets the command
 /// is taken (on the host at a set's instant, on the board just before it).
-const START: [u8; 7] = {
-    let w = (WINDOW_SETS * 10 + 5).to_be_bytes();
-    [SOURCE_REFERENCE, 0, 50, w[0], w[1], w[2], w[3]]
+const START: Command<'static> = Command::StartIdentification {
+    period_ms: 50,
+    window_ms: WINDOW_SETS * 10 + 5,
 };
 
 /// Part u3 silent from 4.0 s to 4.5 s.
@@ -115,9 +116,9 @@ pub async fn boot<F: NorFlash>(
 #[derive(Clone, Copy, Debug)]
 pub enum Step {
     /// A telecommand TC[service, subtype] with application data, all acknowledgements asked.
-    Command(u8, u8, &'static [u8]),
+    Command(Command<'static>),
     /// The same, its CRC damaged on the line.
-    Damaged(u8, u8, &'static [u8]),
+    Damaged(Command<'static>),
     /// Line noise.
     Noise(&'static [u8]),
     /// TC[200,9]: the reference rate (the synthetic motion's Ω) at `points` sample instants,
@@ -149,14 +150,7 @@ pub fn identification(i: usize) -> Option<(f64, Step)> {
     let at = |set: u32| f64::from(set) * 0.01;
     let last = WINDOW_FIRST + WINDOW_SETS;
     match i {
-        0 => Some((
-            at(WINDOW_FIRST) - 0.005,
-            Step::Command(
-                service::BALLISTOMETER,
-                subtype::START_IDENTIFICATION,
-                &START,
-            ),
-        )),
+        0 => Some((at(WINDOW_FIRST) - 0.005, Step::Command(START))),
         i if i <= batches => {
             let first = WINDOW_FIRST + (i as u32 - 1) * REFERENCE_EVERY * BATCH;
             let points = BATCH.min((last - first).div_ceil(REFERENCE_EVERY));
@@ -170,11 +164,11 @@ pub fn identification(i: usize) -> Option<(f64, Step)> {
         }
         i if i == batches + 1 => Some((
             at(last) + 0.205,
-            Step::Command(service::BALLISTOMETER, subtype::REPORT_IDENTIFICATION, &[]),
+            Step::Command(Command::ReportIdentification),
         )),
         i if i == batches + 2 => Some((
             at(last) + 0.405,
-            Step::Command(service::BALLISTOMETER, subtype::COMMIT_CALIBRATION, &[0, 1]),
+            Step::Command(Command::CommitCalibration { solution: 1 }),
         )),
         _ => None,
     }
@@ -183,43 +177,15 @@ pub fn identification(i: usize) -> Option<(f64, Step)> {
 /// The uplink script: (seconds after the first instant, what arrives). Times sit between
 /// two sample instants, so a command is handled between the same two sets on every machine.
 pub const SCRIPT: [(f64, Step); 9] = [
-    (
-        2.005,
-        Step::Command(service::BALLISTOMETER, subtype::SET_MODE, &[0]),
-    ),
-    (
-        2.505,
-        Step::Command(service::BALLISTOMETER, subtype::SET_MODE, &[1]),
-    ),
-    (
-        3.005,
-        Step::Command(
-            service::HOUSEKEEPING,
-            subtype::HK_ONE_SHOT,
-            &[1, 0, sid::HOUSEKEEPING as u8],
-        ),
-    ),
+    (2.005, Step::Command(Command::SetMode(Mode::Standby))),
+    (2.505, Step::Command(Command::SetMode(Mode::Operate))),
+    (3.005, Step::Command(Command::ReportHousekeeping)),
     (3.505, Step::Noise(&[0x55, 0xAA, 0x00, 0x13])),
-    (
-        3.605,
-        Step::Damaged(service::BALLISTOMETER, subtype::SET_MODEL, &[1]),
-    ),
-    (
-        6.005,
-        Step::Command(service::BALLISTOMETER, subtype::SET_MODEL, &[1]),
-    ),
-    (
-        7.005,
-        Step::Command(service::BALLISTOMETER, subtype::EXCLUDE, &[11]),
-    ),
-    (
-        8.005,
-        Step::Command(service::BALLISTOMETER, subtype::INCLUDE, &[11]),
-    ),
-    (
-        9.005,
-        Step::Command(service::TEST, subtype::ARE_YOU_ALIVE, &[]),
-    ),
+    (3.605, Step::Damaged(Command::SetModel(Model::FreeFloat))),
+    (6.005, Step::Command(Command::SetModel(Model::FreeFloat))),
+    (7.005, Step::Command(Command::Exclude(11))),
+    (8.005, Step::Command(Command::Include(11))),
+    (9.005, Step::Command(Command::AreYouAlive)),
 ];
 
 /// Octets of the largest application data a step carries: four reference points.
@@ -229,14 +195,14 @@ const DATA_MAX: usize = 1 + BATCH as usize * POINT_LEN;
 /// and sets `period` apart (the reference's times); its length.
 pub fn frame(step: Step, seq: u16, t0: Nanos, period: Nanos, out: &mut [u8]) -> usize {
     let mut points = [0u8; DATA_MAX];
-    let (s, st, data, damaged) = match step {
+    let (command, damaged) = match step {
         Step::Noise(bytes) => {
             let n = bytes.len().min(out.len());
             out[..n].copy_from_slice(&bytes[..n]);
             return n;
         }
-        Step::Command(s, st, d) => (s, st, d, false),
-        Step::Damaged(s, st, d) => (s, st, d, true),
+        Step::Command(c) => (c, false),
+        Step::Damaged(c) => (c, true),
         Step::Reference {
             first,
             every,
@@ -258,18 +224,13 @@ pub fn frame(step: Step, seq: u16, t0: Nanos, period: Nanos, out: &mut [u8]) -> 
                 chunk.copy_from_slice(&point.encode());
             }
             let len = 1 + n as usize * POINT_LEN;
-            (
-                service::BALLISTOMETER,
-                subtype::REFERENCE_RATE,
-                &points[..len],
-                false,
-            )
+            (Command::ReferenceRate(&points[..len]), false)
         }
     };
     let mut raw = [0u8; 16 + DATA_MAX];
     // Every acknowledgement asked (start and progress too: accepted, not reported).
     let ack = ACK_ACCEPTANCE | 0x4 | 0x2 | ACK_COMPLETION;
-    let Some(n) = telecommand::build(&mut raw, seq, ack, s, st, data) else {
+    let Some(n) = telecommand::build_command(&mut raw, seq, ack, &command) else {
         return 0;
     };
     if damaged {
