@@ -14,11 +14,7 @@ cargo clippy -p qemu-bench --profile flight --target thumbv7em-none-eabihf -- -D
 cargo clippy -p ballisto-fw --target thumbv7em-none-eabihf -- -D warnings
 cargo clippy -p board-qemu --profile flight --target thumbv7em-none-eabihf -- -D warnings
 (cd firmware/boards/stm32h743 && cargo clippy --profile flight -- -D warnings)
-if cargo nextest --version >/dev/null 2>&1; then
-  cargo nextest run --workspace --no-fail-fast
-else
-  cargo test --workspace --no-fail-fast
-fi
+cargo nextest run --workspace --no-fail-fast
 cargo test --workspace --doc
 QEMU_BENCH_STRICT=1 cargo qemu-bench
 bash scripts/qemu-bench-m7.sh
@@ -30,11 +26,12 @@ bash scripts/qemu-bench-m7.sh
 (cd firmware/boards/stm32h743 && BALLISTO_ARRANGEMENT=example-board.toml cargo build --profile flight)
 (cd firmware/boards/stm32h743 && cargo build --profile flight)
 cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf
-cargo build --release --bin ballisto
-./target/release/ballisto decode out/qemu/telemetry-boot1.bin --out out/qemu/estimates-boot1.csv \
+# The host side with the binaries the tests built (no second, release build of the host crates).
+cargo build -q --bin ballisto
+./target/debug/ballisto decode out/qemu/telemetry-boot1.bin --out out/qemu/estimates-boot1.csv \
   --log out/qemu/log-boot1.txt
-./target/release/ballisto decode out/qemu/telemetry.bin --out out/qemu/estimates.csv \
+./target/debug/ballisto decode out/qemu/telemetry.bin --out out/qemu/estimates.csv \
   --log out/qemu/log.txt
 BOARD_QEMU_TELEMETRY="$PWD/out/qemu/telemetry.bin" \
-  cargo test --release -p e2e-tests --test builtin_scenario -- --ignored --nocapture
+  cargo nextest run -p e2e-tests --test builtin_scenario --run-ignored only --no-capture
 bash scripts/size-report.sh

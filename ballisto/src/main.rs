@@ -92,7 +92,7 @@ struct Cli {
     /// Say nothing but warnings and errors (no summaries, no notices).
     #[arg(short, long, global = true, conflicts_with = "verbose")]
     quiet: bool,
-    /// Say more: timings, every problem listed.
+    /// Say more: timings, every problem listed, the calibration's alternations.
     #[arg(short, long, global = true)]
     verbose: bool,
     #[command(subcommand)]
@@ -989,6 +989,25 @@ fn print_firmware(
     ));
 }
 
+/// `-v`'s log: the library's `log::debug!` lines on stderr (the calibration's alternations).
+struct StderrLog;
+
+impl log::Log for StderrLog {
+    fn enabled(&self, metadata: &log::Metadata) -> bool {
+        metadata.target().starts_with("ballisto")
+    }
+
+    fn log(&self, record: &log::Record) {
+        if self.enabled(record.metadata()) {
+            eprintln!("  [{}] {}", record.target(), record.args());
+        }
+    }
+
+    fn flush(&self) {}
+}
+
+static STDERR_LOG: StderrLog = StderrLog;
+
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -1004,6 +1023,9 @@ fn main() -> ExitCode {
             return ExitCode::from(ballisto::exit::USAGE);
         }
     };
+    if cli.verbose && log::set_logger(&STDERR_LOG).is_ok() {
+        log::set_max_level(log::LevelFilter::Debug);
+    }
     match run(cli) {
         Ok(code) => code,
         Err(e) => {

@@ -15,11 +15,10 @@
 //! same run without the fault and without that part (RMS ratio over the runs); NaN in any
 //! estimate, telemetry packets lost. The fault-free runs give the false-alarm rates.
 //!
-//! `cargo run --release -p e2e-tests --example fault_matrix -- [RUNS]` (default 20; about 2 s);
-//! `MIXED=1` the 24-channel mixed layout (`e2e_tests::faults::mixed_layout`); `MODEL=F` the
-//! N = 18 layout estimated in model F.
-//! `SHOW=KIND` (a kind's name as in the table) prints each run of that kind: the part, the
-//! onset, when the part went out, its worst Ω error while out, rows with a healthy part out.
+//! `cargo run -p e2e-tests --example fault_matrix -- [RUNS] [LAYOUT]`: RUNS per fault kind
+//! (default 20; about 2 s), LAYOUT `g` (default: the N = 18 layout in model G), `f` (the same
+//! estimated in model F) or `mixed` (the 24-channel mixed layout,
+//! `e2e_tests::faults::mixed_layout`). `scripts/validate.sh` runs all three.
 
 use e2e_tests::faults::{fault_matrix, layout, layout_free_float, mixed, DURATION, FAULT_S};
 
@@ -28,10 +27,16 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(20);
-    // `MIXED=1`: the 24-channel mixed layout.
-    let mixed_layout = std::env::var_os("MIXED").is_some();
-    // `MODEL=F`: the N = 18 layout estimated in model F.
-    let free_float = std::env::var("MODEL").is_ok_and(|m| m == "F");
+    let which = std::env::args().nth(2).unwrap_or_else(|| "g".to_string());
+    let (mixed_layout, free_float) = match which.as_str() {
+        "g" => (false, false),
+        "f" => (false, true),
+        "mixed" => (true, false),
+        other => {
+            eprintln!("fault_matrix: layout \"{other}\" is not one of g, f, mixed");
+            std::process::exit(2);
+        }
+    };
     let layout = match (mixed_layout, free_float) {
         (true, _) => mixed,
         (false, true) => layout_free_float,

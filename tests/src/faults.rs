@@ -456,30 +456,17 @@ pub fn fault_matrix(runs: u64, layout: fn(u64) -> Scenario) -> (Tally, Vec<(&'st
             f.end = Some(start + FAULT_S);
             sc.faults.push(f);
             let r = fault_run(&sc, Some((part, start, start + FAULT_S)));
-            let mut ratio = None;
             if let Some(l) = r.excluded_after {
                 tally.isolated.push(l);
                 let out = r.excluded_errors.iter().map(|(_, e)| e).sum::<f64>();
                 let rows = errors_without_part(&sc, part, &r.excluded_errors);
                 let reference = rows.iter().map(|r| r.0).sum::<f64>();
-                ratio = Some((out / reference).sqrt());
                 if reference_wrong(&rows) {
                     tally.wrong_references += 1;
                 } else {
                     tally.err_out += out;
                     tally.err_ref += reference;
                 }
-            }
-            if std::env::var("SHOW").is_ok_and(|k| k == name) {
-                let worst = r
-                    .excluded_errors
-                    .iter()
-                    .copied()
-                    .max_by(|a, b| a.1.total_cmp(&b.1));
-                eprintln!(
-                    "{name}: part {part} from {start:.2} s: latency {:?} s, out after {:?} s, {} rows out, worst {:?}, wrong {}, flagged {} and silent {} of {} rows while active, Ω error ratio {ratio:?}",
-                    r.latency, r.excluded_after, r.excluded_active, worst, r.wrong_excluded, r.flagged_active, r.silent_active, r.active_rows
-                );
             }
             tally.add(&r);
         }

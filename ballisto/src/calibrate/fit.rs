@@ -19,8 +19,9 @@
 //! common rotation and size) are held by convention and named. The identified subspace is
 //! decided on the third alternation of a stage and then kept, so the iteration converges.
 //!
-//! `BALLISTO_CAL_DEBUG=1` prints every alternation's largest step and the smallest
-//! eigenvalues of the scaled normal matrix (for diagnosing a record that does not converge).
+//! `ballisto calibrate -v` logs every alternation's largest step and the smallest
+//! eigenvalues of the scaled normal matrix (`log::debug!`: for diagnosing a record that does
+//! not converge).
 
 use super::kinematics::RelativeRotation;
 use nalgebra::{DMatrix, DVector, Matrix3, SVector, SymmetricEigen, Vector3};
@@ -392,12 +393,10 @@ pub fn identify(
         if flat >= FLAT_ITERATIONS {
             last_step = 0.0;
         }
-        if std::env::var_os("BALLISTO_CAL_DEBUG").is_some() {
-            eprintln!(
-                "iteration {it}: largest scaled step {largest:.3e} (taken × {scale:.3}), cost {before:.6e} -> {after:.6e}, motion fields {}",
-                fields.iter().filter(|f| f.is_some()).count()
-            );
-        }
+        log::debug!(
+            "iteration {it}: largest scaled step {largest:.3e} (taken × {scale:.3}), cost {before:.6e} -> {after:.6e}, motion fields {}",
+            fields.iter().filter(|f| f.is_some()).count()
+        );
         if largest < 1e-10 || flat >= FLAT_ITERATIONS {
             if statics_first && it < MAX_ITERATIONS / 3 {
                 continue;
@@ -519,9 +518,7 @@ fn tie_kinematics(
             d: total.map_or(Vector3::zeros(), |t| t.d) + r.d,
             ..r
         });
-        if std::env::var_os("BALLISTO_CAL_DEBUG").is_some() {
-            eprintln!("kinematic tie: {r:?}");
-        }
+        log::debug!("kinematic tie: {r:?}");
         if small {
             break;
         }
@@ -1025,10 +1022,10 @@ fn truncated_step(
         }
     }
     let eig = SymmetricEigen::new(ns);
-    if std::env::var_os("BALLISTO_CAL_DEBUG").is_some() {
+    if log::log_enabled!(log::Level::Debug) {
         let mut l: Vec<f64> = eig.eigenvalues.iter().copied().collect();
         l.sort_by(f64::total_cmp);
-        eprintln!(
+        log::debug!(
             "largest eigenvalue {:.3e}, smallest {:?}",
             l[l.len() - 1],
             l[..l.len().min(10)]
