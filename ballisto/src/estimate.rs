@@ -79,13 +79,12 @@ pub fn estimate_files(job: &EstimateJob) -> Result<Summary, Box<dyn Error>> {
 }
 
 /// Records each pass's smoother holds ([`estimator_core::smoother`]): one, so each pass's
-/// output is its own forward decision, with no look-ahead. The look-ahead (128 samples until
-/// stop 39) traced the tracker's hypotheses back, which know nothing of the follower's slope
-/// (`estimator::follower`): on the nine-channel family (ideal parts apart from the jitter,
-/// declared Gaussian noise) it took `ballisto estimate --raw` from 1.00 to 1.19 × the
-/// truth-started maximum likelihood in Ω (4 kHz tumble), and on `nine-channel` at 1 kHz
-/// through the firmware to 1.25 where the plain passes by margin give 1.03 (README, "Branch
-/// lock"). The other pass is the look-ahead now ([`estimator_core::two_way`]).
+/// output is its own forward decision, with no look-ahead. A look-ahead through the tracker's
+/// hypotheses (128 samples) knows nothing of the follower's slope (`estimator::follower`): on
+/// the nine-channel family (ideal parts apart from the jitter, declared Gaussian noise) it
+/// took `ballisto estimate --raw` to 1.19 × the truth-started maximum likelihood in Ω (4 kHz
+/// tumble) where the plain passes by margin give 1.00 (`docs/branch-lock.md`). The other pass
+/// is the look-ahead ([`estimator_core::two_way`]).
 pub const HOST_LAG: usize = 1;
 
 /// Seconds of record decided per backward pass.
@@ -170,7 +169,7 @@ impl<T: Real> Pass<T> {
 /// evidence ([`estimator_core::two_way::combine`]; the path through both passes' roots that
 /// decided where the margins did not, `estimator_core::path_choice`, is no longer taken: with
 /// the follower it cost accuracy, `nine-channel` at 1 kHz through the firmware 1.14 × the
-/// maximum likelihood in Ω against 1.03 without, README "Branch lock"). The backward pass runs per block of [`TWO_WAY_BLOCK_S`]
+/// maximum likelihood in Ω against 1.03 without, docs/branch-lock.md). The backward pass runs per block of [`TWO_WAY_BLOCK_S`]
 /// from [`TWO_WAY_RUN_IN_S`] beyond it, started at the forward pass's rate there when that is
 /// settled; memory is one block and its run-in, whatever the record's length.
 pub struct HostEstimator<T: Real> {

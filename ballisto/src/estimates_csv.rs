@@ -53,7 +53,7 @@ pub const GAMMA_COLUMNS: [&str; 12] = [
     "sd_gamma_yz",
 ];
 
-/// The branch tracker's cost margin of the best competing branch (README, "Flags"), after
+/// The branch tracker's cost margin of the best competing branch (docs/formats.md), after
 /// [`GAMMA_COLUMNS`]; empty when the record does not carry it (a motion report of the
 /// 142-octet layout).
 pub const MARGIN_COLUMNS: [&str; 1] = ["branch_margin"];
@@ -152,7 +152,7 @@ type Batch<T> = Vec<(f64, Estimate<T>, u64, bool)>;
 
 /// An estimates file written on a thread of its own: the caller estimates while the rows
 /// before are formatted and written (on two cores `ballisto estimate` then runs at the speed
-/// of the slower half instead of the sum; README, "Speed"). Rows are written in order; the
+/// of the slower half instead of the sum; docs/validation.md, "Speed of the ground tool"). Rows are written in order; the
 /// first write error ends the thread and is returned by the next [`Self::push`] or by
 /// [`Self::finish`].
 pub struct ThreadedWriter<T> {

@@ -1,4 +1,4 @@
-//! Exit status of `ballisto` (documented in `ballisto --help` and the README): one code per
+//! Exit status of `ballisto` (documented in `ballisto --help`, the README and `docs/ballisto.md`): one code per
 //! kind of outcome, so that a script can tell a typo from damaged data.
 
 use std::fmt;

@@ -610,6 +610,8 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 AlignArg::Latest => Alignment::Latest,
             };
             // A scenario file or an uplink file in the output directory is not overwritten.
+            std::fs::create_dir_all(&out)
+                .map_err(|e| format!("{}: cannot create the directory: {e}", out.display()))?;
             let outputs: Vec<PathBuf> =
                 ballisto::sim::OUTPUTS.iter().map(|f| out.join(f)).collect();
             let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();

@@ -38,8 +38,19 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>, String> {
 }
 
 /// Refuses outputs that are the same file as an input, or as each other (two outputs both on
-/// stdout included).
+/// stdout included), and outputs in a directory that does not exist (before any work is done,
+/// not after it).
 pub fn check_distinct(outputs: &[&Path], inputs: &[&Path]) -> Result<(), String> {
+    for out in outputs.iter().filter(|p| !is_std(p)) {
+        let dir = out.parent().filter(|d| !d.as_os_str().is_empty());
+        if let Some(dir) = dir.filter(|d| !d.is_dir()) {
+            return Err(format!(
+                "{}: the directory {} does not exist",
+                out.display(),
+                dir.display()
+            ));
+        }
+    }
     for (i, out) in outputs.iter().enumerate() {
         for input in inputs.iter().filter(|p| !is_std(p)) {
             if same_file(out, input) {

@@ -201,7 +201,7 @@ fn bad_input_is_refused_by_name() {
 #[test]
 fn an_orbit_tumble_without_reference_is_refused_not_guessed() {
     // tetra-orbit's parts with errors, tumbling in orbit, no static pose, no reference: the
-    // record leaves most parameters undetermined (README, "In orbit"): refused, naming what
+    // record leaves most parameters undetermined (docs/ballisto.md): refused, naming what
     // it does not determine, and nothing is written.
     let dir = tmpdir("orbit");
     let text = common::scenario_text("tetra-orbit")

@@ -383,3 +383,23 @@ fn compare_without_rows_is_an_error() {
     );
     assert!(out.stdout.is_empty());
 }
+
+/// An output in a directory that does not exist is refused before any work is done.
+#[test]
+fn an_output_in_a_missing_directory_is_refused_at_once() {
+    let d = tmpdir("conventions", "nodir");
+    run_ok(
+        ballisto()
+            .args(["sim", "--scenario", "tetra-orbit", "-q", "--out"])
+            .arg(&d),
+    );
+    let out = common::estimate(
+        &d.join("arrangement.toml"),
+        &d.join("samples.csv"),
+        &d.join("missing/estimates.csv"),
+    )
+    .output()
+    .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("does not exist"), "{}", stderr(&out));
+}

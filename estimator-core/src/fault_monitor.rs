@@ -290,10 +290,10 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         };
         // The window and every part's window are capped at the same ceiling, CAP_FACTOR × the
         // window's limit (a window without a part never exceeds the window with it, so they
-        // stay one record). Each capped at CAP_FACTOR × its own limit (until stop 33), after a
+        // stay one record). Each capped at CAP_FACTOR × its own limit, after a
         // gross fault the difference of the two caps decayed like a healthy part's share of
         // the excess, and in the mixed layout that part was taken out as the fault's window
-        // ran out (`tests/examples/mixed_trace.rs`, seed 2001: a stuck part 3, then part 2 out
+        // ran out (the mixed layout, seed 2001: a stuck part 3, then part 2 out
         // for 1.1 s, 2 s after the fault). Not shrunk by one common factor either: a part that
         // hides some of the faulty part's error (N = 18, parts 3 and 4) then never leaves its
         // limit, and nothing is isolated.

@@ -17,7 +17,7 @@
 //! high. Everything is precomputed per channel set ([`Parity::build`], outside the sample
 //! loop); [`Parity::evaluate`] costs `N²` multiply–adds and `4 N` per part (on the M4F,
 //! `cargo qemu-bench`: the fault monitor's step, this and its window, 6 342 instructions per
-//! set at N = 24 with 8 parts, 6 283 before stop 41's variance scales; a first version
+//! set at N = 24 with 8 parts, a first version
 //! indexed by channel, with the mask tested in
 //! every inner loop, took 16 163). Model F's
 //! residual is not linear in its unknowns (`a ≡ Ω` enters quadratically), so there is no

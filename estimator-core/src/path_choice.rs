@@ -4,7 +4,7 @@
 //!
 //! **Why.** Where two branches of the quadratic forms cross or touch (model F, m = 3), each pass
 //! may leave the crossing on the wrong root and take 0.1–0.4 s to come back; the truth is then
-//! on the other pass (README, issue 15: choosing per sample the pass nearer the truth gives the
+//! on the other pass (docs/branch-lock.md: choosing per sample the pass nearer the truth gives the
 //! maximum-likelihood accuracy). Each pass's branch margin sits at the tracker's step cap after a
 //! crossing whichever root it holds, so the larger margin is a coin toss there: at 1 kHz the raw
 //! Ω RMS of a manoeuvre stayed 1.2–1.6× the truth-started maximum likelihood.
@@ -21,23 +21,23 @@
 //! not a per-sample one).
 //!
 //! **The jerk density** is `JERK_PER_SAMPLE × rate` (Ω′ may wander by √0.3 rad/s² per
-//! sample): measured on the nine-channel family (`tests/examples/two_way.rs`, raw Ω against the
+//! sample): measured on the nine-channel family (the `two_way` probe (removed; in the git history under `tests/examples/`), raw Ω against the
 //! maximum likelihood), a rate-independent density lost lock at one end or the other (1 000
 //! rad²/s⁵: 16× at 100 Hz; 10: 1.7× at 4 kHz, 1 kHz manoeuvre); per sample, 0.1–0.3 × rate
 //! held every case tried from 50 Hz to 4 kHz, while 1 × rate took the 1 kHz tumble to 1.38×.
 //!
 //! `ballisto estimate` offers every root of the sample, with the signs the passes hold, where
 //! the two-way decision flags it branch ambiguous (the passes' margins do not decide), and the
-//! two-way estimate elsewhere (issue 15, stop 35): the flags and margins stay the two-way
+//! two-way estimate elsewhere (issue 15): the flags and margins stay the two-way
 //! decision's, and only the estimate taken in ambiguous samples changes. Offered only the two
-//! passes' estimates there (stop 30), the path could not take a root that neither pass held.
+//! passes' estimates there, the path could not take a root that neither pass held.
 //! Allocation-free: the caller keeps one [`Links`] per sample of the block.
 
 use crate::estimate::Estimate;
 use crate::real::Real;
 
 /// Hypotheses kept by the beam. Measured on the nine-channel family
-/// (`tests/examples/two_way.rs`): 16, at most [`PER_OPTION`] per option of a sample.
+/// (the `two_way` probe (removed; in the git history under `tests/examples/`)): 16, at most [`PER_OPTION`] per option of a sample.
 pub const PATH_WIDTH: usize = 16;
 
 /// Hypotheses kept per option of a sample (the beam stays spread over the roots).

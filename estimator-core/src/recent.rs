@@ -17,7 +17,7 @@
 //! emitted for them twice.
 //!
 //! The same in the firmware (its `Estimation`) and in `ballisto estimate` (one estimator).
-//! Measured (README, "Fault detection"; ideal parts, 20 runs per fault kind): the RMS Ω error
+//! Measured (docs/validation.md, "Fault detection"; ideal parts, 20 runs per fault kind): the RMS Ω error
 //! while the part is out, against the same readings without the part, went from 1.03–1.34 to
 //! 1.00–1.02 on the mixed layout (1.34: a 3 σ/s drift isolated late) and from 1.01–1.12 to
 //! 0.98–1.01 on the N = 18 layout. Only a change that takes channels out is replayed by the
@@ -27,7 +27,7 @@ use crate::arrangement::ChannelMask;
 use crate::real::Real;
 
 /// Sets replayed after a change of the channels in use: 0.16 s at 100 Hz, about the time the
-/// rate filter takes to settle from a restart on the mixed layout (README, "Fault detection").
+/// rate filter takes to settle from a restart on the mixed layout (docs/validation.md, "Fault detection").
 pub const REPLAY_SETS: usize = 16;
 
 /// Whether a change of the channels in use from `before` to `after` is replayed: only one that

@@ -12,14 +12,14 @@
 //! crossing; the samples just after a crossing are just before it for the backward pass, whose
 //! choice is settled there. Each pass's [`Estimate::branch_margin`] is its evidence (twice the
 //! negative log-likelihood ratio of the best other branch), so the sample takes the direction
-//! with the larger margin. Measured on the nine-channel family (README, issue 15): at 1 kHz,
+//! with the larger margin. Measured on the nine-channel family (docs/branch-lock.md): at 1 kHz,
 //! 2e-3 m/s², 0.12 m the raw Ω RMS over a 20 s tumble fell from 1.78× the truth-started
 //! maximum likelihood (forward) to 1.01×.
 //!
 //! Where the margins are no guide — after a crossing both passes' sit at the tracker's step cap,
 //! whichever root they hold — the caller may give the direction ([`combine_taking`]) from the
 //! path through both passes ([`crate::path_choice`]): a manoeuvre at 1 kHz went from 1.35× to
-//! 1.00× the maximum likelihood in Ω (README, issue 15).
+//! 1.00× the maximum likelihood in Ω (docs/branch-lock.md).
 //!
 //! **Never silently wrong.** The combined margin is the two passes' evidence added where they
 //! agree and set against each other where they do not (approximating each pass's margin as the

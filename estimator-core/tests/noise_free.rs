@@ -146,7 +146,7 @@ fn check<T: estimator_core::Real>(c: &Case, model: Model, tol: f64) -> Result<()
 /// over the f32 allowance (`free_float_m3_f32`, seed 12842777805399392453: Ω′ off by 3.9e-3
 /// rad/s², 2e-3 relative, against 2.9e-3 allowed — the f32 arithmetic of the precomputed
 /// solve, which the allowance's input rounding does not model; 25 × below what the channels'
-/// noise does to Ω′): the README says so, the allowance is not widened for it.
+/// noise does to Ω′): `docs/estimator.md` says so, the allowance is not widened for it.
 fn config() -> ProptestConfig {
     let default = ProptestConfig::default();
     let rng_seed = match std::env::var_os("PROPTEST_RNG_SEED") {

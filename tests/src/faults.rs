@@ -193,11 +193,11 @@ pub fn fault_run(sc: &Scenario, fault: Option<(usize, f64, f64)>) -> FaultRun {
 /// times are `at` (s; matched to the nearest set): per row its squared Ω error and its own
 /// squared reported deviation (the norm of the three).
 ///
-/// Until stop 41 the reference left the part off its bus altogether: the other parts' samples
-/// then fell at other instants with other noise, and the ratio of the two runs' errors over
-/// the 1–3 s a part is out compared two noise draws (the mixed layout, 10 σ bias, seed 2008:
-/// 1.80 against that reference, 1.09 against this one, whose errors match the fault run's to
-/// the digit from 0.3 s after the exclusion on).
+/// The part stays on its bus in the reference (left off it, the other parts' samples would fall
+/// at other instants with other noise, and the ratio of the two runs' errors would compare two
+/// noise draws: the mixed layout, 10 σ bias, seed 2008, 1.80 against such a reference, 1.09
+/// against this one, whose errors match the fault run's to the digit from 0.3 s after the
+/// exclusion on).
 pub fn errors_without_part(sc: &Scenario, part: usize, at: &[(f64, f64)]) -> Vec<(f64, f64)> {
     let mut reference = sc.clone();
     reference.faults.clear();
@@ -234,7 +234,7 @@ pub fn errors_without_part(sc: &Scenario, part: usize, at: &[(f64, f64)]) -> Vec
 
 /// Whether a reference ([`errors_without_part`]) is itself wrong on its rows: its RMS Ω error
 /// above [`ballisto::compare::SILENT_SD`] times its RMS reported deviation (a start from rest
-/// that took the wrong sign: README, "A reference run that held the wrong sign"). Such a run
+/// that took the wrong sign: the fault matrix, `docs/validation.md`). Such a run
 /// is no yardstick; the matrix counts it apart.
 pub fn reference_wrong(rows: &[(f64, f64)]) -> bool {
     let err: f64 = rows.iter().map(|r| r.0).sum();

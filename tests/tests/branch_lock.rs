@@ -129,10 +129,9 @@ fn never_silently_wrong(rates: &[f64], noises: &[f64], arms: &[f64], seeds: &[u6
 
 /// Issue 15's accuracy requirement on the issue's motion, the torque-free tumble: the raw σ0,
 /// Ω′ and Ω RMS within 1.10 × the truth-started maximum likelihood, 20 s, for `ballisto
-/// estimate --raw` (two-way: forward and time-reversed passes) on seeds 1–4 (since stop 39) and
-/// for the forward path alone (the firmware's, which cannot look ahead) on seed 1 (1.03–1.83
-/// before the follower, `estimator/follower.rs`; seed 4's tumbles, which start in a crossing
-/// zone, are up to 1.20 there: README, "Branch lock").
+/// estimate --raw` (two-way: forward and time-reversed passes) on every seed and for the forward
+/// path alone (the firmware's, which cannot look ahead) on seed 1 (seed 4's tumbles, which
+/// start in a crossing zone, are up to 1.20 there: `docs/validation.md`).
 #[test]
 fn raw_accuracy_against_the_maximum_likelihood_in_a_tumble() {
     accuracy_against_the_maximum_likelihood(false, &SEEDS[..1], &representative_cases());
@@ -146,10 +145,9 @@ fn raw_accuracy_against_the_maximum_likelihood_in_a_tumble_full() {
 }
 
 /// The same in the manoeuvre (sinusoidal torque), where the passes' margins do not say which
-/// pass holds the true root after a crossing. Every case since stop 35 (then with a path
-/// through every root deciding where the margins did not, `estimator_core::path_choice`; since
-/// stop 39 the passes' own followers, by margin): before, the 1e-2 m/s² case (σ0 1.13) and the
-/// 5 cm arm (σ0 1.37) were not met, both passes holding the wrong root in some crossing zones.
+/// pass holds the true root after a crossing: the passes' own followers decide, by margin. The
+/// 1e-2 m/s² case and the 5 cm arm are the hardest (both passes can hold the wrong root in
+/// some crossing zones).
 #[test]
 fn raw_accuracy_against_the_maximum_likelihood_in_a_manoeuvre() {
     accuracy_against_the_maximum_likelihood(true, &SEEDS[..1], &representative_cases());

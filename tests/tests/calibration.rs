@@ -307,7 +307,7 @@ fn calibrated_parts_estimate_as_well_as_ideal_ones() {
             // σ0 at the point the calibrated file calls the origin (0.2 mm from the drawn
             // one: the parts' mean mounting error, which no accelerometer record sees). On the
             // ground it carries g times the frame's rotation: this record's came out at 0.2 of
-            // its reported sd; at one sd σ0 would be ≈ 1.15× (README).
+            // its reported sd; at one sd σ0 would be ≈ 1.15× (`docs/validation.md`).
             assert!(
                 sigma0_moved <= 1.2 * base.sigma0,
                 "σ0 at the calibrated origin {sigma0_moved} vs ideal {}",
@@ -318,7 +318,7 @@ fn calibrated_parts_estimate_as_well_as_ideal_ones() {
             // σ0 and Ω′ carry them; Ω's magnitude and most of its error do not. In its own
             // frame the self-calibrated file estimates σ0, Ω′ and Ω as well as ideal parts.
             // Ω′ needs the kinematic tie (Ω′ against the change of Ω): without it the axes'
-            // rotation against the lever arms stayed at 2.1 mrad and Ω′ at 1.4× (README).
+            // rotation against the lever arms stayed at 2.1 mrad and Ω′ at 1.4× (`docs/validation.md`).
             assert!(
                 own[1] <= 1.2 * base.domega,
                 "Ω′ in its frame {} vs ideal {}",

@@ -88,7 +88,7 @@ fn the_matrix_holds(layout: fn(u64) -> hal_sim::scenario::Scenario) {
             assert!(ratio <= 1.05, "{name}: Ω error ratio {ratio:.2}");
         }
         // Every fault is seen within 1 s in most runs (a 3 σ bias or a 3 σ/s drift in some
-        // parts only later: the table in the README).
+        // parts only later: the table in `docs/validation.md`).
         assert!(
             t.detected.len() * 2 >= runs as usize,
             "{name}: detected {}",
@@ -318,14 +318,14 @@ fn a_start_up_suspicion_on_twelve_channels_ends_when_the_field_test_passes() {
 
 /// The 24-channel mixed layout (`e2e_tests::faults::mixed_layout`: LIS3DH on their own clocks,
 /// a spin-up from rest on the ground). Since model G keeps a second history per output while
-/// its path check fails (README, "Fault detection"), the wrong sign taken near rest is given
+/// its path check fails (docs/validation.md, "Fault detection"), the wrong sign taken near rest is given
 /// up: no fault-free row is silently wrong and at most 0.5 % of the rows after a fault (20 runs:
 /// 0 %; before, 8–17 %), and where the part was taken out the estimate is within the issue's
 /// 1.2 × that of the run without it (references that are themselves wrong left apart; since
-/// the replay of the last sets, within 1.05). Since
-/// stop 41 (the interpolated values' own variance declared to the monitor) no healthy part is
-/// taken out (until then up to 0.6 % of the rows after small or noisy faults). Not yet good
-/// enough, and so not asserted: small biases silently wrong while active (the README's table).
+/// the replay of the last sets, within 1.05). With
+/// the interpolated values' own variance declared to the monitor no healthy part is taken out
+/// (without it, up to 0.6 % of the rows after small or noisy faults). Not yet good
+/// enough, and so not asserted: small biases silently wrong while active (the table in `docs/validation.md`).
 #[test]
 fn the_mixed_layout_is_not_silently_wrong_after_a_fault() {
     let (clean, rows) = fault_matrix(10, e2e_tests::faults::mixed);

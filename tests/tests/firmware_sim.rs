@@ -404,12 +404,12 @@ fn after_a_stuck_part_the_estimate_is_never_silently_wrong() {
 /// seed 2002 without part 5): near rest the two signs of Ω are within the noise and this run
 /// takes the wrong one at 0.44 s; the path check flags it through the spin-up, and when the
 /// spin-up ends (Ω′ = 0, both signs consistent) it was 6 rad/s off with no flag to the end of
-/// the run (stop 40). The sign a test could tell and found wrong stays in doubt (flag
+/// the run without the test below. The sign a test could tell and found wrong stays in doubt (flag
 /// 16, margin 0, as an inconsistent path) until a test that could tell passes: no row is silently wrong.
 /// The same through `ballisto estimate` on the samples the firmware read: its backward pass
 /// (started at the forward pass's wrong sign) settled that sign at the spin-up's end, where
 /// the newest Ω′ gave the test power its window had not yet had, and emitted it unflagged for
-/// 0.1 s (3 rows; stop 41: the power is now the window's).
+/// 0.1 s (3 rows) before the test's power was the window's, as it is now.
 #[test]
 fn a_sign_contradicted_in_a_spin_up_is_never_silently_wrong_after_it() {
     let mut sc = e2e_tests::faults::mixed(2002);

@@ -15,7 +15,7 @@
 //! Through `cov(a)` the widening reaches the deviations of Ω and, in proportion to their
 //! dependence on `a`, of σ0 and Ω′.
 //!
-//! Measured (`tests/examples/nine_lock.rs`, the nine-channel family of issue 15, 10 s, seeds
+//! Measured (the `nine_lock` probe (removed; in the git history under `tests/examples/`), the nine-channel family of issue 15, 10 s, seeds
 //! 1–4): at 1 kHz the chosen root was more than 5 first-order deviations off on 1.1 % of the
 //! rows, all with another root within 25 deviations, where the truth-nearest root's own error
 //! was 2–3× its first-order deviation; with the widening 0.003 %. Only the output's deviations

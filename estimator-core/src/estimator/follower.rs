@@ -6,7 +6,7 @@
 //! so a hypothesis that leaves the crossing on the mirror root, which does not continue the
 //! slope the motion came in with, looks nearly as good as the true one, and the tracker took
 //! 0.1–0.4 s to leave it: the forward path's raw Ω was 1.03–2.07 × the truth-started maximum
-//! likelihood (README, issue 15). A filter that carries Ω′ as a state, driven by a white jerk,
+//! likelihood (docs/branch-lock.md). A filter that carries Ω′ as a state, driven by a white jerk,
 //! sees it at once: the mirror root's Ω does not continue the filtered slope, and its Ω′ jumps.
 //!
 //! **How.** The state (Ω, Ω′) with one isotropic 2×2 covariance for the three axes, predicted
@@ -14,7 +14,7 @@
 //! root's Ω and by its Ω′ (the output's variance) — `path_choice::PathState::step`'s recursion.
 //! At each sample every root with either sign is scored by the negative log-likelihood of those
 //! two innovations, `|ν|²/S + 3 ln S` each, and the cheapest is taken: a beam of one, which the
-//! causal beam of `tests/examples/two_way.rs` (`LAGS=0`, `BEAM=1`) showed to be as good as 16
+//! causal beam of the `two_way` probe (removed; in the git history under `tests/examples/`) (`LAGS=0`, `BEAM=1`) showed to be as good as 16
 //! hypotheses (1 kHz, 2e-3 m/s², 0.12 m: 1.01 × ML in a tumble and a manoeuvre). A root's Ω
 //! variance is its first-order one plus **twice** its crossing widening ([`super::crossing`]):
 //! near a double root the root's error is biased by up to the half separation, alike from
@@ -38,7 +38,7 @@ use crate::tracker::{Candidate, Choice, State, STEP_CAP};
 
 /// Variance (rad²/s⁴) by which the follower's Ω′ may wander per sample (its white jerk density
 /// is this times the sample rate). Measured with the forward path's raw accuracy
-/// (`tests/examples/forward_accuracy.rs`, the sixteen cases of `tests/tests/branch_lock.rs`,
+/// (the `forward_accuracy` probe (removed; in the git history under `tests/examples/`), the sixteen cases of `tests/tests/branch_lock.rs`,
 /// seeds 1–4, ideal parts apart from the jitter, declared Gaussian noise): 0.1 held seed 1 at
 /// 1.01 × ML in every case; 0.3 (the path choice's) left the 1 kHz, 1e-2 m/s² manoeuvre at
 /// 1.14 and 1 kHz seed-4 tumbles at 1.8; 0.03 1.22 on the former.

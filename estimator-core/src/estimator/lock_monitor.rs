@@ -5,7 +5,7 @@
 //! lag, a fraction of a deviation per sample. At low SNR (nine channels on a 5 cm arm,
 //! 1e-2 m/s², 1 kHz) the tracker held a wrong branch, or the wrong sign of one, for seconds
 //! with a margin of 25–60, and 61 % of the rows of a 20 s record were more than 5 reported
-//! deviations off with no flag (README, "Branch lock"). Along such a root, over 0.2 s,
+//! deviations off with no flag (docs/branch-lock.md). Along such a root, over 0.2 s,
 //! `|dΩ/dt − Ω′|` was 4–9 rad/s²; along the true root 0.05–0.4.
 //!
 //! This tests that directly, without a filter: `u = Ω − ∫Ω′` (the chosen signed root's Ω less
@@ -46,7 +46,7 @@ pub const THRESHOLD: f64 = 16.27;
 /// mostly a tracker none of whose hypotheses is a consistent path. A far jump echoes longer
 /// (at 1 kHz one of 15 deviations lasts two windows) and may re-open the tracker too: that
 /// only adds hypotheses `STEP_CAP` behind, which the evidence drops again.
-/// Measured (README, "Branch lock"): at 1 kHz with 1e-2 m/s² on the 5 cm arm a manoeuvre's
+/// Measured (docs/branch-lock.md): at 1 kHz with 1e-2 m/s² on the 5 cm arm a manoeuvre's
 /// tracker held the wrong sign of every hypothesis from 7.6 s to the end of a 20 s record (no
 /// hypothesis of the other sign is restarted along a prediction of this sign), flagged by the
 /// monitor but for 293 rows where its slope dipped under the threshold; re-opened, it is back

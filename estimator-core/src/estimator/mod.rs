@@ -86,7 +86,7 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     /// double root) is skipped: its first-order variance goes through a nearly singular
     /// Jacobian and was 10²–10⁴ times the true one (`nine-channel` at 1 kHz: 28–358 rad²/s⁴
     /// against 0.04–0.08 on the rows about it), which made the next sample's Ω′ count for
-    /// nothing and let both take the mirror root for seconds (README, "Branch lock").
+    /// nothing and let both take the mirror root for seconds (docs/branch-lock.md).
     domega_var: T,
     /// Model F: the bound on the rate filter's error from roots taken near crossings, per
     /// component ([`crossing::carry_bias`]).

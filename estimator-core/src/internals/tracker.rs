@@ -495,7 +495,7 @@ impl<T: Real> Tracker<T> {
             // A running mean over at least MODEL_ERROR_MEMORY_SAMPLES innovations and at least
             // MODEL_ERROR_MEMORY_S: with a memory of samples alone a 1–4 kHz tracker followed
             // its innovations' noise and learnt a mirror branch's inconsistency as model error
-            // within 25 ms (README, "Branch lock").
+            // within 25 ms (docs/branch-lock.md).
             let alpha =
                 (dt / T::of(MODEL_ERROR_MEMORY_S)).min(T::ONE / T::of(MODEL_ERROR_MEMORY_SAMPLES));
             self.model_var = (self.model_var + alpha * (e - self.model_var)).max(T::ZERO);
@@ -533,7 +533,7 @@ impl<T: Real> Tracker<T> {
 /// also the hypothesis that restarts there. Such a sample is either a wild one in the continued
 /// history (which [`Tracker::step`] keeps: robust) or a branch that history's filter was never
 /// on: continued, its filter memory would hold the hypothesis off its own branch for good (at
-/// 1 kHz the nine-channel tumble lost the true branch that way: README, "Branch lock"). The
+/// 1 kHz the nine-channel tumble lost the true branch that way: docs/branch-lock.md). The
 /// restart starts at the candidate with its own variance, at the continuation's capped cost;
 /// only from the best hypothesis (from any other it would cost more and start the same), and
 /// not for an output pointing against the prediction (the other sign: no rate turns over in

@@ -1,7 +1,6 @@
 //! A flash opened for reading only: the boot path reads the newest record and never writes,
 //! so it opens the store through this and the flash driver's program and erase code stays out
-//! of an image that only boots (measured on the STM32H743: README, "Calibration store on
-//! board"). A store that would repair or write through it gets [`ReadOnlyError::Refused`].
+//! of an image that only boots (the boards' sizes: `docs/validation.md`, "Budgets"). A store that would repair or write through it gets [`ReadOnlyError::Refused`].
 
 use embedded_storage_async::nor_flash::{
     ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,

@@ -3,7 +3,7 @@
 //! by 1 ns, so SysTick counts instructions deterministically. The instructions per SysTick
 //! tick are calibrated here with a loop of known length.
 //!
-//! Run: `cargo qemu-bench` (see the README). Prints whether the per-sample budget (4 000
+//! Run: `cargo qemu-bench` (README, "Layout"; figures in `docs/validation.md`). Prints whether the per-sample budget (4 000
 //! instructions for N = 12) is met; built with `QEMU_BENCH_STRICT=1` it also exits non-zero
 //! when it is not.
 //!
