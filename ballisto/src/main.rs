@@ -31,6 +31,7 @@ const SIM_HELP: &str = "Named scenarios:
   ground-spin-mixed   2 x ADXL355 (SPI) + 2 x LIS3DH (I2C, own clocks), ground turntable spin-up
   tetra-orbit-faults  tetra-orbit with a stuck part, a bias jump, a dead part and corrupted bytes
   ground-calibration  6 parts with datasheet errors (4 x ADXL355, 2 x LIS3DH), ground calibration schedule, reference gyro
+  orbit-identify      4 x ADXL355 with datasheet errors, tumble with attitude-control torque in orbit, reference gyro at 20 Hz
 The scenario file format: hal-sim/scenarios/README.md.";
 
 const DECODE_HELP: &str = "Packet layouts: docs/telemetry.md. Exit status: 0 all packets intact and
@@ -115,7 +116,9 @@ enum Command {
         /// has one — epsilon, and the gravity gradient gamma_* with sd_gamma_*, model G only).
         #[arg(long, value_name = "FILE.csv")]
         out: PathBuf,
-        /// Model: general (9-column, N >= 12) or free-float (N >= 9); default: the file's, else general.
+        /// Model: general (9-column, N >= 12) or free-float (N >= 9); default: the file's, else
+        /// general unless model G would resolve the field poorly on this arrangement (then
+        /// free-float, said on stderr).
         #[arg(long, value_enum)]
         model: Option<ModelArg>,
         /// Approximate angular rate at the first sample, rad/s, "X,Y,Z": settles the sign and the starting branch.
@@ -226,7 +229,7 @@ enum Command {
         #[arg(long, value_name = "LIST", default_value = "bias,scale,axis,position")]
         fit: String,
         /// Model of the estimator in self-calibration, and the one written into the file;
-        /// default: the file's, else general.
+        /// default as for estimate.
         #[arg(long, value_enum)]
         model: Option<ModelArg>,
         /// A report for people (Markdown): per channel the identified values, their standard

@@ -403,3 +403,16 @@ fn an_output_in_a_missing_directory_is_refused_at_once() {
     assert_eq!(out.status.code(), Some(1));
     assert!(stderr(&out).contains("does not exist"), "{}", stderr(&out));
 }
+
+/// `sim --help` lists every named scenario.
+#[test]
+fn sim_help_lists_every_named_scenario() {
+    let out = run_ok(ballisto().args(["sim", "--help"]));
+    let help = String::from_utf8_lossy(&out.stdout);
+    for name in hal_sim::scenario::named::NAMES {
+        assert!(
+            help.contains(&format!("\n  {name} ")),
+            "sim --help omits {name}:\n{help}"
+        );
+    }
+}
