@@ -8,14 +8,20 @@
 # (which fails if the STM32H743 build is over its budget).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+started=$SECONDS
+step() { echo "test.sh [$((SECONDS - started)) s]: $*" >&2; }
+step "formatting and lints"
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets -- -D warnings
 cargo clippy -p qemu-bench --profile flight --target thumbv7em-none-eabihf -- -D warnings
 cargo clippy -p ballisto-fw --target thumbv7em-none-eabihf -- -D warnings
 cargo clippy -p board-qemu --profile flight --target thumbv7em-none-eabihf -- -D warnings
 (cd firmware/boards/stm32h743 && cargo clippy --profile flight -- -D warnings)
+step "the tests"
 cargo nextest run --workspace --no-fail-fast
+step "the doc tests"
 cargo test --workspace --doc
+step "instruction counts under QEMU"
 QEMU_BENCH_STRICT=1 cargo qemu-bench
 bash scripts/qemu-bench-m7.sh
 
@@ -23,8 +29,10 @@ bash scripts/qemu-bench-m7.sh
 # probe-rs runner). QEMU: runs the built-in scenario, writes out/qemu/telemetry.bin.
 # The STM32H743 image from a user's board file (BALLISTO_ARRANGEMENT, read by its build.rs), then
 # the built-in board's, which the size report measures.
+step "the boards"
 (cd firmware/boards/stm32h743 && BALLISTO_ARRANGEMENT=example-board.toml cargo build --profile flight)
 (cd firmware/boards/stm32h743 && cargo build --profile flight)
+step "the QEMU board's built-in scenario"
 cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf
 # The host side with the binaries the tests built (no second, release build of the host crates).
 cargo build -q --bin ballisto
@@ -34,4 +42,6 @@ cargo build -q --bin ballisto
   --log out/qemu/log.txt
 BOARD_QEMU_TELEMETRY="$PWD/out/qemu/telemetry.bin" \
   cargo nextest run -p e2e-tests --test builtin_scenario --run-ignored only --no-capture
+step "flash and RAM"
 bash scripts/size-report.sh
+step "done"
