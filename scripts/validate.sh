@@ -19,17 +19,19 @@ step() { echo "validate: $*" >&2; }
 figures() {
   awk '
     /^running [0-9]+ tests?$/ || /^test .* \.\.\. / || /^test result:/ || /^successes:|^failures:/ || /^$/ { next }
+    / has been running for over [0-9]+ seconds$/ { next }
     /^\|/ { if (!table) print ""; table = 1; print; next }
     { if (table) print ""; table = 0; print "- " $0 }
     END { print "" }'
 }
 
 # One e2e test file's tests, one at a time (nextest with --no-capture: the printed tables stay
-# whole, its own status lines go to stderr); $2 = "full" runs the ignored full sweeps too.
+# whole, its own status lines go to stderr); $2 = "full" runs only the ignored full sweeps
+# (whose subsets the other tests are), "all" both.
 e2e() {
   step "tests/tests/$1.rs ${2:-}"
   local ignored=default
-  if [ "${2:-}" = full ]; then ignored=all; fi
+  case "${2:-}" in full) ignored=only ;; all) ignored=all ;; esac
   cargo nextest run -p e2e-tests --test "$1" --run-ignored "$ignored" --no-capture 2>/dev/null | figures
 }
 
@@ -62,6 +64,8 @@ manoeuvre, 20 s, seeds 1–4. "Silent": Ω more than 5 reported deviations off w
 \`tests/tests/branch_lock.rs\` (the \`*_full\` tests).
 EOF
   e2e branch_lock full
+  echo "The firmware path (f32, the firmware's tasks on the simulated buses) on \`nine-channel\` at 1 kHz:"
+  cargo nextest run -p e2e-tests --test branch_lock firmware_path --no-capture 2>/dev/null | figures
   cat <<EOF
 ## Fault detection, isolation and exclusion (ideal parts)
 
@@ -97,7 +101,7 @@ EOF
 The MIMU4444 board (8 MPU9150, 62.5 Hz, 19 mm × 19 mm × 2 mm), Ω against the mean of its
 gyros over the rows where no gyro saturates. \`tests/tests/realdata.rs\`.
 EOF
-  e2e realdata full
+  e2e realdata all
   cat <<EOF
 ## The firmware under the simulator (ideal parts)
 

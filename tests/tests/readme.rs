@@ -13,7 +13,13 @@ fn the_readme_starts_with_the_two_commands_and_stays_short() {
     let text = std::fs::read_to_string(root().join("README.md")).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     assert!(lines.len() <= 400, "README.md has {} lines", lines.len());
-    assert!(lines[0].trim_start().starts_with("bash scripts/main-job.sh"), "{}", lines[0]);
+    assert!(
+        lines[0]
+            .trim_start()
+            .starts_with("bash scripts/main-job.sh"),
+        "{}",
+        lines[0]
+    );
     assert!(
         lines[1]
             .trim_start()
@@ -25,7 +31,10 @@ fn the_readme_starts_with_the_two_commands_and_stays_short() {
         assert!(root().join("scripts").join(script).exists(), "{script}");
     }
     let ci = std::fs::read_to_string(root().join(".ci/run")).unwrap();
-    assert!(ci.contains("scripts/setup.sh") && ci.contains("scripts/test.sh"), "{ci}");
+    assert!(
+        ci.contains("scripts/setup.sh") && ci.contains("scripts/test.sh"),
+        "{ci}"
+    );
 }
 
 #[test]
