@@ -67,6 +67,12 @@ EOF
   echo "The firmware path (f32, the firmware's tasks on the simulated buses) on \`nine-channel\` at 1 kHz:"
   cargo nextest run -p e2e-tests --test branch_lock firmware_path --no-capture 2>/dev/null | figures
   cat <<EOF
+### On layouts the estimator was not tuned on (ideal parts)
+
+Issue 46's measure, not yet met: nine channels drawn at random. \`tests/tests/random_layouts.rs\`.
+EOF
+  e2e random_layouts full
+  cat <<EOF
 ## Fault detection, isolation and exclusion (ideal parts)
 
 Every fault kind of hal-sim in one part at a random time, 20 runs each, through the firmware on

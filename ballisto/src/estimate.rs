@@ -166,10 +166,8 @@ impl<T: Real> Pass<T> {
 
 /// The estimator as the host tools run it: the same per-sample code as the firmware, run
 /// forward and over the time-reversed record, each sample decided from the direction with more
-/// evidence ([`estimator_core::two_way::combine`]; the path through both passes' roots that
-/// decided where the margins did not, `estimator_core::path_choice`, is no longer taken: with
-/// the follower it cost accuracy, `nine-channel` at 1 kHz through the firmware 1.14 × the
-/// maximum likelihood in Ω against 1.03 without, docs/branch-lock.md). The backward pass runs per block of [`TWO_WAY_BLOCK_S`]
+/// evidence ([`estimator_core::two_way::combine`]; docs/branch-lock.md). The backward pass
+/// runs per block of [`TWO_WAY_BLOCK_S`]
 /// from [`TWO_WAY_RUN_IN_S`] beyond it, started at the forward pass's rate there when that is
 /// settled; memory is one block and its run-in, whatever the record's length.
 pub struct HostEstimator<T: Real> {

@@ -48,7 +48,6 @@ pub mod frame_uncertainty;
 pub mod identify;
 pub mod linalg;
 pub mod parity;
-pub mod path_choice;
 pub mod real;
 pub mod recent;
 pub mod smoother;

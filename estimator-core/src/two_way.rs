@@ -14,12 +14,8 @@
 //! negative log-likelihood ratio of the best other branch), so the sample takes the direction
 //! with the larger margin. Measured on the nine-channel family (docs/branch-lock.md): at 1 kHz,
 //! 2e-3 m/s², 0.12 m the raw Ω RMS over a 20 s tumble fell from 1.78× the truth-started
-//! maximum likelihood (forward) to 1.01×.
-//!
-//! Where the margins are no guide — after a crossing both passes' sit at the tracker's step cap,
-//! whichever root they hold — the caller may give the direction ([`combine_taking`]) from the
-//! path through both passes ([`crate::path_choice`]): a manoeuvre at 1 kHz went from 1.35× to
-//! 1.00× the maximum likelihood in Ω (docs/branch-lock.md).
+//! maximum likelihood (forward) to 1.01×. Where the margins are no guide (after a crossing both
+//! passes sit at the tracker's step cap, whichever root they hold) the sample is flagged.
 //!
 //! **Never silently wrong.** The combined margin is the two passes' evidence added where they
 //! agree and set against each other where they do not (approximating each pass's margin as the
@@ -66,26 +62,6 @@ fn opposite_signs<T: Real>(forward: &Estimate<T>, backward: &Estimate<T>) -> boo
     !agree(forward, backward) && agree(forward, &reversed(backward))
 }
 
-/// True if a sample offers the path ([`crate::path_choice`]) a choice between the passes: both
-/// usable, the sample solved to more than one real branch (model F with m = 3 near a crossing:
-/// elsewhere, model G for one, there is no root to choose), the passes on different roots (their
-/// `a` differ: the passes solve the same sample alike, so one root gives both the same `a`), not
-/// of opposite signs (the sign is [`combine`]'s to decide), and their branch margins within
-/// [`SIGN_MARGIN`] of each other:
-/// where one pass has that much more evidence, [`combine`] follows it (and the sample is not
-/// flagged); where neither has, the margins are no guide (after a crossing both sit at the
-/// tracker's step cap, whichever root they hold) and the sample is flagged whichever pass it
-/// takes.
-pub fn offers_choice<T: Real>(forward: &Estimate<T>, backward: &Estimate<T>) -> bool {
-    !forward.flags.has(Flags::INPUT_INVALID)
-        && !backward.flags.has(Flags::INPUT_INVALID)
-        && forward.branches > 1
-        && backward.branches > 1
-        && forward.a != backward.a
-        && !opposite_signs(forward, backward)
-        && (forward.branch_margin - backward.branch_margin).abs() < T::of(SIGN_MARGIN)
-}
-
 /// One sample's decision from its forward estimate and its backward one (already
 /// [`reversed`]): the estimate of the direction with the larger branch margin, with the
 /// combined margin and [`Flags::BRANCH_AMBIGUOUS`] set exactly when it is below the sign
@@ -93,18 +69,6 @@ pub fn offers_choice<T: Real>(forward: &Estimate<T>, backward: &Estimate<T>) -> 
 /// output. The sign is unresolved only if the chosen direction's is and the two do not agree,
 /// or if the two hold opposite signs, each settled.
 pub fn combine<T: Real>(forward: &Estimate<T>, backward: &Estimate<T>) -> Estimate<T> {
-    combine_taking(forward, backward, None)
-}
-
-/// [`combine`], with the direction taken given (`Some(true)`: the backward pass) where the
-/// sample [`offers_choice`] (elsewhere it is ignored): the path's decision
-/// ([`crate::path_choice`]). The margin and the flags are [`combine`]'s: such a sample's
-/// margin is below [`SIGN_MARGIN`] unless the passes agree.
-pub fn combine_taking<T: Real>(
-    forward: &Estimate<T>,
-    backward: &Estimate<T>,
-    take_backward: Option<bool>,
-) -> Estimate<T> {
     if forward.flags.has(Flags::INPUT_INVALID) || backward.flags.has(Flags::INPUT_INVALID) {
         return *forward;
     }
@@ -123,12 +87,7 @@ pub fn combine_taking<T: Real>(
         return out;
     }
     let (mf, mb) = (forward.branch_margin, backward.branch_margin);
-    let by_margin = mb > mf;
-    let take = match take_backward {
-        Some(b) if offers_choice(forward, backward) => b,
-        _ => by_margin,
-    };
-    let mut out = if take { *backward } else { *forward };
+    let mut out = if mb > mf { *backward } else { *forward };
     let margin = if agreed && (inconsistent(forward) || inconsistent(backward)) {
         // A pass's lock monitor found the path through this sample kinematically
         // inconsistent: the other pass agreeing is no evidence against that (both may sit on
@@ -165,36 +124,6 @@ mod tests {
             flags: Flags(flags),
             ..Default::default()
         }
-    }
-
-    /// The path chooses only between different roots whose margins are no guide; it changes
-    /// the estimate taken, never the margin or the flags.
-    #[test]
-    fn the_path_chooses_only_where_the_margins_do_not() {
-        let mut f = est([1.0, 0.0, 0.0], 0.1, 58.0, 0);
-        let mut b = est([2.0, 0.5, 0.0], 0.1, 60.0, 0);
-        // The same root (same `a`): nothing to choose.
-        assert!(!offers_choice(&f, &b));
-        f.a = [0.1, 0.2, 0.3];
-        b.a = [0.3, 0.2, 0.1];
-        // One real branch (model G, or away from a crossing): nothing to choose.
-        assert!(!offers_choice(&f, &b));
-        (f.branches, b.branches) = (2, 2);
-        assert!(offers_choice(&f, &b));
-        let by_path = combine_taking(&f, &b, Some(false));
-        assert_eq!(by_path.omega, f.omega);
-        let plain = combine(&f, &b);
-        assert_eq!(plain.omega, b.omega);
-        assert_eq!(by_path.branch_margin, plain.branch_margin);
-        assert!(by_path.flags.has(Flags::BRANCH_AMBIGUOUS));
-        // One pass has the evidence: the path's choice is ignored.
-        b.branch_margin = 80.0;
-        assert!(!offers_choice(&f, &b));
-        assert_eq!(combine_taking(&f, &b, Some(false)).omega, b.omega);
-        // Opposite signs are the sign rule's, not the path's.
-        b.branch_margin = 60.0;
-        b.omega = [-1.0, 0.0, 0.0];
-        assert!(!offers_choice(&f, &b));
     }
 
     #[test]

@@ -70,8 +70,70 @@ pub fn accuracy_cases() -> Vec<(f64, f64, f64)> {
 
 /// Builds the case.
 pub fn make(p: Params) -> Case {
+    let file = test_fixtures::families::nine_channel(p.arm, p.noise);
+    make_on(file, p, RATE, manoeuvre_torque(p.manoeuvre, 1.0))
+}
+
+/// A nine-channel layout drawn at random (issue 46): channels at random directions within
+/// `arm` (0.3–1 × it from the origin), any unit axes, redrawn until model F accepts the
+/// arrangement (its rank check); `layout` seeds the draw. With `slow`, a slow manoeuvre
+/// (|Ω| starting at 0.7 rad/s, a weak sinusoidal torque: about 0.4–1.1 rad/s); else the
+/// family's torque-free tumble at [`RATE`]. `p.seed` seeds the jitter, the initial direction
+/// of Ω and the noise as in [`make`].
+pub fn make_random(p: Params, layout: u64, slow: bool) -> Case {
+    let mut rng = ChaCha8Rng::seed_from_u64(layout);
+    // A uniformly random direction: a row of a uniformly random rotation.
+    let unit = |rng: &mut ChaCha8Rng| test_fixtures::families::random_rotation(rng)[0];
+    let file = loop {
+        let mut file = test_fixtures::families::nine_channel(p.arm, p.noise);
+        for ch in file.channels.iter_mut() {
+            let r = p.arm * rng.gen_range(0.3..1.0);
+            ch.position = unit(&mut rng).map(|x| x * r);
+            ch.axis = unit(&mut rng);
+        }
+        let Ok(loaded) = file.load("random") else {
+            continue;
+        };
+        if Estimator::<f64, HOST_CAP>::new(
+            &loaded.arrangement,
+            Model::FreeFloat,
+            Options::default(),
+        )
+        .is_ok()
+        {
+            break file;
+        }
+    };
+    let (rate, torque) = if slow {
+        (0.7, manoeuvre_torque(true, 0.2))
+    } else {
+        (RATE, manoeuvre_torque(false, 1.0))
+    };
+    make_on(file, p, rate, torque)
+}
+
+/// The family's sinusoidal torque scaled by `scale` (`manoeuvre`), or none.
+fn manoeuvre_torque(manoeuvre: bool, scale: f64) -> Torque {
+    if manoeuvre {
+        Torque::Sinusoid {
+            amplitude: [1.5 * scale, 2.0 * scale, 2.5 * scale],
+            frequency: 0.3,
+            phase: [0.0, 1.0, 2.0],
+        }
+    } else {
+        Torque::None
+    }
+}
+
+/// The case of `file` (jittered by `p.seed`) in a motion starting at |Ω| = `rate` under
+/// `torque`.
+fn make_on(
+    mut file: hal_sim::arrangement_file::ArrangementFile,
+    p: Params,
+    rate: f64,
+    torque: Torque,
+) -> Case {
     let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
-    let mut file = test_fixtures::families::nine_channel(p.arm, p.noise);
     // Mounting jitter: ±1 mm, axes turned by up to ±1° about each axis.
     for ch in file.channels.iter_mut() {
         for v in ch.position.iter_mut() {
@@ -92,18 +154,10 @@ pub fn make(p: Params) -> Case {
     let motion = Motion {
         rotation: Rotation::Euler {
             inertia: [1.0, 1.8, 2.5],
-            torque: if p.manoeuvre {
-                Torque::Sinusoid {
-                    amplitude: [1.5, 2.0, 2.5],
-                    frequency: 0.3,
-                    phase: [0.0, 1.0, 2.0],
-                }
-            } else {
-                Torque::None
-            },
+            torque,
         },
         environment: Environment::Space,
-        omega0: [dir[0] * RATE, dir[1] * RATE, dir[2] * RATE],
+        omega0: [dir[0] * rate, dir[1] * rate, dir[2] * rate],
         attitude0: [1.0, 0.0, 0.0, 0.0],
         origin_offset: [0.0; 3],
         non_grav: [0.0; 3],

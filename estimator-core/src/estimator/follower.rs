@@ -11,7 +11,7 @@
 //!
 //! **How.** The state (Ω, Ω′) with one isotropic 2×2 covariance for the three axes, predicted
 //! with a constant Ω′ and a jerk of [`JERK_PER_SAMPLE`] rad²/s⁴ per sample, then updated by a
-//! root's Ω and by its Ω′ (the output's variance) — `path_choice::PathState::step`'s recursion.
+//! root's Ω and by its Ω′ (the output's variance): a Kalman filter on a white-jerk model.
 //! At each sample every root with either sign is scored by the negative log-likelihood of those
 //! two innovations, `|ν|²/S + 3 ln S` each, and the cheapest is taken: a beam of one, which the
 //! causal beam of the `two_way` probe (removed; in the git history under `tests/examples/`) (`LAGS=0`, `BEAM=1`) showed to be as good as 16
@@ -161,7 +161,7 @@ impl<T: Real> Follower<T> {
         }
         let c = cands.get(best_ci)?;
         let (s, inv_s, _, _) = variances(c, best_ci);
-        // Ω, then Ω′ (`path_choice::PathState::step`).
+        // Ω, then Ω′ (the filter's update).
         let (kw, kd) = (p_ww * inv_s, p_wd * inv_s);
         let mut d = self.domega;
         let mut nu2 = T::ZERO;
