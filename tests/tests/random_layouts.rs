@@ -22,8 +22,8 @@ fn random_nine_channel_layouts_full() {
     println!(
         "Random nine-channel layouts (model F, m = 3), 1 kHz, 2e-3 m/s², arm 0.12 m, 20 s, ideal parts:"
     );
-    println!("| layout seed | motion | silent fwd / two-way (raw) | silent filtered fwd / two-way | > 1 rad/s off fwd / two-way | flagged two-way | σ0 / ML | Ω′ / ML | Ω / ML |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("| layout seed | design condition | motion | ML's Ω RMS (rad/s) | silent fwd / two-way (raw) | silent filtered fwd / two-way | > 1 rad/s off fwd / two-way | flagged two-way | σ0 / ML | Ω′ / ML | Ω / ML |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let mut within = 0;
     let mut draws = 0;
     for layout in LAYOUTS {
@@ -49,8 +49,10 @@ fn random_nine_channel_layouts_full() {
                 within += 1;
             }
             println!(
-                "| {layout} | {} | {:.3} % / {:.3} % | {:.3} % / {:.3} % | {:.2} % / {:.2} % | {:.1} % | {:.2} | {:.2} | {:.2} |",
+                "| {layout} | {:.1} | {} | {:.3} | {:.3} % / {:.3} % | {:.3} % / {:.3} % | {:.2} % / {:.2} % | {:.1} % | {:.2} | {:.2} | {:.2} |",
+                nine::design_condition(&case.loaded),
                 if slow { "slow manoeuvre" } else { "tumble" },
+                ml[2],
                 f.pct(f.silent),
                 t.pct(t.silent),
                 ff.pct(ff.silent),
