@@ -20,6 +20,17 @@ fn tc(dir: &Path, file: &str, args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// A fresh directory with `tetra-orbit` simulated into it (arrangement, samples, truth).
+fn simulated(name: &str) -> std::path::PathBuf {
+    let d = tmpdir("conventions", name);
+    run_ok(
+        ballisto()
+            .args(["sim", "--scenario", "tetra-orbit", "-q", "--out"])
+            .arg(&d),
+    );
+    d
+}
+
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
@@ -170,12 +181,7 @@ fn exit_codes_and_bare_help() {
 /// is written, an earlier output of that name is kept.
 #[test]
 fn empty_inputs_are_errors() {
-    let d = tmpdir("conventions", "empty");
-    run_ok(
-        ballisto()
-            .args(["sim", "--scenario", "tetra-orbit", "-q", "--out"])
-            .arg(&d),
-    );
+    let d = simulated("empty");
     let samples = std::fs::read_to_string(d.join("samples.csv")).unwrap();
     let header_only = d.join("header-only.csv");
     std::fs::write(
@@ -214,12 +220,7 @@ fn empty_inputs_are_errors() {
 /// `--quiet` leaves stderr empty, and the summary is on stderr otherwise.
 #[test]
 fn dash_is_stdin_and_stdout_and_quiet_is_quiet() {
-    let d = tmpdir("conventions", "dash");
-    run_ok(
-        ballisto()
-            .args(["sim", "--scenario", "tetra-orbit", "-q", "--out"])
-            .arg(&d),
-    );
+    let d = simulated("dash");
     let arrangement = d.join("arrangement.toml");
     let through_files = d.join("estimates-files.csv");
     let out = run_ok(&mut common::estimate(
@@ -258,12 +259,7 @@ fn dash_is_stdin_and_stdout_and_quiet_is_quiet() {
 /// can give are each named in a warning, and the absurd reading's row carries its own flag.
 #[test]
 fn implausible_units_and_absurd_readings_are_named() {
-    let d = tmpdir("conventions", "plausible");
-    run_ok(
-        ballisto()
-            .args(["sim", "--scenario", "tetra-orbit", "-q", "--out"])
-            .arg(&d),
-    );
+    let d = simulated("plausible");
     let arrangement = std::fs::read_to_string(d.join("arrangement.toml")).unwrap();
     let samples = std::fs::read_to_string(d.join("samples.csv")).unwrap();
     let map_readings = |f: &dyn Fn(usize, f64) -> String| -> String {
@@ -387,12 +383,7 @@ fn compare_without_rows_is_an_error() {
 /// An output in a directory that does not exist is refused before any work is done.
 #[test]
 fn an_output_in_a_missing_directory_is_refused_at_once() {
-    let d = tmpdir("conventions", "nodir");
-    run_ok(
-        ballisto()
-            .args(["sim", "--scenario", "tetra-orbit", "-q", "--out"])
-            .arg(&d),
-    );
+    let d = simulated("nodir");
     let out = common::estimate(
         &d.join("arrangement.toml"),
         &d.join("samples.csv"),
