@@ -680,7 +680,9 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             if log.is_none() {
                 if ballisto::output::is_std(&out) {
                     // The estimates own stdout: the log goes with the diagnostics.
-                    say.info(&text);
+                    if !say.quiet {
+                        eprint!("{text}");
+                    }
                 } else {
                     print!("{text}");
                 }
@@ -775,15 +777,6 @@ fn telecommands(
         return Err(format!("--sequence {sequence}: at most 16383 (14 bits)").into());
     }
     let one = |c: Tc, channels: Option<usize>| tc::frame(&c, sequence, ack, channels);
-    let channels_of = |a: &Option<PathBuf>| -> Result<Option<usize>, String> {
-        a.as_deref()
-            .map(|p| {
-                hal_sim::arrangement_file::load_arrangement(p)
-                    .map(|l| l.names.len())
-                    .map_err(|e| e.to_string())
-            })
-            .transpose()
-    };
     let frames = match command {
         TcCommand::Mode { mode } => vec![one(
             Tc::SetMode(match mode {
@@ -801,23 +794,18 @@ fn telecommands(
             channel,
             arrangement,
         } => {
-            let c = tc::channel_index(&channel, arrangement.as_deref())?;
-            vec![one(Tc::Exclude(c), channels_of(&arrangement)?)?]
+            let (c, channels) = tc::channel_index(&channel, arrangement.as_deref())?;
+            vec![one(Tc::Exclude(c), channels)?]
         }
         TcCommand::Include {
             channel,
             arrangement,
         } => {
-            let c = tc::channel_index(&channel, arrangement.as_deref())?;
-            vec![one(Tc::Include(c), channels_of(&arrangement)?)?]
+            let (c, channels) = tc::channel_index(&channel, arrangement.as_deref())?;
+            vec![one(Tc::Include(c), channels)?]
         }
         TcCommand::LoadArrangement { arrangement } => {
-            let (data, mut warnings) = tc::arrangement_data(&arrangement)?;
-            let loaded = hal_sim::arrangement_file::load_arrangement(&arrangement)?;
-            warnings.extend(ballisto::plausibility::arrangement(
-                &loaded,
-                &arrangement.display().to_string(),
-            ));
+            let (data, warnings) = tc::arrangement_data(&arrangement)?;
             for w in warnings {
                 eprintln!("ballisto tc: WARNING: {w}");
             }

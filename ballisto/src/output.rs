@@ -17,21 +17,24 @@ pub fn is_std(path: &Path) -> bool {
 }
 
 /// Opens an input for buffered reading: the file, or stdin for `-`.
-pub fn open_input(path: &Path) -> Result<Box<dyn BufRead + Send>, String> {
+pub fn open_input(path: &Path) -> std::io::Result<Box<dyn BufRead + Send>> {
     if is_std(path) {
         return Ok(Box::new(BufReader::with_capacity(
             1 << 16,
             std::io::stdin(),
         )));
     }
-    let f = File::open(path).map_err(|e| format!("{}: cannot open: {e}", path.display()))?;
-    Ok(Box::new(BufReader::with_capacity(1 << 16, f)))
+    Ok(Box::new(BufReader::with_capacity(
+        1 << 16,
+        File::open(path)?,
+    )))
 }
 
 /// Reads a whole input: the file, or stdin for `-`.
 pub fn read_input(path: &Path) -> Result<Vec<u8>, String> {
     let mut bytes = Vec::new();
-    open_input(path)?
+    open_input(path)
+        .map_err(|e| format!("{}: cannot open: {e}", path.display()))?
         .read_to_end(&mut bytes)
         .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
     Ok(bytes)

@@ -59,10 +59,7 @@ impl SamplesReader<Box<dyn std::io::BufRead + Send>> {
         let reader = crate::output::open_input(path).map_err(|e| SamplesError {
             file: file.clone(),
             line: None,
-            message: e
-                .strip_prefix(&format!("{file}: "))
-                .unwrap_or(&e)
-                .to_string(),
+            message: format!("cannot open: {e}"),
         })?;
         Self::new(reader, &file, names)
     }

@@ -12,7 +12,7 @@ use ballisto_link::framing::{self, max_encoded_len, Deframed, Deframer};
 use ballisto_link::identification::{points_data, ReferencePoint, MAX_POINTS, POINT_LEN};
 use ballisto_link::ids::{subtype, MAX_CHANNELS, TC_MAX};
 use ballisto_link::telecommand::{build_command, parse, Command, Context, ACK_ACCEPTANCE};
-use ballisto_link::RequestId;
+use ballisto_link::{Mode, RequestId};
 use estimator_core::Model;
 
 /// Octets of a telecommand's headers before its application data (primary + PUS-C secondary).
@@ -71,7 +71,13 @@ pub fn frame(
 pub fn describe(command: &Command) -> String {
     let (s, st) = command.kind();
     let what = match command {
-        Command::SetMode(m) => format!("set mode {}", mode_name(*m as u8)),
+        Command::SetMode(m) => format!(
+            "set mode {}",
+            match m {
+                Mode::Standby => "standby",
+                Mode::Operate => "operate",
+            }
+        ),
         Command::SetModel(m) => format!("set model {}", model_name(*m)),
         Command::SetHint(w) => format!("set rate hint [{}, {}, {}] rad/s", w[0], w[1], w[2]),
         Command::Exclude(c) => format!("exclude channel {c}"),
@@ -117,14 +123,6 @@ pub fn describe(command: &Command) -> String {
     format!("TC[{s},{st}] {what}")
 }
 
-fn mode_name(code: u8) -> &'static str {
-    if code == 0 {
-        "standby"
-    } else {
-        "operate"
-    }
-}
-
 fn model_name(m: Model) -> &'static str {
     match m {
         Model::General => "general",
@@ -146,7 +144,8 @@ pub fn time_ticks(seconds: f64) -> Result<u64, String> {
 }
 
 /// TC[200,6] application data from an arrangement file (its channels in file order: position,
-/// axis, noise), and the warnings of what the command does not carry (bias, scale).
+/// axis, noise), and the warnings: what the command does not carry (bias, scale), and an
+/// implausible extent ([`crate::plausibility::arrangement`]).
 pub fn arrangement_data(path: &Path) -> Result<(Vec<u8>, Vec<String>), String> {
     let loaded = hal_sim::arrangement_file::load_arrangement(path).map_err(|e| e.to_string())?;
     let channels = loaded.arrangement.channels();
@@ -163,7 +162,10 @@ pub fn arrangement_data(path: &Path) -> Result<(Vec<u8>, Vec<String>), String> {
         )
     })?;
     data.truncate(n);
-    let mut warnings = Vec::new();
+    let mut warnings: Vec<String> =
+        crate::plausibility::arrangement(&loaded, &path.display().to_string())
+            .into_iter()
+            .collect();
     let corrected: Vec<&str> = channels
         .iter()
         .zip(&loaded.names)
@@ -180,23 +182,31 @@ pub fn arrangement_data(path: &Path) -> Result<(Vec<u8>, Vec<String>), String> {
     Ok((data, warnings))
 }
 
-/// A channel given as its index or, with the arrangement file, its name.
-pub fn channel_index(channel: &str, arrangement: Option<&Path>) -> Result<u8, String> {
+/// A channel given as its index or, with the unit's arrangement file, its name; and the
+/// unit's channel count where the file gives it (the range the unit accepts).
+pub fn channel_index(
+    channel: &str,
+    arrangement: Option<&Path>,
+) -> Result<(u8, Option<usize>), String> {
+    let loaded = arrangement
+        .map(|p| hal_sim::arrangement_file::load_arrangement(p).map_err(|e| e.to_string()))
+        .transpose()?;
+    let count = loaded.as_ref().map(|l| l.names.len());
     if let Ok(i) = channel.parse::<u8>() {
-        return Ok(i);
+        return Ok((i, count));
     }
-    let Some(path) = arrangement else {
+    let (Some(loaded), Some(path)) = (loaded, arrangement) else {
         return Err(format!(
             "channel \"{channel}\" is not an index (0–{}); a name needs --arrangement",
             MAX_CHANNELS - 1
         ));
     };
-    let loaded = hal_sim::arrangement_file::load_arrangement(path).map_err(|e| e.to_string())?;
     loaded
         .names
         .iter()
         .position(|n| n == channel)
         .and_then(|i| u8::try_from(i).ok())
+        .map(|i| (i, count))
         .ok_or_else(|| {
             format!(
                 "{}: no channel \"{channel}\" (channels: {})",
