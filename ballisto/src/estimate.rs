@@ -624,7 +624,7 @@ fn run_typed<T: Real + Send + 'static>(
         }
         if absurd.front() == Some(&t) {
             absurd.pop_front();
-            e.flags.0 |= plausibility::INPUT_ABSURD;
+            e.flags.0 |= Flags::INPUT_ABSURD;
         }
         let gamma = row_model == Model::General;
         if let Err(err) = w.push(t, &e, all.0 & !mask.0, gamma) {

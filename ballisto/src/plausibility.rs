@@ -1,14 +1,10 @@
 //! Whether inputs look like what the file formats say (interfaces.md: positions in metres,
 //! readings in m/s²), so that a wrong unit does not pass silently. Each check returns a
 //! warning that names the likely cause; a reading no accelerometer can give is treated as
-//! missing and flagged ([`INPUT_ABSURD`]).
+//! missing and flagged ([`Flags::INPUT_ABSURD`]).
 
 use estimator_core::Flags;
 use hal_sim::arrangement_file::LoadedArrangement;
-
-/// The flag of a row with an absurd reading (also [`Flags::INPUT_INVALID`]: the row is the
-/// prediction). Set by the ground tool's reader, not by the estimator.
-pub const INPUT_ABSURD: u16 = Flags::INPUT_ABSURD;
 
 /// Smallest extent of an array that can see rotation, m: below it the positions are likely
 /// in kilometres, or all the same.
@@ -102,8 +98,10 @@ pub fn absurd(counts: &[AbsurdCount], names: &[String], bounds: &[f64]) -> Vec<S
         .filter(|((c, _), _)| c.count > 0)
         .map(|((c, name), bound)| {
             format!(
-                "{name}: {} readings beyond {bound} m/s^2 (largest {:e}): treated as missing, rows flagged {INPUT_ABSURD}",
-                c.count, c.largest
+                "{name}: {} readings beyond {bound} m/s^2 (largest {:e}): treated as missing, rows flagged {}",
+                c.count,
+                c.largest,
+                Flags::INPUT_ABSURD
             )
         })
         .collect()
