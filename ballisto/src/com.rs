@@ -73,8 +73,7 @@ pub fn com_files(
     let (model, model_note) = crate::model_choice::recommend(model, &loaded, arrangement)?;
     let mut est = HostEstimator::<f64>::new(&loaded, model, Options::default())
         .map_err(|e| format!("{}: {e}", arrangement.display()))?;
-    let bounds = crate::plausibility::reading_bounds(&loaded.ranges);
-    let mut reader = SamplesReader::open(samples, &loaded.names)?.with_bounds(bounds.clone());
+    let mut reader = SamplesReader::open(samples, &loaded.names)?.with_ranges(&loaded.ranges);
     let mut rows: Vec<Row> = Vec::new();
     let undecided = Flags::FALLBACK
         | Flags::ILL_CONDITIONED
@@ -128,11 +127,9 @@ pub fn com_files(
         &loaded,
         &arrangement.display().to_string(),
     ));
-    summary.warnings.extend(crate::plausibility::absurd(
-        reader.absurd_counts(),
-        &loaded.names,
-        &bounds,
-    ));
+    summary
+        .warnings
+        .extend(reader.absurd_warnings(&loaded.names));
     let mut start = t0;
     let mut first = 0;
     while start + window <= t1 + 1e-9 || (start == t0 && t1 - t0 < window) {

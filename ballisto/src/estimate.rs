@@ -595,8 +595,7 @@ fn run_typed<T: Real + Send + 'static>(
 ) -> Result<Summary, Box<dyn Error>> {
     let mut est = HostEstimator::<T>::new(loaded, model, job.options)
         .map_err(|e| format!("{}: {e}", job.arrangement.display()))?;
-    let bounds = plausibility::reading_bounds(&loaded.ranges);
-    let mut reader = SamplesReader::open(job.samples, &loaded.names)?.with_bounds(bounds.clone());
+    let mut reader = SamplesReader::open(job.samples, &loaded.names)?.with_ranges(&loaded.ranges);
     // Written beside the final path, put in place once complete (`crate::output`).
     let (pending, out) = crate::output::create(job.out)?;
     let mut w = ThreadedWriter::<T>::new(out);
@@ -679,11 +678,9 @@ fn run_typed<T: Real + Send + 'static>(
     summary
         .warnings
         .extend(plausibility::arrangement(loaded, &file));
-    summary.warnings.extend(plausibility::absurd(
-        reader.absurd_counts(),
-        &loaded.names,
-        &bounds,
-    ));
+    summary
+        .warnings
+        .extend(reader.absurd_warnings(&loaded.names));
     if !sigma0.is_empty() {
         let mid = sigma0.len() / 2;
         let median = f64::from(*sigma0.select_nth_unstable_by(mid, f32::total_cmp).1);

@@ -122,16 +122,18 @@ impl<R: std::io::Read> SamplesReader<R> {
         })
     }
 
-    /// Reads a reading beyond `bounds[channel]` in magnitude as missing (NaN), and counts it
-    /// ([`Self::absurd_counts`], [`Self::row_absurd`]).
-    pub fn with_bounds(mut self, bounds: Vec<f64>) -> Self {
-        self.bounds = bounds;
+    /// Reads a reading no part of full scale `ranges[channel]` can give
+    /// ([`crate::plausibility::reading_bounds`]) as missing (NaN), and counts it
+    /// ([`Self::absurd_warnings`], [`Self::row_absurd`]).
+    pub fn with_ranges(mut self, ranges: &[f64]) -> Self {
+        self.bounds = crate::plausibility::reading_bounds(ranges);
         self
     }
 
-    /// Per channel: the readings read as missing for being beyond its bound.
-    pub fn absurd_counts(&self) -> &[AbsurdCount] {
-        &self.absurd
+    /// A warning per channel (`names`, in channel order) with readings read as missing for
+    /// being absurd ([`crate::plausibility::absurd`]).
+    pub fn absurd_warnings(&self, names: &[String]) -> Vec<String> {
+        crate::plausibility::absurd(&self.absurd, names, &self.bounds)
     }
 
     /// Whether the last row read had a reading beyond its bound.
