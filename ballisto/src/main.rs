@@ -618,18 +618,18 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             let outputs: Vec<PathBuf> =
                 ballisto::sim::OUTPUTS.iter().map(|f| out.join(f)).collect();
             let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
-            let uplink_files: Vec<&Path> = uplink
+            let uplink = uplink
                 .iter()
-                .filter_map(|u| u.split_once(':').map(|(_, f)| Path::new(f)))
-                .collect();
+                .map(|u| parse_uplink(u))
+                .collect::<Result<Vec<_>, _>>()?;
             let inputs: Vec<&Path> = std::iter::once(Path::new(&scenario))
-                .chain(uplink_files)
+                .chain(uplink.iter().map(|(_, file)| *file))
                 .collect();
             ballisto::output::check_distinct(&outputs, &inputs)?;
             let sc = hal_sim::scenario::Scenario::load(&scenario)?;
             let uplink = uplink
-                .iter()
-                .map(|u| read_uplink(u))
+                .into_iter()
+                .map(|(at, file)| read_uplink(at, file))
                 .collect::<Result<Vec<_>, _>>()?;
             let r = ballisto::sim::run_sim(&ballisto::sim::SimJob {
                 scenario: &sc,
@@ -867,8 +867,8 @@ fn telecommands(
     Ok(frames)
 }
 
-/// `--uplink SECONDS:FILE`: the file's bytes, sent at that scenario time.
-fn read_uplink(arg: &str) -> Result<(f64, Vec<u8>), String> {
+/// `--uplink SECONDS:FILE`: the scenario time and the file.
+fn parse_uplink(arg: &str) -> Result<(f64, &Path), String> {
     let (at, file) = arg
         .split_once(':')
         .ok_or_else(|| format!("--uplink \"{arg}\": expected SECONDS:FILE"))?;
@@ -878,9 +878,14 @@ fn read_uplink(arg: &str) -> Result<(f64, Vec<u8>), String> {
         .ok()
         .filter(|t: &f64| t.is_finite() && *t >= 0.0)
         .ok_or_else(|| format!("--uplink \"{arg}\": \"{at}\" is not a time in seconds"))?;
-    let bytes = ballisto::output::read_input(Path::new(file))?;
+    Ok((at, Path::new(file)))
+}
+
+/// An uplink file's bytes, to be sent at scenario time `at`.
+fn read_uplink(at: f64, file: &Path) -> Result<(f64, Vec<u8>), String> {
+    let bytes = ballisto::output::read_input(file)?;
     if bytes.is_empty() {
-        return Err(format!("{file}: empty: no telecommand to send"));
+        return Err(format!("{}: empty: no telecommand to send", file.display()));
     }
     Ok((at, bytes))
 }
