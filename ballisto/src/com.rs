@@ -105,9 +105,8 @@ pub fn com_files(
     };
     let mut p = vec![0.0; loaded.names.len()];
     while let Some(t) = reader.next_row(&mut p)? {
-        est.push(t, &p, &mut emit);
+        emit(t, &est.push(t, &p));
     }
-    est.finish(&mut emit);
     let Some((t0, t1)) = span else {
         return Err(format!(
             "{}: no sample rows after the header: nothing written",

@@ -1,5 +1,5 @@
 //! `ballisto estimate`: the estimator over a samples file, streaming rows to the estimates file
-//! (host tools decide branch and sign with a fixed lag, forward and over the reversed record).
+//! (the firmware's per-sample code, one row per sample as it arrives).
 
 use std::error::Error;
 use std::path::Path;
@@ -10,8 +10,6 @@ use estimator_core::fault_monitor::{
 };
 use estimator_core::parity::{Parity, NO_PART};
 use estimator_core::recent::{replays, Recent, REPLAY_SETS};
-use estimator_core::smoother::Smoother;
-use estimator_core::two_way;
 use estimator_core::{ChannelMask, Estimate, Estimator, Flags, Model, Options, Real};
 use hal_sim::arrangement_file::{load_arrangement, LoadedArrangement, HOST_CAP};
 
@@ -78,117 +76,17 @@ pub fn estimate_files(job: &EstimateJob) -> Result<Summary, Box<dyn Error>> {
     })
 }
 
-/// Records each pass's smoother holds ([`estimator_core::smoother`]): one, so each pass's
-/// output is its own forward decision, with no look-ahead. A look-ahead through the tracker's
-/// hypotheses (128 samples) knows nothing of the follower's slope (`estimator::follower`): on
-/// the nine-channel family (ideal parts apart from the jitter, declared Gaussian noise) it
-/// took `ballisto estimate --raw` to 1.19 × the truth-started maximum likelihood in Ω (4 kHz
-/// tumble) where the plain passes by margin give 1.00 (`docs/branch-lock.md`). The other pass
-/// is the look-ahead ([`estimator_core::two_way`]).
-pub const HOST_LAG: usize = 1;
-
-/// Seconds of record decided per backward pass.
-pub const TWO_WAY_BLOCK_S: f64 = 4.0;
-
-/// Seconds beyond a block that its backward pass runs first, so that the pass has settled
-/// branch and sign when it reaches the block (a restart after a crossing takes 0.1–0.4 s).
-pub const TWO_WAY_RUN_IN_S: f64 = 2.0;
-
-/// One direction's estimator: the per-sample code of the firmware and its smoother (without
-/// look-ahead: [`HOST_LAG`]).
-struct Pass<T: Real> {
-    est: Estimator<T, HOST_CAP>,
-    smoother: Box<Smoother<T, HOST_LAG>>,
-    /// The known Γ (model F's `A = Γ + {Ω}²`, rebuilt by the smoother).
-    gamma: estimator_core::Sym3<T>,
-}
-
-impl<T: Real> Pass<T> {
-    fn new(
-        loaded: &LoadedArrangement,
-        model: Model,
-        options: Options,
-    ) -> Result<Self, estimator_core::ConfigError> {
-        let est = Estimator::<T, HOST_CAP>::new(&loaded.arrangement, model, options)?;
-        let mut smoother = Box::new(Smoother::new());
-        let gamma = options.gamma.cast();
-        if model == Model::FreeFloat {
-            smoother.set_free_float_gamma(Some(gamma));
-        }
-        smoother.set_frame_uncertainty(est.frame_uncertainty());
-        Ok(Pass {
-            est,
-            smoother,
-            gamma,
-        })
-    }
-
-    /// One sample; returns the estimator's own estimate of it.
-    fn push(&mut self, t: f64, p: &[T], mut emit: impl FnMut(Estimate<T>)) -> Estimate<T> {
-        if let Some((_, e)) = self.smoother.make_room() {
-            emit(e);
-        }
-        let e = *self.est.update_with(t, p, Some(self.smoother.slot()));
-        self.smoother.commit();
-        e
-    }
-
-    /// Takes `mask` in the `preferred` model, or in model F where the channels do not carry
-    /// it (if mask and model are not the ones in force: [`Estimator::set_mask_in`]), and
-    /// restarts branch and sign tracking from `hint`; `None` if the estimator refuses the mask
-    /// (too few channels left for either model), else whether it restarted.
-    fn set_mask(
-        &mut self,
-        mask: ChannelMask,
-        preferred: Model,
-        hint: Option<[f64; 3]>,
-    ) -> Option<bool> {
-        if self.est.mask() == mask && self.est.model() == preferred {
-            return Some(false);
-        }
-        let Ok(model) = self.est.set_mask_in(mask, preferred) else {
-            return None;
-        };
-        // The records still held by the smoother are drained with this setting (at most its
-        // lag after a switch: model G rows whose smoothed Ω rebuilds A from the known Γ).
-        self.smoother
-            .set_free_float_gamma((model == Model::FreeFloat).then_some(self.gamma));
-        if self.est.set_hint(hint).is_err() {
-            let _ = self.est.set_hint(None);
-        }
-        Some(true)
-    }
-
-    fn finish(&mut self, mut emit: impl FnMut(Estimate<T>)) {
-        self.smoother.drain(|_, e| emit(e));
-    }
-}
-
-/// The estimator as the host tools run it: the same per-sample code as the firmware, run
-/// forward and over the time-reversed record, each sample decided from the direction with more
-/// evidence ([`estimator_core::two_way::combine`]; docs/branch-lock.md). The backward pass
-/// runs per block of [`TWO_WAY_BLOCK_S`]
-/// from [`TWO_WAY_RUN_IN_S`] beyond it, started at the forward pass's rate there when that is
-/// settled; memory is one block and its run-in, whatever the record's length.
+/// The estimator as the host tools run it: the per-sample code of the firmware
+/// ([`Estimator`], one output per sample as it arrives: docs/branch-lock.md), with the fault
+/// isolation the firmware runs about it.
 pub struct HostEstimator<T: Real> {
-    forward: Pass<T>,
-    backward: Pass<T>,
-    /// The held samples' times, oldest first, and their readings (`channels` each, in order).
-    times: std::collections::VecDeque<f64>,
-    readings: std::collections::VecDeque<T>,
-    channels: usize,
-    /// The forward pass's outputs of the oldest held samples (it decides them in order).
-    decided: std::collections::VecDeque<Estimate<T>>,
-    /// The backward pass's outputs of one block, latest sample first (reused).
-    scratch: Vec<Estimate<T>>,
-    /// Fault isolation from the measurements (issue 17), run with the forward pass as the
-    /// firmware runs it; `None` when off.
+    est: Estimator<T, HOST_CAP>,
+    /// Fault isolation from the measurements (issue 17), run as the firmware runs it; `None`
+    /// when off.
     faults: Option<Faults<T>>,
-    /// Per held sample: what the forward pass used and saw.
-    masks: std::collections::VecDeque<RowUse>,
 }
 
-/// What the forward pass used for one sample, and what the monitor saw of it.
+/// What the estimator used for one sample, and what the monitor saw of it.
 #[derive(Clone, Copy, Debug)]
 struct RowUse {
     /// The channels in the solve.
@@ -214,13 +112,13 @@ struct Faults<T: Real> {
     /// Every channel of the arrangement.
     all: ChannelMask,
     first_t: Option<f64>,
-    /// The configured model (the forward pass's, unless the channels in use do not carry it).
+    /// The configured model (the estimator's, unless the channels in use do not carry it).
     preferred: Model,
     /// Every model has the own-signal check (stuck, or at the arrangement file's `range`).
     stuck: StuckCheck<T, HOST_CAP>,
     /// Runs of missing and good samples per part (as the firmware's `Estimation`).
     runs: MissingRuns<32>,
-    /// The parts out of the forward pass's solve (bit per part): missing too long, and
+    /// The parts out of the estimator's solve (bit per part): missing too long, and
     /// isolated by the monitor; and an isolated set it refused.
     missing: u32,
     isolated: u32,
@@ -234,7 +132,7 @@ struct Faults<T: Real> {
     /// The test where there is no parity space (model G's known field, or model F's own
     /// residual), once the rate is known.
     no_parity: NoParityTest<T>,
-    /// The last samples, replayed through the forward pass's new configuration when the
+    /// The last samples, replayed through the estimator's new configuration when the
     /// channels in use change (as the firmware's `Estimation`), and whether that is due.
     recent: Box<Recent<T, HOST_CAP, REPLAY_SETS>>,
     replay_due: bool,
@@ -317,7 +215,7 @@ impl<T: Real> Faults<T> {
 
     /// One sample's readings: the monitor's verdict and the parts to keep out of the solve
     /// from this sample on (bit per part: isolated by the parity space, or stuck); `est` the
-    /// forward pass's estimator (the monitor is built at the second sample, when the rate is
+    /// estimator's estimator (the monitor is built at the second sample, when the rate is
     /// known).
     fn step(&mut self, t: f64, p: &[T], est: &Estimator<T, HOST_CAP>) -> (Verdict, u32) {
         self.observe_parts(p);
@@ -360,19 +258,10 @@ impl<T: Real> HostEstimator<T> {
         model: Model,
         options: Options,
     ) -> Result<Self, estimator_core::ConfigError> {
-        let est = HostEstimator {
-            forward: Pass::new(loaded, model, options)?,
-            backward: Pass::new(loaded, model, options)?,
-            times: Default::default(),
-            readings: Default::default(),
-            channels: loaded.names.len(),
-            decided: Default::default(),
-            scratch: Vec::new(),
-            faults: None,
-            masks: Default::default(),
-        };
-        let faults = Faults::new(loaded, model);
-        Ok(HostEstimator { faults, ..est })
+        Ok(HostEstimator {
+            est: Estimator::<T, HOST_CAP>::new(&loaded.arrangement, model, options)?,
+            faults: Faults::new(loaded, model),
+        })
     }
 
     /// Switches fault isolation off (on by default in model G): for a record whose geometry is
@@ -383,120 +272,88 @@ impl<T: Real> HostEstimator<T> {
         self
     }
 
-    /// One sample; `emit` receives the decided outputs, oldest first (delayed by up to
-    /// [`TWO_WAY_BLOCK_S`] + [`TWO_WAY_RUN_IN_S`] and [`HOST_LAG`] samples).
-    pub fn push(&mut self, t: f64, p: &[T], mut emit: impl FnMut(f64, &Estimate<T>)) {
-        self.push_masked(t, p, |t, e, _, _| emit(t, e));
+    /// One sample; its estimate.
+    pub fn push(&mut self, t: f64, p: &[T]) -> Estimate<T> {
+        self.push_masked(t, p).0
     }
 
-    /// End of the record: emits what is still held.
-    pub fn finish(&mut self, mut emit: impl FnMut(f64, &Estimate<T>)) {
-        self.finish_masked(|t, e, _, _| emit(t, e));
-    }
-
-    /// As [`Self::push`]; `emit` also receives the channels the row's estimate used and the
-    /// model it was made in (model F instead of model G while exclusions leave model G
-    /// unobservable).
-    pub fn push_masked(
-        &mut self,
-        t: f64,
-        p: &[T],
-        mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask, Model),
-    ) {
-        self.times.push_back(t);
-        self.readings.extend(p.iter().copied().take(self.channels));
+    /// As [`Self::push`], with the channels the estimate used and the model it was made in
+    /// (model F instead of model G while exclusions leave model G unobservable).
+    pub fn push_masked(&mut self, t: f64, p: &[T]) -> (Estimate<T>, ChannelMask, Model) {
         let used = self.isolate(t, p);
-        self.masks.push_back(used);
         if let Some(f) = &mut self.faults {
             // A new channel set in force: the last samples through it first (their estimates
             // dropped), so that the rate filter meets this one warm (as the firmware).
             if std::mem::take(&mut f.replay_due) {
-                let est = &mut self.forward.est;
+                let est = &mut self.est;
                 f.recent.replay(|t, p| {
                     est.update(t, p);
                 });
             }
             f.recent.push(t, p);
         }
-        let decided = &mut self.decided;
-        let raw = self.forward.push(t, p, |e| decided.push_back(e));
+        let mut out = *self.est.update(t, p);
         if let Some(f) = &mut self.faults {
             // With no parity space, model G's known-field test or model F's own residual on
-            // the forward estimate flags the row (as the firmware's).
-            let field = f.no_parity.step(&raw);
+            // the estimate flags the row (as the firmware's).
+            let field = f.no_parity.step(&out);
             let verdict = used.verdict.with_field(field);
             // In model F on the channels left by an exclusion there is no test: a suspicion
             // stands until a test clears it or an isolated part is taken out (as in the
             // firmware).
             let verdict = f.suspicion.hold(verdict, used.newly_out);
             let residual_high = used.residual_high || verdict == Verdict::NotIsolated;
-            if let Some(m) = self.masks.back_mut() {
-                m.residual_high = residual_high;
-            }
             let verdict = if residual_high {
+                out.flags.0 |= Flags::RESIDUAL_HIGH;
                 Verdict::NotIsolated
             } else {
                 Verdict::Clean
             };
-            f.trusted.observe(t, &raw, verdict);
-            if raw.is_finite() && !raw.flags.has(Flags::INPUT_INVALID) {
-                f.last_omega = Some(raw.omega.map(|v| v.to_f64()));
+            f.trusted.observe(t, &out, verdict);
+            if out.is_finite() && !out.flags.has(Flags::INPUT_INVALID) {
+                f.last_omega = Some(out.omega.map(|v| v.to_f64()));
             }
         }
-        let (Some(first), Some(last)) = (
-            self.times.front().copied(),
-            self.decided.len().checked_sub(1).map(|k| self.times[k]),
-        ) else {
-            return;
-        };
-        if last - first >= TWO_WAY_BLOCK_S + TWO_WAY_RUN_IN_S {
-            let block = self
-                .times
-                .iter()
-                .take_while(|t| *t - first < TWO_WAY_BLOCK_S)
-                .count()
-                .max(1);
-            self.decide(block, &mut emit);
-        }
+        (out, used.mask, used.model)
     }
 
     /// The fault monitor's step and the parts missing too long (as the firmware's
-    /// `Estimation::process`): the forward pass takes the channel mask they decide — in model
-    /// F where the channels left do not carry model G — restarting from the trusted rate when
+    /// `Estimation::process`): the estimator takes the channel mask they decide — in model F
+    /// where the channels left do not carry model G — restarting from the trusted rate when
     /// an isolated part leaves or re-enters, from the last rate when a missing one does;
     /// returns what the row used and whether it gets flag 64.
     fn isolate(&mut self, t: f64, p: &[T]) -> RowUse {
         let Some(f) = &mut self.faults else {
             return RowUse {
-                mask: self.forward.est.mask(),
-                model: self.forward.est.model(),
+                mask: self.est.mask(),
+                model: self.est.model(),
                 residual_high: false,
                 verdict: Verdict::NoTest,
                 newly_out: false,
             };
         };
-        let (verdict, isolated) = f.step(t, p, &self.forward.est);
+        let (verdict, isolated) = f.step(t, p, &self.est);
         let isolated_before = f.isolated;
         let wanted = f.runs.wanted(f.missing);
         if wanted != f.missing || (isolated != f.isolated && f.refused != Some(isolated)) {
             // Replayed as in the firmware (only a change that takes channels out); the hint is
-            // for the first sample the pass will see.
+            // for the first sample the estimator will see.
             let mask = f.mask(wanted | isolated);
-            let replay = replays(self.forward.est.mask(), mask);
+            let replay = replays(self.est.mask(), mask);
             let from = f.recent.first_seen(replay, t);
             let hint = if isolated != f.isolated {
                 f.trusted.hint_at(from).or(f.last_omega)
             } else {
                 f.last_omega
             };
-            let model_before = self.forward.est.model();
-            if let Some(restarted) = self.forward.set_mask(mask, f.preferred, hint) {
-                let stale = wanted != f.missing || self.forward.est.model() != model_before;
+            let model_before = self.est.model();
+            if let Some(restarted) = set_mask(&mut self.est, mask, f.preferred, hint) {
+                let stale = wanted != f.missing || self.est.model() != model_before;
                 f.missing = wanted;
                 f.isolated = isolated;
                 f.replay_due = restarted && replay;
                 if stale {
-                    f.rebuild(&self.forward.est);
+                    f.rebuild(&self.est);
                 }
             } else {
                 f.refused = Some(isolated);
@@ -505,87 +362,33 @@ impl<T: Real> HostEstimator<T> {
         // A part isolated that the solve could not leave out (too few channels): flag 64.
         let kept = isolated & !f.isolated != 0;
         RowUse {
-            mask: self.forward.est.mask(),
-            model: self.forward.est.model(),
+            mask: self.est.mask(),
+            model: self.est.model(),
             residual_high: kept,
             verdict,
             newly_out: f.isolated & !isolated_before != 0,
         }
     }
+}
 
-    /// As [`Self::finish`]; `emit` also receives the channels the row's estimate used and the
-    /// model it was made in.
-    pub fn finish_masked(&mut self, mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask, Model)) {
-        let decided = &mut self.decided;
-        self.forward.finish(|e| decided.push_back(e));
-        debug_assert_eq!(self.decided.len(), self.times.len());
-        let n = self.decided.len();
-        if n > 0 {
-            self.decide(n, &mut emit);
-        }
+/// Takes `mask` in the `preferred` model, or in model F where the channels do not carry it (if
+/// mask and model are not the ones in force: [`Estimator::set_mask_in`]), and restarts branch
+/// and sign from `hint`; `None` if the estimator refuses the mask (too few channels left for
+/// either model), else whether it restarted.
+fn set_mask<T: Real>(
+    est: &mut Estimator<T, HOST_CAP>,
+    mask: ChannelMask,
+    preferred: Model,
+    hint: Option<[f64; 3]>,
+) -> Option<bool> {
+    if est.mask() == mask && est.model() == preferred {
+        return Some(false);
     }
-
-    /// Runs the backward pass over the decided samples, latest first, and emits the oldest
-    /// `block` of them.
-    fn decide(
-        &mut self,
-        block: usize,
-        emit: &mut impl FnMut(f64, &Estimate<T>, ChannelMask, Model),
-    ) {
-        let n = self.decided.len();
-        let t_end = self.times[n - 1];
-        // Started at the forward pass's rate, reversed, where that pass's sign is settled:
-        // started on its own, the backward pass settled the wrong sign of a low-SNR tumble for
-        // seconds (1 kHz, 1e-2 m/s², 5 cm arm, seed 1: 346 silently wrong rows in 20 s), its
-        // branch margin blind to it. A wrong branch at the start is left by its restarts.
-        let start = Some(self.decided[n - 1])
-            .filter(|e| !e.flags.has(Flags::SIGN_UNRESOLVED) && !e.flags.has(Flags::INPUT_INVALID));
-        let hint = start.map(|e| e.omega.map(|v| -v.to_f64()));
-        // The channels the forward pass used at the block's end (the backward pass follows the
-        // forward pass's exclusions sample by sample, restarting from its own last rate).
-        let end = self.masks[n - 1];
-        let _ = self.backward.set_mask(end.mask, end.model, hint);
-        // A rate the estimator refuses (not finite) leaves the pass to settle on its own.
-        if self.backward.est.set_hint(hint).is_err() {
-            let _ = self.backward.est.set_hint(None);
-        }
-        self.backward.smoother.reset();
-        self.scratch.clear();
-        let scratch = &mut self.scratch;
-        let readings = self.readings.make_contiguous();
-        let mut last = None;
-        for (k, p) in readings
-            .chunks_exact(self.channels)
-            .take(n)
-            .enumerate()
-            .rev()
-        {
-            let RowUse { mask, model, .. } = self.masks[k];
-            if mask != self.backward.est.mask() || model != self.backward.est.model() {
-                let _ = self.backward.set_mask(mask, model, last);
-            }
-            let e = self
-                .backward
-                .push(t_end - self.times[k], p, |e| scratch.push(e));
-            if e.is_finite() && !e.flags.has(Flags::INPUT_INVALID) {
-                last = Some(e.omega.map(|v| v.to_f64()));
-            }
-        }
-        self.backward.finish(|e| scratch.push(e));
-        for (k, (t, fwd)) in self.times.iter().zip(&self.decided).take(block).enumerate() {
-            let bwd = two_way::reversed(&self.scratch[n - 1 - k]);
-            let mut out = two_way::combine(fwd, &bwd);
-            let used = self.masks[k];
-            if used.residual_high {
-                out.flags.0 |= Flags::RESIDUAL_HIGH;
-            }
-            emit(*t, &out, used.mask, used.model);
-        }
-        self.times.drain(..block);
-        self.readings.drain(..block * self.channels);
-        self.decided.drain(..block);
-        self.masks.drain(..block);
+    est.set_mask_in(mask, preferred).ok()?;
+    if est.set_hint(hint).is_err() {
+        let _ = est.set_hint(None);
     }
+    Some(true)
 }
 
 fn run_typed<T: Real + Send + 'static>(
@@ -650,14 +453,13 @@ fn run_typed<T: Real + Send + 'static>(
                 if reader.row_absurd() {
                     absurd_rows.borrow_mut().push_back(t);
                 }
-                est.push_masked(t, &p, &mut emit);
+                let (e, mask, row_model) = est.push_masked(t, &p);
+                emit(t, &e, mask, row_model);
             }
             Ok(None) => break Ok(()),
             Err(e) => break Err(e),
         }
     };
-    // Rows accepted before an error are still estimated and written.
-    est.finish_masked(&mut emit);
     let written = w.finish();
     if let Some(e) = io_err.or(written.err()) {
         return Err(format!("{}: write failed: {e}", job.out.display()).into());

@@ -112,6 +112,11 @@ pub enum ConfigError {
         /// What it was.
         what: &'static str,
     },
+    /// An option that must be a positive number (the jerk density) is not.
+    NotPositive {
+        /// What it was.
+        what: &'static str,
+    },
 }
 
 impl fmt::Display for ConfigError {
@@ -192,6 +197,7 @@ impl fmt::Display for ConfigError {
                 write!(f, ")")
             }
             ConfigError::NotFinite { what } => write!(f, "{what} is not finite"),
+            ConfigError::NotPositive { what } => write!(f, "{what} is not a positive number"),
         }
     }
 }

@@ -15,9 +15,6 @@
 //! - [`estimate`]: the outputs and their status flags.
 //! - [`exclusion`]: when a part that stops answering leaves the solve and when it returns.
 //! - [`recent`]: the last sample sets, replayed into the estimator after a change of channels.
-//! - [`smoother`]: fixed-lag smoothing of branch and sign decisions (host tools).
-//! - [`two_way`]: each sample decided from the forward pass and the time-reversed one (host
-//!   tools).
 //! - [`identify`]: each channel's geometry from a known field (paper §6), at sample rate.
 //! - [`frame_uncertainty`]: the common errors of a calibrated frame, added to the reported
 //!   deviations.
@@ -50,8 +47,6 @@ pub mod linalg;
 pub mod parity;
 pub mod real;
 pub mod recent;
-pub mod smoother;
-pub mod two_way;
 
 #[doc(hidden)]
 pub mod internals;

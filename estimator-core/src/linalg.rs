@@ -288,7 +288,7 @@ impl<T: Real> Sym3<T> {
 
     /// The cofactor matrix (symmetric: six distinct cofactors) and the determinant.
     #[inline]
-    fn cofactors(&self) -> (Sym3<T>, T) {
+    pub(crate) fn cofactors(&self) -> (Sym3<T>, T) {
         let s = &self.0;
         let c = Sym3([
             s[1] * s[2] - s[5] * s[5],

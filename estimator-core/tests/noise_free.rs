@@ -232,7 +232,7 @@ fn free_float_with_known_gamma() {
             raw: true,
             initial_omega: Some(omega),
             gamma: g,
-            path_check: true,
+            ..Options::default()
         };
         let mut est = Estimator::<f64, CAP>::new(&arr, Model::FreeFloat, options).unwrap();
         *est.update(0.0, &p)

@@ -136,6 +136,7 @@ pub fn config_error_code(e: &estimator_core::ConfigError) -> u32 {
         E::NotFinite { .. } => (10, 0),
         E::CalibrationInvalid { channel } => (11, channel),
         E::FrameUncertaintyInvalid => (12, 0),
+        E::NotPositive { .. } => (13, 0),
     };
     (kind << 16) | (detail as u32 & 0xFFFF)
 }

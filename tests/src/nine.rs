@@ -247,17 +247,16 @@ impl Case {
             .collect()
     }
 
-    /// The smoothed path (`ballisto estimate`'s output; `raw` as in [`Case::forward`]).
-    pub fn smoothed(&self, raw: bool) -> Vec<Estimate<f64>> {
-        let mut rows = Vec::with_capacity(self.truth.len());
+    /// `ballisto estimate`'s output: the same estimator with the host's fault isolation
+    /// (`raw` as in [`Case::forward`]).
+    pub fn host(&self, raw: bool) -> Vec<Estimate<f64>> {
         let mut e = HostEstimator::<f64>::new(&self.loaded, Model::FreeFloat, self.options(raw))
             .expect("estimator");
-        let mut emit = |_t: f64, r: &Estimate<f64>| rows.push(*r);
-        for (tr, p) in self.truth.iter().zip(self.outputs.iter()) {
-            e.push(tr.t, p, &mut emit);
-        }
-        e.finish(&mut emit);
-        rows
+        self.truth
+            .iter()
+            .zip(self.outputs.iter())
+            .map(|(tr, p)| e.push(tr.t, p))
+            .collect()
     }
 
     /// Squared errors of the truth-started maximum likelihood per sample: σ0, Ω′, Ω.

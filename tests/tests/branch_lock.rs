@@ -38,7 +38,7 @@ fn family(rate_hz: f64, noise: f64, arm: f64, manoeuvre: bool, seeds: &[u64]) ->
         });
         for (k, raw) in [true, false].into_iter().enumerate() {
             s[2 * k].add(&Score::of(&case.forward(raw), &case.truth));
-            s[2 * k + 1].add(&Score::of(&case.smoothed(raw), &case.truth));
+            s[2 * k + 1].add(&Score::of(&case.host(raw), &case.truth));
         }
     }
     s
@@ -207,7 +207,7 @@ fn accuracy_against_the_maximum_likelihood(
                 let rms = Score::of(rows, &case.truth).rms();
                 core::array::from_fn(|i| rms[i] / ml_rms[i])
             };
-            let (fwd, smoothed) = (ratio(&case.forward(true)), ratio(&case.smoothed(true)));
+            let (fwd, smoothed) = (ratio(&case.forward(true)), ratio(&case.host(true)));
             println!(
                 "| {rate_hz} Hz | {noise:e} | {arm} | {} | {seed} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} |",
                 motion(manoeuvre),
@@ -303,7 +303,7 @@ fn firmware_path_at_1_khz() -> FirmwarePath {
     out.ratio = core::array::from_fn(|i| (sq[i] / sq_ml[i]).sqrt());
     out.omega_rms = (sq[2] / out.rows as f64).sqrt();
     // `ballisto estimate --raw` on the same readings.
-    let rows = case.smoothed(true);
+    let rows = case.host(true);
     let mut sq_two_way = [0.0f64; 3];
     for (e, tr) in rows.iter().zip(case.truth.iter()) {
         sq_two_way[0] += d2(&e.sigma0, &tr.sigma0);

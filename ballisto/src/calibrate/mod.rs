@@ -376,26 +376,18 @@ pub fn estimator_rates(
         // Fault isolation is off here (below): no range limits.
         ranges: vec![f64::INFINITY; names.len()],
     };
-    // The geometry is what is being fitted: its error makes every path inconsistent with
-    // its own Ω′, so the path check (model G) would leave nothing to fit with, and every
-    // sample inconsistent with the nominal geometry, so fault isolation would take parts out.
-    let options = Options {
-        path_check: false,
-        ..Options::default()
-    };
-    let mut est = HostEstimator::<f64>::new(&loaded, model, options)
+    // The geometry is what is being fitted: every sample is inconsistent with the nominal
+    // geometry, so fault isolation would take parts out.
+    let mut est = HostEstimator::<f64>::new(&loaded, model, Options::default())
         .map_err(|e| format!("the estimator on the geometry being identified: {e}"))?
         .without_fault_isolation();
     let mut out = Vec::with_capacity(rows.len());
     let undecided =
         Flags::FALLBACK | Flags::ILL_CONDITIONED | Flags::BRANCH_AMBIGUOUS | Flags::INPUT_INVALID;
-    let mut emit = |_: f64, e: &estimator_core::Estimate<f64>| {
-        out.push((e.flags.0 & undecided == 0).then(|| Vector3::from(e.omega)));
-    };
     for (t, row) in times.iter().zip(rows.iter()) {
-        est.push(*t, row, &mut emit);
+        let e = est.push(*t, row);
+        out.push((e.flags.0 & undecided == 0).then(|| Vector3::from(e.omega)));
     }
-    est.finish(&mut emit);
     Ok(out)
 }
 

@@ -2,7 +2,7 @@
 //! on error the configuration in force stays untouched.
 
 use super::frames::{FRAME_QUATERNIONS, NUM_FRAMES};
-use super::{Config, PathCheck};
+use super::Config;
 use crate::arrangement::{Arrangement, ChannelMask, Model};
 use crate::design::check_structural;
 use crate::error::ConfigError;
@@ -18,13 +18,17 @@ pub struct Options {
     pub initial_omega: Option<[f64; 3]>,
     /// Gravity-gradient tensor Γ (body frame), known; default 0.
     pub gamma: Sym3<f64>,
-    /// Model G: check the chosen root's path against its own Ω′ (`lock_monitor`) and flag
-    /// it branch-ambiguous where it is not kinematically consistent — after a fault, for
-    /// one (issue 17). Default on. Off only where the geometry is itself being fitted and its
-    /// error makes every path inconsistent (`ballisto calibrate`'s self-calibration). Model F
-    /// with m = 3 always checks (its tracker re-opens on it); model F with m > 3 does not.
-    pub path_check: bool,
+    /// Density of the white angular jerk that drives the branch and sign filter's Ω′
+    /// (rad²/s⁵; `internals::tracker`): how fast Ω′ may wander, a property of the motion and not
+    /// of the sample rate (its variance over a step Δ is this times Δ). Default
+    /// [`DEFAULT_JERK_DENSITY`].
+    pub jerk_density: f64,
 }
+
+/// The default white-jerk density (rad²/s⁵): Ω′ wanders by ≈ 10 rad/s² RMS in a second, which
+/// holds the scenarios' tumbles and manoeuvres (jerk up to ≈ 30 rad/s³) and hand-held motion
+/// while the filter still averages Ω′ over tens of milliseconds.
+pub const DEFAULT_JERK_DENSITY: f64 = 100.0;
 
 impl Default for Options {
     fn default() -> Self {
@@ -32,7 +36,7 @@ impl Default for Options {
             raw: false,
             initial_omega: None,
             gamma: Sym3::zero(),
-            path_check: true,
+            jerk_density: DEFAULT_JERK_DENSITY,
         }
     }
 }
@@ -73,6 +77,11 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
                 });
             }
         }
+        if !(options.jerk_density.is_finite() && options.jerk_density > 0.0) {
+            return Err(ConfigError::NotPositive {
+                what: "jerk density",
+            });
+        }
         if !options.gamma.0.iter().all(|v| v.is_finite()) {
             return Err(ConfigError::NotFinite {
                 what: "gravity gradient Γ",
@@ -110,10 +119,10 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         self.mask = mask;
         self.frames = frames;
         self.options = options;
-        self.path_check = match model {
-            Model::FreeFloat if self.proj[0].m == 3 => PathCheck::Full,
-            Model::General if options.path_check => PathCheck::Thinned,
-            _ => PathCheck::Off,
+        self.histories = if model == Model::FreeFloat && self.proj[0].m == 3 {
+            2
+        } else {
+            1
         };
         self.set_gamma(&options.gamma);
         Ok(())

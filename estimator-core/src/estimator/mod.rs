@@ -10,24 +10,19 @@
 //! - [`frames`]: the frames `V` of model G and the choice among them;
 //! - [`solve`]: one frame's per-sample solve (`W p`, the `a` solve, the branches);
 //! - [`deviations`]: `cov(a)` and the standard deviations;
-//! - [`output`]: the estimate of the chosen branch;
-//! - `follower`: where mirror roots cross, the root whose slope
-//!   continues the motion's (issue 15).
+//! - [`output`]: the estimate of the chosen branch.
 //!
-//! This file holds the state (configuration, working storage, tracker, output slots) and the
-//! per-sample sequence that ties them together.
+//! Branch and sign are the tracker's (`internals::tracker`: one multiple-hypothesis (Ω, Ω′)
+//! filter). This file holds the state (configuration, working storage, tracker, output slots)
+//! and the per-sample sequence that ties them together.
 
 mod config;
-mod crossing;
 mod deviations;
-mod follower;
 mod frames;
-mod lock_monitor;
 mod output;
 mod solve;
 
-pub use config::Options;
-pub(crate) use crossing::widen_smoothed;
+pub use config::{Options, DEFAULT_JERK_DENSITY};
 pub use frames::{FRAME_QUATERNIONS, NUM_FRAMES};
 
 use crate::arrangement::{Arrangement, ChannelMask, Model};
@@ -37,14 +32,12 @@ use crate::estimate::{Estimate, Flags};
 use crate::frame_uncertainty::FrameUncertainty;
 use crate::linalg::{norm2, Sym3, Vec3};
 use crate::real::Real;
-use crate::smoother::StepRecord;
 use crate::svd::MAX_COLS;
-use crate::tracker::{Candidate, Tracker, MAX_CANDIDATES};
+use crate::tracker::{Candidate, Measured, Readings, Tracker, MAX_CANDIDATES};
 
 use crate::quadratic::MAX_ROOTS;
-use deviations::{omega_variances, KELVIN_MIN_SCORE};
+use deviations::{omega_variances, widen_near_crossings, KELVIN_MIN_SCORE};
 use frames::frame_score;
-pub(crate) use lock_monitor::{mark_inconsistent, variance, LockMonitor, PathCheck};
 use output::CommonFlags;
 use solve::{readings_usable, MAX_STARTS};
 
@@ -61,10 +54,6 @@ struct Branch<T> {
     ill: bool,
     /// Model G: standard deviations of Ω (body frame), from the constant covariance of A.
     omega_sd: Vec3<T>,
-    /// Model F: the diagonal of what [`crossing`] added to `cov(a)` near a crossing (zero
-    /// elsewhere): what the filtered output's drift bound takes in (`crossing::carry_bias`,
-    /// and the smoother's `widen_smoothed`).
-    widening: Vec3<T>,
 }
 
 /// The estimator for up to `CAP` channels.
@@ -81,23 +70,10 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     /// The slot of `out` holding the last estimate (0 or 1).
     last: usize,
     has_last: bool,
-    /// Per-component variance of Ω′ that the tracker and the follower give the next sample's
-    /// roots: the last output's on a real root. A least-squares fallback (no real root, near a
-    /// double root) is skipped: its first-order variance goes through a nearly singular
-    /// Jacobian and was 10²–10⁴ times the true one (`nine-channel` at 1 kHz: 28–358 rad²/s⁴
-    /// against 0.04–0.08 on the rows about it), which made the next sample's Ω′ count for
-    /// nothing and let both take the mirror root for seconds (docs/branch-lock.md).
+    /// Model G: the per-component variance of Ω′ given to the next sample's branch (the last
+    /// output's; model F computes each root's own).
     domega_var: T,
-    /// Model F: the bound on the rate filter's error from roots taken near crossings, per
-    /// component ([`crossing::carry_bias`]).
-    crossing_bias: Vec3<T>,
-    /// `crossing_bias` is non-zero or this sample widened a branch.
-    crossing_active: bool,
     work: Work<T, CAP>,
-    /// Model F, m = 3: whether the chosen root's Ω integrates its Ω′ ([`lock_monitor`]).
-    lock: LockMonitor<T>,
-    /// Model F, m = 3: the root taken through a crossing (`follower`).
-    follower: follower::Follower<T>,
 }
 
 /// The configuration and everything precomputed from it (paper eq. 10–11): read-only in the
@@ -119,13 +95,9 @@ struct Config<T: Real, const CAP: usize> {
     frame_uncertainty: FrameUncertainty<T>,
     /// Whether the frame uncertainty is other than zero.
     widen: bool,
-    /// Where the chosen root's path is checked against its own Ω′ ([`lock_monitor`]): in
-    /// full where mirror branches cross (model F, m = 3; the tracker re-opens on it),
-    /// thinned in model G (issue 17: a fault the residual cannot see, or one that has
-    /// ended, can leave the estimate on the wrong sign for seconds; `Options::path_check`),
-    /// not in model F with m > 3 (the check costs ≈ 200 instructions per sample on the M4F,
-    /// more than model F's estimate has left of its budget).
-    path_check: PathCheck,
+    /// Histories kept per output by the tracker: 2 where mirror branches can merge and
+    /// separate (model F, m = 3), else 1.
+    histories: usize,
     options: Options,
 }
 
@@ -197,7 +169,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
             gamma_offset_nonzero: false,
             frame_uncertainty: FrameUncertainty::default(),
             widen: false,
-            path_check: PathCheck::Off,
+            histories: 1,
             options: Options::default(),
         }
     }
@@ -265,16 +237,12 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         let mut e = Estimator {
             cfg: Config::empty(model),
             frame: 0,
-            tracker: Tracker::new(),
+            tracker: Tracker::new(T::of(options.jerk_density)),
             last_t: None,
             out: [Estimate::default(); 2],
             last: 0,
             has_last: false,
             domega_var: T::ZERO,
-            crossing_bias: [T::ZERO; 3],
-            crossing_active: false,
-            lock: LockMonitor::default(),
-            follower: follower::Follower::default(),
             work: Work::new(),
         };
         e.configure(arr, model, ChannelMask::all(arr.len()), options)?;
@@ -409,14 +377,15 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
 
     /// Forgets the history (tracker, filter, time).
     pub fn reset(&mut self) {
-        self.tracker.reset();
+        self.tracker.set_jerk(T::of(self.cfg.options.jerk_density));
         self.last_t = None;
         self.has_last = false;
         self.domega_var = T::ZERO;
-        self.crossing_bias = [T::ZERO; 3];
-        self.crossing_active = false;
-        self.lock.reset();
-        self.follower.stop();
+    }
+
+    #[doc(hidden)]
+    pub fn debug_states(&self) -> (&[crate::tracker::State<T>], &[Candidate<T>]) {
+        (self.tracker.states(), &self.work.cands[..])
     }
 
     /// The model in use.
@@ -456,12 +425,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.cfg.options.gamma
     }
 
-    /// Variance per step of the rate model error learnt by the tracker (trapezoidal integration
-    /// of Ω′: jerk, sampling), rad²/s² — a health figure for telemetry.
-    pub fn rate_model_variance(&self) -> T {
-        self.tracker.model_variance()
-    }
-
     /// Degrees of freedom of the residual (`N − 12` in model G, `N − 9` in model F).
     pub fn dof(&self) -> usize {
         self.cfg.proj[0].m.saturating_sub(3)
@@ -469,25 +432,13 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
 
     /// One sample set: `p[i]` is channel `i`'s specific force (m/s²) at time `t` (s).
     /// Never panics; never returns NaN (a non-finite reading gives the prediction, flagged).
-    pub fn update(&mut self, t: f64, p: &[T]) -> &Estimate<T> {
-        self.update_with(t, p, None)
-    }
-
-    /// As [`Estimator::update`], and also fills `record` with every candidate branch and every
-    /// hypothesis of the tracker, for a fixed-lag smoother ([`crate::smoother::Smoother`]).
     ///
     /// The returned deviations include the arrangement's frame uncertainty
-    /// ([`Arrangement::set_frame_uncertainty`]); `record` holds the solve's own (the
-    /// smoother adds it to what it outputs).
-    pub fn update_with(
-        &mut self,
-        t: f64,
-        p: &[T],
-        record: Option<&mut StepRecord<T>>,
-    ) -> &Estimate<T> {
-        let (slot, solved) = self.solve_sample(t, p, record);
-        // In place (the record and the rate filter have what they need): a new estimate is
-        // widened once; a held one is the last output, widened already.
+    /// ([`Arrangement::set_frame_uncertainty`]).
+    pub fn update(&mut self, t: f64, p: &[T]) -> &Estimate<T> {
+        let (slot, solved) = self.solve_sample(t, p);
+        // In place: a new estimate is widened once; a held one is the last output, widened
+        // already.
         if self.cfg.widen && solved {
             self.cfg.frame_uncertainty.widen(&mut self.out[slot]);
         }
@@ -497,12 +448,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     /// The solve of one sample; returns the slot of `out` holding its estimate and whether
     /// it is a new one (false: the last one held, for an unusable sample).
     #[inline(never)]
-    fn solve_sample(
-        &mut self,
-        t: f64,
-        p: &[T],
-        record: Option<&mut StepRecord<T>>,
-    ) -> (usize, bool) {
+    fn solve_sample(&mut self, t: f64, p: &[T]) -> (usize, bool) {
         let cfg = &self.cfg;
         let n = cfg.arr.len();
         let input_ok = readings_usable(p, n, cfg.mask) && t.is_finite();
@@ -512,7 +458,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         };
         let dt_t = T::of(dt);
         if !input_ok {
-            return (self.hold(t, dt_t, record), false);
+            return (self.hold(dt_t), false);
         }
         let excluded = !cfg.mask.holds_all(n);
         let Work {
@@ -589,63 +535,62 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             }
         }
         self.frame = frame;
+        if cfg.proj[frame].general_cov.is_none() {
+            for b in branches.iter_mut().take(nb) {
+                (b.cov_a, b.ill) = cfg.a_covariance(frame, &b.a, b.jtj.as_ref());
+            }
+            if cfg.model == Model::FreeFloat {
+                widen_near_crossings(&mut branches[..nb]);
+            }
+        }
         for (c, b) in cands.iter_mut().zip(branches.iter_mut()).take(nb) {
             let omega = cfg.omega_of(frame, eps, b);
-            let omega_var = match &cfg.proj[frame].general_cov {
+            let (omega_var, domega_var) = match &cfg.proj[frame].general_cov {
                 Some(gc) => {
                     // Model G: A is linear in p, its covariance a constant; Ω's follows from it.
                     let var = omega_variances(&gc.field, &omega);
                     b.omega_sd = [var[0].sqrt(), var[1].sqrt(), var[2].sqrt()];
                     b.ill = frame_score(&b.a) < T::of(KELVIN_MIN_SCORE);
-                    (var[0] + var[1] + var[2]) / T::of(3.0)
+                    ((var[0] + var[1] + var[2]) / T::of(3.0), self.domega_var)
                 }
-                None => {
-                    let (cov_a, ill) = cfg.a_covariance(frame, &b.a, b.jtj.as_ref());
-                    b.cov_a = cov_a;
-                    b.ill = ill;
-                    cov_a.trace() / T::of(3.0)
-                }
+                None => (b.cov_a.trace() / T::of(3.0), cfg.domega_variance(frame, b)),
             };
             *c = Candidate {
                 omega,
                 omega_var,
                 domega: cfg.proj[frame].to_body(&[b.x[3], b.x[4], b.x[5]]),
+                domega_var,
                 fit: b.fit,
             };
         }
-        // After the candidates took their first-order variances: the tracker keeps those
-        // (see `crossing`); the output's deviations are widened.
-        if cfg.model == Model::FreeFloat && crossing::widen_near_crossings(&mut branches[..nb]) {
-            self.crossing_active = true;
-        }
         let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
-        // Several histories per output only where mirror branches exist and can merge (model
-        // F, m = 3: the path check in full).
-        let check = cfg.path_check;
-        let histories =
-            if check == PathCheck::Full || (check == PathCheck::Thinned && self.lock.failing()) {
-                2
-            } else {
-                1
-            };
-        let Some(mut choice) =
-            self.tracker
-                .step(&cands[..nb], dt_t, self.domega_var, hint_var, histories)
-        else {
-            return (self.hold(t, dt_t, record), false);
+        // Model F: the readings each track is updated by (`Ω = a`): the null-space equations
+        // and the linear solve's Ω′ rows (their values from any root: `y = Ω′ + [aᵀTⱼa]`).
+        let pr = &cfg.proj[frame];
+        let measured = match cfg.model {
+            Model::FreeFloat if nb > 0 => {
+                let (b, c) = (&branches[0], &cands[0]);
+                let t = [pr.tq_body[3], pr.tq_body[4], pr.tq_body[5]];
+                let mut y = c.domega;
+                for (yj, tj) in y.iter_mut().zip(t.iter()) {
+                    *yj += tj.quad(&b.a);
+                }
+                Measured::Readings(Readings {
+                    forms: &pr.mq[..pr.m],
+                    pe: &scratch.pe[..pr.m],
+                    y,
+                    t,
+                    var0: [pr.var0_body[3], pr.var0_body[4], pr.var0_body[5]],
+                })
+            }
+            _ => Measured::Roots,
         };
-        // Where mirror roots cross (model F, m = 3), the root whose slope continues the
-        // motion's.
-        if check == PathCheck::Full {
-            follower::follow(
-                &mut self.follower,
-                &mut choice,
-                (&cands[..nb], &branches[..nb]),
-                (dt_t, self.domega_var),
-                self.tracker.states(),
-                fallback,
-            );
-        }
+        let Some(choice) = self
+            .tracker
+            .step(&cands[..nb], measured, dt_t, hint_var)
+        else {
+            return (self.hold(dt_t), false);
+        };
         let common = CommonFlags {
             fallback,
             excluded,
@@ -662,52 +607,12 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         cfg.finish(frame, eps, b, &choice.omega, !cfg.options.raw, prev, est);
         common.apply(est, choice.sign_unresolved, choice.branch_ambiguous);
         est.branch_margin = choice.branch_margin;
-        // Where mirror branches cross (m = 3), and in model G, the chosen root's own path is
-        // checked as well (`Config::path_check`): contradicted by it, the branch is in doubt
-        // whatever the tracker's margin. Contradicted for two windows on end where mirror
-        // branches cross, none of the tracker's hypotheses is consistent: it re-opens both
-        // signs of every root (`lock_monitor::REOPEN_WINDOWS`).
-        let domega_var = lock_monitor::variance(&est.sd_domega);
         if !fallback || self.domega_var == T::ZERO {
-            self.domega_var = domega_var;
-        }
-        if check != PathCheck::Off
-            && self.lock.check(
-                &choice.omega,
-                est,
-                domega_var,
-                dt_t,
-                check == PathCheck::Thinned,
-            )
-        {
-            self.tracker.reopen(&cands[..nb]);
+            let sd = &est.sd_domega;
+            self.domega_var = (sd[0] * sd[0] + sd[1] * sd[1] + sd[2] * sd[2]) / T::of(3.0);
         }
         if !cfg.options.raw {
             cfg.apply_filtered(est, choice.filtered);
-            if self.crossing_active {
-                let (posterior, r) = (choice.filtered.1, cands[choice.candidate].omega_var);
-                self.crossing_active =
-                    crossing::carry_bias(&mut self.crossing_bias, (posterior, r), &b.widening, est);
-            }
-        }
-        if let Some(rec) = record {
-            rec.t = t;
-            rec.valid = true;
-            rec.raw = cfg.options.raw;
-            rec.n_candidates = nb as u8;
-            rec.crossing_bias = self.crossing_bias;
-            rec.monitored = check != PathCheck::Off;
-            for (ci, b) in branches.iter().enumerate().take(nb) {
-                rec.widening[ci] = b.widening;
-                let e = &mut rec.candidates[ci];
-                cfg.finish(frame, eps, b, &cands[ci].omega, false, prev, e);
-                common.apply(e, false, false);
-            }
-            let states = self.tracker.states();
-            rec.n_states = states.len() as u8;
-            rec.states[..states.len()].copy_from_slice(states);
-            rec.best = choice.state as u8;
-            rec.forward = *est;
         }
         self.last_t = Some(t);
         self.last = 1 - self.last;
@@ -722,8 +627,8 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
     }
 
     /// Output when a sample cannot be used: the last estimate propagated by Ω′ over `dt`,
-    /// flagged; recorded as invalid for the smoother.
-    fn hold(&mut self, t: f64, dt: T, record: Option<&mut StepRecord<T>>) -> usize {
+    /// flagged.
+    fn hold(&mut self, dt: T) -> usize {
         let last = self.out[self.last];
         let est = &mut self.out[1 - self.last];
         *est = if self.has_last {
@@ -744,9 +649,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         est.flags = Flags(est.flags.0 | Flags::INPUT_INVALID);
         if !self.has_last {
             est.flags = Flags(est.flags.0 | Flags::SIGN_UNRESOLVED);
-        }
-        if let Some(rec) = record {
-            rec.invalidate(t, *est);
         }
         1 - self.last
     }
