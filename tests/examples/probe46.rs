@@ -10,7 +10,7 @@ fn main() {
     let mut last_bad = false;
     for (k, (r, tr)) in rows.iter().zip(case.truth.iter()).enumerate() {
         let e = (0..3).map(|i| (r.omega[i] - tr.omega[i]).powi(2)).sum::<f64>().sqrt();
-        let bad = e > 1.0;
+        let bad = e > std::env::var("TH").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
         if bad != last_bad  {
             println!("t={:.3} err={:.3} ml={:.3} flags={} margin={:.1} omega={:.3?} truth={:.3?} sd={:.3}", tr.t, e, ml[k][2].sqrt(), r.flags.0, r.branch_margin, r.omega, tr.omega, r.sd_omega[0]);
         }

@@ -23,7 +23,7 @@ fn main() {
                 println!("   cand {i}: |Ω-tr| {:.3} / {:.3} (neg) sdw {:.3} dΩ err {:.2} sdd {:.2} fit {:.2}", d(&c.omega,&tr.omega), d(&neg,&tr.omega), c.omega_var.sqrt(), d(&c.domega,&tr.domega), c.domega_var.sqrt(), c.fit);
             }
             for s in st.iter().filter(|s| s.cost < 0.01 || std::env::var("ALL").is_ok()) {
-                println!("   st c{} s{:+} cost {:.1} |Ω-tr| {:.3} |Ω′-tr| {:.2} P [{:.2e} {:.2e} {:.2e}]", s.candidate, s.sign, s.cost, d(&s.omega,&tr.omega), d(&s.domega,&tr.domega), s.p[0], s.p[1], s.p[2]);
+                println!("   st c{} s{:+} cost {:.1} |Ω-tr| {:.3} |Ω′-tr| {:.2} P [{:.2e} {:.2e} {:.2e}]", s.candidate, s.sign, s.cost, d(&s.omega,&tr.omega), d(&s.domega,&tr.domega), s.p_ww[0][0], s.p_wd[0][0], s.p_dd[0][0]);
             }
         }
     }

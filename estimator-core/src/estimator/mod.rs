@@ -620,12 +620,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         (self.last, true)
     }
 
-    /// Replaces the algebraic Ω of `est` by a hypothesis' filtered Ω (∫Ω′ fused with the
-    /// algebraic Ω) and its deviation; in model F also `A = Γ + {Ω}²`.
-    pub fn apply_filtered(&self, est: &mut Estimate<T>, filtered: (Vec3<T>, T)) {
-        self.cfg.apply_filtered(est, filtered);
-    }
-
     /// Output when a sample cannot be used: the last estimate propagated by Ω′ over `dt`,
     /// flagged.
     fn hold(&mut self, dt: T) -> usize {

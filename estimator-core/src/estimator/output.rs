@@ -12,11 +12,11 @@ use crate::real::Real;
 impl<T: Real, const CAP: usize> Config<T, CAP> {
     /// Replaces the algebraic Ω of `est` by a hypothesis' filtered Ω and its deviation; in
     /// model F also `A = Γ + {Ω}²` and its deviations.
-    pub(super) fn apply_filtered(&self, est: &mut Estimate<T>, filtered: (Vec3<T>, T)) {
-        let (w, var) = filtered;
+    pub(super) fn apply_filtered(&self, est: &mut Estimate<T>, filtered: (Vec3<T>, Vec3<T>)) {
+        let (w, v) = filtered;
         est.omega = w;
-        let sd = var.max(T::ZERO).sqrt();
-        est.sd_omega = [sd, sd, sd];
+        est.sd_omega = v.map(|x| x.max(T::ZERO).sqrt());
+        let var = (v[0] + v[1] + v[2]) / T::of(3.0);
         if self.model == Model::FreeFloat {
             est.field = self.gamma.add_scaled(T::ONE, &Sym3::skew_squared(&w));
             est.sd_field = crate::linalg::skew_squared_sd_isotropic(&w, var);

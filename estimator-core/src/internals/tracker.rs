@@ -22,7 +22,9 @@
 //! [`STEP_CAP`] and logarithmically beyond (a heavy-tailed likelihood: one wild sample does not
 //! undo the evidence).
 //!
-//! **Tracks.** At the first sample a track starts at every root with either sign. A track that
+//! **Tracks.** At the first sample a track starts at every root with either sign (and at the
+//! hint, if one is given, updated by the sample's readings; the roots then pay their distance
+//! from the hint). A track that
 //! falls [`COST_CAP`] behind the best is dropped; two that meet are merged. When the best track
 //! fails the gate — the readings are not where its motion says (a mirror root it followed has
 //! left it, a fault, a wrong hint) — a track also starts at every signed root that no track is
@@ -31,11 +33,11 @@
 //!
 //! **Output.** The cheapest track; its Ω is the filtered Ω, and the signed root nearest it is
 //! the sample's (raw) Ω. `branch_margin` is the cost of the cheapest track nearest another root
-//! (flag 16 below [`SIGN_MARGIN`]), and 0 where that root is beyond the gate from the track (no
-//! root of the sample is the motion's); the sign is unresolved while a track nearest the same
+//! (flag 16 below [`SIGN_MARGIN`]), and 0 where that root is more than [`SIGN_MARGIN`] (in χ²)
+//! from the track (no root of the sample is the motion's); the sign is unresolved while a track nearest the same
 //! root with the other sign is within [`SIGN_MARGIN`].
 
-use crate::linalg::{dot, norm2, scale, sub, Sym3, Vec3};
+use crate::linalg::{dot, mat_vec, norm2, scale, sub, Mat3, Sym3, Vec3};
 use crate::real::Real;
 
 /// Most candidate branches per sample.
@@ -115,14 +117,25 @@ pub struct State<T> {
     pub omega: Vec3<T>,
     /// Filtered Ω′.
     pub domega: Vec3<T>,
-    /// Per-component covariance of (Ω, Ω′): `[Ω Ω, Ω Ω′, Ω′ Ω′]`.
-    pub p: [T; 3],
+    /// Covariance of Ω.
+    pub p_ww: Mat3<T>,
+    /// Covariance of Ω with Ω′ (`E[δΩ δΩ′ᵀ]`).
+    pub p_wd: Mat3<T>,
+    /// Covariance of Ω′.
+    pub p_dd: Mat3<T>,
     /// Cumulative cost above the best track.
     pub cost: T,
     /// The candidate nearest the track at this sample.
     pub candidate: u8,
     /// +1 or −1: the sign of that candidate's Ω nearest the track.
     pub sign: i8,
+}
+
+impl<T: Real> State<T> {
+    /// Mean variance of one component of Ω.
+    pub fn omega_var(&self) -> T {
+        (self.p_ww[0][0] + self.p_ww[1][1] + self.p_ww[2][2]) / T::of(3.0)
+    }
 }
 
 /// The result of one step.
@@ -132,8 +145,8 @@ pub struct Choice<T> {
     pub candidate: usize,
     /// Signed algebraic Ω of the chosen candidate (the root nearest the best track).
     pub omega: Vec3<T>,
-    /// Filtered Ω of the best track and its per-component variance.
-    pub filtered: (Vec3<T>, T),
+    /// Filtered Ω of the best track and the variances of its components.
+    pub filtered: (Vec3<T>, Vec3<T>),
     /// The sign is not settled.
     pub sign_unresolved: bool,
     /// Another branch is nearly as good.
@@ -255,6 +268,23 @@ impl<T: Real> Tracker<T> {
         };
         let mut initiate = self.n == 0;
         if self.n == 0 {
+            // A hint is a prior: a track of its own, updated by this sample's readings.
+            if let Some((h, var)) = hint {
+                let c = Candidate {
+                    omega: h,
+                    omega_var: var,
+                    domega: [T::ZERO; 3],
+                    domega_var: T::of(1e6),
+                    fit: T::ZERO,
+                };
+                let mut tr = start(&c, readings.as_ref(), 0, 1, T::ZERO);
+                let nis = match &readings {
+                    Some(r) => update_by_readings(&mut tr, r, gate),
+                    None => update_by_root(&mut tr, cands, gate),
+                };
+                tr.cost += robust(nis, gate);
+                self.push(tr);
+            }
             for (ci, c) in cands.iter().enumerate() {
                 for sign in SIGNS {
                     let mut cost = c.fit;
@@ -297,7 +327,7 @@ impl<T: Real> Tracker<T> {
                     let var = c.omega_var.max(T::of(1e-30));
                     let near = self.tracks[..self.n]
                         .iter()
-                        .any(|t| norm2(&sub(&t.omega, &z)) <= gate * (t.p[0] + var));
+                        .any(|t| norm2(&sub(&t.omega, &z)) <= gate * (t.omega_var() + var));
                     if !near {
                         self.push(start(c, readings.as_ref(), ci, sign, cost));
                     }
@@ -337,7 +367,7 @@ impl<T: Real> Tracker<T> {
             let mut j = i + 1;
             while j < self.n {
                 let (a, b) = (&self.tracks[i], &self.tracks[j]);
-                if norm2(&sub(&a.omega, &b.omega)) <= T::of(0.25) * (a.p[0] + b.p[0]) {
+                if norm2(&sub(&a.omega, &b.omega)) <= T::of(0.25) * (a.omega_var() + b.omega_var()) {
                     if b.cost < a.cost {
                         self.tracks[i] = self.tracks[j];
                     }
@@ -391,15 +421,15 @@ impl<T: Real> Tracker<T> {
         }
         let c = &cands[usize::from(b.candidate)];
         let omega = scale(sign_of(b.sign), &c.omega);
-        // No root of this sample where the best track is: the sample's root is not the
-        // motion's, and nothing here can say which is (margin 0).
-        if norm2(&sub(&omega, &b.omega)) > T::of(STEP_CAP) * (b.p[0] + c.omega_var) {
+        // The nearest root is not where the best track is (beyond the margin's χ²): the
+        // sample's root is not the motion's, and nothing here can say which is (margin 0).
+        if norm2(&sub(&omega, &b.omega)) > margin * (b.omega_var() + c.omega_var) {
             branch_margin = T::ZERO;
         }
         Some(Choice {
             candidate: usize::from(b.candidate),
             omega,
-            filtered: (b.omega, b.p[0]),
+            filtered: (b.omega, [b.p_ww[0][0], b.p_ww[1][1], b.p_ww[2][2]]),
             sign_unresolved,
             branch_ambiguous: branch_margin < margin,
             branch_margin,
@@ -414,132 +444,190 @@ fn sign_of<T: Real>(sign: i8) -> T {
     T::of(f64::from(sign))
 }
 
-/// Predicts a track over `dt` with the white-jerk noise `qs` (`[Ω Ω, Ω Ω′, Ω′ Ω′]`).
+/// Predicts a track over `dt` with the white-jerk noise `qs` (`[Ω Ω, Ω Ω′, Ω′ Ω′]`, times I).
 #[inline(always)]
 fn predict<T: Real>(t: &mut State<T>, dt: T, qs: [T; 3]) {
     t.omega = propagate(t, dt);
-    let [pww, pwd, pdd] = t.p;
-    t.p = [
-        pww + dt * (T::of(2.0) * pwd + dt * pdd) + qs[0],
-        pwd + dt * pdd + qs[1],
-        pdd + qs[2],
-    ];
+    for r in 0..3 {
+        for c in 0..3 {
+            t.p_ww[r][c] += dt * (t.p_wd[r][c] + t.p_wd[c][r] + dt * t.p_dd[r][c]);
+            t.p_wd[r][c] += dt * t.p_dd[r][c];
+        }
+        t.p_ww[r][r] += qs[0];
+        t.p_wd[r][r] += qs[1];
+        t.p_dd[r][r] += qs[2];
+    }
 }
 
-/// Model F: the extended Kalman filter's update of a predicted track by the readings (none if
-/// the null-space innovation is beyond `gate`: the track coasts); returns the normalised
-/// innovation (whose log-determinant is added to the cost as well).
-///
-/// Null-space equations first: with `G` the rows `2 (Mₖ Ω̂)ᵀ`, the innovation `ν = p − [Ω̂ᵀMₖΩ̂]`
-/// has `S = I + P G Gᵀ`; by the matrix inversion lemma only the 3 × 3 `A = GᵀG + I/P` is
-/// inverted: `νᵀS⁻¹ν = |ν|² − (Gᵀν)ᵀA⁻¹(Gᵀν)`, `det S = P³ det A`, the update
-/// `δΩ = A⁻¹Gᵀν`, `δΩ′ = (P_ΩΩ′/P) δΩ`, and the covariance's Ω block `P − P² tr(GA⁻¹Gᵀ... )/3`
-/// kept isotropic (its trace). Then the Ω′ rows at the updated Ω ([`Readings::rate_at`]).
+/// One Kalman update by three measurements: `u = P_ΩΩ Hᵀ_Ω + P_ΩΩ′ Hᵀ_Ω′` and
+/// `v = P_Ω′Ω Hᵀ_Ω + P_Ω′Ω′ Hᵀ_Ω′` (the two halves of `P Hᵀ`), the innovation covariance `s`
+/// and the innovation `nu`. Returns the normalised innovation and `ln det S`; beyond `gate` the
+/// track is not updated (it coasts).
+#[inline(always)]
+fn update3<T: Real>(
+    t: &mut State<T>,
+    (u, v): (&Mat3<T>, &Mat3<T>),
+    s: &Mat3<T>,
+    nu: &Vec3<T>,
+    gate: T,
+) -> (T, T) {
+    let (cof, det) = Sym3::from_mat(s).cofactors();
+    let det = det.max(T::of(1e-30) * (s[0][0] * s[1][1] * s[2][2]).abs().max(T::of(1e-30)));
+    let s_inv = cof.scaled(T::ONE / det).to_mat();
+    let w = mat_vec(&s_inv, nu);
+    let nis = dot(nu, &w).max(T::ZERO);
+    let ln_det = det.ln_approx();
+    if nis > gate {
+        return (nis, ln_det);
+    }
+    let (dw, dd) = (mat_vec(u, &w), mat_vec(v, &w));
+    for c in 0..3 {
+        t.omega[c] += dw[c];
+        t.domega[c] += dd[c];
+    }
+    // P⁺ = P − (P Hᵀ) S⁻¹ (P Hᵀ)ᵀ, block by block.
+    let (us, vs) = (mul(u, &s_inv), mul(v, &s_inv));
+    for r in 0..3 {
+        for c in 0..3 {
+            let (mut ww, mut wd, mut dd) = (T::ZERO, T::ZERO, T::ZERO);
+            for k in 0..3 {
+                ww += us[r][k] * u[c][k];
+                wd += us[r][k] * v[c][k];
+                dd += vs[r][k] * v[c][k];
+            }
+            t.p_ww[r][c] -= ww;
+            t.p_wd[r][c] -= wd;
+            t.p_dd[r][c] -= dd;
+        }
+    }
+    (nis, ln_det)
+}
+
+/// `a b`.
+#[inline(always)]
+fn mul<T: Real>(a: &Mat3<T>, b: &Mat3<T>) -> Mat3<T> {
+    let mut m = [[T::ZERO; 3]; 3];
+    for r in 0..3 {
+        for c in 0..3 {
+            m[r][c] = a[r][0] * b[0][c] + a[r][1] * b[1][c] + a[r][2] * b[2][c];
+        }
+    }
+    m
+}
+
+/// `a hᵀ + b` (`h` given by its rows).
+#[inline(always)]
+fn mul_t_add<T: Real>(a: &Mat3<T>, h: &Mat3<T>, b: &Mat3<T>) -> Mat3<T> {
+    let mut m = *b;
+    for r in 0..3 {
+        for c in 0..3 {
+            m[r][c] += a[r][0] * h[c][0] + a[r][1] * h[c][1] + a[r][2] * h[c][2];
+        }
+    }
+    m
+}
+
+/// `bᵀ` (a full matrix's transpose).
+#[inline(always)]
+fn transpose<T: Real>(b: &Mat3<T>) -> Mat3<T> {
+    [
+        [b[0][0], b[1][0], b[2][0]],
+        [b[0][1], b[1][1], b[2][1]],
+        [b[0][2], b[1][2], b[2][2]],
+    ]
+}
+
+/// Model F (m = 3): the extended Kalman filter's update of a predicted track by the readings,
+/// linearised at its prediction; returns the normalised innovations (whose log-determinants
+/// are added to the cost as well). First the null-space equations (`H = [G, 0]`, `G` the rows
+/// `2 (Mₖ Ω̂)ᵀ`, unit noise), then the Ω′ rows at the updated Ω (`H = [J, I]`, `J` the rows
+/// `2 (Tⱼ Ω̂)ᵀ`, noise `var0`). A track whose null-space innovation is beyond `gate` coasts.
 #[inline(always)]
 fn update_by_readings<T: Real>(t: &mut State<T>, r: &Readings<'_, T>, gate: T) -> T {
-    let w = t.omega;
-    let [pww, pwd, pdd] = t.p;
-    let pww = pww.max(T::of(1e-30));
-    let mut a = Sym3::<T>::zero();
-    let mut gtn = [T::ZERO; 3];
-    let mut nu2 = T::ZERO;
-    for (m, pe) in r.forms.iter().zip(r.pe.iter()) {
-        let g = scale(T::of(2.0), &m.mul_vec(&w));
-        let nu = *pe - T::of(0.5) * dot(&w, &g);
-        a.add_outer(&g);
-        for c in 0..3 {
-            gtn[c] += g[c] * nu;
-        }
-        nu2 += nu * nu;
+    let zero = [[T::ZERO; 3]; 3];
+    let mut g = zero;
+    let mut nu = [T::ZERO; 3];
+    for (k, (m, pe)) in r.forms.iter().zip(r.pe.iter()).enumerate().take(3) {
+        g[k] = scale(T::of(2.0), &m.mul_vec(&t.omega));
+        nu[k] = *pe - T::of(0.5) * dot(&t.omega, &g[k]);
     }
-    let gtg_trace = a.trace();
-    let inv_p = T::ONE / pww;
-    for c in 0..3 {
-        a.0[c] += inv_p;
+    let u = mul_t_add(&t.p_ww, &g, &zero);
+    let v = mul_t_add(&transpose(&t.p_wd), &g, &zero);
+    let mut s = mul(&g, &u);
+    for (k, row) in s.iter_mut().enumerate() {
+        row[k] += T::ONE;
     }
-    let (cof, det) = a.cofactors();
-    let det = det.max(T::of(1e-30) * inv_p * inv_p * inv_p);
-    let ainv = cof.scaled(T::ONE / det);
-    let d = ainv.mul_vec(&gtn);
-    let nis_m = (nu2 - dot(&gtn, &d)).max(T::ZERO);
-    // ln det S = ln (P³ det A).
-    let ln_det_m = (det * pww * pww * pww).ln_approx();
+    let (nis_m, ln_m) = update3(t, (&u, &v), &s, &nu, gate);
+    t.cost += ln_m;
     if nis_m > gate {
-        t.cost += ln_det_m;
         return nis_m;
     }
-    let k = pwd * inv_p;
-    for c in 0..3 {
-        t.omega[c] += d[c];
-        t.domega[c] += k * d[c];
+    let mut j = zero;
+    let mut nu = r.y;
+    for k in 0..3 {
+        let tw = r.t[k].mul_vec(&t.omega);
+        nu[k] -= t.domega[k] + dot(&t.omega, &tw);
+        j[k] = scale(T::of(2.0), &tw);
     }
-    // Posterior covariance: P⁺_ΩΩ = A⁻¹ (in the information form), kept isotropic by its
-    // trace; the cross and Ω′ blocks shrink as the regression on Ω says.
-    let pww_post = ainv.trace() / T::of(3.0);
-    let shrink = pww_post * inv_p;
-    let _ = gtg_trace;
-    t.p = [pww_post, pwd * shrink, pdd - pwd * pwd * inv_p * (T::ONE - shrink)];
-    // The Ω′ rows.
-    let (z, r_d) = r.rate_at(&t.omega, t.p[0]);
-    let [pww, pwd, pdd] = t.p;
-    let s = pdd + r_d.max(T::of(1e-30));
-    let nu = sub(&z, &t.domega);
-    let inv_s = T::ONE / s;
-    let (kw, kd) = (pwd * inv_s, pdd * inv_s);
-    for c in 0..3 {
-        t.omega[c] += kw * nu[c];
-        t.domega[c] += kd * nu[c];
+    let u = mul_t_add(&t.p_ww, &j, &t.p_wd);
+    let v = mul_t_add(&transpose(&t.p_wd), &j, &t.p_dd);
+    let mut s = mul(&j, &u);
+    for rr in 0..3 {
+        for c in 0..3 {
+            s[rr][c] += v[rr][c];
+        }
+        s[rr][rr] += r.var0[rr];
     }
-    t.p = [pww - kw * pwd, (T::ONE - kd) * pwd, (T::ONE - kd) * pdd];
-    let nis_d = norm2(&nu) * inv_s;
-    t.cost += ln_det_m + T::of(3.0) * s.ln_approx();
+    let (nis_d, ln_d) = update3(t, (&u, &v), &s, &nu, gate);
+    t.cost += ln_d;
     nis_m + nis_d
 }
 
-/// Model G: the update of a predicted track by the signed root nearest it (its Ω and Ω′ with
-/// their variances; none beyond `gate`: the track coasts); returns the normalised innovation (whose log-determinant is added to the
-/// cost as well).
+/// Model G (and model F with m > 3): the update of a predicted track by the signed root nearest
+/// it (its Ω, then its Ω′, with their variances); returns the normalised innovations (whose
+/// log-determinants are added to the cost as well). A track beyond `gate` coasts.
 #[inline(always)]
 fn update_by_root<T: Real>(t: &mut State<T>, cands: &[Candidate<T>], gate: T) -> T {
-    let [pww, pwd, pdd] = t.p;
-    let mut best: Option<(T, T, Vec3<T>, Vec3<T>, [T; 4])> = None;
-    for c in cands {
-        let (r_w, r_d) = (c.omega_var.max(T::of(1e-30)), c.domega_var.max(T::of(1e-30)));
-        let (sww, sdd) = (pww + r_w, pdd + r_d);
-        let det = (sww * sdd - pwd * pwd).max(T::of(1e-30) * sww * sdd);
-        let inv = T::ONE / det;
-        let nu_d = sub(&c.domega, &t.domega);
+    let mut s = t.p_ww;
+    let mut best: Option<(T, usize, Vec3<T>)> = None;
+    let mut s_of = |c: &Candidate<T>| {
+        for k in 0..3 {
+            s[k][k] = t.p_ww[k][k] + c.omega_var.max(T::of(1e-30));
+        }
+        s
+    };
+    for (ci, c) in cands.iter().enumerate() {
+        let sc = s_of(c);
+        let (cof, det) = Sym3::from_mat(&sc).cofactors();
+        let inv = cof.scaled(T::ONE / det.max(T::of(1e-30)));
         for sign in SIGNS {
-            let nu_w = sub(&scale(sign_of(sign), &c.omega), &t.omega);
-            let nis = (sdd * norm2(&nu_w) - T::of(2.0) * pwd * dot(&nu_w, &nu_d)
-                + sww * norm2(&nu_d))
-                * inv;
+            let nu = sub(&scale(sign_of(sign), &c.omega), &t.omega);
+            let nis = inv.quad(&nu);
             if best.as_ref().is_none_or(|b| nis < b.0) {
-                best = Some((nis, det, nu_w, nu_d, [sww, sdd, r_w, r_d]));
+                best = Some((nis, ci, nu));
             }
         }
     }
-    let Some((nis, det, nu_w, nu_d, [sww, sdd, r_w, r_d])) = best else {
+    let Some((_, ci, nu)) = best else {
         return T::ZERO;
     };
-    t.cost += T::of(3.0) * det.ln_approx();
-    if nis > gate {
-        return nis;
+    let c = &cands[ci];
+    let s = s_of(c);
+    let (u, v) = (t.p_ww, transpose(&t.p_wd));
+    let (nis_w, ln_w) = update3(t, (&u, &v), &s, &nu, gate);
+    t.cost += ln_w;
+    if nis_w > gate {
+        return nis_w;
     }
-    let inv = T::ONE / det;
-    // K = P⁻ S⁻¹ and P = (I − K) P⁻.
-    let (k_ww, k_wd) = ((pww * sdd - pwd * pwd) * inv, pwd * r_w * inv);
-    let (k_dw, k_dd) = (pwd * r_d * inv, (pdd * sww - pwd * pwd) * inv);
-    for c in 0..3 {
-        t.omega[c] += k_ww * nu_w[c] + k_wd * nu_d[c];
-        t.domega[c] += k_dw * nu_w[c] + k_dd * nu_d[c];
+    let (u, v) = (t.p_wd, t.p_dd);
+    let mut s = t.p_dd;
+    for k in 0..3 {
+        s[k][k] += c.domega_var.max(T::of(1e-30));
     }
-    t.p = [
-        (T::ONE - k_ww) * pww - k_wd * pwd,
-        (T::ONE - k_ww) * pwd - k_wd * pdd,
-        (T::ONE - k_dd) * pdd - k_dw * pwd,
-    ];
-    nis
+    let nu = sub(&c.domega, &t.domega);
+    let (nis_d, ln_d) = update3(t, (&u, &v), &s, &nu, gate);
+    t.cost += ln_d;
+    nis_w + nis_d
 }
 
 /// Labels a track with the signed root nearest its Ω.
@@ -586,14 +674,19 @@ fn start<T: Real>(
         Some(r) => r.rate_at(&omega, r_w),
         None => (c.domega, c.domega_var),
     };
-    State {
+    let mut st = State {
         omega,
         domega,
-        p: [r_w, T::ZERO, r_d.max(T::of(1e-30))],
         cost,
         candidate: ci as u8,
         sign,
+        ..State::default()
+    };
+    for k in 0..3 {
+        st.p_ww[k][k] = r_w;
+        st.p_dd[k][k] = r_d.max(T::of(1e-30));
     }
+    st
 }
 
 fn propagate<T: Real>(s: &State<T>, dt: T) -> Vec3<T> {
