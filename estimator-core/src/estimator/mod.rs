@@ -545,19 +545,20 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         }
         for (c, b) in cands.iter_mut().zip(branches.iter_mut()).take(nb) {
             let omega = cfg.omega_of(frame, eps, b);
-            let (omega_var, domega_var) = match &cfg.proj[frame].general_cov {
+            let (omega_cov, domega_var) = match &cfg.proj[frame].general_cov {
                 Some(gc) => {
                     // Model G: A is linear in p, its covariance a constant; Ω's follows from it.
                     let var = omega_variances(&gc.field, &omega);
                     b.omega_sd = [var[0].sqrt(), var[1].sqrt(), var[2].sqrt()];
                     b.ill = frame_score(&b.a) < T::of(KELVIN_MIN_SCORE);
-                    ((var[0] + var[1] + var[2]) / T::of(3.0), self.domega_var)
+                    let z = T::ZERO;
+                    (Sym3([var[0], var[1], var[2], z, z, z]), self.domega_var)
                 }
-                None => (b.cov_a.trace() / T::of(3.0), cfg.domega_variance(frame, b)),
+                None => (b.cov_a, cfg.domega_variance(frame, b)),
             };
             *c = Candidate {
                 omega,
-                omega_var,
+                omega_cov,
                 domega: cfg.proj[frame].to_body(&[b.x[3], b.x[4], b.x[5]]),
                 domega_var,
                 fit: b.fit,

@@ -57,14 +57,21 @@ pub const SIGN_MARGIN: f64 = 16.0;
 pub struct Candidate<T> {
     /// Ω (body frame), either sign.
     pub omega: Vec3<T>,
-    /// Variance of one component of this branch's Ω (from its `a` solve).
-    pub omega_var: T,
+    /// Covariance of this branch's Ω (body frame; from its `a` solve).
+    pub omega_cov: Sym3<T>,
     /// Ω′ of this branch (body frame).
     pub domega: Vec3<T>,
     /// Variance of one component of this branch's Ω′.
     pub domega_var: T,
     /// Misfit of this branch to the sample (whitened χ²).
     pub fit: T,
+}
+
+impl<T: Real> Candidate<T> {
+    /// Mean variance of one component of Ω.
+    fn omega_var(&self) -> T {
+        self.omega_cov.trace() / T::of(3.0)
+    }
 }
 
 /// Model F: what a track's extended Kalman filter measures at one sample (body frame,
@@ -272,7 +279,7 @@ impl<T: Real> Tracker<T> {
             if let Some((h, var)) = hint {
                 let c = Candidate {
                     omega: h,
-                    omega_var: var,
+                    omega_cov: Sym3([var, var, var, T::ZERO, T::ZERO, T::ZERO]),
                     domega: [T::ZERO; 3],
                     domega_var: T::of(1e6),
                     fit: T::ZERO,
@@ -324,7 +331,7 @@ impl<T: Real> Tracker<T> {
             for (ci, c) in cands.iter().enumerate() {
                 for sign in SIGNS {
                     let z = scale(sign_of(sign), &c.omega);
-                    let var = c.omega_var.max(T::of(1e-30));
+                    let var = c.omega_var().max(T::of(1e-30));
                     let near = self.tracks[..self.n]
                         .iter()
                         .any(|t| norm2(&sub(&t.omega, &z)) <= gate * (t.omega_var() + var));
@@ -421,9 +428,12 @@ impl<T: Real> Tracker<T> {
         }
         let c = &cands[usize::from(b.candidate)];
         let omega = scale(sign_of(b.sign), &c.omega);
-        // The nearest root is not where the best track is (beyond the margin's χ²): the
-        // sample's root is not the motion's, and nothing here can say which is (margin 0).
-        if norm2(&sub(&omega, &b.omega)) > margin * (b.omega_var() + c.omega_var) {
+        // The nearest root is not where the best track is (beyond the margin's χ², in the two
+        // covariances): the sample's root is not the motion's, and nothing here can say which
+        // is (margin 0).
+        let (cof, det) = Sym3::from_mat(&add_sym(&b.p_ww, &c.omega_cov)).cofactors();
+        let d = sub(&omega, &b.omega);
+        if !(cof.quad(&d) <= margin * det) {
             branch_margin = T::ZERO;
         }
         Some(Choice {
@@ -501,6 +511,19 @@ fn update3<T: Real>(
         }
     }
     (nis, ln_det)
+}
+
+/// `a + b` (`a` full, `b` symmetric).
+#[inline(always)]
+fn add_sym<T: Real>(a: &Mat3<T>, b: &Sym3<T>) -> Mat3<T> {
+    let b = b.to_mat();
+    let mut m = *a;
+    for r in 0..3 {
+        for c in 0..3 {
+            m[r][c] += b[r][c];
+        }
+    }
+    m
 }
 
 /// `a b`.
@@ -588,14 +611,8 @@ fn update_by_readings<T: Real>(t: &mut State<T>, r: &Readings<'_, T>, gate: T) -
 /// log-determinants are added to the cost as well). A track beyond `gate` coasts.
 #[inline(always)]
 fn update_by_root<T: Real>(t: &mut State<T>, cands: &[Candidate<T>], gate: T) -> T {
-    let mut s = t.p_ww;
     let mut best: Option<(T, usize, Vec3<T>)> = None;
-    let mut s_of = |c: &Candidate<T>| {
-        for k in 0..3 {
-            s[k][k] = t.p_ww[k][k] + c.omega_var.max(T::of(1e-30));
-        }
-        s
-    };
+    let s_of = |c: &Candidate<T>| add_sym(&t.p_ww, &c.omega_cov);
     for (ci, c) in cands.iter().enumerate() {
         let sc = s_of(c);
         let (cof, det) = Sym3::from_mat(&sc).cofactors();
@@ -669,9 +686,8 @@ fn start<T: Real>(
     cost: T,
 ) -> State<T> {
     let omega = scale(sign_of(sign), &c.omega);
-    let r_w = c.omega_var.max(T::of(1e-30));
     let (domega, r_d) = match readings {
-        Some(r) => r.rate_at(&omega, r_w),
+        Some(r) => r.rate_at(&omega, c.omega_var().max(T::of(1e-30))),
         None => (c.domega, c.domega_var),
     };
     let mut st = State {
@@ -682,8 +698,9 @@ fn start<T: Real>(
         sign,
         ..State::default()
     };
+    st.p_ww = c.omega_cov.to_mat();
     for k in 0..3 {
-        st.p_ww[k][k] = r_w;
+        st.p_ww[k][k] = st.p_ww[k][k].max(T::of(1e-30));
         st.p_dd[k][k] = r_d.max(T::of(1e-30));
     }
     st
@@ -716,7 +733,7 @@ mod tests {
     fn cand(omega: Vec3<f64>, domega: Vec3<f64>) -> Candidate<f64> {
         Candidate {
             omega,
-            omega_var: 1e-4,
+            omega_cov: Sym3([1e-4, 1e-4, 1e-4, 0.0, 0.0, 0.0]),
             domega,
             domega_var: 1e-4,
             fit: 0.0,
