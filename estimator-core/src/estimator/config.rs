@@ -119,11 +119,6 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         self.mask = mask;
         self.frames = frames;
         self.options = options;
-        self.histories = if model == Model::FreeFloat && self.proj[0].m == 3 {
-            2
-        } else {
-            1
-        };
         self.set_gamma(&options.gamma);
         Ok(())
     }

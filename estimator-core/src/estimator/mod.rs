@@ -95,9 +95,6 @@ struct Config<T: Real, const CAP: usize> {
     frame_uncertainty: FrameUncertainty<T>,
     /// Whether the frame uncertainty is other than zero.
     widen: bool,
-    /// Histories kept per output by the tracker: 2 where mirror branches can merge and
-    /// separate (model F, m = 3), else 1.
-    histories: usize,
     options: Options,
 }
 
@@ -169,7 +166,6 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
             gamma_offset_nonzero: false,
             frame_uncertainty: FrameUncertainty::default(),
             widen: false,
-            histories: 1,
             options: Options::default(),
         }
     }
@@ -565,11 +561,12 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             };
         }
         let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
-        // Model F: the readings each track is updated by (`Ω = a`): the null-space equations
-        // and the linear solve's Ω′ rows (their values from any root: `y = Ω′ + [aᵀTⱼa]`).
+        // Model F with m = 3 (several roots, crossing): the readings each track is updated by
+        // (`Ω = a`): the null-space equations and the linear solve's Ω′ rows (their values
+        // from any root: `y = Ω′ + [aᵀTⱼa]`). With m > 3 the root is unique: as in model G.
         let pr = &cfg.proj[frame];
         let measured = match cfg.model {
-            Model::FreeFloat if nb > 0 => {
+            Model::FreeFloat if nb > 0 && pr.m == 3 => {
                 let (b, c) = (&branches[0], &cands[0]);
                 let t = [pr.tq_body[3], pr.tq_body[4], pr.tq_body[5]];
                 let mut y = c.domega;
@@ -577,8 +574,8 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                     *yj += tj.quad(&b.a);
                 }
                 Measured::Readings(Readings {
-                    forms: &pr.mq[..pr.m],
-                    pe: &scratch.pe[..pr.m],
+                    forms: [pr.mq[0], pr.mq[1], pr.mq[2]],
+                    pe: [scratch.pe[0], scratch.pe[1], scratch.pe[2]],
                     y,
                     t,
                     var0: [pr.var0_body[3], pr.var0_body[4], pr.var0_body[5]],

@@ -49,6 +49,8 @@ pub const COST_CAP: f64 = 200.0;
 /// The gate of one step's normalised innovation: beyond it the innovation counts only
 /// logarithmically, and the best track failing it starts new tracks.
 pub const STEP_CAP: f64 = 60.0;
+/// Most linearisations of model F's null-space update (iterated extended Kalman filter).
+pub const IEKF_ITERATIONS: usize = 3;
 /// Cost margin that settles the sign / the branch (≈ 4 σ).
 pub const SIGN_MARGIN: f64 = 16.0;
 
@@ -74,15 +76,15 @@ impl<T: Real> Candidate<T> {
     }
 }
 
-/// Model F: what a track's extended Kalman filter measures at one sample (body frame,
-/// `Ω = a`): the null-space equations `pₖ = Ωᵀ Mₖ Ω` (unit noise) and the linear solve's Ω′
-/// rows `y = Ω′ + [Ωᵀ Tⱼ Ω]ⱼ` (noise variances `var0`).
+/// Model F with m = 3: what a track's extended Kalman filter measures at one sample (body
+/// frame, `Ω = a`): the three null-space equations `pₖ = Ωᵀ Mₖ Ω` (unit noise) and the linear
+/// solve's Ω′ rows `y = Ω′ + [Ωᵀ Tⱼ Ω]ⱼ` (noise variances `var0`).
 #[derive(Clone, Copy, Debug)]
-pub struct Readings<'a, T> {
+pub struct Readings<T> {
     /// The forms `Mₖ`.
-    pub forms: &'a [Sym3<T>],
+    pub forms: [Sym3<T>; 3],
     /// Their right-hand sides `pₖ`.
-    pub pe: &'a [T],
+    pub pe: [T; 3],
     /// The Ω′ rows' values.
     pub y: Vec3<T>,
     /// `Tⱼ` of each Ω′ row.
@@ -91,29 +93,13 @@ pub struct Readings<'a, T> {
     pub var0: Vec3<T>,
 }
 
-impl<T: Real> Readings<'_, T> {
-    /// The Ω′ measurement at `omega` with `omega_var` (`y − [Ωᵀ Tⱼ Ω]ⱼ`), and its mean
-    /// per-component variance (`var0 + 4 |Tⱼ Ω|² P_ΩΩ`: the Ω term of the linearisation taken
-    /// as noise, to keep the covariance isotropic).
-    #[inline(always)]
-    fn rate_at(&self, omega: &Vec3<T>, omega_var: T) -> (Vec3<T>, T) {
-        let mut z = self.y;
-        let mut var = T::ZERO;
-        for j in 0..3 {
-            let g = self.t[j].mul_vec(omega);
-            z[j] -= dot(omega, &g);
-            var += self.var0[j] + T::of(4.0) * omega_var * norm2(&g);
-        }
-        (z, var / T::of(3.0))
-    }
-}
-
 /// What a step measures: model F's readings, or model G's roots alone.
 #[derive(Clone, Copy, Debug)]
-pub enum Measured<'a, T> {
-    /// Model F: each track is updated by the readings (extended Kalman filter).
-    Readings(Readings<'a, T>),
-    /// Model G: each track takes the signed root nearest its prediction.
+pub enum Measured<T> {
+    /// Model F with m = 3: each track is updated by the readings (extended Kalman filter).
+    Readings(Readings<T>),
+    /// Model G, and model F with m > 3 (one root): each track takes the signed root nearest
+    /// its prediction.
     Roots,
 }
 
@@ -259,7 +245,7 @@ impl<T: Real> Tracker<T> {
     pub fn step(
         &mut self,
         cands: &[Candidate<T>],
-        measured: Measured<'_, T>,
+        measured: Measured<T>,
         dt: T,
         hint: Option<(Vec3<T>, T)>,
     ) -> Option<Choice<T>> {
@@ -566,19 +552,41 @@ fn transpose<T: Real>(b: &Mat3<T>) -> Mat3<T> {
 /// `2 (Mₖ Ω̂)ᵀ`, unit noise), then the Ω′ rows at the updated Ω (`H = [J, I]`, `J` the rows
 /// `2 (Tⱼ Ω̂)ᵀ`, noise `var0`). A track whose null-space innovation is beyond `gate` coasts.
 #[inline(always)]
-fn update_by_readings<T: Real>(t: &mut State<T>, r: &Readings<'_, T>, gate: T) -> T {
+fn update_by_readings<T: Real>(t: &mut State<T>, r: &Readings<T>, gate: T) -> T {
     let zero = [[T::ZERO; 3]; 3];
-    let mut g = zero;
-    let mut nu = [T::ZERO; 3];
-    for (k, (m, pe)) in r.forms.iter().zip(r.pe.iter()).enumerate().take(3) {
-        g[k] = scale(T::of(2.0), &m.mul_vec(&t.omega));
-        nu[k] = *pe - T::of(0.5) * dot(&t.omega, &g[k]);
-    }
-    let u = mul_t_add(&t.p_ww, &g, &zero);
-    let v = mul_t_add(&transpose(&t.p_wd), &g, &zero);
-    let mut s = mul(&g, &u);
-    for (k, row) in s.iter_mut().enumerate() {
-        row[k] += T::ONE;
+    let prior = t.omega;
+    let v_t = transpose(&t.p_wd);
+    // Iterated (Gauss–Newton) linearisation: where the prior is wide against the forms'
+    // curvature (at a start, in a weakly observed direction) one linearisation at the
+    // prediction leaves the update biased and its covariance overconfident (a slow manoeuvre
+    // on a random layout: 0.1 % of the filtered rows silently wrong with one, none with it).
+    let mut lin = prior;
+    let (mut u, mut v, mut s, mut nu) = (zero, zero, zero, [T::ZERO; 3]);
+    for _ in 0..IEKF_ITERATIONS {
+        let mut g = zero;
+        let d = sub(&prior, &lin);
+        for (k, (m, pe)) in r.forms.iter().zip(r.pe.iter()).enumerate() {
+            g[k] = scale(T::of(2.0), &m.mul_vec(&lin));
+            nu[k] = *pe - T::of(0.5) * dot(&lin, &g[k]) - dot(&g[k], &d);
+        }
+        u = mul_t_add(&t.p_ww, &g, &zero);
+        v = mul_t_add(&v_t, &g, &zero);
+        s = mul(&g, &u);
+        for (k, row) in s.iter_mut().enumerate() {
+            row[k] += T::ONE;
+        }
+        let (cof, det) = Sym3::from_mat(&s).cofactors();
+        let step = mat_vec(&u, &cof.mul_vec(&nu));
+        let next = [
+            prior[0] + step[0] / det,
+            prior[1] + step[1] / det,
+            prior[2] + step[2] / det,
+        ];
+        let moved = norm2(&sub(&next, &lin));
+        lin = next;
+        if !(moved > T::of(0.01) * (t.p_ww[0][0] + t.p_ww[1][1] + t.p_ww[2][2])) {
+            break;
+        }
     }
     let (nis_m, ln_m) = update3(t, (&u, &v), &s, &nu, gate);
     t.cost += ln_m;
@@ -680,28 +688,48 @@ fn robust<T: Real>(nis: T, cap: T) -> T {
 #[inline(always)]
 fn start<T: Real>(
     c: &Candidate<T>,
-    readings: Option<&Readings<'_, T>>,
+    readings: Option<&Readings<T>>,
     ci: usize,
     sign: i8,
     cost: T,
 ) -> State<T> {
     let omega = scale(sign_of(sign), &c.omega);
-    let (domega, r_d) = match readings {
-        Some(r) => r.rate_at(&omega, c.omega_var().max(T::of(1e-30))),
-        None => (c.domega, c.domega_var),
-    };
     let mut st = State {
         omega,
-        domega,
+        domega: c.domega,
         cost,
         candidate: ci as u8,
         sign,
+        p_ww: c.omega_cov.to_mat(),
         ..State::default()
     };
-    st.p_ww = c.omega_cov.to_mat();
     for k in 0..3 {
         st.p_ww[k][k] = st.p_ww[k][k].max(T::of(1e-30));
-        st.p_dd[k][k] = r_d.max(T::of(1e-30));
+    }
+    match readings {
+        Some(r) => {
+            // Ω′ from the Ω′ rows at this Ω: `Ω′ = y − [ΩᵀTⱼΩ]ⱼ`, so its error is `−J δΩ`
+            // plus the rows' noise (`J` the rows `2 (Tⱼ Ω)ᵀ`): correlated with Ω's.
+            let mut j = [[T::ZERO; 3]; 3];
+            for k in 0..3 {
+                let tw = r.t[k].mul_vec(&omega);
+                st.domega[k] = r.y[k] - dot(&omega, &tw);
+                j[k] = scale(T::of(2.0), &tw);
+            }
+            let pj = mul_t_add(&st.p_ww, &j, &[[T::ZERO; 3]; 3]);
+            st.p_dd = mul(&j, &pj);
+            for k in 0..3 {
+                st.p_dd[k][k] += r.var0[k];
+                for l in 0..3 {
+                    st.p_wd[k][l] = -pj[k][l];
+                }
+            }
+        }
+        None => {
+            for k in 0..3 {
+                st.p_dd[k][k] = c.domega_var.max(T::of(1e-30));
+            }
+        }
     }
     st
 }
