@@ -70,9 +70,6 @@ pub struct Estimator<T: Real, const CAP: usize = 32> {
     /// The slot of `out` holding the last estimate (0 or 1).
     last: usize,
     has_last: bool,
-    /// Model G: the per-component variance of Ω′ given to the next sample's branch (the last
-    /// output's; model F computes each root's own).
-    domega_var: T,
     work: Work<T, CAP>,
 }
 
@@ -238,7 +235,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
             out: [Estimate::default(); 2],
             last: 0,
             has_last: false,
-            domega_var: T::ZERO,
             work: Work::new(),
         };
         e.configure(arr, model, ChannelMask::all(arr.len()), options)?;
@@ -376,7 +372,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.tracker.set_jerk(T::of(self.cfg.options.jerk_density));
         self.last_t = None;
         self.has_last = false;
-        self.domega_var = T::ZERO;
     }
 
     #[doc(hidden)]
@@ -548,7 +543,9 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                     b.omega_sd = [var[0].sqrt(), var[1].sqrt(), var[2].sqrt()];
                     b.ill = frame_score(&b.a) < T::of(KELVIN_MIN_SCORE);
                     let z = T::ZERO;
-                    (Sym3([var[0], var[1], var[2], z, z, z]), self.domega_var)
+                    let sd = &gc.sd_domega;
+                    let domega_var = (sd[0] * sd[0] + sd[1] * sd[1] + sd[2] * sd[2]) / T::of(3.0);
+                    (Sym3([var[0], var[1], var[2], z, z, z]), domega_var)
                 }
                 None => (b.cov_a, cfg.domega_variance(frame, b)),
             };
@@ -605,10 +602,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         cfg.finish(frame, eps, b, &choice.omega, !cfg.options.raw, prev, est);
         common.apply(est, choice.sign_unresolved, choice.branch_ambiguous);
         est.branch_margin = choice.branch_margin;
-        if !fallback || self.domega_var == T::ZERO {
-            let sd = &est.sd_domega;
-            self.domega_var = (sd[0] * sd[0] + sd[1] * sd[1] + sd[2] * sd[2]) / T::of(3.0);
-        }
         if !cfg.options.raw {
             cfg.apply_filtered(est, choice.filtered);
         }

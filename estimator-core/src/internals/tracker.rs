@@ -383,7 +383,8 @@ impl<T: Real> Tracker<T> {
         for j in 0..self.n {
             let mut t = self.tracks[j];
             t.cost -= base;
-            if !(t.cost < T::of(COST_CAP)) && j != best {
+            let finite = t.omega.iter().chain(t.domega.iter()).all(|v| v.is_finite());
+            if !finite || (!(t.cost < T::of(COST_CAP)) && j != best) {
                 continue;
             }
             label(&mut t, cands);
@@ -468,7 +469,7 @@ fn update3<T: Real>(
     gate: T,
 ) -> (T, T) {
     let (cof, det) = Sym3::from_mat(s).cofactors();
-    let det = det.max(T::of(1e-30) * (s[0][0] * s[1][1] * s[2][2]).abs().max(T::of(1e-30)));
+    let det = det.max(det_floor(s));
     let s_inv = cof.scaled(T::ONE / det).to_mat();
     let w = mat_vec(&s_inv, nu);
     let nis = dot(nu, &w).max(T::ZERO);
@@ -477,6 +478,9 @@ fn update3<T: Real>(
         return (nis, ln_det);
     }
     let (dw, dd) = (mat_vec(u, &w), mat_vec(v, &w));
+    if !dw.iter().chain(dd.iter()).all(|x| x.is_finite()) {
+        return (T::of(f64::MAX), ln_det);
+    }
     for c in 0..3 {
         t.omega[c] += dw[c];
         t.domega[c] += dd[c];
@@ -496,7 +500,27 @@ fn update3<T: Real>(
             t.p_dd[r][c] -= dd;
         }
     }
+    // Rounding can leave the difference a little asymmetric or, for a nearly exact
+    // measurement, with a diagonal at or below zero (which lets the filter diverge):
+    // symmetrised, its diagonal kept positive.
+    for p in [&mut t.p_ww, &mut t.p_dd] {
+        for r in 0..3 {
+            for c in (r + 1)..3 {
+                let m = T::of(0.5) * (p[r][c] + p[c][r]);
+                p[r][c] = m;
+                p[c][r] = m;
+            }
+            p[r][r] = p[r][r].max(T::of(1e-30));
+        }
+    }
     (nis, ln_det)
+}
+
+/// The least determinant an innovation covariance `s` is given (a nearly singular one is
+/// regularised: its inverse stays finite).
+#[inline(always)]
+fn det_floor<T: Real>(s: &Mat3<T>) -> T {
+    T::of(1e-12) * (s[0][0] * s[1][1] * s[2][2]).abs() + T::of(1e-30)
 }
 
 /// `a + b` (`a` full, `b` symmetric).
@@ -576,6 +600,7 @@ fn update_by_readings<T: Real>(t: &mut State<T>, r: &Readings<T>, gate: T) -> T 
             row[k] += T::ONE;
         }
         let (cof, det) = Sym3::from_mat(&s).cofactors();
+        let det = det.max(det_floor(&s));
         let step = mat_vec(&u, &cof.mul_vec(&nu));
         let next = [
             prior[0] + step[0] / det,
@@ -703,6 +728,18 @@ fn start<T: Real>(
         p_ww: c.omega_cov.to_mat(),
         ..State::default()
     };
+    // A root's first-order covariance can be huge (a nearly singular solve: up to 10¹²); a
+    // track's Ω is known to its own size at least: the covariance is scaled down to that.
+    let largest = st.p_ww[0][0].max(st.p_ww[1][1]).max(st.p_ww[2][2]);
+    let bound = norm2(&omega) + T::ONE;
+    if largest > bound {
+        let f = bound / largest;
+        for row in st.p_ww.iter_mut() {
+            for x in row.iter_mut() {
+                *x *= f;
+            }
+        }
+    }
     for k in 0..3 {
         st.p_ww[k][k] = st.p_ww[k][k].max(T::of(1e-30));
     }
