@@ -105,8 +105,9 @@ pub fn com_files(
     };
     let mut p = vec![0.0; loaded.names.len()];
     while let Some(t) = reader.next_row(&mut p)? {
-        emit(t, &est.push(t, &p));
+        est.push(t, &p, &mut emit);
     }
+    est.finish(&mut emit);
     let Some((t0, t1)) = span else {
         return Err(format!(
             "{}: no sample rows after the header: nothing written",

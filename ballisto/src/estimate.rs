@@ -77,14 +77,32 @@ pub fn estimate_files(job: &EstimateJob) -> Result<Summary, Box<dyn Error>> {
 }
 
 /// The estimator as the host tools run it: the per-sample code of the firmware
-/// ([`Estimator`], one output per sample as it arrives: docs/branch-lock.md), with the fault
-/// isolation the firmware runs about it.
+/// ([`Estimator`]), with the fault isolation the firmware runs about it, and two looks ahead
+/// the firmware cannot have (docs/branch-lock.md): without a hint, the record's first
+/// [`RUN_IN_S`] are run backwards first (time reversed: the same readings, Ω negated) and the
+/// forward run starts at that run's settled rate; and rows whose sign is unresolved are held
+/// until a later row settles it, then take the sign that continues that row's Ω backwards.
 pub struct HostEstimator<T: Real> {
     est: Estimator<T, HOST_CAP>,
     /// Fault isolation from the measurements (issue 17), run as the firmware runs it; `None`
     /// when off.
     faults: Option<Faults<T>>,
+    /// Rows held for their sign, oldest first.
+    held: std::collections::VecDeque<HeldRow<T>>,
+    /// The record's first samples while they are gathered for the backward run-in (`None`
+    /// once it has run, or with a hint).
+    run_in: Option<Vec<(f64, Vec<T>)>>,
 }
+
+/// Seconds of record run backwards to start the forward run (without a hint).
+pub const RUN_IN_S: f64 = 2.0;
+
+/// A row held for its sign: time, estimate, the channels it used and the model it was made in.
+type HeldRow<T> = (f64, Estimate<T>, ChannelMask, Model);
+
+/// Most seconds a row is held for its sign; older rows go out as they are (flagged): a
+/// steady spin without a hint never settles it.
+pub const SIGN_HOLD_S: f64 = 10.0;
 
 /// What the estimator used for one sample, and what the monitor saw of it.
 #[derive(Clone, Copy, Debug)]
@@ -261,6 +279,8 @@ impl<T: Real> HostEstimator<T> {
         Ok(HostEstimator {
             est: Estimator::<T, HOST_CAP>::new(&loaded.arrangement, model, options)?,
             faults: Faults::new(loaded, model),
+            held: Default::default(),
+            run_in: options.initial_omega.is_none().then(Vec::new),
         })
     }
 
@@ -272,14 +292,112 @@ impl<T: Real> HostEstimator<T> {
         self
     }
 
-    /// One sample; its estimate.
-    pub fn push(&mut self, t: f64, p: &[T]) -> Estimate<T> {
-        self.push_masked(t, p).0
+    /// One sample; `emit` receives the rows decided, oldest first (delayed while their sign is
+    /// unresolved, up to [`SIGN_HOLD_S`]).
+    pub fn push(&mut self, t: f64, p: &[T], mut emit: impl FnMut(f64, &Estimate<T>)) {
+        self.push_masked(t, p, |t, e, _, _| emit(t, e));
     }
 
-    /// As [`Self::push`], with the channels the estimate used and the model it was made in
-    /// (model F instead of model G while exclusions leave model G unobservable).
-    pub fn push_masked(&mut self, t: f64, p: &[T]) -> (Estimate<T>, ChannelMask, Model) {
+    /// End of the record: emits the rows still held, as they are.
+    pub fn finish(&mut self, mut emit: impl FnMut(f64, &Estimate<T>)) {
+        self.finish_masked(|t, e, _, _| emit(t, e));
+    }
+
+    /// As [`Self::finish`], with the channels and the model of each row.
+    pub fn finish_masked(&mut self, mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask, Model)) {
+        self.start_after_run_in(&mut emit);
+        for (t, e, m, model) in self.held.drain(..) {
+            emit(t, &e, m, model);
+        }
+    }
+
+    /// As [`Self::push`]; `emit` also receives the channels the row's estimate used and the
+    /// model it was made in (model F instead of model G while exclusions leave model G
+    /// unobservable).
+    pub fn push_masked(
+        &mut self,
+        t: f64,
+        p: &[T],
+        mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask, Model),
+    ) {
+        if let Some(buf) = &mut self.run_in {
+            buf.push((t, p.to_vec()));
+            if t - buf[0].0 < RUN_IN_S {
+                return;
+            }
+            self.start_after_run_in(&mut emit);
+            return;
+        }
+        self.decide(t, p, &mut emit);
+    }
+
+    /// The backward run-in over the gathered first samples (a fresh estimator on the same
+    /// configuration, times reversed, Ω negated), its settled rate as the forward run's hint,
+    /// then the gathered samples forward. Nothing if the run-in has been made.
+    fn start_after_run_in(&mut self, emit: &mut impl FnMut(f64, &Estimate<T>, ChannelMask, Model)) {
+        let Some(buf) = self.run_in.take() else {
+            return;
+        };
+        let Some(t_end) = buf.last().map(|s| s.0) else {
+            return;
+        };
+        let (arr, model, options) = (self.est.arrangement(), self.est.model(), self.est.options());
+        if let Ok(mut back) = Estimator::<T, HOST_CAP>::new(arr, model, options) {
+            let mut last = None;
+            for (t, p) in buf.iter().rev() {
+                last = Some(*back.update(t_end - t, p));
+            }
+            let unsettled =
+                Flags::SIGN_UNRESOLVED | Flags::BRANCH_AMBIGUOUS | Flags::INPUT_INVALID | Flags::FALLBACK;
+            if let Some(e) = last.filter(|e| e.flags.0 & unsettled == 0 && e.is_finite()) {
+                let _ = self.est.set_hint(Some(e.omega.map(|v| -v.to_f64())));
+            }
+        }
+        for (t, p) in &buf {
+            self.decide(*t, p, &mut *emit);
+        }
+    }
+
+    /// One sample through the estimator, its row emitted or held for its sign.
+    fn decide(
+        &mut self,
+        t: f64,
+        p: &[T],
+        mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask, Model),
+    ) {
+        let (out, mask, model) = self.estimate(t, p);
+        let settled = !out.flags.has(Flags::SIGN_UNRESOLVED) && !out.flags.has(Flags::INPUT_INVALID);
+        if !settled {
+            self.held.push_back((t, out, mask, model));
+            while self.held.front().is_some_and(|h| t - h.0 > SIGN_HOLD_S) {
+                if let Some((t, e, m, model)) = self.held.pop_front() {
+                    emit(t, &e, m, model);
+                }
+            }
+            return;
+        }
+        // This row settles the sign: the held rows take the sign that continues it backwards
+        // (Ω moves by Ω′Δ between samples, the other sign is 2|Ω| away).
+        let mut next = out.omega;
+        for (_, e, _, _) in self.held.iter_mut().rev() {
+            if e.flags.has(Flags::SIGN_UNRESOLVED) && !e.flags.has(Flags::INPUT_INVALID) {
+                let keep: T = (0..3).map(|i| (e.omega[i] - next[i]) * (e.omega[i] - next[i])).fold(T::ZERO, |a, b| a + b);
+                let flip: T = (0..3).map(|i| (e.omega[i] + next[i]) * (e.omega[i] + next[i])).fold(T::ZERO, |a, b| a + b);
+                if flip < keep {
+                    e.omega = e.omega.map(|v| -v);
+                }
+                e.flags.0 &= !Flags::SIGN_UNRESOLVED;
+            }
+            next = e.omega;
+        }
+        for (t, e, m, model) in self.held.drain(..) {
+            emit(t, &e, m, model);
+        }
+        emit(t, &out, mask, model);
+    }
+
+    /// The estimate of one sample, with the channels it used and its model.
+    fn estimate(&mut self, t: f64, p: &[T]) -> (Estimate<T>, ChannelMask, Model) {
         let used = self.isolate(t, p);
         if let Some(f) = &mut self.faults {
             // A new channel set in force: the last samples through it first (their estimates
@@ -453,13 +571,14 @@ fn run_typed<T: Real + Send + 'static>(
                 if reader.row_absurd() {
                     absurd_rows.borrow_mut().push_back(t);
                 }
-                let (e, mask, row_model) = est.push_masked(t, &p);
-                emit(t, &e, mask, row_model);
+                est.push_masked(t, &p, &mut emit);
             }
             Ok(None) => break Ok(()),
             Err(e) => break Err(e),
         }
     };
+    // Rows accepted before an error are still estimated and written.
+    est.finish_masked(&mut emit);
     let written = w.finish();
     if let Some(e) = io_err.or(written.err()) {
         return Err(format!("{}: write failed: {e}", job.out.display()).into());

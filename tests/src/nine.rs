@@ -252,11 +252,13 @@ impl Case {
     pub fn host(&self, raw: bool) -> Vec<Estimate<f64>> {
         let mut e = HostEstimator::<f64>::new(&self.loaded, Model::FreeFloat, self.options(raw))
             .expect("estimator");
-        self.truth
-            .iter()
-            .zip(self.outputs.iter())
-            .map(|(tr, p)| e.push(tr.t, p))
-            .collect()
+        let mut rows = Vec::with_capacity(self.truth.len());
+        let mut emit = |_t: f64, r: &Estimate<f64>| rows.push(*r);
+        for (tr, p) in self.truth.iter().zip(self.outputs.iter()) {
+            e.push(tr.t, p, &mut emit);
+        }
+        e.finish(&mut emit);
+        rows
     }
 
     /// Squared errors of the truth-started maximum likelihood per sample: σ0, Ω′, Ω.

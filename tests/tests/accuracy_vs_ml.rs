@@ -54,16 +54,18 @@ fn run_estimator(case: &Case, raw: bool, hint: Option<[f64; 3]>) -> Errors {
     };
     let mut e = HostEstimator::<f64>::new(&case.loaded, case.model, options).unwrap();
     let mut out = Vec::new();
-    for (tr, p) in case.truth.iter().zip(case.outputs.iter()) {
-        let r = e.push(tr.t, p);
+    let mut emit = |t: f64, r: &estimator_core::Estimate<f64>| {
         assert!(
             r.is_finite(),
-            "{}: non-finite estimate at t = {}",
-            case.name,
-            tr.t
+            "{}: non-finite estimate at t = {t}",
+            case.name
         );
         out.push((r.sigma0, r.domega, r.omega, r.field.0));
+    };
+    for (tr, p) in case.truth.iter().zip(case.outputs.iter()) {
+        e.push(tr.t, p, &mut emit);
     }
+    e.finish(&mut emit);
     assert_eq!(out.len(), case.truth.len());
     errors_of(&out, case)
 }

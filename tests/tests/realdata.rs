@@ -53,11 +53,14 @@ fn run_on(
     .unwrap();
     let mut out = Vec::new();
     let mut row = vec![0.0; loaded.names.len()];
-    while let Some(t) = reader.next_row(&mut row).unwrap() {
-        let e = est.push(t, &row);
+    let mut emit = |_t: f64, e: &estimator_core::Estimate<f64>| {
         assert!(e.is_finite());
         out.push(e.omega);
+    };
+    while let Some(t) = reader.next_row(&mut row).unwrap() {
+        est.push(t, &row, &mut emit);
     }
+    est.finish(&mut emit);
     let reference = read_columns(
         &dir.join("reference.csv"),
         &["omega_x", "omega_y", "omega_z"],

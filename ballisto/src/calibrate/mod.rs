@@ -384,10 +384,13 @@ pub fn estimator_rates(
     let mut out = Vec::with_capacity(rows.len());
     let undecided =
         Flags::FALLBACK | Flags::ILL_CONDITIONED | Flags::BRANCH_AMBIGUOUS | Flags::INPUT_INVALID;
-    for (t, row) in times.iter().zip(rows.iter()) {
-        let e = est.push(*t, row);
+    let mut emit = |_: f64, e: &estimator_core::Estimate<f64>| {
         out.push((e.flags.0 & undecided == 0).then(|| Vector3::from(e.omega)));
+    };
+    for (t, row) in times.iter().zip(rows.iter()) {
+        est.push(*t, row, &mut emit);
     }
+    est.finish(&mut emit);
     Ok(out)
 }
 
