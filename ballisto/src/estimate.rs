@@ -347,8 +347,10 @@ impl<T: Real> HostEstimator<T> {
             for (t, p) in buf.iter().rev() {
                 last = Some(*back.update(t_end - t, p));
             }
-            let unsettled =
-                Flags::SIGN_UNRESOLVED | Flags::BRANCH_AMBIGUOUS | Flags::INPUT_INVALID | Flags::FALLBACK;
+            let unsettled = Flags::SIGN_UNRESOLVED
+                | Flags::BRANCH_AMBIGUOUS
+                | Flags::INPUT_INVALID
+                | Flags::FALLBACK;
             if let Some(e) = last.filter(|e| e.flags.0 & unsettled == 0 && e.is_finite()) {
                 let _ = self.est.set_hint(Some(e.omega.map(|v| -v.to_f64())));
             }
@@ -366,7 +368,8 @@ impl<T: Real> HostEstimator<T> {
         mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask, Model),
     ) {
         let (out, mask, model) = self.estimate(t, p);
-        let settled = !out.flags.has(Flags::SIGN_UNRESOLVED) && !out.flags.has(Flags::INPUT_INVALID);
+        let settled =
+            !out.flags.has(Flags::SIGN_UNRESOLVED) && !out.flags.has(Flags::INPUT_INVALID);
         if !settled {
             self.held.push_back((t, out, mask, model));
             while self.held.front().is_some_and(|h| t - h.0 > SIGN_HOLD_S) {
@@ -381,8 +384,12 @@ impl<T: Real> HostEstimator<T> {
         let mut next = out.omega;
         for (_, e, _, _) in self.held.iter_mut().rev() {
             if e.flags.has(Flags::SIGN_UNRESOLVED) && !e.flags.has(Flags::INPUT_INVALID) {
-                let keep: T = (0..3).map(|i| (e.omega[i] - next[i]) * (e.omega[i] - next[i])).fold(T::ZERO, |a, b| a + b);
-                let flip: T = (0..3).map(|i| (e.omega[i] + next[i]) * (e.omega[i] + next[i])).fold(T::ZERO, |a, b| a + b);
+                let keep: T = (0..3)
+                    .map(|i| (e.omega[i] - next[i]) * (e.omega[i] - next[i]))
+                    .fold(T::ZERO, |a, b| a + b);
+                let flip: T = (0..3)
+                    .map(|i| (e.omega[i] + next[i]) * (e.omega[i] + next[i]))
+                    .fold(T::ZERO, |a, b| a + b);
                 if flip < keep {
                     e.omega = e.omega.map(|v| -v);
                 }

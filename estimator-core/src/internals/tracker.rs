@@ -237,7 +237,6 @@ impl<T: Real> Tracker<T> {
         k
     }
 
-
     /// One step: `cands` are this sample's branches and `measured` what the tracks are updated
     /// by; `dt` the time since the previous step; `hint` an approximate Ω with its variance
     /// (used only without history). `None` without a candidate.
@@ -360,7 +359,8 @@ impl<T: Real> Tracker<T> {
             let mut j = i + 1;
             while j < self.n {
                 let (a, b) = (&self.tracks[i], &self.tracks[j]);
-                if norm2(&sub(&a.omega, &b.omega)) <= T::of(0.25) * (a.omega_var() + b.omega_var()) {
+                if norm2(&sub(&a.omega, &b.omega)) <= T::of(0.25) * (a.omega_var() + b.omega_var())
+                {
                     if b.cost < a.cost {
                         self.tracks[i] = self.tracks[j];
                     }
@@ -685,7 +685,10 @@ fn update_by_root<T: Real>(t: &mut State<T>, cands: &[Candidate<T>], gate: T) ->
 fn label<T: Real>(t: &mut State<T>, cands: &[Candidate<T>]) {
     let mut best = T::of(f64::MAX);
     for (ci, c) in cands.iter().enumerate() {
-        let (dm, dp) = (norm2(&sub(&t.omega, &c.omega)), norm2(&crate::linalg::add(&t.omega, &c.omega)));
+        let (dm, dp) = (
+            norm2(&sub(&t.omega, &c.omega)),
+            norm2(&crate::linalg::add(&t.omega, &c.omega)),
+        );
         if dm < best {
             best = dm;
             (t.candidate, t.sign) = (ci as u8, 1);
@@ -826,7 +829,9 @@ mod tests {
             } else {
                 [cand(mirror, dw), cand(w, dw)]
             };
-            let c = tr.step(&cands, Measured::Roots, DT, None).expect("a choice");
+            let c = tr
+                .step(&cands, Measured::Roots, DT, None)
+                .expect("a choice");
             last = Some((c, true_first, w));
         }
         let (c, true_first, w) = last.unwrap();
@@ -872,7 +877,9 @@ mod tests {
         let w = [0.0, 0.3, 2.0];
         let mut tr = Tracker::<f64>::new(JERK);
         for _ in 0..300 {
-            let c = tr.step(&[cand(w, [0.0; 3])], Measured::Roots, DT, None).unwrap();
+            let c = tr
+                .step(&[cand(w, [0.0; 3])], Measured::Roots, DT, None)
+                .unwrap();
             assert!(c.sign_unresolved);
         }
         let hint = [0.1, 0.2, 1.8];
@@ -880,7 +887,9 @@ mod tests {
         let mut tr = Tracker::<f64>::new(JERK);
         for k in 0..300 {
             let h = (k == 0).then_some((hint, hint_var));
-            let c = tr.step(&[cand(w, [0.0; 3])], Measured::Roots, DT, h).unwrap();
+            let c = tr
+                .step(&[cand(w, [0.0; 3])], Measured::Roots, DT, h)
+                .unwrap();
             assert!(!c.sign_unresolved, "step {k}");
             assert!(dist(&c.omega, &w) < 1e-9, "step {k}: {:?}", c.omega);
         }
