@@ -49,6 +49,10 @@ pub const COST_CAP: f64 = 200.0;
 /// The gate of one step's normalised innovation: beyond it the innovation counts only
 /// logarithmically, and the best track failing it starts new tracks.
 pub const STEP_CAP: f64 = 60.0;
+/// Memory of the jerk density's adaptation, s.
+pub const JERK_MEMORY_S: f64 = 1.0;
+/// Most the jerk density may grow over the configured one.
+pub const JERK_SCALE_MAX: f64 = 1e6;
 /// Most linearisations of model F's null-space update (iterated extended Kalman filter).
 pub const IEKF_ITERATIONS: usize = 3;
 /// Cost margin that settles the sign / the branch (≈ 4 σ).
@@ -156,8 +160,10 @@ pub struct Tracker<T> {
     tracks: [State<T>; MAX_STATES],
     n: usize,
     best: usize,
-    /// White-jerk density (rad²/s⁵).
+    /// White-jerk density (rad²/s⁵): the configured one, the least.
     jerk: T,
+    /// The factor on it learnt from the best track's innovations (≥ 1).
+    jerk_scale: T,
 }
 
 impl<T: Real> Default for Tracker<T> {
@@ -174,6 +180,7 @@ impl<T: Real> Tracker<T> {
             n: 0,
             best: 0,
             jerk,
+            jerk_scale: T::ONE,
         }
     }
 
@@ -186,6 +193,13 @@ impl<T: Real> Tracker<T> {
     /// Forgets the history.
     pub fn reset(&mut self) {
         self.n = 0;
+        self.jerk_scale = T::ONE;
+    }
+
+    /// The white-jerk density in use (rad²/s⁵): the configured one times what the innovations
+    /// asked for.
+    pub fn jerk_density(&self) -> T {
+        self.jerk * self.jerk_scale
     }
 
     /// True once a step has been taken.
@@ -290,22 +304,24 @@ impl<T: Real> Tracker<T> {
             initiate = false;
         } else {
             // The white-jerk model over `dt`: Q = q [[Δ³/3, Δ²/2], [Δ²/2, Δ]].
-            let q = self.jerk * dt;
+            let q = self.jerk * self.jerk_scale * dt;
             let qs = [q * dt * dt / T::of(3.0), T::of(0.5) * q * dt, q];
+            let mut best_nis = T::ZERO;
             for k in 0..self.n {
                 let tr = &mut self.tracks[k];
                 predict(tr, dt, qs);
-                // Updated unless the innovation is beyond the gate (then it coasts).
                 let nis = match &readings {
                     Some(r) => update_by_readings(tr, r, gate),
                     None => update_by_root(tr, cands, gate),
                 };
                 tr.cost += robust(nis, gate);
-                // The lock test: the best track's own innovation beyond the gate.
-                if k == self.best && nis > gate {
-                    initiate = true;
+                if k == self.best {
+                    best_nis = nis;
+                    // The lock test: the best track's own innovation beyond the gate.
+                    initiate = nis > gate;
                 }
             }
+            self.adapt(best_nis, dt);
         }
         let best_cost = self.tracks[..self.n]
             .iter()
@@ -327,6 +343,23 @@ impl<T: Real> Tracker<T> {
             }
         }
         self.settle(cands)
+    }
+
+    /// Covariance matching of the jerk: the best track's normalised innovation per degree of
+    /// freedom averages 1 when the model holds; persistently above it (a motion with more
+    /// jerk than configured, or readings noisier than declared — real parts) the jerk density
+    /// grows, with a memory of [`JERK_MEMORY_S`], and falls back towards the configured one
+    /// (its floor) when the innovations are within the model. Without it a hand-held
+    /// recording (62.5 Hz, |Ω| to 40 rad/s) left the readings behind: Ω off by hundreds of
+    /// rad/s; a configured density of 10⁶ instead held it, but loosens the branch choice of
+    /// slow motions.
+    fn adapt(&mut self, nis: T, dt: T) {
+        let per_dof = nis / T::of(6.0);
+        let alpha = (dt / T::of(JERK_MEMORY_S)).min(T::of(0.1));
+        let g = alpha * (per_dof.min(T::of(20.0)) - T::ONE);
+        self.jerk_scale = (self.jerk_scale * (T::ONE + g.max(-T::of(0.5))))
+            .max(T::ONE)
+            .min(T::of(JERK_SCALE_MAX));
     }
 
     /// Adds a track, in place of the costliest if all places are taken and it is cheaper.
@@ -459,7 +492,7 @@ fn predict<T: Real>(t: &mut State<T>, dt: T, qs: [T; 3]) {
 /// One Kalman update by three measurements: `u = P_ΩΩ Hᵀ_Ω + P_ΩΩ′ Hᵀ_Ω′` and
 /// `v = P_Ω′Ω Hᵀ_Ω + P_Ω′Ω′ Hᵀ_Ω′` (the two halves of `P Hᵀ`), the innovation covariance `s`
 /// and the innovation `nu`. Returns the normalised innovation and `ln det S`; beyond `gate` the
-/// track is not updated (it coasts).
+/// update is weighted down to the gate's.
 #[inline(always)]
 fn update3<T: Real>(
     t: &mut State<T>,
@@ -474,9 +507,12 @@ fn update3<T: Real>(
     let w = mat_vec(&s_inv, nu);
     let nis = dot(nu, &w).max(T::ZERO);
     let ln_det = det.ln_approx();
-    if nis > gate {
-        return (nis, ln_det);
-    }
+    // Beyond the gate the update is weighted down to the gate's (a Huber-weighted update:
+    // one wild sample pulls little, while a noise larger than declared — real parts — is
+    // still followed instead of coasting away from the readings).
+    let weight = if nis > gate { gate / nis } else { T::ONE };
+    let w = scale(weight, &w);
+    let s_inv = s_inv.map(|row| row.map(|x| x * weight));
     let (dw, dd) = (mat_vec(u, &w), mat_vec(v, &w));
     if !dw.iter().chain(dd.iter()).all(|x| x.is_finite()) {
         return (T::of(f64::MAX), ln_det);
@@ -574,7 +610,7 @@ fn transpose<T: Real>(b: &Mat3<T>) -> Mat3<T> {
 /// linearised at its prediction; returns the normalised innovations (whose log-determinants
 /// are added to the cost as well). First the null-space equations (`H = [G, 0]`, `G` the rows
 /// `2 (Mₖ Ω̂)ᵀ`, unit noise), then the Ω′ rows at the updated Ω (`H = [J, I]`, `J` the rows
-/// `2 (Tⱼ Ω̂)ᵀ`, noise `var0`). A track whose null-space innovation is beyond `gate` coasts.
+/// `2 (Tⱼ Ω̂)ᵀ`, noise `var0`). Updates beyond `gate` are weighted down to it.
 #[inline(always)]
 fn update_by_readings<T: Real>(t: &mut State<T>, r: &Readings<T>, gate: T) -> T {
     let zero = [[T::ZERO; 3]; 3];
@@ -615,9 +651,6 @@ fn update_by_readings<T: Real>(t: &mut State<T>, r: &Readings<T>, gate: T) -> T 
     }
     let (nis_m, ln_m) = update3(t, (&u, &v), &s, &nu, gate);
     t.cost += ln_m;
-    if nis_m > gate {
-        return nis_m;
-    }
     let mut j = zero;
     let mut nu = r.y;
     for k in 0..3 {
@@ -641,7 +674,8 @@ fn update_by_readings<T: Real>(t: &mut State<T>, r: &Readings<T>, gate: T) -> T 
 
 /// Model G (and model F with m > 3): the update of a predicted track by the signed root nearest
 /// it (its Ω, then its Ω′, with their variances); returns the normalised innovations (whose
-/// log-determinants are added to the cost as well). A track beyond `gate` coasts.
+/// log-determinants are added to the cost as well). Updates beyond `gate` are weighted down
+/// to it.
 #[inline(always)]
 fn update_by_root<T: Real>(t: &mut State<T>, cands: &[Candidate<T>], gate: T) -> T {
     let mut best: Option<(T, usize, Vec3<T>)> = None;
@@ -666,9 +700,6 @@ fn update_by_root<T: Real>(t: &mut State<T>, cands: &[Candidate<T>], gate: T) ->
     let (u, v) = (t.p_ww, transpose(&t.p_wd));
     let (nis_w, ln_w) = update3(t, (&u, &v), &s, &nu, gate);
     t.cost += ln_w;
-    if nis_w > gate {
-        return nis_w;
-    }
     let (u, v) = (t.p_wd, t.p_dd);
     let mut s = t.p_dd;
     for k in 0..3 {
