@@ -545,10 +545,11 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                     let z = T::ZERO;
                     let sd = &gc.sd_domega;
                     let domega_var = (sd[0] * sd[0] + sd[1] * sd[1] + sd[2] * sd[2]) / T::of(3.0);
-                    // Isotropic, at the mean: near Ω = 0 the first-order variances of Ω from
+                    // Isotropic, at the largest: near Ω = 0 the first-order variances of Ω from
                     // ΩΩᵀ are not valid component by component (a spin-up from rest: 17 rows
-                    // silently wrong with the diagonal, none with its mean).
-                    let m = (var[0] + var[1] + var[2]) / T::of(3.0);
+                    // of the firmware's output silently wrong with the diagonal, none with its
+                    // mean; 1 of `ballisto estimate`'s with the mean, none with the largest).
+                    let m = var[0].max(var[1]).max(var[2]);
                     (Sym3([m, m, m, z, z, z]), domega_var)
                 }
                 None => (b.cov_a, cfg.domega_variance(frame, b)),

@@ -34,7 +34,8 @@
 //! **Output.** The cheapest track; its Ω is the filtered Ω, and the signed root nearest it is
 //! the sample's (raw) Ω. `branch_margin` is the cost of the cheapest track nearest another root
 //! (flag 16 below [`SIGN_MARGIN`]), and 0 where that root is more than [`SIGN_MARGIN`] (in χ²)
-//! from the track (no root of the sample is the motion's); the sign is unresolved while a track nearest the same
+//! from the track (no root of the sample is the motion's) or the best track's innovation is
+//! beyond twice that (the readings are not where its motion says: a fault, a lost lock); the sign is unresolved while a track nearest the same
 //! root with the other sign is within [`SIGN_MARGIN`].
 
 use crate::linalg::{dot, mat_vec, norm2, scale, sub, Mat3, Sym3, Vec3};
@@ -120,6 +121,8 @@ pub struct State<T> {
     pub p_wd: Mat3<T>,
     /// Covariance of Ω′.
     pub p_dd: Mat3<T>,
+    /// Bound on the bias a crossing left in Ω (per component; see [`Tracker::step`]'s output).
+    pub bias: Vec3<T>,
     /// Cumulative cost above the best track.
     pub cost: T,
     /// The candidate nearest the track at this sample.
@@ -164,6 +167,7 @@ pub struct Tracker<T> {
     jerk: T,
     /// The factor on it learnt from the best track's innovations (≥ 1).
     jerk_scale: T,
+
 }
 
 impl<T: Real> Default for Tracker<T> {
@@ -181,6 +185,7 @@ impl<T: Real> Tracker<T> {
             best: 0,
             jerk,
             jerk_scale: T::ONE,
+
         }
     }
 
@@ -194,6 +199,7 @@ impl<T: Real> Tracker<T> {
     pub fn reset(&mut self) {
         self.n = 0;
         self.jerk_scale = T::ONE;
+
     }
 
     /// The white-jerk density in use (rad²/s⁵): the configured one times what the innovations
@@ -272,6 +278,7 @@ impl<T: Real> Tracker<T> {
             Measured::Readings(r) => Some(r),
             Measured::Roots => None,
         };
+        let mut lost = false;
         let mut initiate = self.n == 0;
         if self.n == 0 {
             // A hint is a prior: a track of its own, updated by this sample's readings.
@@ -307,21 +314,35 @@ impl<T: Real> Tracker<T> {
             let q = self.jerk * self.jerk_scale * dt;
             let qs = [q * dt * dt / T::of(3.0), T::of(0.5) * q * dt, q];
             let mut best_nis = T::ZERO;
+            let mut doubt = false;
             for k in 0..self.n {
                 let tr = &mut self.tracks[k];
                 predict(tr, dt, qs);
+                let prior = [tr.p_ww[0][0], tr.p_ww[1][1], tr.p_ww[2][2]];
                 let nis = match &readings {
                     Some(r) => update_by_readings(tr, r, gate),
                     None => update_by_root(tr, cands, gate),
                 };
+                // A bias in the prior goes through the update as the prior's weight in it
+                // (`1 − K H = P⁺ / P⁻` per component).
+                for c in 0..3 {
+                    tr.bias[c] *= (tr.p_ww[c][c] / prior[c].max(T::of(1e-30))).min(T::ONE);
+                }
                 tr.cost += robust(nis, gate);
                 if k == self.best {
                     best_nis = nis;
-                    // The lock test: the best track's own innovation beyond the gate.
+                    // The lock test: the best track's own innovation beyond the gate starts
+                    // new tracks; beyond the margin (per 3 of its 6 degrees of freedom, the
+                    // 99.99 % point) it puts the sample in doubt (a fault the monitor has not
+                    // yet seen moves Ω by 10 filtered deviations within 10 ms).
                     initiate = nis > gate;
+                    // Beyond the margin per 3 of its 6 degrees of freedom (the 99.99 % point)
+                    // the sample is in doubt: the readings are not where its motion says.
+                    doubt = nis > T::of(2.0 * SIGN_MARGIN);
                 }
             }
             self.adapt(best_nis, dt);
+            lost = doubt;
         }
         let best_cost = self.tracks[..self.n]
             .iter()
@@ -342,7 +363,7 @@ impl<T: Real> Tracker<T> {
                 }
             }
         }
-        self.settle(cands)
+        self.settle(cands, lost)
     }
 
     /// Covariance matching of the jerk: the best track's normalised innovation per degree of
@@ -384,8 +405,9 @@ impl<T: Real> Tracker<T> {
     }
 
     /// After the updates: merges tracks that met, normalises the costs, drops tracks
-    /// [`COST_CAP`] behind, labels each with its nearest signed root, and makes the choice.
-    fn settle(&mut self, cands: &[Candidate<T>]) -> Option<Choice<T>> {
+    /// [`COST_CAP`] behind, labels each with its nearest signed root, and makes the choice
+    /// (`lost`: the best track's innovation was beyond the doubt threshold: margin 0).
+    fn settle(&mut self, cands: &[Candidate<T>], lost: bool) -> Option<Choice<T>> {
         // Merge: of two tracks within half their combined deviation, the cheaper stays.
         let mut i = 0;
         while i < self.n {
@@ -453,15 +475,15 @@ impl<T: Real> Tracker<T> {
         // is (margin 0).
         let (cof, det) = Sym3::from_mat(&add_sym(&b.p_ww, &c.omega_cov)).cofactors();
         let d = sub(&omega, &b.omega);
-        if !(cof.quad(&d) <= margin * det) {
+        if lost || !(cof.quad(&d) <= margin * det) {
             branch_margin = T::ZERO;
         }
         // Another signed root the track also explains (within the margin's χ²): the roots
         // of a crossing, and the truth may be anywhere between them; a track linearised at one
-        // of them takes itself for precise (a nine-channel layout after an exclusion: 0.12 rad/s
-        // off at 7 reported deviations). The filtered Ω's variances cover half the way to the
-        // farthest such root.
-        let mut var = [b.p_ww[0][0], b.p_ww[1][1], b.p_ww[2][2]];
+        // of them takes itself for precise, and keeps the bias after the roots part (a
+        // nine-channel layout after an exclusion: 0.12 rad/s off at 7 reported deviations for
+        // 0.3 s). The best track's bias bound takes half the way to the farthest such root,
+        // goes through each update as the prior does, and the filtered Ω's variances carry it.
         let mut spread = [T::ZERO; 3];
         for (ci, o) in cands.iter().enumerate() {
             for sign in SIGNS {
@@ -478,8 +500,11 @@ impl<T: Real> Tracker<T> {
                 }
             }
         }
+        let bias = &mut self.tracks[best].bias;
+        let mut var = [b.p_ww[0][0], b.p_ww[1][1], b.p_ww[2][2]];
         for k in 0..3 {
-            var[k] += spread[k];
+            bias[k] = bias[k].max(spread[k].sqrt());
+            var[k] += bias[k] * bias[k];
         }
         Some(Choice {
             candidate: usize::from(b.candidate),
