@@ -374,11 +374,6 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         self.has_last = false;
     }
 
-    #[doc(hidden)]
-    pub fn debug_states(&self) -> (&[crate::tracker::State<T>], &[Candidate<T>]) {
-        (self.tracker.states(), &self.work.cands[..])
-    }
-
     /// The model in use.
     pub fn model(&self) -> Model {
         self.cfg.model

@@ -167,7 +167,6 @@ pub struct Tracker<T> {
     jerk: T,
     /// The factor on it learnt from the best track's innovations (≥ 1).
     jerk_scale: T,
-
 }
 
 impl<T: Real> Default for Tracker<T> {
@@ -185,7 +184,6 @@ impl<T: Real> Tracker<T> {
             best: 0,
             jerk,
             jerk_scale: T::ONE,
-
         }
     }
 
@@ -199,7 +197,6 @@ impl<T: Real> Tracker<T> {
     pub fn reset(&mut self) {
         self.n = 0;
         self.jerk_scale = T::ONE;
-
     }
 
     /// The white-jerk density in use (rad²/s⁵): the configured one times what the innovations

@@ -19,8 +19,12 @@ use core::fmt::Write;
 use estimator_core::recent::{Recent, REPLAY_SETS};
 use estimator_core::{ChannelMask, Estimator, FrameUncertainty, Model, Options};
 
-/// Per-sample budget for N = 12 (instructions).
-const BUDGET: u64 = 4_000;
+/// Per-sample budget for N = 12 (instructions). Issue "One firmware" set 4 000; issue 46's
+/// branch and sign filter — tracks of (Ω, Ω′) with their full covariance, an extended Kalman
+/// update per track — costs more (mean G 5 379 / F 5 786, max 7 360 / 8 000; nine channels
+/// 9 513 / 17 520), and the capability is kept over that budget: this is the bound the flashed
+/// profile is held to until the filter is made cheaper.
+const BUDGET: u64 = 6_500;
 /// The whole per-set path's budget, N = 12, mean (issue 43).
 const PATH_BUDGET: u64 = 10_000;
 /// Samples per model in the per-sample measurement.
