@@ -69,9 +69,11 @@ EOF
   cat <<EOF
 ### On layouts the estimator was not tuned on (ideal parts)
 
-Issue 46's measure, not yet met: nine channels drawn at random. \`tests/tests/random_layouts.rs\`.
+Issue 46's property test: nine channels drawn at random (rate, noise, arm and motion drawn too; fresh seeds). \`tests/tests/random_layouts.rs\`.
 EOF
-  e2e random_layouts full
+  # The property test's bars are printed with the draws that miss them; a miss is reported
+  # here, not an end to the report.
+  e2e random_layouts full || echo "(the property test did not hold on every draw: see above)"
   cat <<EOF
 ## Fault detection, isolation and exclusion (ideal parts)
 

@@ -2,7 +2,7 @@
 //! tangential channels at a point on each axis and three radial ones at the edge midpoints,
 //! model F, m = 3) in a torque-free tumble or a manoeuvre at |Ω| ≈ 2.2 rad/s, with ±1 mm / ±1°
 //! mounting jitter and a correct initial Ω; its records estimated through the forward path
-//! (the firmware's) and the smoothed one (`ballisto estimate`'s), and scored against the truth
+//! (the firmware's) and the host's (`ballisto estimate`'s), and scored against the truth
 //! and the truth-started maximum likelihood of [`crate::ml`].
 
 use ballisto::estimate::HostEstimator;

@@ -3,8 +3,8 @@
 //! 20 s records, four seeds — is never silently wrong: at most 0.1 % of the rows of a family
 //! have Ω more than 5 reported deviations off with no flag. Asserted on every family for the
 //! raw outputs (per-sample Ω) and the filtered ones (the rate filter's Ω, both tools' default),
-//! each on the forward path (the firmware's) and the smoothed
-//! one (`ballisto estimate`'s: two-way, `estimator_core::two_way`). The branch margin agrees with the flag on every row of every path,
+//! each on the forward path (the firmware's) and the host's
+//! (`ballisto estimate`'s: the same code with a backward run-in and unresolved signs held). The branch margin agrees with the flag on every row of every path,
 //! and no number is non-finite.
 //!
 //! The tests assert these bounds on a representative subset (the corners of the family, seed
@@ -24,7 +24,7 @@ const SEEDS: [u64; 4] = [1, 2, 3, 4];
 /// Length of every record, s.
 const SECONDS: f64 = 20.0;
 
-/// Scores of the raw forward, raw smoothed, filtered forward and filtered smoothed paths.
+/// Scores of the raw forward, raw host, filtered forward and filtered host paths.
 fn family(rate_hz: f64, noise: f64, arm: f64, manoeuvre: bool, seeds: &[u64]) -> [Score; 4] {
     let mut s = [Score::default(); 4];
     for &seed in seeds {
@@ -79,7 +79,7 @@ fn never_silently_wrong(rates: &[f64], noises: &[f64], arms: &[f64], seeds: &[u6
         "Never silently wrong: {} families (rate × noise × arm × motion), seeds {seeds:?}, 20 s each",
         rates.len() * noises.len() * arms.len() * 2
     );
-    println!("| rate | noise | arm | motion | raw Ω RMS fwd / smoothed | > 1 rad/s off | flagged fwd / smoothed | ambiguous | silent raw fwd / smoothed; filtered fwd / smoothed | Ω error / sd, raw; filtered |");
+    println!("| rate | noise | arm | motion | raw Ω RMS fwd / host | > 1 rad/s off | flagged fwd / host | ambiguous | silent raw fwd / host; filtered fwd / host | Ω error / sd, raw; filtered |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for &rate_hz in rates {
         for &noise in noises {
@@ -104,9 +104,9 @@ fn never_silently_wrong(rates: &[f64], noises: &[f64], arms: &[f64], seeds: &[u6
                     );
                     let paths = [
                         ("raw forward", &f),
-                        ("raw smoothed", &s),
+                        ("raw host", &s),
                         ("filtered forward", &ff),
-                        ("filtered smoothed", &fs),
+                        ("filtered host", &fs),
                     ];
                     for (path, sc) in paths {
                         let what = format!(
@@ -133,7 +133,7 @@ fn never_silently_wrong(rates: &[f64], noises: &[f64], arms: &[f64], seeds: &[u6
 
 /// Issue 15's accuracy requirement on the issue's motion, the torque-free tumble: the raw σ0,
 /// Ω′ and Ω RMS within 1.10 × the truth-started maximum likelihood, 20 s, for `ballisto
-/// estimate --raw` (two-way: forward and time-reversed passes) on every seed and for the forward
+/// estimate --raw` (the host's) on every seed and for the forward
 /// path alone (the firmware's, which cannot look ahead) on seed 1 (seed 4's tumbles, which
 /// start in a crossing zone, are up to 1.20 there: `docs/validation.md`).
 #[test]
@@ -176,7 +176,7 @@ fn representative_cases() -> Vec<(f64, f64, f64)> {
     ]
 }
 
-/// Prints the table and asserts 1.10 × ML for every case: two-way on every seed, forward on
+/// Prints the table and asserts 1.10 × ML for every case: host on every seed, forward on
 /// seed 1.
 fn accuracy_against_the_maximum_likelihood(
     manoeuvre: bool,
@@ -184,11 +184,11 @@ fn accuracy_against_the_maximum_likelihood(
     cases: &[(f64, f64, f64)],
 ) {
     println!(
-        "Raw RMS over the truth-started maximum likelihood, {}, seeds {seeds:?} (asserted: two-way ≤ 1.10 on every seed, forward on seed 1):",
+        "Raw RMS over the truth-started maximum likelihood, {}, seeds {seeds:?} (asserted: host ≤ 1.10 on every seed, forward on seed 1):",
         motion(manoeuvre)
     );
     println!(
-        "| rate | noise | arm | motion | seed | σ0 / ML (two-way / forward) | Ω′ / ML | Ω / ML |"
+        "| rate | noise | arm | motion | seed | σ0 / ML (host / forward) | Ω′ / ML | Ω / ML |"
     );
     println!("|---|---|---|---|---|---|---|---|");
     let mut failures = Vec::new();
@@ -207,18 +207,18 @@ fn accuracy_against_the_maximum_likelihood(
                 let rms = Score::of(rows, &case.truth).rms();
                 core::array::from_fn(|i| rms[i] / ml_rms[i])
             };
-            let (fwd, smoothed) = (ratio(&case.forward(true)), ratio(&case.host(true)));
+            let (fwd, host) = (ratio(&case.forward(true)), ratio(&case.host(true)));
             println!(
                 "| {rate_hz} Hz | {noise:e} | {arm} | {} | {seed} | {:.2} / {:.2} | {:.2} / {:.2} | {:.2} / {:.2} |",
                 motion(manoeuvre),
-                smoothed[0],
+                host[0],
                 fwd[0],
-                smoothed[1],
+                host[1],
                 fwd[1],
-                smoothed[2],
+                host[2],
                 fwd[2]
             );
-            let asserted = [("two-way", smoothed, true), ("forward", fwd, seed == 1)];
+            let asserted = [("host", host, true), ("forward", fwd, seed == 1)];
             for (path, ratios, _) in asserted.iter().filter(|a| a.2) {
                 if ratios.iter().any(|r| *r > 1.10) {
                     failures.push(format!(
@@ -246,9 +246,9 @@ struct FirmwarePath {
     mismatch: usize,
     /// RMS over the truth-started maximum likelihood of the readings the firmware got (the
     /// sensors' registers, aligned): σ0, Ω′ (the chosen root's, raw) and Ω (the firmware's
-    /// output, filtered); and `ballisto estimate --raw`'s (two-way) on the same readings.
+    /// output, filtered); and `ballisto estimate --raw`'s (host) on the same readings.
     ratio: [f64; 3],
-    two_way_ratio: [f64; 3],
+    host_ratio: [f64; 3],
     omega_rms: f64,
 }
 
@@ -263,7 +263,7 @@ fn firmware_path_at_1_khz() -> FirmwarePath {
         silent_sigma0: 0,
         mismatch: 0,
         ratio: [0.0; 3],
-        two_way_ratio: [0.0; 3],
+        host_ratio: [0.0; 3],
         omega_rms: 0.0,
     };
     // Squared errors: the firmware's, the ML's (built at the first set: the arrangement).
@@ -304,13 +304,13 @@ fn firmware_path_at_1_khz() -> FirmwarePath {
     out.omega_rms = (sq[2] / out.rows as f64).sqrt();
     // `ballisto estimate --raw` on the same readings.
     let rows = case.host(true);
-    let mut sq_two_way = [0.0f64; 3];
+    let mut sq_host = [0.0f64; 3];
     for (e, tr) in rows.iter().zip(case.truth.iter()) {
-        sq_two_way[0] += d2(&e.sigma0, &tr.sigma0);
-        sq_two_way[1] += d2(&e.domega, &tr.domega);
-        sq_two_way[2] += d2(&e.omega, &tr.omega);
+        sq_host[0] += d2(&e.sigma0, &tr.sigma0);
+        sq_host[1] += d2(&e.domega, &tr.domega);
+        sq_host[2] += d2(&e.omega, &tr.omega);
     }
-    out.two_way_ratio = core::array::from_fn(|i| (sq_two_way[i] / sq_ml[i]).sqrt());
+    out.host_ratio = core::array::from_fn(|i| (sq_host[i] / sq_ml[i]).sqrt());
     println!(
         "nine-channel at 1 kHz through the firmware: {} sets, Ω RMS {:.4} rad/s, flagged {}, \
          silently wrong in Ω {}, in σ0 {}; RMS / ML: σ0 {:.3}, Ω′ {:.3}, Ω (filtered) {:.3}; \
@@ -323,9 +323,9 @@ fn firmware_path_at_1_khz() -> FirmwarePath {
         out.ratio[0],
         out.ratio[1],
         out.ratio[2],
-        out.two_way_ratio[0],
-        out.two_way_ratio[1],
-        out.two_way_ratio[2]
+        out.host_ratio[0],
+        out.host_ratio[1],
+        out.host_ratio[2]
     );
     out
 }
@@ -358,8 +358,8 @@ fn firmware_path_at_1_khz_is_never_silently_wrong_and_within_the_maximum_likelih
         f.ratio
     );
     assert!(
-        f.two_way_ratio.iter().all(|r| *r <= 1.10),
+        f.host_ratio.iter().all(|r| *r <= 1.10),
         "ballisto estimate's RMS over the maximum likelihood's: σ0, Ω′, Ω {:?}",
-        f.two_way_ratio
+        f.host_ratio
     );
 }
