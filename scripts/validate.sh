@@ -4,6 +4,8 @@
 # ground tool's speed, with the commit and date. Never edit docs/validation.md by hand: run
 # this (about 30 minutes on 2 cores; `bash scripts/setup.sh` first on a fresh machine).
 set -euo pipefail
+# A failing bar is reported by its message, without a backtrace.
+export RUST_BACKTRACE=0
 cd "$(dirname "$0")/.."
 
 report=docs/validation.md
@@ -63,7 +65,8 @@ Model F, m = 3: 50 Hz–4 kHz, 1e-4–1e-2 m/s², arms 0.05–0.2 m, torque-free
 manoeuvre, 20 s, seeds 1–4. "Silent": Ω more than 5 reported deviations off with no flag.
 \`tests/tests/branch_lock.rs\` (the \`*_full\` tests).
 EOF
-  e2e branch_lock full
+  # A family case that misses a bar is reported with the table, not an end to the report.
+  e2e branch_lock full || echo "(a family case did not hold: the rows above with more than 0.1 % silently wrong)"
   echo "The firmware path (f32, the firmware's tasks on the simulated buses) on \`nine-channel\` at 1 kHz:"
   cargo nextest run -p e2e-tests --test branch_lock firmware_path --no-capture 2>/dev/null | figures
   cat <<EOF
@@ -73,7 +76,7 @@ Issue 46's property test: nine channels drawn at random (rate, noise, arm and mo
 EOF
   # The property test's bars are printed with the draws that miss them; a miss is reported
   # here, not an end to the report.
-  e2e random_layouts full || echo "(the property test did not hold on every draw: see above)"
+  e2e random_layouts full || echo "(the property test did not hold on every draw: a slow manoeuvre whose filtered Ω is above 0.25 × ML, above)"
   cat <<EOF
 ## Fault detection, isolation and exclusion (ideal parts)
 
