@@ -21,8 +21,8 @@ use estimator_core::{ChannelMask, Estimator, FrameUncertainty, Model, Options};
 
 /// Per-sample budget for N = 12 (instructions). Issue "One firmware" set 4 000; issue 46's
 /// branch and sign filter — tracks of (Ω, Ω′) with their full covariance, an extended Kalman
-/// update per track — costs more (mean G 5 379 / F 5 786, max 7 360 / 8 000; nine channels
-/// 9 513 / 17 520), and the capability is kept over that budget: this is the bound the flashed
+/// update per track — costs more (mean G 5 422 / F 5 827, max 7 400 / 8 040; nine channels
+/// 10 518 / 26 600), and the capability is kept over that budget: this is the bound the flashed
 /// profile is held to until the filter is made cheaper.
 const BUDGET: u64 = 6_500;
 /// The whole per-set path's budget, N = 12, mean (issue 43).
