@@ -280,7 +280,7 @@ impl<T: Real> Tracker<T> {
             Measured::Roots => None,
         };
         let mut lost = false;
-        let mut initiate = self.n == 0;
+        let mut initiate = false;
         if self.n == 0 {
             // A hint is a prior: a track of its own, updated by this sample's readings.
             if let Some((h, var)) = hint {
@@ -292,10 +292,7 @@ impl<T: Real> Tracker<T> {
                     fit: T::ZERO,
                 };
                 let mut tr = start(&c, readings.as_ref(), 0, 1, T::ZERO);
-                let nis = match &readings {
-                    Some(r) => update_by_readings(&mut tr, r, gate),
-                    None => update_by_root(&mut tr, cands, gate),
-                };
+                let nis = update(&mut tr, readings.as_ref(), cands, gate);
                 tr.cost += robust(nis, gate);
                 self.push(tr);
             }
@@ -309,21 +306,16 @@ impl<T: Real> Tracker<T> {
                     self.push(start(c, readings.as_ref(), ci, sign, cost));
                 }
             }
-            initiate = false;
         } else {
             // The white-jerk model over `dt`: Q = q [[Δ³/3, Δ²/2], [Δ²/2, Δ]].
             let q = self.jerk * self.jerk_scale * dt;
             let qs = [q * dt * dt / T::of(3.0), T::of(0.5) * q * dt, q];
             let mut best_nis = T::ZERO;
-            let mut doubt = false;
             for k in 0..self.n {
                 let tr = &mut self.tracks[k];
                 predict(tr, dt, qs);
                 let prior = [tr.p_ww[0][0], tr.p_ww[1][1], tr.p_ww[2][2]];
-                let nis = match &readings {
-                    Some(r) => update_by_readings(tr, r, gate),
-                    None => update_by_root(tr, cands, gate),
-                };
+                let nis = update(tr, readings.as_ref(), cands, gate);
                 // A bias in the prior goes through the update as the prior's weight in it
                 // (`1 − K H = P⁺ / P⁻` per component).
                 for c in 0..3 {
@@ -333,17 +325,14 @@ impl<T: Real> Tracker<T> {
                 if k == self.best {
                     best_nis = nis;
                     // The lock test: the best track's own innovation beyond the gate starts
-                    // new tracks; beyond the margin (per 3 of its 6 degrees of freedom, the
-                    // 99.99 % point) it puts the sample in doubt (a fault the monitor has not
-                    // yet seen moves Ω by 10 filtered deviations within 10 ms).
+                    // new tracks; beyond the margin per 3 of its 6 degrees of freedom (the
+                    // 99.99 % point) the sample is in doubt: the readings are not where its
+                    // motion says.
                     initiate = nis > gate;
-                    // Beyond the margin per 3 of its 6 degrees of freedom (the 99.99 % point)
-                    // the sample is in doubt: the readings are not where its motion says.
-                    doubt = nis > T::of(2.0 * SIGN_MARGIN);
+                    lost = nis > T::of(2.0 * SIGN_MARGIN);
                 }
             }
             self.adapt(best_nis, dt);
-            lost = doubt;
         }
         // Roots are born in pairs where a complex pair turns real (a crossing unfolding): a
         // new root starts a track too, or a track that left the crossing on its mirror would
@@ -351,10 +340,10 @@ impl<T: Real> Tracker<T> {
         // mirror, unflagged).
         let born = nc > self.last_nc;
         self.last_nc = nc;
-        let best_cost = self.tracks[..self.n]
-            .iter()
-            .fold(T::of(f64::MAX), |b, t| b.min(t.cost));
         if initiate || born {
+            let best_cost = self.tracks[..self.n]
+                .iter()
+                .fold(T::of(f64::MAX), |b, t| b.min(t.cost));
             // A track at every signed root that no track is near (within the gate); where
             // roots were just born, at every one that is no track's nearest (the two roots of
             // an unfolding crossing are within each other's noise).
@@ -365,11 +354,10 @@ impl<T: Real> Tracker<T> {
                     let z = scale(sign_of(sign), &c.omega);
                     let var = c.omega_var().max(T::of(1e-30));
                     let near = self.tracks[..n].iter().any(|t| {
-                        let d = norm2(&sub(&t.omega, &z));
                         if born {
                             nearest(t, cands) == (ci, sign)
                         } else {
-                            d <= gate * (t.omega_var() + var)
+                            norm2(&sub(&t.omega, &z)) <= gate * (t.omega_var() + var)
                         }
                     });
                     if !near {
@@ -782,6 +770,21 @@ fn nearest<T: Real>(t: &State<T>, cands: &[Candidate<T>]) -> (usize, i8) {
     let mut l = *t;
     label(&mut l, cands);
     (usize::from(l.candidate), l.sign)
+}
+
+/// A predicted track's update: by the readings (model F, m = 3) or by the signed root nearest
+/// it; returns the normalised innovation.
+#[inline(always)]
+fn update<T: Real>(
+    t: &mut State<T>,
+    readings: Option<&Readings<T>>,
+    cands: &[Candidate<T>],
+    gate: T,
+) -> T {
+    match readings {
+        Some(r) => update_by_readings(t, r, gate),
+        None => update_by_root(t, cands, gate),
+    }
 }
 
 /// Labels a track with the signed root nearest its Ω.
