@@ -6,7 +6,7 @@
 //! the filter keeps a few *tracks*, each a Kalman filter of the state (Ω, Ω′) on a white-jerk
 //! model — `Ω̇ = Ω′`, `Ω̇′ = j`, `j` white with the density
 //! [`Options::jerk_density`](crate::Options) (rad²/s⁵: a property of the motion, the same at
-//! every sample rate) — with one isotropic 2 × 2 covariance for the three axes, and a cost:
+//! every sample rate) — with its full 6 × 6 covariance (blocks Ω–Ω, Ω–Ω′, Ω′–Ω′), and a cost:
 //! twice its negative log-likelihood over time (a bank of filters scored by their likelihood,
 //! the multiple-model filter of the accelerometer-only navigation literature that carries Ω as
 //! a state; Nilsson & Skog 2016 review them).
