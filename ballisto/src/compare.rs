@@ -1,10 +1,12 @@
 //! `ballisto compare`: RMS errors of an estimates file against a truth file, matched by column
-//! name and by `t` (interfaces.md: both files share the column names).
+//! name and by `t` (interfaces.md: both files share the column names); or its Ω against a rate
+//! reference (a gyro), on the reference's valid rows.
 
 use std::error::Error;
 use std::path::Path;
 
-use crate::columns::Matched;
+use crate::calibrate::reference_rate::{read_at, Dropped, Validity};
+use crate::columns::{Columns, Matched};
 
 /// RMS errors of one comparison.
 #[derive(Clone, Debug, Default)]
@@ -110,5 +112,77 @@ pub fn compare(truth: &Path, estimates: &Path) -> Result<Comparison, Box<dyn Err
         omega: (sums[2] / n).sqrt(),
         field: (sums[3] / n).sqrt(),
         silent: with_sd.then_some(silent),
+    })
+}
+
+/// Ω of an estimates file against a rate reference (a gyro), on the rows the reference's valid
+/// rows cover.
+#[derive(Clone, Debug, Default)]
+pub struct RateComparison {
+    /// Rows of the estimates file.
+    pub rows: usize,
+    /// Rows compared (covered by valid reference rows).
+    pub compared: usize,
+    /// The reference rows left out, and why.
+    pub dropped: Dropped,
+    /// Per axis: RMS of the Ω error, rad/s.
+    pub rms: [f64; 3],
+    /// Per axis: median of |Ω error|, rad/s.
+    pub median: [f64; 3],
+    /// RMS of |Ω error| (the vector's length), rad/s.
+    pub rms_norm: f64,
+    /// Median of |Ω error|, rad/s.
+    pub median_norm: f64,
+}
+
+/// Compares the Ω of `estimates` with the reference rate file `reference` (its valid rows by
+/// `validity`, interpolated to the estimates' times; interfaces.md's reference format).
+pub fn compare_reference(
+    reference: &Path,
+    validity: &Validity,
+    estimates: &Path,
+) -> Result<RateComparison, Box<dyn Error>> {
+    let mut cols = Columns::open(estimates, &["t", "omega_x", "omega_y", "omega_z"])?;
+    let (mut times, mut omega) = (Vec::new(), Vec::new());
+    let mut row = [0.0; 4];
+    while cols.next_into(&mut row)? {
+        times.push(row[0]);
+        omega.push([row[1], row[2], row[3]]);
+    }
+    if times.is_empty() {
+        return Err(format!("{}: no rows: nothing to compare", estimates.display()).into());
+    }
+    let r = read_at(reference, validity, &times)?;
+    let mut errors: Vec<[f64; 3]> = Vec::with_capacity(times.len());
+    for ((w, wr), covered) in omega.iter().zip(r.omega.iter()).zip(r.covered.iter()) {
+        if *covered {
+            errors.push(core::array::from_fn(|i| w[i] - wr[i]));
+        }
+    }
+    if errors.is_empty() {
+        return Err(format!(
+            "{}: no row of {} falls between two valid reference rows: nothing to compare",
+            reference.display(),
+            estimates.display()
+        )
+        .into());
+    }
+    let n = errors.len() as f64;
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let norms: Vec<f64> = errors
+        .iter()
+        .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
+        .collect();
+    Ok(RateComparison {
+        rows: times.len(),
+        compared: errors.len(),
+        rms: core::array::from_fn(|i| (errors.iter().map(|e| e[i] * e[i]).sum::<f64>() / n).sqrt()),
+        median: core::array::from_fn(|i| median(errors.iter().map(|e| e[i].abs()).collect())),
+        rms_norm: (norms.iter().map(|x| x * x).sum::<f64>() / n).sqrt(),
+        median_norm: median(norms),
+        dropped: r.dropped,
     })
 }

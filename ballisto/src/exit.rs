@@ -30,10 +30,26 @@ impl fmt::Display for Refused {
 
 impl std::error::Error for Refused {}
 
-/// The exit code of an error: [`REFUSED`] for a [`Refused`], else [`BAD_INPUT`].
+/// A command line that parses but does not make sense (exit [`USAGE`]), e.g. arguments that
+/// do not go together.
+#[derive(Debug)]
+pub struct Usage(pub String);
+
+impl fmt::Display for Usage {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Usage {}
+
+/// The exit code of an error: [`REFUSED`] for a [`Refused`], [`USAGE`] for a [`Usage`], else
+/// [`BAD_INPUT`].
 pub fn code_of(e: &(dyn std::error::Error + 'static)) -> u8 {
     if e.downcast_ref::<Refused>().is_some() {
         REFUSED
+    } else if e.downcast_ref::<Usage>().is_some() {
+        USAGE
     } else {
         BAD_INPUT
     }

@@ -3,9 +3,10 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use ballisto::calibrate::reference_rate::Validity;
 use ballisto::estimate::{estimate_files, EstimateJob, Precision, FLAG_NAMES};
 use ballisto_fw::config::Alignment;
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use estimator_core::Model;
 
 const FLAGS_HELP: &str = "The flags column of estimates.csv is a bit set:
@@ -47,6 +48,39 @@ terminal: name --out FILE, redirect, or use --hex. Example:
   ballisto tc --sequence 7 exclude u1.x --arrangement arrangement.toml --out exclude.bin";
 
 /// `--model` (interfaces.md).
+/// Which rows of a reference rate file are valid, beyond its own flag columns.
+#[derive(Args, Clone, Debug, Default)]
+struct ReferenceValidity {
+    /// Flags beside the reference (CSV: t with the reference's times, then columns named
+    /// `valid` — 0 leaves the row out — or ending in `_saturated` — not 0 leaves it out), e.g.
+    /// reference_flags.csv.
+    #[arg(long, value_name = "FLAGS.csv", requires = "reference")]
+    reference_flags: Option<PathBuf>,
+    /// The reference gyro's range, rad/s: rows with an axis at 99 % of it or beyond are
+    /// clipped readings and left out.
+    #[arg(long, value_name = "RAD_S", requires = "reference", allow_negative_numbers = true, value_parser = positive_rate)]
+    reference_range: Option<f64>,
+}
+
+/// A gyro's range: a positive number of rad/s.
+fn positive_rate(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(r) if r.is_finite() && r > 0.0 => Ok(r),
+        _ => Err(format!(
+            "\"{s}\": the gyro's range must be a positive number of rad/s"
+        )),
+    }
+}
+
+impl ReferenceValidity {
+    fn validity(&self) -> Validity<'_> {
+        Validity {
+            flags: self.reference_flags.as_deref(),
+            range: self.reference_range,
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum ModelArg {
     /// Model G: 9 linear unknowns, N >= 12.
@@ -222,9 +256,12 @@ enum Command {
         #[arg(long, value_name = "CALIBRATED.toml")]
         out: PathBuf,
         /// Reference rate file (CSV: t, omega_x, omega_y, omega_z; rad/s, body frame); without
-        /// it Ω comes from the estimator (self-calibration).
+        /// it Ω comes from the estimator (self-calibration). Rows whose `valid` column is 0 or
+        /// whose `*_saturated` columns are not 0 are left out.
         #[arg(long, value_name = "REFERENCE.csv")]
         reference: Option<PathBuf>,
+        #[command(flatten)]
+        validity: ReferenceValidity,
         /// What may change: a comma-separated subset of bias, scale, axis, position.
         #[arg(long, value_name = "LIST", default_value = "bias,scale,axis,position")]
         fit: String,
@@ -258,12 +295,20 @@ enum Command {
         #[arg(long, value_enum)]
         model: Option<ModelArg>,
     },
-    /// RMS errors of an estimates file against a truth file (matched by column name and t).
+    /// RMS errors of an estimates file against a truth file (matched by column name and t);
+    /// with --reference, its Ω against a rate reference (a gyro: RMS and median per axis, on
+    /// the reference's valid rows).
     Compare {
-        /// Truth file (CSV, as written by the simulator).
-        truth: PathBuf,
-        /// Estimates file (CSV, as written by `ballisto estimate`).
-        estimates: PathBuf,
+        /// TRUTH.csv ESTIMATES.csv (the truth as the simulator writes it, the estimates as
+        /// `ballisto estimate` does); with --reference, ESTIMATES.csv alone.
+        #[arg(value_name = "FILES", num_args = 1..=2, required = true)]
+        files: Vec<PathBuf>,
+        /// Reference rate file (CSV: t, omega_x, omega_y, omega_z; rad/s, body frame) to score
+        /// Ω against, in place of a truth file.
+        #[arg(long, value_name = "REFERENCE.csv")]
+        reference: Option<PathBuf>,
+        #[command(flatten)]
+        validity: ReferenceValidity,
     },
     /// Build telecommands for the unit (PUS packets, COBS-framed as on its command link):
     /// to a file, or stdout.
@@ -532,6 +577,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             samples,
             out,
             reference,
+            validity,
             fit,
             model,
             report,
@@ -543,10 +589,14 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 samples: &samples,
                 out: &out,
                 reference: reference.as_deref(),
+                reference_validity: validity.validity(),
                 fit,
                 model,
                 report: report.as_deref(),
             })?;
+            if let Some(d) = &s.reference_dropped {
+                say.info(format!("ballisto calibrate: {d}"));
+            }
             say.info(format!(
                 "ballisto calibrate: {} static poses, {} samples in motion, {} alternations, model {} -> {}",
                 s.poses,
@@ -715,8 +765,48 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 ExitCode::from(ballisto::exit::DAMAGED_TELEMETRY)
             })
         }
-        Command::Compare { truth, estimates } => {
-            let c = ballisto::compare::compare(&truth, &estimates)?;
+        Command::Compare {
+            files,
+            reference: Some(reference),
+            validity,
+        } => {
+            let [estimates] = files.as_slice() else {
+                return Err(Box::new(ballisto::exit::Usage(
+                    "compare --reference REFERENCE.csv takes the estimates file alone (no truth file)".into(),
+                )));
+            };
+            let c =
+                ballisto::compare::compare_reference(&reference, &validity.validity(), estimates)?;
+            if let Some(d) = c.dropped.describe(&reference) {
+                say.info(format!("ballisto compare: {d}"));
+            }
+            println!(
+                "rows compared: {} of {} (the others not between two valid reference rows)",
+                c.compared, c.rows
+            );
+            for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+                println!(
+                    "omega_{axis}  RMS error {:.3e} rad/s, median |error| {:.3e} rad/s",
+                    c.rms[i], c.median[i]
+                );
+            }
+            println!(
+                "|omega|   RMS error {:.3e} rad/s, median {:.3e} rad/s",
+                c.rms_norm, c.median_norm
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Compare {
+            files,
+            reference: None,
+            ..
+        } => {
+            let [truth, estimates] = files.as_slice() else {
+                return Err(Box::new(ballisto::exit::Usage(
+                    "compare takes TRUTH.csv ESTIMATES.csv (or --reference REFERENCE.csv ESTIMATES.csv)".into(),
+                )));
+            };
+            let c = ballisto::compare::compare(truth, estimates)?;
             println!("rows compared: {}", c.rows);
             println!("RMS error  sigma0 {:.3e} m/s^2", c.sigma0);
             println!("RMS error  domega {:.3e} rad/s^2", c.domega);

@@ -219,7 +219,9 @@ pub fn channel_index(
 /// TC[200,9] packets' application data for the rows of a reference rate file (times on the
 /// unit's clock, s since boot) between `from` and `to`: [`MAX_POINTS`] points each.
 pub fn reference_batches(path: &Path, from: f64, to: f64) -> Result<Vec<Vec<u8>>, String> {
-    let r = crate::calibrate::reference_rate::read(path).map_err(|e| e.to_string())?;
+    // The reference's own flag columns (`valid`, `*_saturated`) leave rows out here too.
+    let (r, _) = crate::calibrate::reference_rate::read(path, &Default::default())
+        .map_err(|e| e.to_string())?;
     let mut points = Vec::new();
     for (t, w) in r.t.iter().zip(&r.omega) {
         if *t < from || *t > to {

@@ -228,6 +228,7 @@ fn calibrated_parts_estimate_as_well_as_ideal_ones() {
             samples: &cal.join("samples.csv"),
             out: &file,
             reference: reference.as_deref(),
+            reference_validity: Default::default(),
             fit: FitSet::ALL,
             model: None,
             report: None,

@@ -45,6 +45,8 @@ pub struct CalibrateJob<'a> {
     pub out: &'a Path,
     /// Reference rate file, if any.
     pub reference: Option<&'a Path>,
+    /// Which of the reference's rows are valid (its flags, the gyro's range).
+    pub reference_validity: reference_rate::Validity<'a>,
     /// What may change.
     pub fit: FitSet,
     /// The model for the estimator in self-calibration (overrides the file's).
@@ -68,6 +70,8 @@ pub struct CalibrationSummary {
     /// What makes the calibration doubtful (residuals above the noise, parameters far
     /// outside their tolerance), one sentence each.
     pub warnings: Vec<String>,
+    /// The reference rows left out (flagged invalid, at the gyro's range), one sentence.
+    pub reference_dropped: Option<String>,
 }
 
 /// A channel's residual may exceed its declared noise by this factor before the record is
@@ -168,9 +172,17 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         })
         .collect();
     let reference = match job.reference {
-        Some(path) => Some(reference_rate::read_at(path, &times)?),
+        Some(path) => Some(reference_rate::read_at(
+            path,
+            &job.reference_validity,
+            &times,
+        )?),
         None => None,
     };
+    let reference_dropped = job
+        .reference
+        .zip(reference.as_ref())
+        .and_then(|(path, r)| r.dropped.describe(path));
     let rate_ok: Option<Vec<bool>> = reference.as_ref().map(|r| {
         r.omega
             .iter()
@@ -245,7 +257,11 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             identification.last_step,
             poses.len(),
             motion.len(),
-            if job.reference.is_none() { "; a reference rate would help" } else { "" }
+            match (&reference_dropped, job.reference) {
+                (_, None) => "; a reference rate would help".to_string(),
+                (Some(d), _) => format!("; {d}"),
+                (None, Some(_)) => String::new(),
+            }
         ))
         .into());
     }
@@ -266,6 +282,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         names,
         model,
         warnings,
+        reference_dropped,
     };
     if let Some(path) = job.report {
         // The PNG beside the Markdown, same name (`REPORT.png`).

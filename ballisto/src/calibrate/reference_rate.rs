@@ -1,5 +1,7 @@
 //! The reference rate file (interfaces.md): `t, omega_x, omega_y, omega_z` (rad/s, body; more
-//! columns may follow), brought to the samples' instants by linear interpolation.
+//! columns may follow), with the rows a real reference cannot vouch for left out (a gyro that
+//! saturated, a reading at its range: [`Validity`]), brought to the samples' instants by linear
+//! interpolation.
 
 use std::error::Error;
 use std::path::Path;
@@ -10,11 +12,13 @@ use nalgebra::Vector3;
 pub struct ReferenceAt {
     /// Ω at each sample (zero where not covered).
     pub omega: Vec<Vector3<f64>>,
-    /// Whether the reference covers the sample (it lies between two reference rows).
+    /// Whether the reference covers the sample (it lies between two valid reference rows).
     pub covered: Vec<bool>,
+    /// The reference rows left out, and why.
+    pub dropped: Dropped,
 }
 
-/// The rows of a reference rate file: times (s, increasing) and Ω (rad/s, body).
+/// The valid rows of a reference rate file: times (s, increasing) and Ω (rad/s, body).
 pub struct Reference {
     /// Times, s.
     pub t: Vec<f64>,
@@ -22,16 +26,82 @@ pub struct Reference {
     pub omega: Vec<Vector3<f64>>,
 }
 
-/// Reads `path` and interpolates it to `times` (not across a gap of more than 1.5 median
-/// intervals: rows left out mean "no reference here"). Errors name the file and line; a
-/// reference that covers less than half of the samples is refused (it does not overlap the
-/// record).
-pub fn read_at(path: &Path, times: &[f64]) -> Result<ReferenceAt, Box<dyn Error>> {
+/// What says a reference row is not to be used. Columns named `valid` (0: invalid) or ending
+/// in `_saturated` (not 0: invalid) say so wherever they are: in the reference file itself or
+/// in [`Validity::flags`].
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Validity<'a> {
+    /// A flags file beside the reference (CSV: `t` with the reference's times, then flag
+    /// columns), e.g. `reference_flags.csv` with `gyro_saturated`.
+    pub flags: Option<&'a Path>,
+    /// The gyro's range, rad/s: a row with an axis at [`RANGE_SHARE`] of it or beyond is a
+    /// clipped reading.
+    pub range: Option<f64>,
+}
+
+/// A reference axis at this share of the gyro's range or beyond is taken as clipped.
+pub const RANGE_SHARE: f64 = 0.99;
+
+/// Reference rows left out, by reason.
+#[derive(Clone, Debug, Default)]
+pub struct Dropped {
+    /// Rows in the file.
+    pub rows: usize,
+    /// Per reason (a flag column's name, or the range), the rows it left out (a row counts
+    /// once, under its first reason).
+    pub reasons: Vec<(String, usize)>,
+}
+
+impl Dropped {
+    /// Rows left out.
+    pub fn total(&self) -> usize {
+        self.reasons.iter().map(|(_, n)| n).sum()
+    }
+
+    fn count(&mut self, reason: &str) {
+        match self.reasons.iter_mut().find(|(r, _)| r == reason) {
+            Some((_, n)) => *n += 1,
+            None => self.reasons.push((reason.to_string(), 1)),
+        }
+    }
+
+    /// One sentence for the user, e.g. "3 352 of 37 439 reference rows left out
+    /// (gyro_saturated 3 352)"; `None` when none was.
+    pub fn describe(&self, file: &Path) -> Option<String> {
+        (self.total() > 0).then(|| {
+            let why: Vec<String> = self
+                .reasons
+                .iter()
+                .map(|(r, n)| format!("{r} {n}"))
+                .collect();
+            format!(
+                "{}: {} of {} reference rows left out ({})",
+                file.display(),
+                self.total(),
+                self.rows,
+                why.join(", ")
+            )
+        })
+    }
+}
+
+/// Reads `path` (its rows valid by `validity`) and interpolates it to `times` (not across a
+/// gap of more than 1.5 median intervals: rows left out mean "no reference here"). Errors name
+/// the file and line; a reference whose valid rows span less than half of the samples is
+/// refused (it does not overlap the record).
+pub fn read_at(
+    path: &Path,
+    validity: &Validity,
+    times: &[f64],
+) -> Result<ReferenceAt, Box<dyn Error>> {
     let name = path.display().to_string();
-    let Reference {
-        t: t_ref,
-        omega: w_ref,
-    } = read(path)?;
+    let (
+        Reference {
+            t: t_ref,
+            omega: w_ref,
+        },
+        dropped,
+    ) = read(path, validity)?;
 
     // A reference with rows left out (e.g. where a gyro saturated) does not cover the gap:
     // an interval longer than 1.5 times the median one is not interpolated across.
@@ -46,7 +116,9 @@ pub fn read_at(path: &Path, times: &[f64]) -> Result<ReferenceAt, Box<dyn Error>
             j += 1;
         }
         let (t0, t1) = (t_ref[j], t_ref[j + 1]);
-        let inside = t >= t0 - 1e-9 && t <= t1 + 1e-9 && t1 - t0 <= longest;
+        // Within an interval that is no gap, or at a valid row's own instant.
+        let at_row = (t - t0).abs() <= 1e-9 || (t - t1).abs() <= 1e-9;
+        let inside = at_row || (t >= t0 && t <= t1 && t1 - t0 <= longest);
         covered.push(inside);
         omega.push(if inside {
             let u = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
@@ -55,10 +127,16 @@ pub fn read_at(path: &Path, times: &[f64]) -> Result<ReferenceAt, Box<dyn Error>
             Vector3::zeros()
         });
     }
-    let n = covered.iter().filter(|c| **c).count();
+    // Overlap, not coverage: the rows left out are reported, not refused.
+    let (first, last) = (t_ref[0], t_ref[t_ref.len() - 1]);
+    let n = times.iter().filter(|&&t| t >= first && t <= last).count();
     if 2 * n < times.len() {
+        let left_out = dropped
+            .describe(path)
+            .map(|d| format!("; {d}"))
+            .unwrap_or_default();
         return Err(format!(
-            "{name}: covers {n} of the {} sample instants ({:.3}–{:.3} s against {:.3}–{:.3} s): it does not overlap the record",
+            "{name}: spans {n} of the {} sample instants ({:.3}–{:.3} s against {:.3}–{:.3} s): it does not overlap the record{left_out}",
             times.len(),
             t_ref[0],
             t_ref[t_ref.len() - 1],
@@ -67,12 +145,53 @@ pub fn read_at(path: &Path, times: &[f64]) -> Result<ReferenceAt, Box<dyn Error>
         )
         .into());
     }
-    Ok(ReferenceAt { omega, covered })
+    Ok(ReferenceAt {
+        omega,
+        covered,
+        dropped,
+    })
 }
 
-/// Reads a reference rate file: errors name the file and line (a missing column, a field that
-/// is not a finite number, a time that does not increase, fewer than two rows).
-pub fn read(path: &Path) -> Result<Reference, Box<dyn Error>> {
+/// The flag columns of a header: (index, name, whether a 0 means invalid — `valid` — or a
+/// non-zero value does — `*_saturated`).
+fn flag_columns(header: &csv::StringRecord) -> Vec<(usize, String, bool)> {
+    header
+        .iter()
+        .enumerate()
+        .filter_map(|(i, h)| {
+            let h = h.trim();
+            if h == "valid" {
+                Some((i, h.to_string(), true))
+            } else if h.ends_with("_saturated") {
+                Some((i, h.to_string(), false))
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+/// The first flag of `rec` that makes it invalid; an error names the field.
+fn invalid_by<'a>(
+    rec: &csv::StringRecord,
+    flags: &'a [(usize, String, bool)],
+    at: &str,
+) -> Result<Option<&'a str>, String> {
+    for (i, name, zero_invalid) in flags {
+        let field = rec.get(*i).unwrap_or("").trim();
+        let v = field
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{at}: {name} \"{field}\" is not a finite number"))?;
+        if (v == 0.0) == *zero_invalid {
+            return Ok(Some(name));
+        }
+    }
+    Ok(None)
+}
+
+fn open(path: &Path) -> Result<(csv::Reader<std::fs::File>, csv::StringRecord), String> {
     let name = path.display().to_string();
     let mut rdr = csv::ReaderBuilder::new()
         .comment(Some(b'#'))
@@ -82,17 +201,60 @@ pub fn read(path: &Path) -> Result<Reference, Box<dyn Error>> {
         .headers()
         .map_err(|e| format!("{name} line 1: cannot read the header: {e}"))?
         .clone();
+    Ok((rdr, header))
+}
+
+/// The rows a flags file marks invalid: (t, reason) in file order. Errors name the file and
+/// line (no `t`, no flag column, a field that is not a number).
+fn flagged_times(path: &Path) -> Result<Vec<(f64, String)>, String> {
+    let name = path.display().to_string();
+    let (mut rdr, header) = open(path)?;
+    let t_col = header
+        .iter()
+        .position(|h| h.trim() == "t")
+        .ok_or_else(|| format!("{name} line 1: no column \"t\""))?;
+    let flags = flag_columns(&header);
+    if flags.is_empty() {
+        return Err(format!(
+            "{name} line 1: no flag column (\"valid\", or a name ending in \"_saturated\")"
+        ));
+    }
+    let mut out = Vec::new();
+    for (i, rec) in rdr.records().enumerate() {
+        let at = format!("{name} line {}", i + 2);
+        let rec = rec.map_err(|e| format!("{at}: {e}"))?;
+        let field = rec.get(t_col).unwrap_or("").trim();
+        let t = field
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{at}: t \"{field}\" is not a finite number"))?;
+        if let Some(why) = invalid_by(&rec, &flags, &at)? {
+            out.push((t, why.to_string()));
+        }
+    }
+    Ok(out)
+}
+
+/// Reads a reference rate file and keeps its valid rows (`validity`): errors name the file and
+/// line (a missing column, a field that is not a finite number, a time that does not
+/// increase, a flags row whose time is not the reference's, fewer than two valid rows).
+pub fn read(path: &Path, validity: &Validity) -> Result<(Reference, Dropped), Box<dyn Error>> {
+    let name = path.display().to_string();
+    let (mut rdr, header) = open(path)?;
     let col = |c: &str| {
         header.iter().position(|h| h.trim() == c).ok_or_else(|| {
             format!("{name} line 1: no column \"{c}\" (expected t, omega_x, omega_y, omega_z)")
         })
     };
     let cols = [col("t")?, col("omega_x")?, col("omega_y")?, col("omega_z")?];
+    let own_flags = flag_columns(&header);
     let mut t_ref: Vec<f64> = Vec::new();
     let mut w_ref: Vec<Vector3<f64>> = Vec::new();
+    let mut why: Vec<Option<String>> = Vec::new();
     for (i, rec) in rdr.records().enumerate() {
-        let line = i + 2;
-        let rec = rec.map_err(|e| format!("{name} line {line}: {e}"))?;
+        let at = format!("{name} line {}", i + 2);
+        let rec = rec.map_err(|e| format!("{at}: {e}"))?;
         let mut v = [0.0; 4];
         for (x, &c) in v.iter_mut().zip(cols.iter()) {
             let field = rec.get(c).unwrap_or("").trim();
@@ -100,19 +262,61 @@ pub fn read(path: &Path) -> Result<Reference, Box<dyn Error>> {
                 .parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
-                .ok_or_else(|| format!("{name} line {line}: \"{field}\" is not a finite number"))?;
+                .ok_or_else(|| format!("{at}: \"{field}\" is not a finite number"))?;
         }
         if t_ref.last().is_some_and(|&t0| v[0] <= t0) {
-            return Err(format!("{name} line {line}: t = {} does not increase", v[0]).into());
+            return Err(format!("{at}: t = {} does not increase", v[0]).into());
         }
+        let w = Vector3::new(v[1], v[2], v[3]);
+        let clipped = validity
+            .range
+            .filter(|r| w.amax() >= RANGE_SHARE * r)
+            .map(|r| format!("at the range ±{r} rad/s"));
+        why.push(
+            invalid_by(&rec, &own_flags, &at)?
+                .map(str::to_string)
+                .or(clipped),
+        );
         t_ref.push(v[0]);
-        w_ref.push(Vector3::new(v[1], v[2], v[3]));
+        w_ref.push(w);
     }
+    if let Some(flags) = validity.flags {
+        for (t, reason) in flagged_times(flags)? {
+            // Same instants as the reference's (a flags file written beside it).
+            let k = t_ref.partition_point(|&x| x < t - 1e-9);
+            if k == t_ref.len() || (t_ref[k] - t).abs() > 1e-9 * t.abs().max(1.0) {
+                return Err(format!(
+                    "{}: t = {t} is not a time of {name} (a flags file carries the reference's times)",
+                    flags.display()
+                )
+                .into());
+            }
+            why[k].get_or_insert(reason);
+        }
+    }
+    let mut dropped = Dropped {
+        rows: t_ref.len(),
+        ..Dropped::default()
+    };
+    let mut keep = why.iter().map(|w| w.is_none());
+    for w in why.iter().flatten() {
+        dropped.count(w);
+    }
+    t_ref.retain(|_| keep.next().unwrap_or(false));
+    let mut keep = why.iter().map(|w| w.is_none());
+    w_ref.retain(|_| keep.next().unwrap_or(false));
     if t_ref.len() < 2 {
-        return Err(format!("{name}: fewer than two rows").into());
+        let left_out = dropped
+            .describe(path)
+            .map(|d| format!(" ({d})"))
+            .unwrap_or_default();
+        return Err(format!("{name}: fewer than two valid rows{left_out}").into());
     }
-    Ok(Reference {
-        t: t_ref,
-        omega: w_ref,
-    })
+    Ok((
+        Reference {
+            t: t_ref,
+            omega: w_ref,
+        },
+        dropped,
+    ))
 }

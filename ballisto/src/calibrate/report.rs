@@ -29,6 +29,9 @@ pub fn markdown(s: &CalibrationSummary, job: &CalibrateJob, png: Option<&str>) -
         },
         s.identification.iterations
     );
+    if let Some(d) = &s.reference_dropped {
+        r.push_str(&format!("- Reference: {d}.\n"));
+    }
     for w in &s.warnings {
         r.push_str(&format!("- **Warning**: {w}.\n"));
     }
