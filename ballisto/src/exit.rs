@@ -13,7 +13,8 @@ pub const USAGE: u8 = 2;
 /// `decode`: the telemetry was damaged or packets were lost; the good packets were written.
 pub const DAMAGED_TELEMETRY: u8 = 3;
 /// The inputs were read but do not support the result asked for (a calibration record that
-/// does not determine the parameters, an identification that does not converge): nothing
+/// does not determine the parameters, an identification that does not converge, a
+/// calibration that does not improve the part of the record held out of its fit): nothing
 /// written.
 pub const REFUSED: u8 = 4;
 

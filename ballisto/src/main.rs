@@ -274,6 +274,10 @@ enum Command {
         /// residuals per sample and per channel, before and after).
         #[arg(long, value_name = "REPORT.md")]
         report: Option<PathBuf>,
+        /// Write the calibration even when it does not improve the part of the record held
+        /// out of the fit (every fifth 2 s of motion); the warning goes into the file.
+        #[arg(long)]
+        force: bool,
     },
     /// The centre of mass relative to the instrument origin (paper eq. 12) over sliding
     /// windows: t, rho_x.., f_x.., sd_rho_x.. (interfaces.md); empty fields where a window's
@@ -581,6 +585,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             fit,
             model,
             report,
+            force,
         } => {
             let fit = parse_fit(&fit)?;
             let model = model.map(Model::from);
@@ -593,6 +598,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 fit,
                 model,
                 report: report.as_deref(),
+                force,
             })?;
             if let Some(d) = &s.reference_dropped {
                 say.info(format!("ballisto calibrate: {d}"));
@@ -605,6 +611,13 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 s.model.name(),
                 out.display()
             ));
+            match &s.validation {
+                Some(v) => say.info(format!("  validated: {}", v.describe())),
+                None => say.info(format!(
+                    "  not validated: the record's motion is too short to hold {} samples of it out of the fit",
+                    ballisto::calibrate::holdout::HOLD_MIN
+                )),
+            }
             for w in &s.warnings {
                 eprintln!("  WARNING: {w}");
             }

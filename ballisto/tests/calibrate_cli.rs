@@ -87,6 +87,10 @@ fn writes_a_calibrated_arrangement_that_estimate_reads() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     assert!(err.contains("static poses"), "{err}");
+    // Validated on the motion held out of the fit: the datasheet errors' residual and Ω error
+    // gone there (the figures nominal → calibrated, in the summary and the report).
+    assert!(err.contains("validated: held out of the fit"), "{err}");
+    assert!(err.contains("Ω against the reference"), "{err}");
     let text = std::fs::read_to_string(dir.join("calibrated.toml")).unwrap();
     assert!(
         text.starts_with("# Calibrated by ballisto calibrate"),
@@ -107,6 +111,7 @@ fn writes_a_calibrated_arrangement_that_estimate_reads() {
     }
     let md = std::fs::read_to_string(&report).unwrap();
     assert!(md.contains("| u0.x |"));
+    assert!(md.contains("- Validation: held out of the fit"), "{md}");
     // The residuals' PNG beside it, referenced.
     assert!(md.contains("](report.png)"));
     let png = std::fs::read(dir.join("report.png")).unwrap();
@@ -229,6 +234,60 @@ fn an_orbit_tumble_without_reference_is_refused_not_guessed() {
         &calibrate(&dir, &dir.join("samples.csv"), &["--fit", "scale"]),
         &dir,
         "the identification diverged",
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A calibration that does not improve the part of the record held out of the fit is refused
+/// (exit 4, nothing written); `--force` writes it with the warning in the file. Ideal parts
+/// (the nominal geometry is the truth): a calibration can only fit the record's noise.
+#[test]
+fn a_calibration_that_does_not_improve_the_held_out_part_is_refused() {
+    let dir = tmpdir("ideal");
+    let ideal: String = common::scenario_text("ground-calibration")
+        .lines()
+        .filter(|l| {
+            ![
+                "bias = ",
+                "scale = ",
+                "cross = ",
+                "position_error = ",
+                "orientation_error = ",
+            ]
+            .iter()
+            .any(|k| l.starts_with(k))
+        })
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let scenario = dir.join("ideal.toml");
+    std::fs::write(&scenario, ideal).unwrap();
+    common::run_ok(
+        ballisto()
+            .args(["sim", "--firmware", "--scenario"])
+            .arg(&scenario)
+            .arg("--out")
+            .arg(&dir),
+    );
+    let reference = dir.join("reference.csv");
+    let args = ["--reference", reference.to_str().unwrap()];
+    let out = calibrate(&dir, &dir.join("samples.csv"), &args);
+    assert_eq!(out.status.code(), Some(4));
+    refused(
+        &out,
+        &dir,
+        "does not improve the part of the record held out of the fit",
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--force"), "{err}");
+    let forced = [args[0], args[1], "--force"];
+    let out = calibrate(&dir, &dir.join("samples.csv"), &forced);
+    common::succeeded(&out);
+    let text = std::fs::read_to_string(dir.join("calibrated.toml")).unwrap();
+    assert!(
+        text.contains(
+            "# WARNING: the calibration does not improve the part of the record held out"
+        ),
+        "{text}"
     );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -232,6 +232,7 @@ fn calibrated_parts_estimate_as_well_as_ideal_ones() {
             fit: FitSet::ALL,
             model: None,
             report: None,
+            force: false,
         })
         .unwrap();
         let cal_file = ArrangementFile::read(&file).unwrap();

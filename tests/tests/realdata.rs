@@ -140,6 +140,7 @@ fn calibrate_raw(k: usize, gyro: bool, out: &std::path::Path) -> Result<(), Stri
         fit: FitSet::ALL,
         model: None,
         report: None,
+        force: false,
     })
     .map(|_| ())
     .map_err(|e| e.to_string())

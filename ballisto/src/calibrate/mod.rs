@@ -8,10 +8,12 @@
 //! - [`kinematics`] ties self-calibration's Ω′ to the change of its Ω (the axes' rotation
 //!   against the lever arms, which the per-sample field otherwise absorbs);
 //! - [`reference_rate`] reads a reference rate file and brings it to the sample instants;
+//! - [`holdout`] holds part of the motion out of the fit and scores both geometries on it;
 //! - this module reads the files, runs the fit and writes the calibrated arrangement.
 
 pub mod fit;
 pub mod frame;
+pub mod holdout;
 pub mod kinematics;
 pub mod poses;
 pub mod reference_rate;
@@ -53,6 +55,9 @@ pub struct CalibrateJob<'a> {
     pub model: Option<Model>,
     /// A report for people (Markdown), if wanted.
     pub report: Option<&'a Path>,
+    /// Write the calibration even when it does not improve the held-out part of the record
+    /// (with the warning in the file).
+    pub force: bool,
 }
 
 /// What a calibration found, for the summary on stderr.
@@ -72,6 +77,8 @@ pub struct CalibrationSummary {
     pub warnings: Vec<String>,
     /// The reference rows left out (flagged invalid, at the gyro's range), one sentence.
     pub reference_dropped: Option<String>,
+    /// The held-out part's figures (`None`: too little motion to hold part of it out).
+    pub validation: Option<holdout::Validation>,
 }
 
 /// A channel's residual may exceed its declared noise by this factor before the record is
@@ -210,6 +217,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         .filter(|&k| !in_pose[k])
         .filter(|&k| reference.as_ref().is_none_or(|r| r.covered[k]))
         .collect();
+    let (fit_motion, held_out) = holdout::split(&motion, &times);
     let (model, model_note) = crate::model_choice::recommend(job.model, &loaded, job.arrangement)?;
     let record = Record {
         rows: &rows,
@@ -219,6 +227,12 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         gamma: Matrix3::zeros(),
     };
     let run_estimator = |geo: &[Geometry]| estimator_rates(geo, &names, model, &times, &rows);
+    let declared: Vec<f64> = loaded
+        .arrangement
+        .channels()
+        .iter()
+        .map(|c| c.noise)
+        .collect();
     let source = match &reference {
         Some(r) => RateSource::Reference(&r.omega),
         None => RateSource::Estimator(&run_estimator),
@@ -265,7 +279,80 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         ))
         .into());
     }
+    let noise: Vec<f64> = identification
+        .channels
+        .iter()
+        .zip(declared.iter())
+        .map(|(c, &d)| written_noise(c, d))
+        .collect();
+    // Validation: the same fit on the record without the held-out stretches, both geometries
+    // scored on them. The file written is the fit on the whole record (it is at least as well
+    // determined; held-out stretches can hold the ramps that separate the axes' rotation from
+    // the lever arms: the self-calibrated Ω of `ground-calibration` went from 1.0 to 1.85 ×
+    // ideal parts when the file was the fit without them).
+    let validation = if held_out.len() >= holdout::HOLD_MIN {
+        let without = Record {
+            motion: &fit_motion,
+            ..record
+        };
+        let check = fit::identify(&nominal, &without, &source, job.fit, &tolerance)
+            .map_err(|e| format!("{}: {e}", job.samples.display()))?;
+        let check_noise: Vec<f64> = check
+            .channels
+            .iter()
+            .zip(declared.iter())
+            .map(|(c, &d)| written_noise(c, d))
+            .collect();
+        let with_noise =
+            |geo: &mut dyn Iterator<Item = Geometry>, noise: &[f64]| -> Vec<Geometry> {
+                geo.zip(noise.iter())
+                    .map(|(g, &noise)| Geometry { noise, ..g })
+                    .collect()
+            };
+        let nominal_geo = with_noise(&mut nominal.iter().copied(), &declared);
+        let calibrated_geo =
+            with_noise(&mut check.channels.iter().map(|c| c.geometry), &check_noise);
+        let mut scores = [None, None];
+        for (geo, s) in [&nominal_geo, &calibrated_geo]
+            .iter()
+            .zip(scores.iter_mut())
+        {
+            let run = estimator_run(geo, &names, model, &times, &rows)?;
+            *s = Some(holdout::score(
+                geo,
+                &declared,
+                &record,
+                &held_out,
+                &run,
+                reference.as_ref(),
+            )?);
+        }
+        let [Some(nominal), Some(calibrated)] = scores else {
+            unreachable!("both scored above")
+        };
+        Some(holdout::Validation {
+            samples: held_out.len(),
+            nominal,
+            calibrated,
+        })
+    } else {
+        None
+    };
     let mut warnings = plausibility(&mut identification, &nominal, &names, &tolerance);
+    if let Some(v) = validation.filter(|v| !v.improved()) {
+        let sentence = format!(
+            "the calibration does not improve the part of the record held out of the fit ({})",
+            v.describe()
+        );
+        if !job.force {
+            return Err(crate::exit::Refused(format!(
+                "{}: {sentence}: nothing written (--force writes it with this warning)",
+                job.samples.display()
+            ))
+            .into());
+        }
+        warnings.push(sentence);
+    }
     warnings.extend(crate::plausibility::arrangement(
         &loaded,
         &job.arrangement.display().to_string(),
@@ -273,7 +360,15 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     if let Some(note) = model_note {
         warnings.push(note);
     }
-    let text = calibrated_file(&file, &loaded, &identification, model, job, &warnings)?;
+    let text = calibrated_file(
+        &file,
+        &loaded,
+        &identification,
+        &noise,
+        model,
+        job,
+        &warnings,
+    )?;
     crate::output::write(job.out, text.as_bytes())?;
     let summary = CalibrationSummary {
         poses: poses.len(),
@@ -283,6 +378,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         model,
         warnings,
         reference_dropped,
+        validation,
     };
     if let Some(path) = job.report {
         // The PNG beside the Markdown, same name (`REPORT.png`).
@@ -368,7 +464,9 @@ fn noise_levels(loaded: &LoadedArrangement, rows: &[Vec<f64>], rate_hz: f64) -> 
         .collect()
 }
 
-/// Ω per sample from the host estimator (f64, smoothed) on the geometry `geo`.
+/// Ω per sample from the host estimator (f64, smoothed) on the geometry `geo`: `None` where
+/// the estimator does not decide it (fallback, ill-conditioned, branch ambiguous, input
+/// invalid).
 pub fn estimator_rates(
     geo: &[Geometry],
     names: &[String],
@@ -376,6 +474,23 @@ pub fn estimator_rates(
     times: &[f64],
     rows: &[Vec<f64>],
 ) -> Result<fit::Rates, String> {
+    let undecided =
+        Flags::FALLBACK | Flags::ILL_CONDITIONED | Flags::BRANCH_AMBIGUOUS | Flags::INPUT_INVALID;
+    Ok(estimator_run(geo, names, model, times, rows)?
+        .into_iter()
+        .map(|(w, flags)| (flags & undecided == 0).then_some(w))
+        .collect())
+}
+
+/// The host estimator (f64, smoothed, no fault isolation) over the record on the geometry
+/// `geo` with the noise it declares: Ω and the flags per sample.
+pub fn estimator_run(
+    geo: &[Geometry],
+    names: &[String],
+    model: Model,
+    times: &[f64],
+    rows: &[Vec<f64>],
+) -> Result<Vec<(Vector3<f64>, u16)>, String> {
     let mut arrangement = Arrangement::<HOST_CAP>::new();
     for g in geo {
         let i = arrangement
@@ -399,16 +514,26 @@ pub fn estimator_rates(
         .map_err(|e| format!("the estimator on the geometry being identified: {e}"))?
         .without_fault_isolation();
     let mut out = Vec::with_capacity(rows.len());
-    let undecided =
-        Flags::FALLBACK | Flags::ILL_CONDITIONED | Flags::BRANCH_AMBIGUOUS | Flags::INPUT_INVALID;
     let mut emit = |_: f64, e: &estimator_core::Estimate<f64>| {
-        out.push((e.flags.0 & undecided == 0).then(|| Vector3::from(e.omega)));
+        out.push((Vector3::from(e.omega), e.flags.0));
     };
     for (t, row) in times.iter().zip(rows.iter()) {
         est.push(*t, row, &mut emit);
     }
     est.finish(&mut emit);
     Ok(out)
+}
+
+/// The noise a calibrated channel declares: its residual after the fit — white noise and the
+/// model error that remains, so that χ² and the fault monitor mean something on real parts —
+/// never below the noise the nominal file declared.
+fn written_noise(c: &fit::Identified, declared: f64) -> f64 {
+    let r = c.residual_rms.1;
+    if r.is_finite() {
+        r.max(declared)
+    } else {
+        declared
+    }
 }
 
 /// The calibrated arrangement file's text: every channel as a `[[channel]]` table with its
@@ -418,6 +543,7 @@ fn calibrated_file(
     file: &ArrangementFile,
     loaded: &LoadedArrangement,
     id: &Identification,
+    noise: &[f64],
     model: Model,
     job: &CalibrateJob,
     warnings: &[String],
@@ -426,8 +552,8 @@ fn calibrated_file(
     let channels: Vec<ChannelSpec> = specs
         .iter()
         .zip(id.channels.iter())
-        .zip(loaded.arrangement.channels().iter())
-        .map(|((spec, c), nominal)| {
+        .zip(noise.iter())
+        .map(|((spec, c), &noise)| {
             let g = &c.geometry;
             let sd = |j: usize| c.sd[j].is_finite().then_some(c.sd[j]);
             let axis_sd = match (sd(1), sd(2)) {
@@ -442,7 +568,7 @@ fn calibrated_file(
                 name: spec.name.clone(),
                 position: g.position.into(),
                 axis: g.axis.into(),
-                noise: Some(nominal.noise),
+                noise: Some(noise),
                 bias: Some(g.bias),
                 scale: Some(g.scale),
                 position_sd,
