@@ -74,30 +74,34 @@ fn rms_x(stdout: &str) -> (f64, usize) {
     (rms, rows)
 }
 
+/// `ballisto compare --reference REFERENCE` with `args` before it and the estimates after.
+fn compare_ref(reference: &Path, args: &[&str], est: &Path) -> std::process::Output {
+    ballisto()
+        .arg("compare")
+        .args(args)
+        .arg("--reference")
+        .arg(reference)
+        .arg(est)
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn compare_scores_omega_against_the_valid_rows_of_a_reference() {
     let dir = tmpdir("reference", "flags");
     let (est, reference, flags) = files(&dir, false);
     // Without the flags, the saturated rows count.
-    let out = ballisto()
-        .args(["compare", "--reference"])
-        .arg(&reference)
-        .arg(&est)
-        .output()
-        .unwrap();
+    let out = compare_ref(&reference, &[], &est);
     let (rms, rows) = rms_x(&succeeded(&out));
     assert_eq!(rows, ROWS);
     assert!(rms > 10.0, "{rms}");
     // With the flags file: the five rows and the instants between them are left out, and the
     // error is the 0.1 rad/s offset alone; the summary says what was left out and why.
-    let out = ballisto()
-        .args(["compare", "--reference"])
-        .arg(&reference)
-        .arg("--reference-flags")
-        .arg(&flags)
-        .arg(&est)
-        .output()
-        .unwrap();
+    let out = compare_ref(
+        &reference,
+        &["--reference-flags", flags.to_str().unwrap()],
+        &est,
+    );
     let (rms, rows) = rms_x(&succeeded(&out));
     assert_eq!(rows, ROWS - 5);
     assert!((rms - 0.1).abs() < 1e-9, "{rms}");
@@ -109,23 +113,13 @@ fn compare_scores_omega_against_the_valid_rows_of_a_reference() {
     // The same flags as a column of the reference itself.
     let dir = tmpdir("reference", "own");
     let (est, reference, _) = files(&dir, true);
-    let out = ballisto()
-        .args(["compare", "--reference"])
-        .arg(&reference)
-        .arg(&est)
-        .output()
-        .unwrap();
+    let out = compare_ref(&reference, &[], &est);
     let (rms, rows) = rms_x(&succeeded(&out));
     assert_eq!((rows, (rms * 1e6).round()), (ROWS - 5, 1e5));
     // A range: the clipped rows read 50 rad/s and more; a 45 rad/s gyro leaves them out.
     let dir = tmpdir("reference", "range");
     let (est, reference, _) = files(&dir, false);
-    let out = ballisto()
-        .args(["compare", "--reference-range", "45", "--reference"])
-        .arg(&reference)
-        .arg(&est)
-        .output()
-        .unwrap();
+    let out = compare_ref(&reference, &["--reference-range", "45"], &est);
     let (rms, rows) = rms_x(&succeeded(&out));
     assert_eq!(rows, ROWS - 5);
     assert!((rms - 0.1).abs() < 1e-9, "{rms}");

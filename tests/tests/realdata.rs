@@ -203,20 +203,73 @@ fn raw_recordings_calibrated_across_recordings_full() {
         println!("| {name} | {seconds} | {} |", cells.join(" | "));
     };
     row("nominal", "–", None);
+    let mut distances: Vec<(&str, Vec<f64>)> = Vec::new();
     for gyro in [false, true] {
+        let kind = if gyro { "gyro-aided" } else { "self" };
+        let mut per_recording = Vec::new();
         for k in 1..=6 {
-            let kind = if gyro { "gyro-aided" } else { "self" };
             let file = out_dir.join(format!("exp{k}-{kind}.toml"));
             let started = std::time::Instant::now();
             let outcome = calibrate_raw(k, gyro, &file);
             let seconds = format!("{:.1}", started.elapsed().as_secs_f64());
             match outcome {
-                Ok(()) => row(&format!("exp{k} {kind}"), &seconds, Some(&file)),
+                Ok(()) => {
+                    row(&format!("exp{k} {kind}"), &seconds, Some(&file));
+                    per_recording.push(imu_distances(&file));
+                }
                 Err(e) => {
                     assert!(!gyro, "exp{k} gyro-aided refused: {e}");
                     println!("| exp{k} {kind} | {seconds} | refused: {e} ||||||");
                 }
             }
         }
+        // Per pair of IMUs, the spread of its calibrated distance across the recordings.
+        let spread: Vec<f64> = (0..per_recording.first().map_or(0, Vec::len))
+            .map(|p| {
+                let d = per_recording.iter().map(|r| r[p]);
+                d.clone().fold(f64::MIN, f64::max) - d.fold(f64::MAX, f64::min)
+            })
+            .collect();
+        distances.push((kind, spread));
     }
+    println!();
+    for (kind, spread) in distances {
+        let rms = (spread.iter().map(|x| x * x).sum::<f64>() / spread.len().max(1) as f64).sqrt();
+        let max = spread.iter().copied().fold(0.0, f64::max);
+        println!(
+            "{kind}: the 28 pairwise IMU distances differ across the six recordings by {:.2} mm RMS, {:.2} mm at most (max − min per pair; the goal is 0.5 mm)",
+            rms * 1e3,
+            max * 1e3
+        );
+    }
+}
+
+/// The 28 pairwise distances (m) between the eight IMUs of a calibrated MIMU4444 file, each
+/// IMU at the mean position of its three channels (`imuK_x`, `_y`, `_z`).
+fn imu_distances(file: &std::path::Path) -> Vec<f64> {
+    let f = hal_sim::arrangement_file::ArrangementFile::read(file).unwrap();
+    let imu: Vec<[f64; 3]> = (1..=8)
+        .map(|k| {
+            let ch: Vec<_> = f
+                .channels
+                .iter()
+                .filter(|c| c.name.starts_with(&format!("imu{k}_")))
+                .collect();
+            core::array::from_fn(|i| {
+                ch.iter().map(|c| c.position[i]).sum::<f64>() / ch.len() as f64
+            })
+        })
+        .collect();
+    let mut d = Vec::new();
+    for a in 0..8 {
+        for b in a + 1..8 {
+            d.push(
+                (0..3)
+                    .map(|i| (imu[a][i] - imu[b][i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt(),
+            );
+        }
+    }
+    d
 }

@@ -279,12 +279,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         ))
         .into());
     }
-    let noise: Vec<f64> = identification
-        .channels
-        .iter()
-        .zip(declared.iter())
-        .map(|(c, &d)| written_noise(c, d))
-        .collect();
+    let noise = written_noise(&identification, &declared);
     // Validation: the same fit on the record without the held-out stretches, both geometries
     // scored on them. The file written is the fit on the whole record (it is at least as well
     // determined; held-out stretches can hold the ramps that separate the axes' rotation from
@@ -297,12 +292,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         };
         let check = fit::identify(&nominal, &without, &source, job.fit, &tolerance)
             .map_err(|e| format!("{}: {e}", job.samples.display()))?;
-        let check_noise: Vec<f64> = check
-            .channels
-            .iter()
-            .zip(declared.iter())
-            .map(|(c, &d)| written_noise(c, d))
-            .collect();
+        let check_noise = written_noise(&check, &declared);
         let with_noise =
             |geo: &mut dyn Iterator<Item = Geometry>, noise: &[f64]| -> Vec<Geometry> {
                 geo.zip(noise.iter())
@@ -524,16 +514,22 @@ pub fn estimator_run(
     Ok(out)
 }
 
-/// The noise a calibrated channel declares: its residual after the fit — white noise and the
-/// model error that remains, so that χ² and the fault monitor mean something on real parts —
-/// never below the noise the nominal file declared.
-fn written_noise(c: &fit::Identified, declared: f64) -> f64 {
-    let r = c.residual_rms.1;
-    if r.is_finite() {
-        r.max(declared)
-    } else {
-        declared
-    }
+/// The noise each calibrated channel declares: its residual after the fit — white noise and
+/// the model error that remains, so that χ² and the fault monitor mean something on real parts
+/// — never below the noise the nominal file `declared`.
+fn written_noise(id: &Identification, declared: &[f64]) -> Vec<f64> {
+    id.channels
+        .iter()
+        .zip(declared.iter())
+        .map(|(c, &d)| {
+            let r = c.residual_rms.1;
+            if r.is_finite() {
+                r.max(d)
+            } else {
+                d
+            }
+        })
+        .collect()
 }
 
 /// The calibrated arrangement file's text: every channel as a `[[channel]]` table with its
