@@ -612,11 +612,8 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 out.display()
             ));
             match &s.validation {
-                Some(v) => say.info(format!("  validated: {}", v.describe())),
-                None => say.info(format!(
-                    "  not validated: the record's motion is too short to hold {} samples of it out of the fit",
-                    ballisto::calibrate::holdout::HOLD_MIN
-                )),
+                Ok(v) => say.info(format!("  validated: {}", v.describe())),
+                Err(why) => say.info(format!("  not validated: {why}")),
             }
             for w in &s.warnings {
                 eprintln!("  WARNING: {w}");

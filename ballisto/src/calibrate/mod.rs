@@ -77,8 +77,8 @@ pub struct CalibrationSummary {
     pub warnings: Vec<String>,
     /// The reference rows left out (flagged invalid, at the gyro's range), one sentence.
     pub reference_dropped: Option<String>,
-    /// The held-out part's figures (`None`: too little motion to hold part of it out).
-    pub validation: Option<holdout::Validation>,
+    /// The held-out part's figures, or why the calibration could not be validated.
+    pub validation: Result<holdout::Validation, String>,
 }
 
 /// A channel's residual may exceed its declared noise by this factor before the record is
@@ -285,51 +285,65 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     // determined; held-out stretches can hold the ramps that separate the axes' rotation from
     // the lever arms: the self-calibrated Ω of `ground-calibration` went from 1.0 to 1.85 ×
     // ideal parts when the file was the fit without them).
-    let validation = if held_out.len() >= holdout::HOLD_MIN {
+    let check = if held_out.len() < holdout::HOLD_MIN {
+        Err(format!(
+            "the record's motion is too short to hold {} samples of it out of the fit",
+            holdout::HOLD_MIN
+        ))
+    } else {
         let without = Record {
             motion: &fit_motion,
             ..record
         };
-        let check = fit::identify(&nominal, &without, &source, job.fit, &tolerance)
-            .map_err(|e| format!("{}: {e}", job.samples.display()))?;
-        let check_noise = written_noise(&check, &declared);
-        let with_noise =
-            |geo: &mut dyn Iterator<Item = Geometry>, noise: &[f64]| -> Vec<Geometry> {
-                geo.zip(noise.iter())
-                    .map(|(g, &noise)| Geometry { noise, ..g })
-                    .collect()
-            };
-        let nominal_geo = with_noise(&mut nominal.iter().copied(), &declared);
-        let calibrated_geo =
-            with_noise(&mut check.channels.iter().map(|c| c.geometry), &check_noise);
-        let mut scores = [None, None];
-        for (geo, s) in [&nominal_geo, &calibrated_geo]
-            .iter()
-            .zip(scores.iter_mut())
-        {
-            let run = estimator_run(geo, &names, model, &times, &rows)?;
-            *s = Some(holdout::score(
-                geo,
-                &declared,
-                &record,
-                &held_out,
-                &run,
-                reference.as_ref(),
-            )?);
+        match fit::identify(&nominal, &without, &source, job.fit, &tolerance) {
+            Ok(c) if c.last_step <= fit::CONVERGED_STEP => Ok(c),
+            Ok(c) => Err(format!(
+                "the fit without the held-out stretches did not converge ({} alternations)",
+                c.iterations
+            )),
+            Err(e) => Err(format!("the fit without the held-out stretches: {e}")),
         }
-        let [Some(nominal), Some(calibrated)] = scores else {
-            unreachable!("both scored above")
-        };
-        Some(holdout::Validation {
-            samples: held_out.len(),
-            nominal,
-            calibrated,
-        })
-    } else {
-        None
+    };
+    let validation = match check {
+        Err(why) => Err(why),
+        Ok(check) => {
+            let check_noise = written_noise(&check, &declared);
+            let with_noise =
+                |geo: &mut dyn Iterator<Item = Geometry>, noise: &[f64]| -> Vec<Geometry> {
+                    geo.zip(noise.iter())
+                        .map(|(g, &noise)| Geometry { noise, ..g })
+                        .collect()
+                };
+            let nominal_geo = with_noise(&mut nominal.iter().copied(), &declared);
+            let calibrated_geo =
+                with_noise(&mut check.channels.iter().map(|c| c.geometry), &check_noise);
+            let mut scores = [None, None];
+            for (geo, s) in [&nominal_geo, &calibrated_geo]
+                .iter()
+                .zip(scores.iter_mut())
+            {
+                let run = estimator_run(geo, &names, model, &times, &rows)?;
+                *s = Some(holdout::score(
+                    geo,
+                    &declared,
+                    &record,
+                    &held_out,
+                    &run,
+                    reference.as_ref(),
+                )?);
+            }
+            let [Some(nominal), Some(calibrated)] = scores else {
+                unreachable!("both scored above")
+            };
+            Ok(holdout::Validation {
+                samples: held_out.len(),
+                nominal,
+                calibrated,
+            })
+        }
     };
     let mut warnings = plausibility(&mut identification, &nominal, &names, &tolerance);
-    if let Some(v) = validation.filter(|v| !v.improved()) {
+    if let Some(v) = validation.as_ref().ok().filter(|v| !v.improved()) {
         let sentence = format!(
             "the calibration does not improve the part of the record held out of the fit ({})",
             v.describe()

@@ -30,8 +30,8 @@ pub fn markdown(s: &CalibrationSummary, job: &CalibrateJob, png: Option<&str>) -
         s.identification.iterations
     );
     match &s.validation {
-        Some(v) => r.push_str(&format!("- Validation: {}.\n", v.describe())),
-        None => r.push_str("- Not validated: the record's motion is too short to hold part of it out of the fit.\n"),
+        Ok(v) => r.push_str(&format!("- Validation: {}.\n", v.describe())),
+        Err(why) => r.push_str(&format!("- Not validated: {why}.\n")),
     }
     if let Some(d) = &s.reference_dropped {
         r.push_str(&format!("- Reference: {d}.\n"));
