@@ -47,7 +47,6 @@ run get consecutive sequence counts from --sequence. Binary frames are not writt
 terminal: name --out FILE, redirect, or use --hex. Example:
   ballisto tc --sequence 7 exclude u1.x --arrangement arrangement.toml --out exclude.bin";
 
-/// `--model` (interfaces.md).
 /// Which rows of a reference rate file are valid, beyond its own flag columns.
 #[derive(Args, Clone, Debug, Default)]
 struct ReferenceValidity {
@@ -81,6 +80,7 @@ impl ReferenceValidity {
     }
 }
 
+/// `--model` (interfaces.md).
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum ModelArg {
     /// Model G: 9 linear unknowns, N >= 12.

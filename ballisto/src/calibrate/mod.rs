@@ -308,37 +308,28 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         Err(why) => Err(why),
         Ok(check) => {
             let check_noise = written_noise(&check, &declared);
-            let with_noise =
-                |geo: &mut dyn Iterator<Item = Geometry>, noise: &[f64]| -> Vec<Geometry> {
-                    geo.zip(noise.iter())
-                        .map(|(g, &noise)| Geometry { noise, ..g })
-                        .collect()
-                };
-            let nominal_geo = with_noise(&mut nominal.iter().copied(), &declared);
-            let calibrated_geo =
-                with_noise(&mut check.channels.iter().map(|c| c.geometry), &check_noise);
-            let mut scores = [None, None];
-            for (geo, s) in [&nominal_geo, &calibrated_geo]
+            let nominal_geo: Vec<Geometry> = nominal
                 .iter()
-                .zip(scores.iter_mut())
-            {
+                .zip(declared.iter())
+                .map(|(g, &noise)| Geometry { noise, ..*g })
+                .collect();
+            let calibrated_geo: Vec<Geometry> = check
+                .channels
+                .iter()
+                .zip(check_noise.iter())
+                .map(|(c, &noise)| Geometry {
+                    noise,
+                    ..c.geometry
+                })
+                .collect();
+            let score = |geo: &[Geometry]| -> Result<holdout::Score, String> {
                 let run = estimator_run(geo, &names, model, &times, &rows)?;
-                *s = Some(holdout::score(
-                    geo,
-                    &declared,
-                    &record,
-                    &held_out,
-                    &run,
-                    reference.as_ref(),
-                )?);
-            }
-            let [Some(nominal), Some(calibrated)] = scores else {
-                unreachable!("both scored above")
+                holdout::score(geo, &declared, &record, &held_out, &run, reference.as_ref())
             };
             Ok(holdout::Validation {
                 samples: held_out.len(),
-                nominal,
-                calibrated,
+                nominal: score(&nominal_geo)?,
+                calibrated: score(&calibrated_geo)?,
             })
         }
     };

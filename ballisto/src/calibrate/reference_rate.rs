@@ -298,14 +298,17 @@ pub fn read(path: &Path, validity: &Validity) -> Result<(Reference, Dropped), Bo
         rows: t_ref.len(),
         ..Dropped::default()
     };
-    let mut keep = why.iter().map(|w| w.is_none());
-    for w in why.iter().flatten() {
-        dropped.count(w);
+    let (mut t_valid, mut w_valid) = (Vec::with_capacity(t_ref.len()), Vec::new());
+    for ((t, w), why) in t_ref.iter().zip(w_ref.iter()).zip(why.iter()) {
+        match why {
+            Some(reason) => dropped.count(reason),
+            None => {
+                t_valid.push(*t);
+                w_valid.push(*w);
+            }
+        }
     }
-    t_ref.retain(|_| keep.next().unwrap_or(false));
-    let mut keep = why.iter().map(|w| w.is_none());
-    w_ref.retain(|_| keep.next().unwrap_or(false));
-    if t_ref.len() < 2 {
+    if t_valid.len() < 2 {
         let left_out = dropped
             .describe(path)
             .map(|d| format!(" ({d})"))
@@ -314,8 +317,8 @@ pub fn read(path: &Path, validity: &Validity) -> Result<(Reference, Dropped), Bo
     }
     Ok((
         Reference {
-            t: t_ref,
-            omega: w_ref,
+            t: t_valid,
+            omega: w_valid,
         },
         dropped,
     ))

@@ -349,13 +349,20 @@ impl<T: Real> Tracker<T> {
             // an unfolding crossing are within each other's noise).
             let cost = best_cost + gate + T::of(SIGN_MARGIN);
             let n = self.n;
+            if born {
+                // Each track's nearest signed root, once (`settle` labels them again after
+                // the merges).
+                for t in self.tracks[..n].iter_mut() {
+                    label(t, cands);
+                }
+            }
             for (ci, c) in cands.iter().enumerate() {
                 for sign in SIGNS {
                     let z = scale(sign_of(sign), &c.omega);
                     let var = c.omega_var().max(T::of(1e-30));
                     let near = self.tracks[..n].iter().any(|t| {
                         if born {
-                            nearest(t, cands) == (ci, sign)
+                            (usize::from(t.candidate), t.sign) == (ci, sign)
                         } else {
                             norm2(&sub(&t.omega, &z)) <= gate * (t.omega_var() + var)
                         }
@@ -762,14 +769,6 @@ fn update_by_root<T: Real>(t: &mut State<T>, cands: &[Candidate<T>], gate: T) ->
     let (nis_d, ln_d) = update3(t, (&u, &v), &s, &nu, gate);
     t.cost += ln_d;
     nis_w + nis_d
-}
-
-/// The signed root nearest a track's Ω: candidate and sign.
-#[inline(always)]
-fn nearest<T: Real>(t: &State<T>, cands: &[Candidate<T>]) -> (usize, i8) {
-    let mut l = *t;
-    label(&mut l, cands);
-    (usize::from(l.candidate), l.sign)
 }
 
 /// A predicted track's update: by the readings (model F, m = 3) or by the signed root nearest
