@@ -21,6 +21,7 @@ pub mod model_choice;
 pub mod output;
 pub mod plausibility;
 pub mod plot;
+mod progress;
 pub mod samples_csv;
 pub mod sim;
 pub mod tc;

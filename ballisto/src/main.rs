@@ -599,18 +599,22 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 model,
                 report: report.as_deref(),
                 force,
+                progress: !say.quiet,
             })?;
             if let Some(d) = &s.reference_dropped {
                 say.info(format!("ballisto calibrate: {d}"));
             }
             say.info(format!(
-                "ballisto calibrate: {} static poses, {} samples in motion, {} alternations, model {} -> {}",
+                "ballisto calibrate: {} static poses, {}, {} alternations, model {} -> {}",
                 s.poses,
-                s.motion,
+                s.motion_described(),
                 s.identification.iterations,
                 s.model.name(),
                 out.display()
             ));
+            if let Some(f) = &s.reference_found {
+                say.info(format!("  {}", f.describe()));
+            }
             match &s.validation {
                 Ok(v) => say.info(format!("  validated: {}", v.describe())),
                 Err(why) => say.info(format!("  not validated: {why}")),

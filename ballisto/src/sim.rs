@@ -358,14 +358,9 @@ fn record_firmware(
 
 fn progress_bar(show: bool, n: u64) -> indicatif::ProgressBar {
     // Long runs only: 100 000 sample sets take a few seconds.
-    if !show || n < 100_000 {
-        return indicatif::ProgressBar::hidden();
-    }
-    let bar = indicatif::ProgressBar::new(n);
-    if let Ok(style) =
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} sample sets ({eta} left)")
-    {
-        bar.set_style(style);
-    }
-    bar
+    crate::progress::bar(
+        show && n >= 100_000,
+        n,
+        "{bar:40} {pos}/{len} sample sets ({eta} left)",
+    )
 }

@@ -138,6 +138,7 @@ fn run(seed: u64, noise: f64, reference: bool) -> Run {
         poses: &poses,
         motion: &motion,
         gamma: Matrix3::zeros(),
+        progress: &|_| {},
     };
     let nominal: Vec<Geometry> = nom
         .iter()

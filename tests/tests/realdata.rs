@@ -141,6 +141,7 @@ fn calibrate_raw(k: usize, gyro: bool, out: &std::path::Path) -> Result<(), Stri
         model: None,
         report: None,
         force: false,
+        progress: false,
     })
     .map(|_| ())
     .map_err(|e| e.to_string())

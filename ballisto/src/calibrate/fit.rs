@@ -24,7 +24,7 @@
 //! not converge).
 
 use super::kinematics::RelativeRotation;
-use nalgebra::{DMatrix, DVector, Matrix3, SVector, SymmetricEigen, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, SVector, SymmetricEigen, Vector3};
 
 use estimator_core::G0;
 
@@ -201,6 +201,9 @@ pub struct Record<'a> {
     pub motion: &'a [usize],
     /// Known gravity gradient Γ (0 on the ground).
     pub gamma: Matrix3<f64>,
+    /// Told the number of every alternation as it starts (a progress bar; `&|_| {}` for
+    /// none).
+    pub progress: &'a dyn Fn(usize),
 }
 
 /// One channel's identified geometry and its standard deviations.
@@ -279,9 +282,11 @@ pub fn identify(
         poses: record.poses,
         motion: &[],
         gamma: record.gamma,
+        progress: record.progress,
     };
     for it in 0..MAX_ITERATIONS {
         iterations = it + 1;
+        (record.progress)(it);
         let stage = if statics_first && it < MAX_ITERATIONS / 3 {
             &poses_only
         } else {
@@ -531,7 +536,7 @@ pub const MAX_STEP: f64 = 2.0;
 
 /// Most alternations of field and geometry (Gauss–Newton converges in a handful; the
 /// estimator as the rate source needs a few more).
-pub const MAX_ITERATIONS: usize = 30;
+pub const MAX_ITERATIONS: usize = 45;
 
 /// A parameter is not identified when more than this share of it lies in directions the
 /// record does not determine.
@@ -581,6 +586,16 @@ fn initial_rates(
     })
 }
 
+/// The field at every motion sample of `record` with Ω estimated by the array itself (σ0, Ω′
+/// and Ω by Gauss–Newton from `seeds`; `None` where the sample's readings do not fit).
+pub fn array_fields(
+    geo: &[Geometry],
+    record: &Record,
+    seeds: &[Option<Vector3<f64>>],
+) -> Vec<Option<Field>> {
+    motion_fields(geo, record, seeds, true)
+}
+
 /// The derivative of a channel's centripetal reading `k·(Ω×(Ω×R))` with respect to Ω.
 fn centripetal_gradient(k: &Vector3<f64>, r: &Vector3<f64>, w: &Vector3<f64>) -> Vector3<f64> {
     k * w.dot(r) + r * k.dot(w) - w * (2.0 * k.dot(r))
@@ -606,16 +621,18 @@ fn motion_fields(
                 ..Default::default()
             };
             // σ0 and Ω′ with Ω held: linear.
-            let mut a = DMatrix::<f64>::zeros(6, 6);
-            let mut b = DVector::<f64>::zeros(6);
+            // Fixed-size matrices: the per-sample solves are most of a calibration's time
+            // (dynamic ones spent a third of it in allocation and a general matrix product).
+            let mut a = SMatrix::<f64, 6, 6>::zeros();
+            let mut b = SVector::<f64, 6>::zeros();
             for (g, p) in geo.iter().zip(row.iter()).filter(|(_, p)| p.is_finite()) {
                 let kv = g.axis * g.scale;
                 let rk = g.position.cross(&kv);
-                let h = DVector::from_column_slice(&[kv.x, kv.y, kv.z, rk.x, rk.y, rk.z]);
+                let h = SVector::<f64, 6>::new(kv.x, kv.y, kv.z, rk.x, rk.y, rk.z);
                 let y = p - g.bias - kv.dot(&(field.m(&record.gamma) * g.position));
                 let w = 1.0 / (g.noise * g.noise);
-                a += &h * h.transpose() * w;
-                b += &h * (y * w);
+                a += h * h.transpose() * w;
+                b += h * (y * w);
             }
             let x = a.lu().solve(&b)?;
             field.sigma0 = Vector3::new(x[0], x[1], x[2]);
@@ -632,21 +649,21 @@ fn motion_fields(
             let mut previous = field;
             for _ in 0..FIELD_ITERATIONS {
                 let m = field.m(&record.gamma);
-                let mut a = DMatrix::<f64>::zeros(9, 9);
-                let mut b = DVector::<f64>::zeros(9);
+                let mut a = SMatrix::<f64, 9, 9>::zeros();
+                let mut b = SVector::<f64, 9>::zeros();
                 let mut ssr = 0.0;
                 for (g, p) in geo.iter().zip(row.iter()).filter(|(_, p)| p.is_finite()) {
                     let kv = g.axis * g.scale;
                     let rk = g.position.cross(&kv);
                     let c = centripetal_gradient(&kv, &g.position, &field.omega);
-                    let h = DVector::from_column_slice(&[
+                    let h = SVector::<f64, 9>::from_column_slice(&[
                         kv.x, kv.y, kv.z, rk.x, rk.y, rk.z, c.x, c.y, c.z,
                     ]);
                     let e = p - g.reading(&(field.sigma0 + m * g.position));
                     let w = 1.0 / (g.noise * g.noise);
                     ssr += e * e * w;
-                    a += &h * h.transpose() * w;
-                    b += &h * (e * w);
+                    a += h * h.transpose() * w;
+                    b += h * (e * w);
                 }
                 if ssr > best {
                     field = previous;
@@ -655,7 +672,7 @@ fn motion_fields(
                 best = ssr;
                 let tiny = a.diagonal().max() * 1e-8;
                 let inv = a.pseudo_inverse(tiny).ok()?;
-                let d = &inv * b;
+                let d = inv * b;
                 // A direction the sample does not determine (pseudo-inverse zero there)
                 // leaves that part of Ω unknown, not exact.
                 let determined = (6..9).all(|i| inv[(i, i)] > 0.0);
@@ -1269,6 +1286,7 @@ mod tests {
             poses: &poses,
             motion: &motion,
             gamma: Matrix3::zeros(),
+            progress: &|_| {},
         };
         let fields: Vec<Option<Field>> = (0..n_samples)
             .map(|_| {

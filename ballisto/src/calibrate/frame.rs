@@ -11,7 +11,7 @@
 //! `φ = (GᵀG)⁻¹Gᵀ e` with `G` the scaled generators, so `cov(φ) = L cov(e) Lᵀ`. Each is
 //! reported by its largest axis.
 
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 use estimator_core::FrameUncertainty;
 
@@ -45,6 +45,41 @@ pub fn uncertainty(geo: &[Geometry], cov: &DMatrix<f64>, tol: &Tolerance) -> Fra
         size: largest(6..7),
         relative_rotation: largest(7..10),
     }
+}
+
+/// The common rotation and the rotation of the axes against the lever arms (rad, rotation
+/// vectors) that best explain the change from the geometry `nominal` to `geo` (the frame
+/// motions fitted to the tolerance-scaled parameter changes, as in [`uncertainty`]); `None`
+/// with too few channels to tell the motions apart.
+pub fn rotation(
+    nominal: &[Geometry],
+    geo: &[Geometry],
+    tol: &Tolerance,
+) -> Option<(Vector3<f64>, Vector3<f64>)> {
+    let g = generators(nominal, tol);
+    let mut e = DVector::zeros(7 * nominal.len());
+    for (i, (n0, c)) in nominal.iter().zip(geo.iter()).enumerate() {
+        let (u1, u2) = tilt_basis(&n0.axis);
+        let da = c.axis - n0.axis;
+        let dp = c.position - n0.position;
+        let change = [
+            c.scale - n0.scale,
+            u1.dot(&da),
+            u2.dot(&da),
+            c.bias - n0.bias,
+            dp.x,
+            dp.y,
+            dp.z,
+        ];
+        for (j, v) in change.iter().enumerate() {
+            e[7 * i + j] = v / tol.of(j);
+        }
+    }
+    let phi = (g.transpose() * &g).try_inverse()? * g.transpose() * e;
+    Some((
+        Vector3::new(phi[3], phi[4], phi[5]),
+        Vector3::new(phi[7], phi[8], phi[9]),
+    ))
 }
 
 /// The frame motions as parameter changes of every channel (rows: 7 per channel,
@@ -142,6 +177,22 @@ mod tests {
             "{prior:?} vs {relative}"
         );
         assert!(prior.size > 0.0);
+        let turn = nalgebra::Rotation3::new(Vector3::new(2e-3, -1e-3, 3e-3));
+        let turned: Vec<Geometry> = geo
+            .iter()
+            .map(|g| Geometry {
+                axis: turn * g.axis,
+                position: turn * g.position,
+                ..*g
+            })
+            .collect();
+        let (found, relative) = rotation(&geo, &turned, &tol).unwrap();
+        assert!(relative.norm() < 1e-6, "{relative}");
+        assert!(
+            (found - turn.scaled_axis()).norm() < 1e-5,
+            "{found} vs {}",
+            turn.scaled_axis()
+        );
         let exact = uncertainty(&geo, &DMatrix::zeros(7 * n, 7 * n), &tol);
         assert_eq!(exact.rotation, 0.0);
         assert_eq!(exact.translation, 0.0);

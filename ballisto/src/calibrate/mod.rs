@@ -8,7 +8,9 @@
 //! - [`kinematics`] ties self-calibration's Ω′ to the change of its Ω (the axes' rotation
 //!   against the lever arms, which the per-sample field otherwise absorbs);
 //! - [`reference_rate`] reads a reference rate file and brings it to the sample instants;
+//! - [`reference_align`] estimates the reference's bias, time offset and frame rotation;
 //! - [`holdout`] holds part of the motion out of the fit and scores both geometries on it;
+//! - [`thinning`] keeps a long record's motion to what the fit needs;
 //! - this module reads the files, runs the fit and writes the calibrated arrangement.
 
 pub mod fit;
@@ -16,8 +18,10 @@ pub mod frame;
 pub mod holdout;
 pub mod kinematics;
 pub mod poses;
+pub mod reference_align;
 pub mod reference_rate;
 pub mod report;
+pub mod thinning;
 
 use std::error::Error;
 use std::path::Path;
@@ -58,14 +62,18 @@ pub struct CalibrateJob<'a> {
     /// Write the calibration even when it does not improve the held-out part of the record
     /// (with the warning in the file).
     pub force: bool,
+    /// Show a progress bar (on a terminal).
+    pub progress: bool,
 }
 
 /// What a calibration found, for the summary on stderr.
 pub struct CalibrationSummary {
     /// Static poses used.
     pub poses: usize,
-    /// Motion samples used.
+    /// Samples in motion in the record.
     pub motion: usize,
+    /// Of them, those the fit used, and the thinning factor ([`thinning`]; 1: all used).
+    pub motion_used: (usize, usize),
     /// The identification.
     pub identification: Identification,
     /// Channel names.
@@ -77,8 +85,25 @@ pub struct CalibrationSummary {
     pub warnings: Vec<String>,
     /// The reference rows left out (flagged invalid, at the gyro's range), one sentence.
     pub reference_dropped: Option<String>,
+    /// The reference's bias, time offset and frame rotation ([`reference_align`]).
+    pub reference_found: Option<reference_align::Found>,
     /// The held-out part's figures, or why the calibration could not be validated.
     pub validation: Result<holdout::Validation, String>,
+}
+
+impl CalibrationSummary {
+    /// "N samples in motion", with how many of them the fit used where it thinned them.
+    pub fn motion_described(&self) -> String {
+        match self.motion_used {
+            (_, 1) => format!("{} samples in motion", self.motion),
+            (used, factor) => format!(
+                "{} samples in motion ({used} of them fitted: the first 1/{factor} of every {} s stretch, at most {} in all)",
+                self.motion,
+                holdout::HOLD_BLOCK_S,
+                thinning::MAX_MOTION
+            ),
+        }
+    }
 }
 
 /// A channel's residual may exceed its declared noise by this factor before the record is
@@ -213,18 +238,77 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         }
         v
     };
-    let motion: Vec<usize> = (0..rows.len())
-        .filter(|&k| !in_pose[k])
-        .filter(|&k| reference.as_ref().is_none_or(|r| r.covered[k]))
-        .collect();
+    let motion_with = |reference: Option<&reference_rate::ReferenceAt>| -> Vec<usize> {
+        (0..rows.len())
+            .filter(|&k| !in_pose[k])
+            .filter(|&k| reference.is_none_or(|r| r.covered[k]))
+            .collect()
+    };
+    let tolerance = Tolerance::default();
+    // A real reference's bias (at rest) and time offset, fitted and removed
+    // (reference_align).
+    let mut alignment = reference_align::Alignment::default();
+    let mut offset_rotation_sd = (0.0, 0.0);
+    let reference = match (job.reference, reference) {
+        (Some(path), Some(first)) => {
+            let load = |offset: f64| -> Result<reference_rate::ReferenceAt, Box<dyn Error>> {
+                // The row stamped t + offset is the rate at t.
+                let shifted: Vec<f64> = times.iter().map(|t| t + offset).collect();
+                reference_rate::read_at(path, &job.reference_validity, &shifted)
+            };
+            let fit_to = |r: &reference_rate::ReferenceAt| {
+                let (motion, _) = thinning::thin(&motion_with(Some(r)), &times);
+                let record = Record {
+                    rows: &rows,
+                    times: &times,
+                    poses: &poses,
+                    motion: &motion,
+                    gamma: Matrix3::zeros(),
+                    progress: &|_| {},
+                };
+                let source = RateSource::Reference(&r.omega);
+                match fit::identify(&nominal, &record, &source, job.fit, &tolerance) {
+                    Ok(id) if id.last_step <= fit::CONVERGED_STEP => {
+                        let geo: Vec<Geometry> = id.channels.iter().map(|c| c.geometry).collect();
+                        Some((
+                            frame::rotation(&nominal, &geo, &tolerance),
+                            reference_align::offset(&geo, &record, &r.omega),
+                        ))
+                    }
+                    // A fit that does not converge is said by the fit below.
+                    _ => None,
+                }
+            };
+            let aligned = reference_align::align(first, &poses, load, &fit_to)?;
+            alignment = aligned.alignment;
+            offset_rotation_sd = (aligned.rotation_sd, aligned.relative_rotation_sd);
+            Some(aligned.reference)
+        }
+        (_, reference) => reference,
+    };
+    let motion = motion_with(reference.as_ref());
+    let motion_total = motion.len();
+    let (motion, thinned) = thinning::thin(&motion, &times);
     let (fit_motion, held_out) = holdout::split(&motion, &times);
     let (model, model_note) = crate::model_choice::recommend(job.model, &loaded, job.arrangement)?;
+    // Progress: the whole-record fit, the fit without the held-out stretches (their
+    // alternations, at most MAX_ITERATIONS each), then the scoring.
+    let stage_len = fit::MAX_ITERATIONS as u64;
+    let bar = crate::progress::bar(
+        job.progress,
+        2 * stage_len + 1,
+        "{msg:40} {bar:30} {pos}/{len} ({elapsed})",
+    );
+    bar.set_message("fit on the whole record");
+    let whole_progress = |it: usize| bar.set_position(it as u64);
+    let check_progress = |it: usize| bar.set_position(stage_len + it as u64);
     let record = Record {
         rows: &rows,
         times: &times,
         poses: &poses,
         motion: &motion,
         gamma: Matrix3::zeros(),
+        progress: &whole_progress,
     };
     let run_estimator = |geo: &[Geometry]| estimator_rates(geo, &names, model, &times, &rows);
     let declared: Vec<f64> = loaded
@@ -237,7 +321,6 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         Some(r) => RateSource::Reference(&r.omega),
         None => RateSource::Estimator(&run_estimator),
     };
-    let tolerance = Tolerance::default();
     let mut identification = fit::identify(&nominal, &record, &source, job.fit, &tolerance)
         .map_err(|e| format!("{}: {e}", job.samples.display()))?;
     // A record that leaves most parameters undetermined (or all of them) is not a calibration:
@@ -279,6 +362,10 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         ))
         .into());
     }
+    // The reference's offset is known only so well, and the frame turns with it.
+    let frame = &mut identification.frame;
+    frame.rotation = frame.rotation.hypot(offset_rotation_sd.0);
+    frame.relative_rotation = frame.relative_rotation.hypot(offset_rotation_sd.1);
     let noise = written_noise(&identification, &declared);
     // Validation: the same fit on the record without the held-out stretches, both geometries
     // scored on them. The file written is the fit on the whole record (it is at least as well
@@ -291,8 +378,11 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             holdout::HOLD_MIN
         ))
     } else {
+        bar.set_position(stage_len);
+        bar.set_message("fit without the held-out stretches");
         let without = Record {
             motion: &fit_motion,
+            progress: &check_progress,
             ..record
         };
         match fit::identify(&nominal, &without, &source, job.fit, &tolerance) {
@@ -304,6 +394,8 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             Err(e) => Err(format!("the fit without the held-out stretches: {e}")),
         }
     };
+    bar.set_position(2 * stage_len);
+    bar.set_message("scoring the held-out stretches");
     let validation = match check {
         Err(why) => Err(why),
         Ok(check) => {
@@ -333,6 +425,15 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             })
         }
     };
+    bar.finish_and_clear();
+    let reference_found = job.reference.map(|_| {
+        let geo: Vec<Geometry> = identification.channels.iter().map(|c| c.geometry).collect();
+        reference_align::Found {
+            alignment,
+            rotation: frame::rotation(&nominal, &geo, &tolerance)
+                .map(|(r, _)| (r, identification.frame.rotation)),
+        }
+    });
     let mut warnings = plausibility(&mut identification, &nominal, &names, &tolerance);
     if let Some(v) = validation.as_ref().ok().filter(|v| !v.improved()) {
         let sentence = format!(
@@ -362,17 +463,23 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         &noise,
         model,
         job,
-        &warnings,
+        &warnings
+            .iter()
+            .map(|w| format!("WARNING: {w}"))
+            .chain(reference_found.as_ref().map(|f| f.describe()))
+            .collect::<Vec<_>>(),
     )?;
     crate::output::write(job.out, text.as_bytes())?;
     let summary = CalibrationSummary {
         poses: poses.len(),
-        motion: motion.len(),
+        motion: motion_total,
+        motion_used: (motion.len(), thinned),
         identification,
         names,
         model,
         warnings,
         reference_dropped,
+        reference_found,
         validation,
     };
     if let Some(path) = job.report {
@@ -547,7 +654,7 @@ fn calibrated_file(
     noise: &[f64],
     model: Model,
     job: &CalibrateJob,
-    warnings: &[String],
+    notes: &[String],
 ) -> Result<String, Box<dyn Error>> {
     let specs = file.expanded_channels(&job.arrangement.display().to_string())?;
     let channels: Vec<ChannelSpec> = specs
@@ -599,8 +706,8 @@ fn calibrated_file(
         },
         job.arrangement.display()
     );
-    for w in warnings {
-        header.push_str(&format!("# WARNING: {w}.\n"));
+    for note in notes {
+        header.push_str(&format!("# {note}.\n"));
     }
     for c in &id.conventions {
         header.push_str(&format!("# Held by convention: {c}.\n"));

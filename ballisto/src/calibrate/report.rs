@@ -18,11 +18,11 @@ const AFTER: RGBColor = RGBColor(20, 60, 200);
 /// the residual before and after.
 pub fn markdown(s: &CalibrationSummary, job: &CalibrateJob, png: Option<&str>) -> String {
     let mut r = format!(
-        "# Calibration of {}\n\nRecord {}: {} static poses, {} samples in motion; Ω from {}; {} alternations.\n\n",
+        "# Calibration of {}\n\nRecord {}: {} static poses, {}; Ω from {}; {} alternations.\n\n",
         job.arrangement.display(),
         job.samples.display(),
         s.poses,
-        s.motion,
+        s.motion_described(),
         match job.reference {
             Some(p) => format!("the reference {}", p.display()),
             None => "the estimator (self-calibration)".into(),
@@ -35,6 +35,9 @@ pub fn markdown(s: &CalibrationSummary, job: &CalibrateJob, png: Option<&str>) -
     }
     if let Some(d) = &s.reference_dropped {
         r.push_str(&format!("- Reference: {d}.\n"));
+    }
+    if let Some(f) = &s.reference_found {
+        r.push_str(&format!("- {}.\n", capitalised(&f.describe())));
     }
     for w in &s.warnings {
         r.push_str(&format!("- **Warning**: {w}.\n"));
@@ -208,4 +211,12 @@ pub fn residual_png(
     }
     root.present().map_err(|e| err(&e))?;
     Ok(())
+}
+
+/// `text` with its first letter upper case.
+fn capitalised(text: &str) -> String {
+    let mut c = text.chars();
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
 }
