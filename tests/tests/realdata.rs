@@ -197,13 +197,18 @@ fn raw_recordings_calibrated_across_recordings_full() {
     println!();
     println!("| calibration | time (s) | exp1 | exp2 | exp3 | exp4 | exp5 | exp6 |");
     println!("|---|---|---|---|---|---|---|---|");
-    let row = |name: &str, seconds: &str, file: Option<&std::path::Path>| {
-        let cells: Vec<String> = (1..=6)
-            .map(|j| format!("{:.2}", raw_rms(j, file)))
-            .collect();
-        println!("| {name} | {seconds} | {} |", cells.join(" | "));
-    };
-    row("nominal", "–", None);
+    let nominal: Vec<f64> = (1..=6).map(|j| raw_rms(j, None)).collect();
+    println!("| nominal | – | {} |", table_cells(&nominal));
+    // The published calibration of each recording (its static poses' affine fit), and every
+    // calibration's Ω RMS per (calibrated on, estimated on) pair.
+    let mut cells: Vec<(&str, usize, Vec<f64>)> = Vec::new();
+    for k in 1..=6 {
+        let file = out_dir.join(format!("exp{k}-published.toml"));
+        published_arrangement(k, &file);
+        let rms: Vec<f64> = (1..=6).map(|j| raw_rms(j, Some(&file))).collect();
+        println!("| exp{k} published | – | {} |", table_cells(&rms));
+        cells.push(("published", k, rms));
+    }
     let mut distances: Vec<(&str, Vec<f64>)> = Vec::new();
     for gyro in [false, true] {
         let kind = if gyro { "gyro-aided" } else { "self" };
@@ -215,7 +220,9 @@ fn raw_recordings_calibrated_across_recordings_full() {
             let seconds = format!("{:.1}", started.elapsed().as_secs_f64());
             match outcome {
                 Ok(()) => {
-                    row(&format!("exp{k} {kind}"), &seconds, Some(&file));
+                    let rms: Vec<f64> = (1..=6).map(|j| raw_rms(j, Some(&file))).collect();
+                    println!("| exp{k} {kind} | {seconds} | {} |", table_cells(&rms));
+                    cells.push((kind, k, rms));
                     per_recording.push(imu_distances(&file));
                 }
                 Err(e) => {
@@ -234,6 +241,21 @@ fn raw_recordings_calibrated_across_recordings_full() {
         distances.push((kind, spread));
     }
     println!();
+    for kind in ["self", "gyro-aided"] {
+        let (mut better, mut pairs) = (0, 0);
+        for (_, k, rms) in cells.iter().filter(|(c, _, _)| *c == kind) {
+            let published = &cells
+                .iter()
+                .find(|(c, p, _)| *c == "published" && p == k)
+                .expect("every recording has its published calibration")
+                .2;
+            pairs += rms.len();
+            better += rms.iter().zip(published).filter(|(a, b)| a <= b).count();
+        }
+        println!(
+            "{kind}: no worse than the published calibration of the same recording on {better} of {pairs} (calibrated on, estimated on) pairs"
+        );
+    }
     for (kind, spread) in distances {
         let rms = (spread.iter().map(|x| x * x).sum::<f64>() / spread.len().max(1) as f64).sqrt();
         let max = spread.iter().copied().fold(0.0, f64::max);
@@ -243,6 +265,52 @@ fn raw_recordings_calibrated_across_recordings_full() {
             max * 1e3
         );
     }
+}
+
+/// A table row's cells (rad/s, two decimals).
+fn table_cells(rms: &[f64]) -> String {
+    rms.iter()
+        .map(|x| format!("{x:.2}"))
+        .collect::<Vec<_>>()
+        .join(" | ")
+}
+
+/// The published calibration of raw recording `k` (`calibration.csv`: per IMU the static
+/// poses' affine fit `a_cal = T a + b`) as an arrangement file for its raw samples, written to
+/// `out`: channel `j` of an IMU reads `(T⁻¹)_j · f − (T⁻¹ b)_j`, so its axis is that row of
+/// `T⁻¹` normalised, its scale the row's norm and its bias `−(T⁻¹ b)_j`; positions nominal.
+fn published_arrangement(k: usize, out: &std::path::Path) {
+    use hal_sim::arrangement_file::ArrangementFile;
+    use nalgebra::{Matrix3, Vector3};
+    let dir = recording(&format!("mimu4444_exp{k}_raw"));
+    let nominal = dir.join("arrangement.toml");
+    let mut file = ArrangementFile::read(&nominal).unwrap();
+    file.channels = file
+        .expanded_channels(&nominal.display().to_string())
+        .unwrap();
+    file.sensors.clear();
+    let text = std::fs::read_to_string(dir.join("calibration.csv")).unwrap();
+    for line in text.lines().skip(1) {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        let imu = v[0] as usize;
+        let t = Matrix3::from_row_slice(&v[1..10]);
+        let b = Vector3::new(v[10], v[11], v[12]);
+        let inv = t.try_inverse().expect("a calibration matrix is invertible");
+        let offset = inv * b;
+        for (j, axis) in ["x", "y", "z"].iter().enumerate() {
+            let name = format!("imu{imu}_{axis}");
+            let ch = file
+                .channels
+                .iter_mut()
+                .find(|c| c.name == name)
+                .unwrap_or_else(|| panic!("exp{k}: no channel {name}"));
+            let row = inv.row(j).transpose();
+            ch.axis = (row / row.norm()).into();
+            ch.scale = Some(row.norm());
+            ch.bias = Some(-offset[j]);
+        }
+    }
+    std::fs::write(out, file.to_toml()).unwrap();
 }
 
 /// The 28 pairwise distances (m) between the eight IMUs of a calibrated MIMU4444 file, each
@@ -273,4 +341,81 @@ fn imu_distances(file: &std::path::Path) -> Vec<f64> {
         }
     }
     d
+}
+
+/// `calibrate` on a one-hour record: the six raw recordings joined end to end (62.5 Hz, 24
+/// channels, 125 static poses), self-calibrated and gyro-aided. Prints the wall time for
+/// `docs/validation.md` (a figure, not a bound: speed is measured, not asserted); asserts the
+/// fit thinned the motion and both calibrations were written.
+#[test]
+#[ignore = "two calibrations of a one-hour record (a minute): scripts/validate.sh"]
+fn one_hour_record_calibrates_in_about_a_minute_full() {
+    use ballisto::calibrate::reference_rate::Validity;
+    use ballisto::calibrate::{calibrate_files, fit::FitSet, CalibrateJob};
+    let dir = std::env::temp_dir().join(format!("realdata-hour-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // Each file's rows after the first's, times continued one sample period on.
+    let mut offset = 0.0;
+    let mut texts = [String::new(), String::new(), String::new()];
+    let names = ["samples.csv", "reference.csv", "reference_flags.csv"];
+    for k in 1..=6 {
+        let rec = recording(&format!("mimu4444_exp{k}_raw"));
+        let mut last = 0.0;
+        for (text, name) in texts.iter_mut().zip(names) {
+            let file = std::fs::read_to_string(rec.join(name)).unwrap();
+            let mut lines = file.lines();
+            let header = lines.next().unwrap();
+            if text.is_empty() {
+                text.push_str(header);
+                text.push('\n');
+            }
+            for line in lines {
+                let (t, rest) = line.split_once(',').unwrap();
+                last = t.parse::<f64>().unwrap();
+                text.push_str(&format!("{},{rest}\n", last + offset));
+            }
+        }
+        offset += last + 0.016;
+    }
+    for (text, name) in texts.iter().zip(names) {
+        std::fs::write(dir.join(name), text).unwrap();
+    }
+    let arrangement = recording("mimu4444_exp1_raw").join("arrangement.toml");
+    println!(
+        "One hour of the MIMU4444 board ({:.0} s at 62.5 Hz, 24 channels: the six raw recordings joined):",
+        offset
+    );
+    for gyro in [false, true] {
+        let (reference, flags) = (dir.join("reference.csv"), dir.join("reference_flags.csv"));
+        let started = std::time::Instant::now();
+        let s = calibrate_files(&CalibrateJob {
+            arrangement: &arrangement,
+            samples: &dir.join("samples.csv"),
+            out: &dir.join(if gyro { "gyro.toml" } else { "self.toml" }),
+            reference: gyro.then_some(reference.as_path()),
+            reference_validity: Validity {
+                flags: gyro.then_some(flags.as_path()),
+                range: None,
+            },
+            fit: FitSet::ALL,
+            model: None,
+            report: None,
+            force: true,
+            progress: false,
+        })
+        .unwrap_or_else(|e| panic!("gyro {gyro}: {e}"));
+        println!(
+            "{}: {:.1} s, {} static poses, {}",
+            if gyro {
+                "gyro-aided"
+            } else {
+                "self-calibration"
+            },
+            started.elapsed().as_secs_f64(),
+            s.poses,
+            s.motion_described()
+        );
+        assert!(s.motion_used.1 > 1, "the fit thinned the motion");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -58,7 +58,8 @@ pub fn markdown(s: &CalibrationSummary, job: &CalibrateJob, png: Option<&str>) -
             "\n![Residuals with the nominal and with the identified geometry]({png})\n"
         ));
     }
-    r.push_str("\n| channel | scale | bias (m/s²) | position (mm) | residual RMS before → after (m/s²) | not identified |\n|---|---|---|---|---|---|\n");
+    r.push_str("\nEach identified parameter ± its standard deviation (the data's, scaled up where the residual exceeds the declared noise); \"held\" where the record does not determine it.\n");
+    r.push_str("\n| channel | scale | axis tilt sd (mrad) | bias (m/s²) | position (mm) | residual RMS before → after (m/s²) | not identified |\n|---|---|---|---|---|---|---|\n");
     for (name, c) in s.names.iter().zip(s.identification.channels.iter()) {
         let g = &c.geometry;
         let pm = |j: usize| {
@@ -68,8 +69,20 @@ pub fn markdown(s: &CalibrationSummary, job: &CalibrateJob, png: Option<&str>) -
                 " (held)".into()
             }
         };
+        let mm = |j: usize| {
+            if c.sd[j].is_finite() {
+                format!("{:.2}", c.sd[j] * 1e3)
+            } else {
+                "held".into()
+            }
+        };
+        let tilt = if c.sd[1].is_finite() && c.sd[2].is_finite() {
+            format!("{:.2}, {:.2}", c.sd[1] * 1e3, c.sd[2] * 1e3)
+        } else {
+            "held".into()
+        };
         r.push_str(&format!(
-            "| {name} | {:.5}{} | {:.4}{} | {:.2}, {:.2}, {:.2} | {:.3e} → {:.3e} | {} |\n",
+            "| {name} | {:.5}{} | {tilt} | {:.4}{} | {:.2}, {:.2}, {:.2} ± {}, {}, {} | {:.3e} → {:.3e} | {} |\n",
             g.scale,
             pm(0),
             g.bias,
@@ -77,6 +90,9 @@ pub fn markdown(s: &CalibrationSummary, job: &CalibrateJob, png: Option<&str>) -
             g.position.x * 1e3,
             g.position.y * 1e3,
             g.position.z * 1e3,
+            mm(4),
+            mm(5),
+            mm(6),
             c.residual_rms.0,
             c.residual_rms.1,
             c.held.join("; ")
