@@ -497,7 +497,11 @@ const KINEMATIC_PASSES: usize = 3;
 /// Self-calibration's kinematic tie ([`super::kinematics`]): estimates the axes' rotation
 /// relative to the lever arms from Ω′ against the change of Ω, removes it from `geo`, and
 /// repeats with the fields re-estimated until the estimate is below a tenth of its deviation.
-/// Returns the total removed, with the last pass's deviation.
+/// Returns the total removed, with the last pass's deviation. Passes that do not converge —
+/// one finds more rotation than the one before removed — are undone, all of them, and the tie
+/// is said not applied (`ground-calibration` without its held-out stretches, which hold the
+/// turntable's ramps: 2.2 mrad, then 21, then 3 rad, and the held-out residual 698× the
+/// noise).
 fn tie_kinematics(
     geo: &mut [Geometry],
     record: &Record,
@@ -505,6 +509,8 @@ fn tie_kinematics(
 ) -> Option<RelativeRotation> {
     let mut seeds = omega.to_vec();
     let mut total: Option<RelativeRotation> = None;
+    let untied = geo.to_vec();
+    let mut last = None;
     for _ in 0..KINEMATIC_PASSES {
         let fields = motion_fields(geo, record, &seeds, true);
         let Some(r) = super::kinematics::relative_rotation(record.times, record.motion, &fields)
@@ -516,7 +522,16 @@ fn tie_kinematics(
             // already moved the geometry by passes that held; keep those).
             return Some(total.unwrap_or(r));
         }
+        if last.is_some_and(|l: Vector3<f64>| r.d.norm() > l.norm()) {
+            geo.copy_from_slice(&untied);
+            log::debug!("kinematic tie diverged: {r:?}");
+            return Some(RelativeRotation {
+                diverged: true,
+                ..r
+            });
+        }
         super::kinematics::remove(geo, &r.d);
+        last = Some(r.d);
         seeds = fields.iter().map(|f| f.map(|f| f.omega)).collect();
         let small = (0..3).all(|i| r.d[i].abs() <= 0.1 * r.sd[i]);
         total = Some(RelativeRotation {

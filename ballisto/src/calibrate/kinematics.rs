@@ -49,6 +49,9 @@ pub struct RelativeRotation {
     /// The residuals' variance against what Ω's own noise explains (≈ 1 where Ω′ integrates
     /// to the change of Ω; [`CONSISTENT`]).
     pub misfit: f64,
+    /// Whether the passes of the tie diverged (a pass found more rotation than the one
+    /// before removed), and it was undone.
+    pub diverged: bool,
 }
 
 /// The tie holds when its residuals are within twice (in sd) what Ω's noise explains: on
@@ -61,11 +64,19 @@ pub const CONSISTENT: f64 = 4.0;
 impl RelativeRotation {
     /// Whether the record's kinematics are consistent enough for the tie to be applied.
     pub fn holds(&self) -> bool {
-        self.misfit <= CONSISTENT
+        self.misfit <= CONSISTENT && !self.diverged
     }
 
     /// One line for the calibrated file's header and the report.
     pub fn describe(&self) -> String {
+        if self.diverged {
+            return format!(
+                "kinematic tie not applied: its passes did not converge (after the first removed its estimate, the next found [{:.4}, {:.4}, {:.4}] mrad, more: this record's motion does not determine it well enough), so the axes' rotation against the lever arms stays as the joint fit left it",
+                -self.d.x * 1e3,
+                -self.d.y * 1e3,
+                -self.d.z * 1e3
+            );
+        }
         if !self.holds() {
             return format!(
                 "kinematic tie not applied: Ω′ does not integrate to the change of Ω on this record (residuals {:.3e} times the variance Ω's noise explains, more than {CONSISTENT}: the sampling is too slow for the motion, or the model does not fit it), so the axes' rotation against the lever arms stays as the joint fit left it",
@@ -234,6 +245,7 @@ pub fn relative_rotation(
         segments: used,
         rejected: segs.len() - used,
         misfit: s2,
+        diverged: false,
     })
 }
 
