@@ -245,6 +245,16 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             .collect()
     };
     let tolerance = Tolerance::default();
+    // Progress: the reference's alignment (its fits one after the other, in the first
+    // stage), the whole-record fit, the fit without the held-out stretches (their
+    // alternations, at most MAX_ITERATIONS each), then the scoring.
+    let stage_len = fit::MAX_ITERATIONS as u64;
+    let bar = crate::progress::bar(
+        job.progress,
+        2 * stage_len + 1,
+        "{msg:40} {bar:30} {pos}/{len} ({elapsed})",
+    );
+    let align_progress = |it: usize| bar.set_position(it as u64);
     // A real reference's bias (at rest) and time offset, fitted and removed
     // (reference_align).
     let mut alignment = reference_align::Alignment::default();
@@ -257,6 +267,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
                 reference_rate::read_at(path, &job.reference_validity, &shifted)
             };
             let fit_to = |r: &reference_rate::ReferenceAt| {
+                bar.set_message("aligning the reference");
                 let (motion, _) = thinning::thin(&motion_with(Some(r)), &times);
                 let record = Record {
                     rows: &rows,
@@ -264,7 +275,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
                     poses: &poses,
                     motion: &motion,
                     gamma: Matrix3::zeros(),
-                    progress: &|_| {},
+                    progress: &align_progress,
                 };
                 let source = RateSource::Reference(&r.omega);
                 match fit::identify(&nominal, &record, &source, job.fit, &tolerance) {
@@ -291,14 +302,6 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     let (motion, thinned) = thinning::thin(&motion, &times);
     let (fit_motion, held_out) = holdout::split(&motion, &times);
     let (model, model_note) = crate::model_choice::recommend(job.model, &loaded, job.arrangement)?;
-    // Progress: the whole-record fit, the fit without the held-out stretches (their
-    // alternations, at most MAX_ITERATIONS each), then the scoring.
-    let stage_len = fit::MAX_ITERATIONS as u64;
-    let bar = crate::progress::bar(
-        job.progress,
-        2 * stage_len + 1,
-        "{msg:40} {bar:30} {pos}/{len} ({elapsed})",
-    );
     bar.set_message("fit on the whole record");
     let whole_progress = |it: usize| bar.set_position(it as u64);
     let check_progress = |it: usize| bar.set_position(stage_len + it as u64);
