@@ -326,3 +326,44 @@ impl Found {
         text
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibrate::reference_rate::Dropped;
+
+    /// A reference reading `bias` plus a wobble of ±1e-4 rad/s, covering every sample.
+    fn reference(bias: Vector3<f64>, n: usize) -> ReferenceAt {
+        ReferenceAt {
+            omega: (0..n)
+                .map(|k| bias + Vector3::repeat(if k % 2 == 0 { 1e-4 } else { -1e-4 }))
+                .collect(),
+            covered: vec![true; n],
+            dropped: Dropped::default(),
+        }
+    }
+
+    fn poses(count: usize) -> Vec<Pose> {
+        (0..count)
+            .map(|p| Pose {
+                samples: p * 100..p * 100 + 50,
+                mean: Vec::new(),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_bias_at_rest_is_the_mean_over_the_poses() {
+        let bias = Vector3::new(0.01, -0.02, 0.015);
+        let (found, sd) = rest_bias(&reference(bias, 1000), &poses(5)).unwrap();
+        assert!((found - bias).norm() < 1e-12, "{found}");
+        assert!(sd.iter().all(|s| s.is_finite() && *s < 1e-9), "{sd}");
+        // A pose the reference does not cover is left out; fewer than three poses: no bias.
+        let mut r = reference(bias, 1000);
+        r.covered[100..150].iter_mut().for_each(|c| *c = false);
+        r.covered[200..250].iter_mut().for_each(|c| *c = false);
+        r.covered[300..350].iter_mut().for_each(|c| *c = false);
+        assert!(rest_bias(&r, &poses(5)).is_none());
+        assert!(rest_bias(&reference(bias, 1000), &poses(2)).is_none());
+    }
+}
