@@ -124,12 +124,24 @@ fn mimu4444_rate_error_against_gyros() {
 /// The calibration of a raw recording `k` (exp1–exp6) into `out`: self-calibration, or
 /// gyro-aided with the recording's reference and its saturation flags. The error if refused.
 fn calibrate_raw(k: usize, gyro: bool, out: &std::path::Path) -> Result<(), String> {
+    let dir = recording(&format!("mimu4444_exp{k}_raw"));
+    calibrate_in(&dir, &dir.join("arrangement.toml"), gyro, out, false).map(|_| ())
+}
+
+/// `calibrate` on the record in `dir` (`samples.csv`, and gyro-aided its `reference.csv` with
+/// `reference_flags.csv`) with the nominal `arrangement`, into `out`.
+fn calibrate_in(
+    dir: &std::path::Path,
+    arrangement: &std::path::Path,
+    gyro: bool,
+    out: &std::path::Path,
+    force: bool,
+) -> Result<ballisto::calibrate::CalibrationSummary, String> {
     use ballisto::calibrate::reference_rate::Validity;
     use ballisto::calibrate::{calibrate_files, fit::FitSet, CalibrateJob};
-    let dir = recording(&format!("mimu4444_exp{k}_raw"));
     let (reference, flags) = (dir.join("reference.csv"), dir.join("reference_flags.csv"));
     calibrate_files(&CalibrateJob {
-        arrangement: &dir.join("arrangement.toml"),
+        arrangement,
         samples: &dir.join("samples.csv"),
         out,
         reference: gyro.then_some(reference.as_path()),
@@ -140,10 +152,9 @@ fn calibrate_raw(k: usize, gyro: bool, out: &std::path::Path) -> Result<(), Stri
         fit: FitSet::ALL,
         model: None,
         report: None,
-        force: false,
+        force,
         progress: false,
     })
-    .map(|_| ())
     .map_err(|e| e.to_string())
 }
 
@@ -350,8 +361,6 @@ fn imu_distances(file: &std::path::Path) -> Vec<f64> {
 #[test]
 #[ignore = "two calibrations of a one-hour record (a minute): scripts/validate.sh"]
 fn one_hour_record_calibrates_in_about_a_minute_full() {
-    use ballisto::calibrate::reference_rate::Validity;
-    use ballisto::calibrate::{calibrate_files, fit::FitSet, CalibrateJob};
     let dir = std::env::temp_dir().join(format!("realdata-hour-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     // Each file's rows after the first's, times continued one sample period on.
@@ -386,24 +395,10 @@ fn one_hour_record_calibrates_in_about_a_minute_full() {
         offset
     );
     for gyro in [false, true] {
-        let (reference, flags) = (dir.join("reference.csv"), dir.join("reference_flags.csv"));
+        let out = dir.join(if gyro { "gyro.toml" } else { "self.toml" });
         let started = std::time::Instant::now();
-        let s = calibrate_files(&CalibrateJob {
-            arrangement: &arrangement,
-            samples: &dir.join("samples.csv"),
-            out: &dir.join(if gyro { "gyro.toml" } else { "self.toml" }),
-            reference: gyro.then_some(reference.as_path()),
-            reference_validity: Validity {
-                flags: gyro.then_some(flags.as_path()),
-                range: None,
-            },
-            fit: FitSet::ALL,
-            model: None,
-            report: None,
-            force: true,
-            progress: false,
-        })
-        .unwrap_or_else(|e| panic!("gyro {gyro}: {e}"));
+        let s = calibrate_in(&dir, &arrangement, gyro, &out, true)
+            .unwrap_or_else(|e| panic!("gyro {gyro}: {e}"));
         println!(
             "{}: {:.1} s, {} static poses, {}",
             if gyro {

@@ -203,13 +203,14 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             noise: c.noise,
         })
         .collect();
-    let reference = match job.reference {
-        Some(path) => Some(reference_rate::read_at(
-            path,
-            &job.reference_validity,
-            &times,
-        )?),
+    // Read once: the alignment below interpolates it again at shifted times.
+    let read_reference = match job.reference {
+        Some(path) => Some(reference_rate::read(path, &job.reference_validity)?),
         None => None,
+    };
+    let reference = match (job.reference, &read_reference) {
+        (Some(path), Some((r, dropped))) => Some(r.at(&times, dropped, path)?),
+        _ => None,
     };
     let reference_dropped = job
         .reference
@@ -259,12 +260,12 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     // (reference_align).
     let mut alignment = reference_align::Alignment::default();
     let mut offset_rotation_sd = (0.0, 0.0);
-    let reference = match (job.reference, reference) {
-        (Some(path), Some(first)) => {
+    let reference = match (job.reference, &read_reference, reference) {
+        (Some(path), Some((read, dropped)), Some(first)) => {
             let load = |offset: f64| -> Result<reference_rate::ReferenceAt, Box<dyn Error>> {
                 // The row stamped t + offset is the rate at t.
                 let shifted: Vec<f64> = times.iter().map(|t| t + offset).collect();
-                reference_rate::read_at(path, &job.reference_validity, &shifted)
+                read.at(&shifted, dropped, path)
             };
             let fit_to = |r: &reference_rate::ReferenceAt| {
                 bar.set_message("aligning the reference");
@@ -295,7 +296,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             offset_rotation_sd = (aligned.rotation_sd, aligned.relative_rotation_sd);
             Some(aligned.reference)
         }
-        (_, reference) => reference,
+        (_, _, reference) => reference,
     };
     let motion = motion_with(reference.as_ref());
     let motion_total = motion.len();

@@ -94,48 +94,54 @@ pub fn read_at(
     validity: &Validity,
     times: &[f64],
 ) -> Result<ReferenceAt, Box<dyn Error>> {
-    let name = path.display().to_string();
-    let (
-        Reference {
-            t: t_ref,
-            omega: w_ref,
-        },
-        dropped,
-    ) = read(path, validity)?;
+    let (reference, dropped) = read(path, validity)?;
+    reference.at(times, &dropped, path)
+}
 
-    // A reference with rows left out (e.g. where a gyro saturated) does not cover the gap:
-    // an interval longer than 1.5 times the median one is not interpolated across.
-    let mut steps: Vec<f64> = t_ref.windows(2).map(|w| w[1] - w[0]).collect();
-    steps.sort_by(f64::total_cmp);
-    let longest = 1.5 * steps[steps.len() / 2];
-    let mut omega = Vec::with_capacity(times.len());
-    let mut covered = Vec::with_capacity(times.len());
-    let mut j = 0;
-    for &t in times {
-        while j + 2 < t_ref.len() && t_ref[j + 1] < t {
-            j += 1;
+impl Reference {
+    /// The reference (read from `path`, `dropped` its rows left out) interpolated to `times`,
+    /// as [`read_at`] does: a calibration that shifts the reference's times reads the file once.
+    pub fn at(
+        &self,
+        times: &[f64],
+        dropped: &Dropped,
+        path: &Path,
+    ) -> Result<ReferenceAt, Box<dyn Error>> {
+        let name = path.display().to_string();
+        let (t_ref, w_ref) = (&self.t, &self.omega);
+        // A reference with rows left out (e.g. where a gyro saturated) does not cover the gap:
+        // an interval longer than 1.5 times the median one is not interpolated across.
+        let mut steps: Vec<f64> = t_ref.windows(2).map(|w| w[1] - w[0]).collect();
+        steps.sort_by(f64::total_cmp);
+        let longest = 1.5 * steps[steps.len() / 2];
+        let mut omega = Vec::with_capacity(times.len());
+        let mut covered = Vec::with_capacity(times.len());
+        let mut j = 0;
+        for &t in times {
+            while j + 2 < t_ref.len() && t_ref[j + 1] < t {
+                j += 1;
+            }
+            let (t0, t1) = (t_ref[j], t_ref[j + 1]);
+            // Within an interval that is no gap, or at a valid row's own instant.
+            let at_row = (t - t0).abs() <= 1e-9 || (t - t1).abs() <= 1e-9;
+            let inside = at_row || (t >= t0 && t <= t1 && t1 - t0 <= longest);
+            covered.push(inside);
+            omega.push(if inside {
+                let u = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
+                w_ref[j] * (1.0 - u) + w_ref[j + 1] * u
+            } else {
+                Vector3::zeros()
+            });
         }
-        let (t0, t1) = (t_ref[j], t_ref[j + 1]);
-        // Within an interval that is no gap, or at a valid row's own instant.
-        let at_row = (t - t0).abs() <= 1e-9 || (t - t1).abs() <= 1e-9;
-        let inside = at_row || (t >= t0 && t <= t1 && t1 - t0 <= longest);
-        covered.push(inside);
-        omega.push(if inside {
-            let u = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
-            w_ref[j] * (1.0 - u) + w_ref[j + 1] * u
-        } else {
-            Vector3::zeros()
-        });
-    }
-    // Overlap, not coverage: the rows left out are reported, not refused.
-    let (first, last) = (t_ref[0], t_ref[t_ref.len() - 1]);
-    let n = times.iter().filter(|&&t| t >= first && t <= last).count();
-    if 2 * n < times.len() {
-        let left_out = dropped
-            .describe(path)
-            .map(|d| format!("; {d}"))
-            .unwrap_or_default();
-        return Err(format!(
+        // Overlap, not coverage: the rows left out are reported, not refused.
+        let (first, last) = (t_ref[0], t_ref[t_ref.len() - 1]);
+        let n = times.iter().filter(|&&t| t >= first && t <= last).count();
+        if 2 * n < times.len() {
+            let left_out = dropped
+                .describe(path)
+                .map(|d| format!("; {d}"))
+                .unwrap_or_default();
+            return Err(format!(
             "{name}: spans {n} of the {} sample instants ({:.3}–{:.3} s against {:.3}–{:.3} s): it does not overlap the record{left_out}",
             times.len(),
             t_ref[0],
@@ -144,12 +150,13 @@ pub fn read_at(
             times.last().copied().unwrap_or(0.0)
         )
         .into());
+        }
+        Ok(ReferenceAt {
+            omega,
+            covered,
+            dropped: dropped.clone(),
+        })
     }
-    Ok(ReferenceAt {
-        omega,
-        covered,
-        dropped,
-    })
 }
 
 /// The flag columns of a header: (index, name, whether a 0 means invalid — `valid` — or a
