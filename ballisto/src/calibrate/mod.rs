@@ -21,6 +21,7 @@ pub mod poses;
 pub mod reference_align;
 pub mod reference_rate;
 pub mod report;
+pub mod scatter;
 pub mod thinning;
 
 use std::error::Error;
@@ -113,12 +114,12 @@ pub const RESIDUAL_FACTOR: f64 = 2.0;
 pub const IMPLAUSIBLE_TOLERANCES: f64 = 5.0;
 
 /// Checks the identification against what a sound record gives, and says what it doubts:
-/// a channel whose residual exceeds [`RESIDUAL_FACTOR`] × its noise has its deviations
-/// scaled by the ratio (they assume white noise of the declared size); a parameter more than
+/// a channel whose residual exceeds [`RESIDUAL_FACTOR`] × its noise (the fit then weighed
+/// its data by their measured scatter: [`scatter`]); a parameter more than
 /// [`IMPLAUSIBLE_TOLERANCES`] tolerances from nominal points to something the model lacks
 /// (a time lag between parts or against the reference, filtering, a wrong nominal).
 fn plausibility(
-    id: &mut Identification,
+    id: &Identification,
     nominal: &[Geometry],
     names: &[String],
     tol: &Tolerance,
@@ -126,12 +127,9 @@ fn plausibility(
     let mut warnings = Vec::new();
     let mut misfit = Vec::new();
     let mut far = Vec::new();
-    for ((c, n0), name) in id.channels.iter_mut().zip(nominal.iter()).zip(names.iter()) {
+    for ((c, n0), name) in id.channels.iter().zip(nominal.iter()).zip(names.iter()) {
         let ratio = c.residual_rms.1 / n0.noise;
         if ratio > RESIDUAL_FACTOR {
-            for sd in c.sd.iter_mut() {
-                *sd *= ratio;
-            }
             misfit.push(format!("{name} {ratio:.1}×"));
         }
         let g = &c.geometry;
@@ -149,7 +147,7 @@ fn plausibility(
     }
     if !misfit.is_empty() {
         warnings.push(format!(
-            "the residuals exceed the declared noise ({}): the record does not fit the model to its noise, and the deviations have been scaled up by those ratios",
+            "the residuals exceed the declared noise ({}): the record does not fit the model to its noise; the fit weighed each channel's motion samples and pose means by their measured scatter, and the deviations are that weighting's",
             misfit.join(", ")
         ));
     }
@@ -248,8 +246,8 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     let tolerance = Tolerance::default();
     // Progress: the reference's alignment (its fits one after the other, in the first
     // stage), the whole-record fit, the fit without the held-out stretches (their
-    // alternations, at most MAX_ITERATIONS each), then the scoring.
-    let stage_len = fit::MAX_ITERATIONS as u64;
+    // alternations, at most MAX_ALTERNATIONS each), then the scoring.
+    let stage_len = fit::MAX_ALTERNATIONS as u64;
     let bar = crate::progress::bar(
         job.progress,
         2 * stage_len + 1,
@@ -438,7 +436,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
                 .map(|(r, _)| (r, identification.frame.rotation)),
         }
     });
-    let mut warnings = plausibility(&mut identification, &nominal, &names, &tolerance);
+    let mut warnings = plausibility(&identification, &nominal, &names, &tolerance);
     if let Some(v) = validation.as_ref().ok().filter(|v| !v.improved()) {
         let sentence = format!(
             "the calibration does not improve the part of the record held out of the fit ({})",

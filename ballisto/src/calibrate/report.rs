@@ -58,7 +58,7 @@ pub fn markdown(s: &CalibrationSummary, job: &CalibrateJob, png: Option<&str>) -
             "\n![Residuals with the nominal and with the identified geometry]({png})\n"
         ));
     }
-    r.push_str("\nEach identified parameter ± its standard deviation (the data's, scaled up where the residual exceeds the declared noise); \"held\" where the record does not determine it.\n");
+    r.push_str("\nEach identified parameter ± its standard deviation (the data's, each channel's motion samples and pose means weighed by their measured scatter); \"held\" where the record does not determine it.\n");
     r.push_str("\n| channel | scale | axis tilt sd (mrad) | bias (m/s²) | position (mm) | residual RMS before → after (m/s²) | not identified |\n|---|---|---|---|---|---|---|\n");
     for (name, c) in s.names.iter().zip(s.identification.channels.iter()) {
         let g = &c.geometry;
