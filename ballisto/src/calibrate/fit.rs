@@ -430,7 +430,7 @@ pub fn identify(
             if !weights_final {
                 // Reweighted once. Helmert's iteration would go on until the scatter settles
                 // — a misfit in motion drags the parameters the poses fix, so their floor
-                // comes out high at first and the deviations conservative (error/sd 0.61 RMS
+                // comes out high at first and the deviations conservative (error/sd 0.63 RMS
                 // on the misfit test, 0.78 after three reweightings) — but on the real board
                 // each further reweighting raised the self-calibration's declared motion
                 // noise, the estimator left more samples undecided (6 525 → 4 538 on exp4)

@@ -62,7 +62,10 @@ impl Scatter {
     ) -> Scatter {
         let n = geo.len();
         let present = |row: &[f64]| row.iter().filter(|p| p.is_finite()).count() as f64;
+        // Per channel: the sum over the poses of the squared residual (corrected for the
+        // gravity direction's unknowns) and of what the averaged white noise explains.
         let mut pose_sum = vec![0.0; n];
+        let mut pose_white = vec![0.0; n];
         let mut pose_count = vec![0usize; n];
         for (pose, gk) in record.poses.iter().zip(gravity.iter()) {
             let m = present(&pose.mean);
@@ -74,7 +77,8 @@ impl Scatter {
                 let r = mean - g.reading(gk);
                 if r.is_finite() {
                     let averaged = self.white[i] * self.white[i] / pose.samples.len() as f64;
-                    pose_sum[i] += r * r / share - averaged;
+                    pose_sum[i] += r * r / share;
+                    pose_white[i] += averaged;
                     pose_count[i] += 1;
                 }
             }
@@ -106,7 +110,13 @@ impl Scatter {
             pose: (0..n)
                 .map(|i| match pose_count[i] {
                     0 => self.pose[i],
-                    c => (pose_sum[i] / c as f64).max(0.0).sqrt(),
+                    // A floor only where the white noise cannot explain the residuals: their
+                    // sum beyond 3 deviations of its χ² (twenty poses' sum scatters by a
+                    // third; a chance excess would reweight a record that fits).
+                    c if pose_sum[i] > pose_white[i] * (1.0 + 3.0 * (2.0 / c as f64).sqrt()) => {
+                        ((pose_sum[i] - pose_white[i]) / c as f64).sqrt()
+                    }
+                    _ => 0.0,
                 })
                 .collect(),
             motion: (0..n)
