@@ -124,7 +124,8 @@ pub struct Geometry {
     pub scale: f64,
     /// Bias (m/s²).
     pub bias: f64,
-    /// White noise per sample (m/s²).
+    /// White noise per sample (m/s²); inside [`identify`], once reweighted, a motion sample's
+    /// measured scatter (its weight: [`Scatter`]).
     pub noise: f64,
 }
 
