@@ -377,7 +377,7 @@ pub fn decode_file(
     Ok((stream, rows, text))
 }
 
-/// The last identification solution in a decoded stream (TM[200,128] and its N × TM[200,129])
+/// The last identification solution in a decoded stream (TM\[200,128\] and its N × TM\[200,129\])
 /// as an arrangement file (interfaces.md) over the channel names of the nominal `arrangement`
 /// file: positions, axes, bias and scale with the deviations of what the window determined
 /// (a held parameter gets no `*_sd` key: not identified, kept at the value in use), the frame's

@@ -76,7 +76,7 @@ pub fn write_header<W: Write>(w: &mut W) -> std::io::Result<()> {
     )
 }
 
-/// Writes one row (the text `Display` gives each number; see [`crate::decimal`]); `gamma`:
+/// Writes one row (the text `Display` gives each number; see `crate::decimal`); `gamma`:
 /// the estimate is model G's, whose gravity gradient fills [`GAMMA_COLUMNS`] (else empty);
 /// `excluded`: the channels out of it ([`EXCLUDED_COLUMNS`]).
 pub fn write_row<W: Write, T: Real>(

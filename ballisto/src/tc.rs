@@ -130,7 +130,7 @@ fn model_name(m: Model) -> &'static str {
     }
 }
 
-/// TC[9,128]'s field: the spacecraft time `seconds` as 2⁻²⁴ s ticks (CUC 4+3), or an error
+/// TC\[9,128\]'s field: the spacecraft time `seconds` as 2⁻²⁴ s ticks (CUC 4+3), or an error
 /// if it is negative, not finite or beyond the 4 coarse octets.
 pub fn time_ticks(seconds: f64) -> Result<u64, String> {
     let ticks = (seconds * f64::from(1u32 << 24)).round();
@@ -143,7 +143,7 @@ pub fn time_ticks(seconds: f64) -> Result<u64, String> {
     Ok(ticks as u64)
 }
 
-/// TC[200,6] application data from an arrangement file (its channels in file order: position,
+/// TC\[200,6\] application data from an arrangement file (its channels in file order: position,
 /// axis, noise), and the warnings: what the command does not carry (bias, scale), and an
 /// implausible extent ([`crate::plausibility::arrangement`]).
 pub fn arrangement_data(path: &Path) -> Result<(Vec<u8>, Vec<String>), String> {
@@ -216,7 +216,7 @@ pub fn channel_index(
         })
 }
 
-/// TC[200,9] packets' application data for the rows of a reference rate file (times on the
+/// TC\[200,9\] packets' application data for the rows of a reference rate file (times on the
 /// unit's clock, s since boot) between `from` and `to`: [`MAX_POINTS`] points each.
 pub fn reference_batches(path: &Path, from: f64, to: f64) -> Result<Vec<Vec<u8>>, String> {
     // The reference's own flag columns (`valid`, `*_saturated`) leave rows out here too.

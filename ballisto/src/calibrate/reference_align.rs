@@ -39,7 +39,7 @@ const MIN_POSES: usize = 3;
 
 /// The reference's bias at rest: the mean over the static poses of the reference's rows in
 /// them, and its deviation per axis from the poses' scatter; `None` with fewer than
-/// [`MIN_POSES`] poses the reference covers.
+/// `MIN_POSES` (3) poses the reference covers.
 pub fn rest_bias(reference: &ReferenceAt, poses: &[Pose]) -> Option<(Vector3<f64>, Vector3<f64>)> {
     let means: Vec<Vector3<f64>> = poses
         .iter()
