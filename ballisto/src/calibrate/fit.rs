@@ -438,13 +438,8 @@ pub fn identify(
                 // and the kinematic tie turned the axes by 0.24 rad: Ω 6.9 rad/s RMS against
                 // 2.8 after one.
                 weights_final = true;
-                let fields = match &omega {
-                    Some(w) => motion_fields(&geo, record, w, self_calibration),
-                    None => Vec::new(),
-                };
-                let gravity = pose_gravity(&geo, record.poses, &scatter);
-                let unknowns = if self_calibration { 9 } else { 6 };
-                let measured = scatter.measured(&geo, record, &fields, &gravity, unknowns);
+                let measured =
+                    measured_scatter(&geo, record, omega.as_deref(), &scatter, self_calibration);
                 let pose_len = record.poses.iter().map(|p| p.samples.len()).max();
                 if scatter.reweights(&measured, pose_len.unwrap_or(1)) {
                     log::debug!("reweighted: {measured:?}");
@@ -629,6 +624,24 @@ const HELD_SHARE: f64 = 0.5;
 /// An eigenvalue below this fraction of the largest is a freedom the data do not see at all
 /// (round-off level of the projected normal matrix).
 const GAUGE_EIGENVALUE: f64 = 1e-9;
+
+/// The scatter of `geo`'s residuals on `record` ([`Scatter::measured`]): the fields
+/// re-estimated from `omega` (with `self_calibration`, Ω as well), the poses' gravity weighted
+/// by `scatter`.
+fn measured_scatter(
+    geo: &[Geometry],
+    record: &Record,
+    omega: Option<&[Option<Vector3<f64>>]>,
+    scatter: &Scatter,
+    self_calibration: bool,
+) -> Scatter {
+    let fields = omega.map_or_else(Vec::new, |w| {
+        motion_fields(geo, record, w, self_calibration)
+    });
+    let gravity = pose_gravity(geo, record.poses, scatter);
+    let unknowns = if self_calibration { 9 } else { 6 };
+    scatter.measured(geo, record, &fields, &gravity, unknowns)
+}
 
 /// The gravity direction of each pose (|g| = G0), by least squares over the channels.
 fn pose_gravity(geo: &[Geometry], poses: &[Pose], scatter: &Scatter) -> Vec<Vector3<f64>> {

@@ -17,8 +17,8 @@ use super::fit::{Field, Geometry, Record};
 use nalgebra::Vector3;
 
 /// A weight is re-estimated only when it changes by more than this factor (its square root
-/// for a scatter): below, the record fits the declared noise well enough (simulated parts:
-/// the motion's residual is within 10 % of the noise) and the fit is not run again.
+/// for a scatter): below, the record fits the declared noise well enough (simulated white
+/// noise: the motion's residual within 10 % of it) and the fit is not run again.
 pub const REWEIGHT_FACTOR: f64 = 2.0;
 
 /// Each channel's scatter by kind of datum (m/s²).
