@@ -187,6 +187,17 @@ struct Phases {
     poses: f64,
 }
 
+impl Phases {
+    /// The hand-held phase's figure, else the poses'.
+    fn of(&self, hand_held: bool) -> f64 {
+        if hand_held {
+            self.hand_held
+        } else {
+            self.poses
+        }
+    }
+}
+
 /// Ω RMS against the gyros (unsaturated rows, default model F here: the board is nearly
 /// planar) of raw recording `k` estimated on `arrangement` (its nominal one if `None`), per
 /// phase.
@@ -318,23 +329,23 @@ fn raw_recordings_calibrated_across_recordings_full() {
             .collect();
         distances.push((kind, spread));
     }
-    let phases: [(&str, fn(&Phases) -> f64); 2] = [
+    let phases = [
         (
             "the hand-held phase (reference |Ω| above 15 rad/s, about 100 s)",
-            |p| p.hand_held,
+            true,
         ),
         (
             "the static poses and the turns between them (about 500 s; |Ω| below 10 rad/s)",
-            |p| p.poses,
+            false,
         ),
     ];
-    for (title, phase) in phases {
+    for (title, hand_held) in phases {
         println!("Ω RMS against the gyros (rad/s, unsaturated rows, model F) over {title} of each raw recording (columns), estimated on the nominal geometry and on each calibration (rows; calibrate time in s):");
         println!();
         println!("| calibration | time (s) | exp1 | exp2 | exp3 | exp4 | exp5 | exp6 |");
         println!("|---|---|---|---|---|---|---|---|");
         for (label, seconds, rms) in &rows {
-            let v: Vec<f64> = rms.iter().map(phase).collect();
+            let v: Vec<f64> = rms.iter().map(|p| p.of(hand_held)).collect();
             println!("| {label} | {seconds} | {} |", table_cells(&v));
         }
         println!();
@@ -354,9 +365,9 @@ fn raw_recordings_calibrated_across_recordings_full() {
                     .2;
                 for ((a, b), n) in rms.iter().zip(published).zip(nominal) {
                     pairs += 1;
-                    better += usize::from(phase(a) <= phase(b));
-                    below += usize::from(phase(a) < phase(n));
-                    worst = worst.max(phase(a) / phase(b));
+                    better += usize::from(a.of(hand_held) <= b.of(hand_held));
+                    below += usize::from(a.of(hand_held) < n.of(hand_held));
+                    worst = worst.max(a.of(hand_held) / b.of(hand_held));
                 }
             }
             println!(
