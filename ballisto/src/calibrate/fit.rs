@@ -220,6 +220,9 @@ pub struct Identified {
     pub held: Vec<String>,
     /// RMS of the channel's residual (m/s²) with the nominal and with the identified geometry.
     pub residual_rms: (f64, f64),
+    /// Scatter of one reading at rest about the identified geometry (m/s²): the white noise
+    /// and the floor of the pose means ([`Scatter::at_rest`]).
+    pub rest_scatter: f64,
 }
 
 /// The outcome of [`identify`].
@@ -479,6 +482,7 @@ pub fn identify(
                 residual_before.per_channel[i],
                 residual_after.per_channel[i],
             ),
+            rest_scatter: scatter.at_rest(i),
         })
         .collect();
     let mut frame = super::frame::uncertainty(&geo, &step.error_covariance(n), tol);

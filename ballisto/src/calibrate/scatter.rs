@@ -143,6 +143,12 @@ impl Scatter {
         })
     }
 
+    /// Channel `i`'s scatter per sample at rest: its white noise and the floor its pose means
+    /// show, `√(white² + pose²)` (m/s²).
+    pub fn at_rest(&self, i: usize) -> f64 {
+        self.white[i].hypot(self.pose[i])
+    }
+
     /// Sets every geometry's `noise` to its channel's motion scatter (what the per-sample
     /// field solves and the estimator weigh by).
     pub fn weigh_motion(&self, geo: &mut [Geometry]) {
@@ -162,6 +168,14 @@ mod tests {
             pose: vec![0.0; n],
             motion: vec![noise; n],
         }
+    }
+
+    #[test]
+    fn the_scatter_at_rest_adds_the_floor_to_the_white_noise() {
+        let mut s = white(0.03, 1);
+        assert_eq!(s.at_rest(0), 0.03);
+        s.pose[0] = 0.04;
+        assert!((s.at_rest(0) - 0.05).abs() < 1e-12);
     }
 
     #[test]
