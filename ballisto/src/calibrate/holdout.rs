@@ -164,10 +164,12 @@ pub fn score(
                 stretches.push((0.0, 0));
             }
             last = t;
-            if r.covered[k] {
-                let s = stretches.last_mut().expect("one was pushed");
-                s.0 += (run[k].0 - r.omega[k]).norm_squared();
-                s.1 += 1;
+            match stretches.last_mut() {
+                Some(s) if r.covered[k] => {
+                    s.0 += (run[k].0 - r.omega[k]).norm_squared();
+                    s.1 += 1;
+                }
+                _ => {}
             }
         }
     }
@@ -203,5 +205,41 @@ mod tests {
         assert!(held.iter().all(|&k| (1800..2000).contains(&k) || k >= 2800));
         assert_eq!(held.len(), 400);
         assert_eq!(split(&[], &times), (Vec::new(), Vec::new()));
+    }
+
+    /// A validation whose nominal and calibrated Ω errors per stretch are `n` and `c`.
+    fn validation(n: &[f64], c: &[f64]) -> Validation {
+        let score = |s: &[f64]| Score {
+            residual: 1.0,
+            omega: Some((s.iter().sum::<f64>() / s.len() as f64).sqrt()),
+            omega_stretches: s.to_vec(),
+            flagged: 0.0,
+        };
+        Validation {
+            samples: 100 * n.len(),
+            nominal: score(n),
+            calibrated: score(c),
+        }
+    }
+
+    #[test]
+    fn a_higher_omega_counts_only_beyond_the_scatter_of_its_stretches() {
+        let nominal = [20.0, 30.0, 25.0, 40.0, 35.0, 22.0];
+        // Higher by 1 on average, the stretches' differences scattered by ±5: chance.
+        let within = [26.0, 25.0, 31.0, 36.0, 41.0, 17.0];
+        let v = validation(&nominal, &within);
+        assert!(v.calibrated.omega > v.nominal.omega);
+        assert!(!v.omega_higher());
+        assert!(v
+            .describe()
+            .contains("within the scatter of its 6 stretches"));
+        // Higher by 2 on every stretch: not chance.
+        let beyond: Vec<f64> = nominal.iter().map(|x| x + 2.0).collect();
+        assert!(validation(&nominal, &beyond).omega_higher());
+        // Lower: never higher.
+        let lower: Vec<f64> = nominal.iter().map(|x| x - 2.0).collect();
+        assert!(!validation(&nominal, &lower).omega_higher());
+        // Two stretches cannot show a scatter: any excess counts.
+        assert!(validation(&[20.0, 30.0], &[30.0, 21.0]).omega_higher());
     }
 }
