@@ -177,7 +177,7 @@ fn calibrate_in(
 const HAND_HELD_RATE: f64 = 15.0;
 
 /// Ω RMS against the gyros (rad/s, unsaturated rows) in the two phases of a raw recording.
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 struct Phases {
     /// From the first to the last row whose reference |Ω| exceeds [`HAND_HELD_RATE`]: the
     /// hand-held motion, where the accelerometers see Ω.
@@ -185,7 +185,14 @@ struct Phases {
     /// The rows before and after it: the static poses and the turns between them, where Ω is
     /// a few rad/s at most and below what the 19 mm array resolves.
     poses: f64,
+    /// Per phase (hand-held, poses), the mean square error (rad²/s²) of each stretch of
+    /// [`STRETCH_ROWS`] rows that has unsaturated rows in it, in time order.
+    stretches: [Vec<f64>; 2],
 }
+
+/// Rows per stretch of the paired comparison of two geometries: 2 s at 62.5 Hz, longer than
+/// the hand-held motion's own correlation.
+const STRETCH_ROWS: usize = 125;
 
 impl Phases {
     /// The hand-held phase's figure, else the poses'.
@@ -194,6 +201,28 @@ impl Phases {
             self.hand_held
         } else {
             self.poses
+        }
+    }
+
+    /// Whether Ω's error in the phase is higher (`Greater`) or lower (`Less`) than `other`'s
+    /// beyond what chance explains, or neither (`Equal`): paired by stretch (the same rows),
+    /// the mean of the stretches' differences in mean square error against 2 of its standard
+    /// errors.
+    fn compared(&self, other: &Phases, hand_held: bool) -> std::cmp::Ordering {
+        let i = usize::from(!hand_held);
+        let (a, b) = (&self.stretches[i], &other.stretches[i]);
+        assert_eq!(a.len(), b.len(), "the same rows in both");
+        let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
+        let n = d.len() as f64;
+        let mean = d.iter().sum::<f64>() / n;
+        let var = d.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
+        let bound = 2.0 * (var / n).sqrt();
+        if mean > bound {
+            std::cmp::Ordering::Greater
+        } else if mean < -bound {
+            std::cmp::Ordering::Less
+        } else {
+            std::cmp::Ordering::Equal
         }
     }
 }
@@ -221,9 +250,29 @@ fn raw_rms(k: usize, arrangement: Option<&std::path::Path>) -> Phases {
         let pick = |v: &[[f64; 3]]| rows.iter().map(|&i| v[i]).collect::<Vec<_>>();
         rms3(&pick(&estimated), &pick(&reference))
     };
+    let stretches_of = |hand_held: bool| {
+        let mut sums: Vec<(usize, f64, usize)> = Vec::new();
+        for i in (0..reference.len()).filter(|&i| valid[i]) {
+            if (first..=last).contains(&i) != hand_held {
+                continue;
+            }
+            let e = &estimated[i];
+            let r = &reference[i];
+            let sq = (e[0] - r[0]).powi(2) + (e[1] - r[1]).powi(2) + (e[2] - r[2]).powi(2);
+            match sums.last_mut() {
+                Some(s) if s.0 == i / STRETCH_ROWS => {
+                    s.1 += sq;
+                    s.2 += 1;
+                }
+                _ => sums.push((i / STRETCH_ROWS, sq, 1)),
+            }
+        }
+        sums.iter().map(|s| s.1 / s.2 as f64).collect()
+    };
     Phases {
         hand_held: rms_of(&|i| (first..=last).contains(&i)),
         poses: rms_of(&|i| !(first..=last).contains(&i)),
+        stretches: [stretches_of(true), stretches_of(false)],
     }
 }
 
@@ -357,21 +406,36 @@ fn raw_recordings_calibrated_across_recordings_full() {
             "gyro-aided, nominal noise",
         ] {
             let (mut better, mut below, mut pairs, mut worst) = (0, 0, 0, 0.0_f64);
+            let (mut higher, mut lower, mut above) = (Vec::new(), 0, 0);
             for (_, k, rms) in cells.iter().filter(|(c, _, _)| *c == kind) {
                 let published = &cells
                     .iter()
                     .find(|(c, p, _)| *c == "published" && p == k)
                     .expect("every recording has its published calibration")
                     .2;
-                for ((a, b), n) in rms.iter().zip(published).zip(nominal) {
+                for (j, ((a, b), n)) in rms.iter().zip(published).zip(nominal).enumerate() {
                     pairs += 1;
                     better += usize::from(a.of(hand_held) <= b.of(hand_held));
                     below += usize::from(a.of(hand_held) < n.of(hand_held));
                     worst = worst.max(a.of(hand_held) / b.of(hand_held));
+                    above += usize::from(a.compared(n, hand_held) == std::cmp::Ordering::Greater);
+                    match a.compared(b, hand_held) {
+                        std::cmp::Ordering::Greater => {
+                            higher.push(format!("exp{k} on exp{}", j + 1))
+                        }
+                        std::cmp::Ordering::Less => lower += 1,
+                        std::cmp::Ordering::Equal => {}
+                    }
                 }
             }
             println!(
-                "{kind}: below the nominal geometry on {below} of {pairs} (calibrated on, estimated on) pairs; no worse than the published calibration of the same recording on {better} (worst {worst:.2} × published)"
+                "{kind}: below the nominal geometry on {below} of {pairs} (calibrated on, estimated on) pairs; no worse than the published calibration of the same recording on {better} (worst {worst:.2} × published); paired by 2 s stretch (2 standard errors), higher than the nominal beyond chance on {above}, than the published on {}{}, lower than the published on {lower}",
+                higher.len(),
+                if higher.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", higher.join(", "))
+                }
             );
         }
     }
