@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+use ballisto::calibrate::holdout::paired;
 use ballisto::estimate::HostEstimator;
 use ballisto::samples_csv::SamplesReader;
 use e2e_tests::csv::read_columns;
@@ -205,25 +206,13 @@ impl Phases {
     }
 
     /// Whether Ω's error in the phase is higher (`Greater`) or lower (`Less`) than `other`'s
-    /// beyond what chance explains, or neither (`Equal`): paired by stretch (the same rows),
-    /// the mean of the stretches' differences in mean square error against 2 of its standard
-    /// errors.
+    /// beyond what chance explains, or neither (`Equal`), paired by stretch (the same rows:
+    /// `calibrate`'s held-out test, [`paired`]).
     fn compared(&self, other: &Phases, hand_held: bool) -> std::cmp::Ordering {
         let i = usize::from(!hand_held);
         let (a, b) = (&self.stretches[i], &other.stretches[i]);
         assert_eq!(a.len(), b.len(), "the same rows in both");
-        let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).collect();
-        let n = d.len() as f64;
-        let mean = d.iter().sum::<f64>() / n;
-        let var = d.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
-        let bound = 2.0 * (var / n).sqrt();
-        if mean > bound {
-            std::cmp::Ordering::Greater
-        } else if mean < -bound {
-            std::cmp::Ordering::Less
-        } else {
-            std::cmp::Ordering::Equal
-        }
+        paired(a, b)
     }
 }
 

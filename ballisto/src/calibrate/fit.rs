@@ -166,6 +166,11 @@ impl Field {
         let ww = w * w.transpose() - Matrix3::identity() * w.norm_squared();
         self.domega.cross_matrix() + ww + gamma
     }
+
+    /// What channel `g` reads in this field, with `m` = [`Self::m`]: `g.reading(σ0 + M R)`.
+    pub(super) fn reading(&self, g: &Geometry, m: &Matrix3<f64>) -> f64 {
+        g.reading(&(self.sigma0 + m * g.position))
+    }
 }
 
 /// Ω per sample (`None` where it is not known).
@@ -549,7 +554,7 @@ fn sample_chi2(geo: &[Geometry], row: &[f64], gamma: &Matrix3<f64>, f: &Field) -
         .zip(row.iter())
         .filter(|(_, p)| p.is_finite())
         .map(|(g, p)| {
-            let e = p - g.reading(&(f.sigma0 + m * g.position));
+            let e = p - f.reading(g, &m);
             e * e / (g.noise * g.noise)
         })
         .sum()
@@ -761,7 +766,7 @@ fn motion_fields(
                     let h = SVector::<f64, 9>::from_column_slice(&[
                         kv.x, kv.y, kv.z, rk.x, rk.y, rk.z, c.x, c.y, c.z,
                     ]);
-                    let e = p - g.reading(&(field.sigma0 + m * g.position));
+                    let e = p - field.reading(g, &m);
                     let w = 1.0 / (g.noise * g.noise);
                     ssr += e * e * w;
                     a += h * h.transpose() * w;
@@ -1295,7 +1300,7 @@ pub fn residuals(
         let res: Vec<f64> = (0..n)
             .map(|i| {
                 let g = &geo[i];
-                record.rows[k][i] - g.reading(&(field.sigma0 + m * g.position))
+                record.rows[k][i] - field.reading(g, &m)
             })
             .collect();
         for (i, r) in res.iter().enumerate() {

@@ -7,6 +7,8 @@
 //! warning in the file): a fit that follows one record's noise, or a model the record does
 //! not fit, shows there and nowhere else.
 
+use std::cmp::Ordering;
+
 use nalgebra::Vector3;
 
 use super::fit::{self, Geometry, RateSource, Record};
@@ -74,37 +76,31 @@ impl Validation {
     }
 
     /// Whether the calibrated Ω error on the held-out part is higher than the nominal one by
-    /// more than the comparison can tell from chance: paired by stretch (both geometries on
-    /// the same samples), the mean of the stretches' differences in mean square error is more
-    /// than [`SIGNIFICANT`] of its standard errors above zero. With fewer than three stretches
-    /// any excess counts. A few per cent either way on ten stretches of hand-held motion is
-    /// chance: on the MIMU4444 board the estimate's Ω error there is a quarter of |Ω| (the
-    /// model's misfit in fast motion) whatever the geometry, and a plain comparison refused
-    /// or accepted the same calibration with the noise it declares.
+    /// more than the comparison can tell from chance ([`paired`]: both geometries on the same
+    /// stretches). With fewer than three stretches any excess counts. A few per cent either
+    /// way on ten stretches of hand-held motion is chance: on the MIMU4444 board the
+    /// estimate's Ω error there is a quarter of |Ω| (the model's misfit in fast motion)
+    /// whatever the geometry, and a plain comparison refused or accepted the same calibration
+    /// with the noise it declares.
     pub fn omega_higher(&self) -> bool {
         let (n, c) = (
             &self.nominal.omega_stretches,
             &self.calibrated.omega_stretches,
         );
-        match (self.nominal.omega, self.calibrated.omega) {
-            (Some(no), Some(co)) if co > no => {
-                if n.len() != c.len() || n.len() < 3 {
-                    return true;
-                }
-                let d: Vec<f64> = c.iter().zip(n).map(|(c, n)| c - n).collect();
-                let b = d.len() as f64;
-                let mean = d.iter().sum::<f64>() / b;
-                let var = d.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (b - 1.0);
-                mean > SIGNIFICANT * (var / b).sqrt()
-            }
-            _ => false,
-        }
+        self.omega_not_lower()
+            && (n.len() != c.len() || n.len() < 3 || paired(c, n) == Ordering::Greater)
+    }
+
+    /// Whether, with a reference, the calibrated Ω error on the held-out part is higher than
+    /// the nominal one at all (by chance or not).
+    pub fn omega_not_lower(&self) -> bool {
+        matches!((self.nominal.omega, self.calibrated.omega), (Some(n), Some(c)) if c > n)
     }
 
     /// One sentence: the figures, nominal → calibrated.
     pub fn describe(&self) -> String {
         let omega = match (self.nominal.omega, self.calibrated.omega) {
-            (Some(n), Some(c)) if c > n && !self.omega_higher() => format!(
+            (Some(n), Some(c)) if self.omega_not_lower() && !self.omega_higher() => format!(
                 ", Ω against the reference {n:.3e} → {c:.3e} rad/s (higher, within the scatter of its {} stretches)",
                 self.calibrated.omega_stretches.len()
             ),
@@ -119,6 +115,28 @@ impl Validation {
             100.0 * self.nominal.flagged,
             100.0 * self.calibrated.flagged
         )
+    }
+}
+
+/// Whether the mean square errors `a` are higher (`Greater`) or lower (`Less`) than `b`
+/// beyond chance, or neither (`Equal`), paired by stretch (the same stretches in both, in the
+/// same order): the mean of the stretches' differences against [`SIGNIFICANT`] of its
+/// standard errors. Fewer than two stretches tell nothing (`Equal`).
+pub fn paired(a: &[f64], b: &[f64]) -> Ordering {
+    let d: Vec<f64> = a.iter().zip(b).map(|(a, b)| a - b).collect();
+    if d.len() < 2 {
+        return Ordering::Equal;
+    }
+    let k = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / k;
+    let var = d.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (k - 1.0);
+    let bound = SIGNIFICANT * (var / k).sqrt();
+    if mean > bound {
+        Ordering::Greater
+    } else if mean < -bound {
+        Ordering::Less
+    } else {
+        Ordering::Equal
     }
 }
 

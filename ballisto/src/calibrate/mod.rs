@@ -450,11 +450,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             .into());
         }
         warnings.push(sentence);
-    } else if let Some(v) = validation
-        .as_ref()
-        .ok()
-        .filter(|v| matches!((v.nominal.omega, v.calibrated.omega), (Some(n), Some(c)) if c > n))
-    {
+    } else if let Some(v) = validation.as_ref().ok().filter(|v| v.omega_not_lower()) {
         warnings.push(format!(
             "Ω on the part of the record held out of the fit is no better than with the nominal geometry ({})",
             v.describe()

@@ -98,7 +98,7 @@ impl Scatter {
             let share = (m - q) / m;
             let fm = field.m(&record.gamma);
             for (i, (g, p)) in geo.iter().zip(row.iter()).enumerate() {
-                let e = p - g.reading(&(field.sigma0 + fm * g.position));
+                let e = p - field.reading(g, &fm);
                 if e.is_finite() {
                     sum[i] += e * e / share;
                     count[i] += 1;

@@ -265,15 +265,14 @@ pub(super) const CROSSING_RHO: f64 = 6.6;
 /// calibration left — put Ω a few rad/s from zero with a first-order deviation a fifth of
 /// that. Without it, on the MIMU4444 board at rest (calibrated, 62.5 Hz, 19 mm) 0.8 % of the
 /// rows were more than 5 deviations off without a flag and the filtered Ω 1.6 rad/s RMS;
-/// with it, none and 0.8 rad/s (the filter holds to its own motion there).
+/// with it, at most 0.01 % and 0.8 rad/s (the filter holds to its own motion there).
 pub(super) fn widen_near_crossings<T: Real>(branches: &mut [Branch<T>]) {
     let n = branches.len().min(MAX_CANDIDATES);
-    // The nearest other root of each, either sign: squared distance and difference. A root's
-    // own mirror `−a` is one: at Ω = 0 the forms' double root splits into `±h` as at any
-    // crossing.
+    // The nearest other root of each, either sign (its own mirror first): squared distance
+    // and difference.
     let mut near = [(T::of(1e30), [T::ZERO; 3]); MAX_CANDIDATES];
     for (b, nb) in branches.iter().zip(near.iter_mut()).take(n) {
-        let d = [b.a[0] + b.a[0], b.a[1] + b.a[1], b.a[2] + b.a[2]];
+        let d = scale(T::of(2.0), &b.a);
         *nb = (norm2(&d), d);
     }
     for i in 0..n {
