@@ -71,6 +71,16 @@ fn positive_rate(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A relative deviation: a number above 0 and below 1.
+fn relative_sd(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(r) if r > 0.0 && r < 1.0 => Ok(r),
+        _ => Err(format!(
+            "\"{s}\": a relative deviation is a number above 0 and below 1 (0.005 for 0.5 %)"
+        )),
+    }
+}
+
 impl ReferenceValidity {
     fn validity(&self) -> Validity<'_> {
         Validity {
@@ -262,6 +272,12 @@ enum Command {
         reference: Option<PathBuf>,
         #[command(flatten)]
         validity: ReferenceValidity,
+        /// How well the reference's scale factors are known, relative (e.g. 0.005): the
+        /// reference is then a reading of Ω rather than Ω itself, its common scale factor is
+        /// fitted and the array's size held at the drawing's. For a gyro whose scale factors
+        /// are not calibrated; without it the reference's scale is taken as exact.
+        #[arg(long, value_name = "REL", requires = "reference", allow_negative_numbers = true, value_parser = relative_sd)]
+        reference_scale_sd: Option<f64>,
         /// What may change: a comma-separated subset of bias, scale, axis, position.
         #[arg(long, value_name = "LIST", default_value = "bias,scale,axis,position")]
         fit: String,
@@ -582,6 +598,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             out,
             reference,
             validity,
+            reference_scale_sd,
             fit,
             model,
             report,
@@ -595,6 +612,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 out: &out,
                 reference: reference.as_deref(),
                 reference_validity: validity.validity(),
+                reference_scale_sd,
                 fit,
                 model,
                 report: report.as_deref(),

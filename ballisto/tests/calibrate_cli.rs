@@ -194,6 +194,28 @@ fn bad_input_is_refused_by_name() {
     let bad = dir.join("inf.csv");
     std::fs::write(&bad, lines.join("\n") + "\n").unwrap();
     refused(&calibrate(&dir, &bad, &[]), &dir, "line 501");
+    // A reference's scale deviation that is no relative deviation: the command line is
+    // wrong (exit 2), said by name.
+    for bad in ["0", "1.5", "-0.01", "half"] {
+        let out = calibrate(
+            &dir,
+            &dir.join("samples.csv"),
+            &[
+                "--reference",
+                dir.join("reference.csv").to_str().unwrap(),
+                "--reference-scale-sd",
+                bad,
+            ],
+        );
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {err}");
+        assert!(
+            err.contains("--reference-scale-sd")
+                && err.contains("a relative deviation is a number above 0 and below 1"),
+            "{bad}: {err}"
+        );
+        assert!(!dir.join("calibrated.toml").exists());
+    }
     // An unknown --fit item.
     refused(
         &calibrate(&dir, &dir.join("samples.csv"), &["--fit", "bias,gain"]),

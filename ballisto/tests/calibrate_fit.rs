@@ -151,6 +151,7 @@ fn run_with_misfit(seed: u64, noise: f64, misfit: f64, reference: bool) -> Run {
         motion: &motion,
         gamma: Matrix3::zeros(),
         progress: &|_| {},
+        rate_prior: None,
     };
     let nominal: Vec<Geometry> = nom
         .iter()

@@ -20,9 +20,13 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 const LAG_S: f64 = 0.005;
 const LATE_BIAS: [f64; 3] = [0.01, -0.02, 0.015];
 
-/// Writes `reference` as a gyro `lag` seconds late with a `bias` would have recorded it: the
-/// row stamped `t` holds the rate at `t − lag` (interpolated) plus the bias.
-fn write_late_reference(reference: &Path, out: &Path, lag: f64, bias: [f64; 3]) {
+/// The scaled reference's scale factor (an uncalibrated gyro reading 3 % high).
+const GYRO_SCALE: f64 = 1.03;
+
+/// Writes `reference` as a gyro `lag` seconds late with a `bias` and a `scale` factor would
+/// have recorded it: the row stamped `t` holds `scale` times the rate at `t − lag`
+/// (interpolated) plus the bias.
+fn write_late_reference(reference: &Path, out: &Path, lag: f64, bias: [f64; 3], scale: f64) {
     let text = std::fs::read_to_string(reference).unwrap();
     let rows: Vec<[f64; 4]> = text
         .lines()
@@ -39,7 +43,12 @@ fn write_late_reference(reference: &Path, out: &Path, lag: f64, bias: [f64; 3]) 
         let (a, b) = (rows[j], rows[j + 1]);
         let u = ((t - a[0]) / (b[0] - a[0])).clamp(0.0, 1.0);
         let w: Vec<String> = (0..3)
-            .map(|i| format!("{}", a[i + 1] * (1.0 - u) + b[i + 1] * u + bias[i]))
+            .map(|i| {
+                format!(
+                    "{}",
+                    (a[i + 1] * (1.0 - u) + b[i + 1] * u) * scale + bias[i]
+                )
+            })
             .collect();
         csv.push_str(&format!("{},{}\n", row[0], w.join(",")));
     }
@@ -250,10 +259,20 @@ fn calibrated_parts_estimate_as_well_as_ideal_ones() {
     );
     // A real reference: the same gyro 5 ms late with a bias.
     let late = cal.join("reference-late.csv");
-    write_late_reference(&cal.join("reference.csv"), &late, LAG_S, LATE_BIAS);
+    write_late_reference(&cal.join("reference.csv"), &late, LAG_S, LATE_BIAS, 1.0);
+    // An uncalibrated one: its scale 3 % off, said known to 0.5 %.
+    let scaled = cal.join("reference-scaled.csv");
+    write_late_reference(
+        &cal.join("reference.csv"),
+        &scaled,
+        0.0,
+        [0.0; 3],
+        GYRO_SCALE,
+    );
     for (name, reference) in [
         ("reference", Some(cal.join("reference.csv"))),
         ("reference-late", Some(late.clone())),
+        ("reference-scaled", Some(scaled.clone())),
         ("self", None),
     ] {
         let file = cal.join(format!("calibrated-{name}.toml"));
@@ -263,6 +282,7 @@ fn calibrated_parts_estimate_as_well_as_ideal_ones() {
             out: &file,
             reference: reference.as_deref(),
             reference_validity: Default::default(),
+            reference_scale_sd: (name == "reference-scaled").then_some(0.005),
             fit: FitSet::ALL,
             model: None,
             report: None,
@@ -352,7 +372,26 @@ fn calibrated_parts_estimate_as_well_as_ideal_ones() {
             "{name}: {silent:?} of {} rows silently wrong",
             c.rows
         );
-        if name == "reference-late" {
+        if name == "reference-scaled" {
+            // The size is held at the drawing's and the reference's common factor follows it:
+            // positions (1 + s) × the true ones read as Ω ÷ √(1 + s).
+            let c = summary
+                .identification
+                .reference_scale
+                .expect("a reference of inexact scale has its factor fitted");
+            let expected = 1.0 / (GYRO_SCALE * (1.0 + frame.size).sqrt());
+            println!("calibrated ({name}): common scale factor {c:.5}, expected {expected:.5} (size {:.2e})", frame.size);
+            assert!((c - expected).abs() < 2e-3, "factor {c} vs {expected}");
+            // In its own frame (the size a convention, as without a reference) as ideal parts.
+            for (q, what) in ["σ0", "Ω′", "Ω"].iter().enumerate() {
+                let ideal = [base.sigma0, base.domega, base.omega][q];
+                assert!(
+                    own[q] <= 1.2 * ideal,
+                    "{what} in its frame {} vs ideal {ideal}",
+                    own[q]
+                );
+            }
+        } else if name == "reference-late" {
             // The offset is known to ±1 ms here, and the frame's rotation with it to ±0.4
             // mrad (in its deviation): Ω as with an exact reference; σ0 and Ω′ carry the frame
             // (measured 3.8× and 1.3× ideal, none silently wrong).

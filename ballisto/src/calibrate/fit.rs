@@ -211,6 +211,65 @@ pub struct Record<'a> {
     /// Told the number of every alternation as it starts (a progress bar; `&|_| {}` for
     /// none).
     pub progress: &'a dyn Fn(usize),
+    /// A reference rate whose scale is not known exactly, taken as a reading of Ω
+    /// ([`RatePrior`]); `None`: Ω is the rate source's (a reference held exact, or
+    /// self-calibrating, free).
+    pub rate_prior: Option<RatePrior<'a>>,
+}
+
+/// A reference rate sensor whose scale factors are known only to a tolerance (an
+/// uncalibrated MEMS gyro: a few per cent). Held as Ω itself, its scale errors bend the
+/// geometry to them: on the MIMU4444 (nominal gyro scale factors) the gyro-aided extents along
+/// x and y moved by up to 1 mm between recordings of the same board (the 28 IMU distances
+/// 0.80 mm RMS apart), where the array alone puts its shape to 0.1 mm. Taken instead as one
+/// more reading of Ω per motion sample, `c·Ω_ref` with deviation
+/// `√(floor² + (scale_sd · c·|Ω_ref|)²)` per axis, Ω is estimated with σ0 and Ω′ as in
+/// self-calibration (eq. 4 per sample, nine unknowns). The common factor `c` and the array's
+/// size are one freedom (the readings do not change when the positions grow by `k` and Ω
+/// shrinks by `√k`): the fit runs at `c = 1`, then the size is held at the drawing's, as
+/// without a reference, and `c` follows. What the reference brings is the rest: Ω's sign, its
+/// frame, and Ω where the centripetal readings are within the noise.
+#[derive(Clone, Copy, Debug)]
+pub struct RatePrior<'a> {
+    /// The reference's Ω at every row of the record (rad/s, body).
+    pub omega: &'a [Vector3<f64>],
+    /// Relative deviation of the reference's scale per axis, about its common factor.
+    pub scale_sd: f64,
+    /// Deviation of the reference's Ω at rest (rad/s).
+    pub floor: f64,
+    /// The reference's common scale factor `c` (1 in the fit; after it, what holding the size
+    /// at the drawing's makes it).
+    pub scale: f64,
+}
+
+impl RatePrior<'_> {
+    /// The reference's reading of Ω at row `k`, `c·Ω_ref`, and its weight (1/variance per
+    /// axis).
+    fn at(&self, k: usize) -> (Vector3<f64>, f64) {
+        let w = self.omega[k] * self.scale;
+        let var = self.floor * self.floor + (self.scale_sd * w.norm()).powi(2);
+        (w, 1.0 / var)
+    }
+}
+
+/// The array's size: the RMS distance of the channels' positions from their mean (the size
+/// [`RatePrior`] holds).
+fn size(geo: &[Geometry]) -> f64 {
+    let n = geo.len() as f64;
+    let mean = geo.iter().map(|g| g.position).sum::<Vector3<f64>>() / n;
+    (geo.iter()
+        .map(|g| (g.position - mean).norm_squared())
+        .sum::<f64>()
+        / n)
+        .sqrt()
+}
+
+/// Scales the positions of `geo` about their mean by `k`.
+fn grow(geo: &mut [Geometry], k: f64) {
+    let mean = geo.iter().map(|g| g.position).sum::<Vector3<f64>>() / geo.len() as f64;
+    for g in geo.iter_mut() {
+        g.position = mean + (g.position - mean) * k;
+    }
 }
 
 /// One channel's identified geometry and its standard deviations.
@@ -252,6 +311,8 @@ pub struct Identification {
     /// ([`super::kinematics`]); `None` with a reference, or where the record's motion did not
     /// determine it.
     pub kinematic: Option<RelativeRotation>,
+    /// With a reference of inexact scale ([`RatePrior`]): its common scale factor as fitted.
+    pub reference_scale: Option<f64>,
 }
 
 /// The last step of a converged identification moves no parameter by more than this many
@@ -301,7 +362,11 @@ pub fn identify(
         motion: &[],
         gamma: record.gamma,
         progress: record.progress,
+        rate_prior: None,
     };
+    // Ω per motion sample is an unknown of the fit: self-calibrating, or with a reference
+    // taken as a reading of Ω ([`RatePrior`]).
+    let free_omega = self_calibration || record.rate_prior.is_some();
     for it in 0.. {
         if it >= limit {
             break;
@@ -321,15 +386,16 @@ pub fn identify(
             omega = Some(initial_rates(&geo, record, rate)?);
         }
         let fields = match &omega {
-            Some(w) => motion_fields(&geo, record, w, self_calibration),
+            Some(w) => motion_fields(&geo, record, w, free_omega),
             None => Vec::new(),
         };
-        if self_calibration && !record.motion.is_empty() {
+        if free_omega && !record.motion.is_empty() {
             omega = Some(fields.iter().map(|f| f.map(|f| f.omega)).collect());
         }
+
         let gravity = pose_gravity(&geo, record.poses, &scatter);
         let (normal, rhs) =
-            joint_normal_equations(&geo, record, &fields, &gravity, self_calibration, &scatter);
+            joint_normal_equations(&geo, record, &fields, &gravity, free_omega, &scatter);
         // The identified subspace is decided on the third iteration of a stage (the first
         // ones may start far from the solution) and then kept, so that directions near the
         // threshold do not flip in and out and the iteration converges.
@@ -384,15 +450,15 @@ pub fn identify(
             }
             trial
         };
-        let before = cost(&geo, record, &seeds, self_calibration, &scatter);
+        let before = cost(&geo, record, &seeds, free_omega, &scatter);
         let mut scale = shrink;
         let mut trial = moved(scale);
         let mut halvings = 0;
-        let mut after = cost(&trial, record, &seeds, self_calibration, &scatter);
+        let mut after = cost(&trial, record, &seeds, free_omega, &scatter);
         while halvings < MAX_HALVINGS && after > before {
             scale *= 0.5;
             trial = moved(scale);
-            after = cost(&trial, record, &seeds, self_calibration, &scatter);
+            after = cost(&trial, record, &seeds, free_omega, &scatter);
             halvings += 1;
         }
         // A step that raises the cost even shortened is not taken. Converged on the cost when
@@ -447,14 +513,14 @@ pub fn identify(
                 // 2.8 after one.
                 weights_final = true;
                 let measured =
-                    measured_scatter(&geo, record, omega.as_deref(), &scatter, self_calibration);
+                    measured_scatter(&geo, record, omega.as_deref(), &scatter, free_omega);
                 let pose_len = record.poses.iter().map(|p| p.samples.len()).max();
                 if scatter.reweights(&measured, pose_len.unwrap_or(1)) {
                     log::debug!("reweighted: {measured:?}");
                     scatter = measured;
                     geo = motion_start.clone().unwrap_or_else(|| nominal.to_vec());
                     scatter.weigh_motion(&mut geo);
-                    if self_calibration {
+                    if free_omega {
                         omega = None;
                     }
                     stage_start = it + 1;
@@ -468,6 +534,17 @@ pub fn identify(
             }
         }
     }
+    // With a reference of inexact scale, its common factor and the array's size are one
+    // freedom ([`RatePrior`]): the size is held at the drawing's and the factor follows
+    // (exact for the array's own Ω: its readings do not change).
+    let prior = record.rate_prior.map(|p| {
+        let k = size(nominal) / size(&geo);
+        grow(&mut geo, k);
+        RatePrior {
+            scale: p.scale / k.sqrt(),
+            ..p
+        }
+    });
     let kinematic = match &omega {
         Some(w) if self_calibration => tie_kinematics(&mut geo, record, w),
         _ => None,
@@ -477,7 +554,11 @@ pub fn identify(
         // weight).
         g.noise = *w;
     }
-    let residual_after = residuals(&geo, record, rate)?;
+    let fitted = Record {
+        rate_prior: prior,
+        ..*record
+    };
+    let residual_after = residuals(&geo, &fitted, rate)?;
     let channels = (0..n)
         .map(|i| Identified {
             geometry: geo[i],
@@ -491,12 +572,22 @@ pub fn identify(
         })
         .collect();
     let mut frame = super::frame::uncertainty(&geo, &step.error_covariance(n), tol);
+    let mut conventions = step.common;
+    if let Some(p) = prior {
+        // The size is held as a gauge is: only as good as the drawing.
+        frame.size = frame.size.hypot(super::frame::held_size(&geo, tol));
+        conventions.push(format!(
+            "the array's size: held at the drawing's (with a reference of inexact scale the size and the reference's common scale factor are one freedom; the factor is fitted: {:.4})",
+            p.scale
+        ));
+    }
     if let Some(k) = kinematic.as_ref().filter(|k| k.holds()) {
         frame.relative_rotation = k.sd.max();
     }
     Ok(Identification {
         channels,
-        conventions: step.common,
+        conventions,
+        reference_scale: prior.map(|p| p.scale),
         iterations,
         last_step,
         frame,
@@ -540,7 +631,7 @@ fn cost(
             let Some(field) = field else {
                 continue;
             };
-            sum += sample_chi2(geo, &record.rows[k], &record.gamma, field);
+            sum += sample_chi2(geo, record, k, field);
         }
     }
     sum
@@ -548,16 +639,23 @@ fn cost(
 
 /// One motion sample's whitened residual `Σ ((p − reading) / noise)²` over its finite readings,
 /// with the field `f` (what [`cost`] sums and [`reject_outliers`] tests).
-fn sample_chi2(geo: &[Geometry], row: &[f64], gamma: &Matrix3<f64>, f: &Field) -> f64 {
+fn sample_chi2(geo: &[Geometry], record: &Record, k: usize, f: &Field) -> f64 {
+    let (row, gamma) = (&record.rows[k], &record.gamma);
     let m = f.m(gamma);
-    geo.iter()
-        .zip(row.iter())
-        .filter(|(_, p)| p.is_finite())
-        .map(|(g, p)| {
-            let e = p - f.reading(g, &m);
-            e * e / (g.noise * g.noise)
-        })
-        .sum()
+    let prior = record.rate_prior.map_or(0.0, |p| {
+        let (w, weight) = p.at(k);
+        (f.omega - w).norm_squared() * weight
+    });
+    prior
+        + geo
+            .iter()
+            .zip(row.iter())
+            .filter(|(_, p)| p.is_finite())
+            .map(|(g, p)| {
+                let e = p - f.reading(g, &m);
+                e * e / (g.noise * g.noise)
+            })
+            .sum::<f64>()
 }
 
 /// Passes of the kinematic tie at most (the first removes nearly all of the relative
@@ -772,6 +870,15 @@ fn motion_fields(
                     a += h * h.transpose() * w;
                     b += h * (e * w);
                 }
+                if let Some(prior) = record.rate_prior {
+                    let (w, weight) = prior.at(k);
+                    let e = w - field.omega;
+                    ssr += e.norm_squared() * weight;
+                    for i in 0..3 {
+                        a[(6 + i, 6 + i)] += weight;
+                        b[6 + i] += e[i] * weight;
+                    }
+                }
                 if ssr > best {
                     field = previous;
                     break;
@@ -822,10 +929,7 @@ fn reject_outliers(geo: &[Geometry], record: &Record, fields: &mut [Option<Field
         .motion
         .iter()
         .zip(fields.iter())
-        .map(|(&k, f)| {
-            f.as_ref()
-                .map(|f| sample_chi2(geo, &record.rows[k], &record.gamma, f))
-        })
+        .map(|(&k, f)| f.as_ref().map(|f| sample_chi2(geo, record, k, f)))
         .collect();
     let mut sorted: Vec<f64> = ssr.iter().flatten().copied().collect();
     if sorted.is_empty() {
@@ -893,10 +997,17 @@ fn joint_normal_equations(
     let n = geo.len();
     let mut normal = DMatrix::<f64>::zeros(7 * n, 7 * n);
     let mut rhs = DVector::<f64>::zeros(7 * n);
-    let mut add = |rows: &[DataRow], q: usize| {
+    // `prior`: a reading of Ω (the field's last three unknowns): its residual and weight.
+    let mut add = |rows: &[DataRow], q: usize, prior: Option<(Vector3<f64>, f64)>| {
         let mut s = DMatrix::<f64>::zeros(q, q);
         let mut c = DMatrix::<f64>::zeros(7 * n, q);
         let mut hc = DVector::<f64>::zeros(q);
+        if let Some((e, weight)) = prior {
+            for i in 0..3 {
+                s[(6 + i, 6 + i)] += weight;
+                hc[6 + i] += e[i] * weight;
+            }
+        }
         for row in rows {
             let (i, w, e) = (row.channel, row.weight, row.residual);
             let hv = DVector::from_column_slice(&row.field);
@@ -943,7 +1054,7 @@ fn joint_normal_equations(
                 field: vec![G0 * k.dot(&u1), G0 * k.dot(&u2)],
             });
         }
-        add(&rows, 2);
+        add(&rows, 2, None);
     }
     for (&t, field) in record.motion.iter().zip(fields.iter()) {
         let Some(field) = field else {
@@ -973,7 +1084,11 @@ fn joint_normal_equations(
                 field: h,
             });
         }
-        add(&rows, if with_omega { 9 } else { 6 });
+        let prior = record.rate_prior.filter(|_| with_omega).map(|p| {
+            let (w, weight) = p.at(t);
+            (w - field.omega, weight)
+        });
+        add(&rows, if with_omega { 9 } else { 6 }, prior);
     }
     (normal, rhs)
 }
@@ -1273,7 +1388,7 @@ pub fn residuals(
         geo,
         record,
         &omega,
-        matches!(rate, RateSource::Estimator(_)),
+        matches!(rate, RateSource::Estimator(_)) || record.rate_prior.is_some(),
     );
     let gravity = pose_gravity(geo, record.poses, &Scatter::white(geo));
     let n = geo.len();
@@ -1395,6 +1510,7 @@ mod tests {
             motion: &motion,
             gamma: Matrix3::zeros(),
             progress: &|_| {},
+            rate_prior: None,
         };
         let fields: Vec<Option<Field>> = (0..n_samples)
             .map(|_| {

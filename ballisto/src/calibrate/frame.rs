@@ -47,6 +47,12 @@ pub fn uncertainty(geo: &[Geometry], cov: &DMatrix<f64>, tol: &Tolerance) -> Fra
     }
 }
 
+/// The deviation of the size of `geo` when it is held at the drawing's: one tolerance along
+/// the size's generator, as for a gauge ([`uncertainty`]).
+pub fn held_size(geo: &[Geometry], tol: &Tolerance) -> f64 {
+    1.0 / generators(geo, tol).column(6).norm()
+}
+
 /// The common rotation and the rotation of the axes against the lever arms (rad, rotation
 /// vectors) that best explain the change from the geometry `nominal` to `geo` (the frame
 /// motions fitted to the tolerance-scaled parameter changes, as in [`uncertainty`]); `None`

@@ -54,6 +54,10 @@ pub struct CalibrateJob<'a> {
     pub reference: Option<&'a Path>,
     /// Which of the reference's rows are valid (its flags, the gyro's range).
     pub reference_validity: reference_rate::Validity<'a>,
+    /// How well the reference's scale is known (relative deviation per axis); `None`: exact,
+    /// Ω is the reference's. With a deviation the reference is a reading of Ω whose common
+    /// scale is fitted, and the array's size held at the drawing's ([`fit::RatePrior`]).
+    pub reference_scale_sd: Option<f64>,
     /// What may change.
     pub fit: FitSet,
     /// The model for the estimator in self-calibration (overrides the file's).
@@ -275,6 +279,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
                     motion: &motion,
                     gamma: Matrix3::zeros(),
                     progress: &align_progress,
+                    rate_prior: rate_prior(&r.omega, job.reference_scale_sd),
                 };
                 let source = RateSource::Reference(&r.omega);
                 match fit::identify(&nominal, &record, &source, job.fit, &tolerance) {
@@ -282,7 +287,12 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
                         let geo: Vec<Geometry> = id.channels.iter().map(|c| c.geometry).collect();
                         Some((
                             frame::rotation(&nominal, &geo, &tolerance),
-                            reference_align::offset(&geo, &record, &r.omega),
+                            reference_align::offset(
+                                &geo,
+                                &record,
+                                &r.omega,
+                                id.reference_scale.unwrap_or(1.0),
+                            ),
                         ))
                     }
                     // A fit that does not converge is said by the fit below.
@@ -311,6 +321,9 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         motion: &motion,
         gamma: Matrix3::zeros(),
         progress: &whole_progress,
+        rate_prior: reference
+            .as_ref()
+            .and_then(|r| rate_prior(&r.omega, job.reference_scale_sd)),
     };
     let run_estimator = |geo: &[Geometry]| estimator_rates(geo, &names, model, &times, &rows);
     let declared: Vec<f64> = loaded
@@ -434,6 +447,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             alignment,
             rotation: frame::rotation(&nominal, &geo, &tolerance)
                 .map(|(r, _)| (r, identification.frame.rotation)),
+            scale: identification.reference_scale,
         }
     });
     let mut warnings = plausibility(&identification, &nominal, &names, &tolerance);
@@ -740,4 +754,20 @@ fn calibrated_file(
     }
     header.push_str("# A missing *_sd key means that parameter was not identified.\n");
     Ok(header + &out.to_toml())
+}
+
+/// The deviation of a reference's Ω at rest taken for a reading of Ω (rad/s): a MEMS gyro's
+/// noise over one sample (the MIMU4444's eight MPU9150 gyros spread by 0.01 rad/s RMS about
+/// their mean, `reference_flags.csv`).
+const REFERENCE_FLOOR: f64 = 0.01;
+
+/// The reference `omega` as a reading of Ω with its scale known to `scale_sd` (relative, per
+/// axis), where one is given.
+fn rate_prior(omega: &[Vector3<f64>], scale_sd: Option<f64>) -> Option<fit::RatePrior<'_>> {
+    scale_sd.map(|scale_sd| fit::RatePrior {
+        omega,
+        scale_sd,
+        floor: REFERENCE_FLOOR,
+        scale: 1.0,
+    })
 }

@@ -87,13 +87,16 @@ fn solve(points: &[Point]) -> Option<Vector4<f64>> {
 }
 
 /// The reference's time offset against the array with the geometry `geo` fitted to it
-/// (`reference`: Ω per sample of the record), s, with its deviation and the samples used;
-/// `None` where too few motion samples determine Ω to tell.
+/// (`reference`: Ω per sample of the record, times the common `scale` the fit found), s, with
+/// its deviation and the samples used; `None` where too few motion samples determine Ω to
+/// tell.
 pub fn offset(
     geo: &[Geometry],
     record: &Record,
     reference: &[Vector3<f64>],
+    scale: f64,
 ) -> Option<(f64, f64, usize)> {
+    let reference: Vec<Vector3<f64>> = reference.iter().map(|w| w * scale).collect();
     let seeds: Vec<Option<Vector3<f64>>> =
         record.motion.iter().map(|&k| Some(reference[k])).collect();
     let fields = fit::array_fields(geo, record, &seeds);
@@ -306,12 +309,20 @@ pub struct Found {
     /// vector) and its deviation (the calibrated frame's rotation sd); `None` where the
     /// geometry cannot tell it.
     pub rotation: Option<(Vector3<f64>, f64)>,
+    /// Its common scale factor as fitted, where its scale was not taken as exact
+    /// ([`super::fit::RatePrior`]).
+    pub scale: Option<f64>,
 }
 
 impl Found {
     /// One sentence for the user.
     pub fn describe(&self) -> String {
         let mut text = format!("the reference: {}", self.alignment.describe());
+        if let Some(c) = self.scale {
+            text.push_str(&format!(
+                "; its common scale factor {c:.4} (fitted, the array's size held at the drawing's)"
+            ));
+        }
         if let Some((r, sd)) = self.rotation {
             let axis = r / r.norm().max(f64::MIN_POSITIVE);
             text.push_str(&format!(
