@@ -87,16 +87,13 @@ fn solve(points: &[Point]) -> Option<Vector4<f64>> {
 }
 
 /// The reference's time offset against the array with the geometry `geo` fitted to it
-/// (`reference`: Ω per sample of the record, times the common `scale` the fit found), s, with
-/// its deviation and the samples used; `None` where too few motion samples determine Ω to
-/// tell.
+/// (`reference`: Ω per sample of the record), s, with its deviation and the samples used;
+/// `None` where too few motion samples determine Ω to tell.
 pub fn offset(
     geo: &[Geometry],
     record: &Record,
     reference: &[Vector3<f64>],
-    scale: f64,
 ) -> Option<(f64, f64, usize)> {
-    let reference: Vec<Vector3<f64>> = reference.iter().map(|w| w * scale).collect();
     let seeds: Vec<Option<Vector3<f64>>> =
         record.motion.iter().map(|&k| Some(reference[k])).collect();
     let fields = fit::array_fields(geo, record, &seeds);
