@@ -5,8 +5,9 @@
 //! (paper eq. 4). Each alternation:
 //! - **the field** at the present geometry: in a static pose `σ0 = g` (|g| = [`G0`], its
 //!   direction by least squares, Ω = Ω′ = 0); in motion Ω from the reference rate sensor, or
-//!   (self-calibration) from the estimator at first and then with σ0 and Ω′ by Gauss–Newton
-//!   per sample; σ0 and Ω′ by the linear least squares of the paper's Ω-known case;
+//!   (self-calibration, or a reference of inexact scale as one more reading) from the estimator
+//!   or the reference at first and then with σ0 and Ω′ by Gauss–Newton per sample; σ0 and Ω′
+//!   by the linear least squares of the paper's Ω-known case;
 //! - **the geometry**: one Gauss–Newton step on the joint normal equations of all channels'
 //!   7 parameters with the field's unknowns projected out sample by sample (variable
 //!   projection: `JᵀWJ − JᵀWH (HᵀWH)⁺ HᵀWJ`), so that the step and its covariance account
@@ -15,8 +16,9 @@
 //! Observability is decided from the eigen-decomposition of the tolerance-scaled joint
 //! normal matrix ([`Tolerance`]): parameters the record does not determine to half their
 //! tolerance are set aside (held at nominal) one by one and named; directions the data do not
-//! see at all (gauges: the common translation of all positions, and without a reference the
-//! common rotation and size) are held by convention and named. The identified subspace is
+//! see at all (gauges: the common translation of all positions, without a reference the
+//! common rotation, and without a reference or with one of inexact scale ([`RatePrior`]) the
+//! size) are held by convention and named. The identified subspace is
 //! decided on the third alternation of a stage and then kept, so the iteration converges.
 //!
 //! `ballisto calibrate -v` logs every alternation's largest step and the smallest
