@@ -254,21 +254,31 @@ impl RatePrior<'_> {
     }
 }
 
+/// The mean of the channels' positions.
+fn centroid(geo: &[Geometry]) -> Vector3<f64> {
+    geo.iter().map(|g| g.position).sum::<Vector3<f64>>() / geo.len() as f64
+}
+
+/// Whether Ω per motion sample is an unknown of the fit: self-calibrating, or with a reference
+/// taken as a reading of Ω ([`RatePrior`]).
+fn omega_unknown(rate: &RateSource, record: &Record) -> bool {
+    matches!(rate, RateSource::Estimator(_)) || record.rate_prior.is_some()
+}
+
 /// The array's size: the RMS distance of the channels' positions from their mean (the size
 /// [`RatePrior`] holds).
 fn size(geo: &[Geometry]) -> f64 {
-    let n = geo.len() as f64;
-    let mean = geo.iter().map(|g| g.position).sum::<Vector3<f64>>() / n;
+    let mean = centroid(geo);
     (geo.iter()
         .map(|g| (g.position - mean).norm_squared())
         .sum::<f64>()
-        / n)
+        / geo.len() as f64)
         .sqrt()
 }
 
 /// Scales the positions of `geo` about their mean by `k`.
 fn grow(geo: &mut [Geometry], k: f64) {
-    let mean = geo.iter().map(|g| g.position).sum::<Vector3<f64>>() / geo.len() as f64;
+    let mean = centroid(geo);
     for g in geo.iter_mut() {
         g.position = mean + (g.position - mean) * k;
     }
@@ -366,9 +376,7 @@ pub fn identify(
         progress: record.progress,
         rate_prior: None,
     };
-    // Ω per motion sample is an unknown of the fit: self-calibrating, or with a reference
-    // taken as a reading of Ω ([`RatePrior`]).
-    let free_omega = self_calibration || record.rate_prior.is_some();
+    let free_omega = omega_unknown(rate, record);
     for it in 0.. {
         if it >= limit {
             break;
@@ -394,7 +402,6 @@ pub fn identify(
         if free_omega && !record.motion.is_empty() {
             omega = Some(fields.iter().map(|f| f.map(|f| f.omega)).collect());
         }
-
         let gravity = pose_gravity(&geo, record.poses, &scatter);
         let (normal, rhs) =
             joint_normal_equations(&geo, record, &fields, &gravity, free_omega, &scatter);
@@ -1386,12 +1393,7 @@ pub fn residuals(
     rate: &RateSource,
 ) -> Result<Residuals, String> {
     let omega = initial_rates(geo, record, rate)?;
-    let fields = motion_fields(
-        geo,
-        record,
-        &omega,
-        matches!(rate, RateSource::Estimator(_)) || record.rate_prior.is_some(),
-    );
+    let fields = motion_fields(geo, record, &omega, omega_unknown(rate, record));
     let gravity = pose_gravity(geo, record.poses, &Scatter::white(geo));
     let n = geo.len();
     let mut sum = vec![0.0; n];

@@ -280,8 +280,8 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
                     gamma: Matrix3::zeros(),
                     progress: &align_progress,
                     // The offset from fits with the reference held exact: a reference of
-                    // inexact scale is a reading of Ω only in the fit written (Ω per sample
-                    // made each alignment fit 3× slower: the hour's record 95 s against 36).
+                    // inexact scale is a reading of Ω only in the fit written (with Ω per sample
+                    // in the alignment fits too, the hour's record took 95 s against 51).
                     rate_prior: None,
                 };
                 let source = RateSource::Reference(&r.omega);
