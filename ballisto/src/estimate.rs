@@ -8,7 +8,7 @@ use estimator_core::exclusion::MissingRuns;
 use estimator_core::fault_monitor::{
     FaultMonitor, NoParityTest, Settings, StuckCheck, Suspicion, TrustedRate, Verdict,
 };
-use estimator_core::parity::{Parity, NO_PART};
+use estimator_core::parity::Parity;
 use estimator_core::recent::{replays, Recent, REPLAY_SETS};
 use estimator_core::{ChannelMask, Estimate, Estimator, Flags, Model, Options, Real};
 use hal_sim::arrangement_file::{load_arrangement, LoadedArrangement, HOST_CAP};
@@ -159,19 +159,8 @@ struct Faults<T: Real> {
 impl<T: Real> Faults<T> {
     /// The monitor over the parts of `loaded` (the parity space in model G only).
     fn new(loaded: &LoadedArrangement, model: Model) -> Option<Self> {
-        let mut parts: Vec<&str> = Vec::new();
-        let part = loaded
-            .names
-            .iter()
-            .map(|n| {
-                let sensor = n.rsplit_once('.').map_or(n.as_str(), |(s, _)| s);
-                let i = parts.iter().position(|p| *p == sensor).unwrap_or_else(|| {
-                    parts.push(sensor);
-                    parts.len() - 1
-                });
-                u8::try_from(i).unwrap_or(NO_PART)
-            })
-            .collect::<Vec<u8>>();
+        let arr = &loaded.arrangement;
+        let part: Vec<u8> = (0..arr.len()).map(|i| arr.part(i)).collect();
         Some(Faults {
             monitor: None,
             stuck: StuckCheck::with_limits(&part, &loaded.ranges),
@@ -620,7 +609,7 @@ fn run_typed<T: Real + Send + 'static>(
 }
 
 /// Names of the flag bits, for summaries and `--help`.
-pub const FLAG_NAMES: [(u16, &str); 8] = [
+pub const FLAG_NAMES: [(u16, &str); 9] = [
     (Flags::SIGN_UNRESOLVED, "sign unresolved"),
     (Flags::FALLBACK, "no real solution for a / fallback used"),
     (Flags::ILL_CONDITIONED, "ill-conditioned"),
@@ -631,6 +620,10 @@ pub const FLAG_NAMES: [(u16, &str); 8] = [
     (
         Flags::INPUT_ABSURD,
         "reading absurd (beyond the part's range; read as missing)",
+    ),
+    (
+        Flags::INTEGRITY_ALERT,
+        "integrity alert (a protection level above its alert limit)",
     ),
 ];
 

@@ -63,16 +63,21 @@ pub const MARGIN_COLUMNS: [&str; 1] = ["branch_margin"];
 /// [`MARGIN_COLUMNS`].
 pub const EXCLUDED_COLUMNS: [&str; 1] = ["excluded"];
 
+/// interfaces.md, "Estimates: integrity": the protection levels of σ0 (m/s²), Ω′ (rad/s²) and
+/// Ω (rad/s), after [`EXCLUDED_COLUMNS`]; empty where there is no bound.
+pub const PROTECTION_COLUMNS: [&str; 3] = ["pl_sigma0", "pl_domega", "pl_omega"];
+
 /// Writes the header line.
 pub fn write_header<W: Write>(w: &mut W) -> std::io::Result<()> {
     writeln!(
         w,
-        "{},{},{},{},{}",
+        "{},{},{},{},{},{}",
         COLUMNS.join(","),
         EXTRA_COLUMNS.join(","),
         GAMMA_COLUMNS.join(","),
         MARGIN_COLUMNS.join(","),
-        EXCLUDED_COLUMNS.join(",")
+        EXCLUDED_COLUMNS.join(","),
+        PROTECTION_COLUMNS.join(",")
     )
 }
 
@@ -140,6 +145,10 @@ fn format_row<T: Real>(line: &mut Vec<u8>, t: f64, e: &Estimate<T>, gamma: bool,
     }
     line.push(b',');
     push_int(line, excluded);
+    match &e.protection {
+        Some(pl) => pl.iter().for_each(|v| real(line, v.to_f64())),
+        None => line.extend_from_slice(&[b','; PROTECTION_COLUMNS.len()]),
+    }
     line.push(b'\n');
 }
 

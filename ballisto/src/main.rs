@@ -81,6 +81,34 @@ fn relative_sd(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A probability strictly between 0 and 1.
+fn probability(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(p) if p > 0.0 && p < 1.0 => Ok(p),
+        _ => Err(format!(
+            "\"{s}\": a probability is a number above 0 and below 1 (0.001 for one row in a thousand)"
+        )),
+    }
+}
+
+/// Three alert limits `S0,DW,W`: positive numbers (`inf` for none).
+fn alert_limits(s: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let bad = || {
+        format!(
+            "\"{s}\": three positive numbers SIGMA0,DOMEGA,OMEGA are expected (m/s², rad/s², rad/s; inf for no limit)"
+        )
+    };
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let mut v = [0.0; 3];
+    for (o, p) in v.iter_mut().zip(&parts) {
+        *o = p.parse::<f64>().ok().filter(|v| *v > 0.0).ok_or_else(bad)?;
+    }
+    Ok(v)
+}
+
 impl ReferenceValidity {
     fn validity(&self) -> Validity<'_> {
         Validity {
@@ -174,6 +202,14 @@ enum Command {
         /// Scalar of the sample loop: f64 (default) or f32 (as on the target).
         #[arg(long, value_enum, default_value = "f64")]
         precision: PrecisionArg,
+        /// Alert limits of the protection levels "SIGMA0,DOMEGA,OMEGA" (m/s², rad/s², rad/s;
+        /// `inf` for none): a row whose level is above its limit, or that has none, gets flag
+        /// 256. Default: no alert.
+        #[arg(long, value_name = "S0,DW,W", value_parser = alert_limits)]
+        alert_limits: Option<[f64; 3]>,
+        /// The probability that an output's error exceeds its protection level at a row.
+        #[arg(long, value_name = "P", default_value = "0.001", allow_negative_numbers = true, value_parser = probability)]
+        missed: f64,
     },
     /// Simulate a scenario: parts read through their simulated buses; writes arrangement.toml,
     /// samples.csv and truth.csv (with --estimate also estimates.csv and estimates.png).
@@ -543,6 +579,8 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             initial_omega,
             raw,
             precision,
+            alert_limits,
+            missed,
         } => {
             let model = model.map(Model::from);
             let initial_omega = initial_omega.as_deref().map(parse_vec3).transpose()?;
@@ -558,6 +596,8 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 options: estimator_core::Options {
                     raw,
                     initial_omega,
+                    missed,
+                    alert_limits: alert_limits.unwrap_or([f64::INFINITY; 3]),
                     ..Default::default()
                 },
                 precision,

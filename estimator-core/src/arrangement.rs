@@ -2,6 +2,7 @@
 
 use crate::error::ConfigError;
 use crate::frame_uncertainty::FrameUncertainty;
+use crate::parity::NO_PART;
 use crate::real::Real;
 
 /// One single-axis accelerometer (a tri-axial part is three channels).
@@ -60,6 +61,9 @@ pub struct Arrangement<const CAP: usize> {
     channels: [Channel; CAP],
     len: usize,
     frame: FrameUncertainty<f64>,
+    /// Each channel's part ([`NO_PART`]: a part of its own): the channels one fault can
+    /// reach together, for the protection levels ([`crate::integrity`]).
+    part: [u8; CAP],
 }
 
 impl<const CAP: usize> Default for Arrangement<CAP> {
@@ -86,6 +90,7 @@ impl<const CAP: usize> Arrangement<CAP> {
                 size: 0.0,
                 relative_rotation: 0.0,
             },
+            part: [NO_PART; CAP],
         }
     }
 
@@ -170,6 +175,21 @@ impl<const CAP: usize> Arrangement<CAP> {
     /// The frame's uncertainty (zero unless set).
     pub fn frame_uncertainty(&self) -> FrameUncertainty<f64> {
         self.frame
+    }
+
+    /// Gives the channels their parts (`part[i]` for channel `i`; [`NO_PART`]: a part of its
+    /// own): a fault of a tri-axial part reaches its three channels at once, and the
+    /// protection levels bound the error of such a fault. Entries beyond the channels are
+    /// ignored; channels beyond `part` keep theirs.
+    pub fn set_parts(&mut self, part: &[u8]) {
+        for (slot, p) in self.part.iter_mut().zip(part).take(self.len) {
+            *slot = *p;
+        }
+    }
+
+    /// Channel `channel`'s part ([`NO_PART`] if none was given).
+    pub fn part(&self, channel: usize) -> u8 {
+        self.part.get(channel).copied().unwrap_or(NO_PART)
     }
 
     /// Number of channels.

@@ -117,6 +117,11 @@ pub enum ConfigError {
         /// What it was.
         what: &'static str,
     },
+    /// An option that must be a probability strictly between 0 and 1 is not.
+    NotProbability {
+        /// What it was.
+        what: &'static str,
+    },
 }
 
 impl fmt::Display for ConfigError {
@@ -198,6 +203,9 @@ impl fmt::Display for ConfigError {
             }
             ConfigError::NotFinite { what } => write!(f, "{what} is not finite"),
             ConfigError::NotPositive { what } => write!(f, "{what} is not a positive number"),
+            ConfigError::NotProbability { what } => {
+                write!(f, "{what} is not a probability strictly between 0 and 1")
+            }
         }
     }
 }

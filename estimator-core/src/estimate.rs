@@ -28,6 +28,10 @@ impl Flags {
     /// where none is declared): treated as missing, so [`Flags::INPUT_INVALID`] is set too.
     /// Set by the ground tool's reader (`ballisto estimate`), which checks the file's readings.
     pub const INPUT_ABSURD: u16 = 1 << 7;
+    /// A protection level above its configured alert limit, or no protection level where an
+    /// alert limit is configured ([`crate::Options::alert_limits`]): the output is not assured
+    /// to the accuracy asked for.
+    pub const INTEGRITY_ALERT: u16 = 1 << 8;
 
     /// True if `bit` is set.
     pub const fn has(self, bit: u16) -> bool {
@@ -75,6 +79,10 @@ pub struct Estimate<T> {
     /// [`Flags::BRANCH_AMBIGUOUS`] is set); 200, the tracker's memory, when no other branch
     /// is left in it.
     pub branch_margin: T,
+    /// Protection levels `[σ0 (m/s²), Ω′ (rad/s²), Ω (rad/s)]`: each output's error (vector
+    /// norm) is below its level but with the configured missed probability, whatever fault one
+    /// part has ([`crate::integrity`]); `None` where no bound exists (no redundancy, model F).
+    pub protection: Option<[T; 3]>,
 }
 
 /// 99.9 % points of χ² for 1..=30 degrees of freedom (beyond: Wilson–Hilferty).

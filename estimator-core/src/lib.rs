@@ -16,6 +16,8 @@
 //! - [`exclusion`]: when a part that stops answering leaves the solve and when it returns.
 //! - [`recent`]: the last sample sets, replayed into the estimator after a change of channels.
 //! - [`identify`]: each channel's geometry from a known field (paper §6), at sample rate.
+//! - [`integrity`]: the protection level of each output (the error a fault of one part could
+//!   cause).
 //! - [`frame_uncertainty`]: the common errors of a calibrated frame, added to the reported
 //!   deviations.
 //! - [`error`], [`linalg`] (the small fixed-size vectors and matrices of the interface),
@@ -43,6 +45,7 @@ pub mod exclusion;
 pub mod fault_monitor;
 pub mod frame_uncertainty;
 pub mod identify;
+pub mod integrity;
 pub mod linalg;
 pub mod parity;
 pub mod real;

@@ -189,6 +189,24 @@ impl LoadedArrangement {
     }
 }
 
+/// Each channel's part, numbered by first appearance: the channels `name.x`, `name.y`,
+/// `name.z` are one part (`name`), a channel named otherwise a part of its own;
+/// [`estimator_core::parity::NO_PART`] beyond 254 parts.
+pub fn parts_of(names: &[String]) -> Vec<u8> {
+    let mut parts: Vec<&str> = Vec::new();
+    names
+        .iter()
+        .map(|n| {
+            let sensor = n.rsplit_once('.').map_or(n.as_str(), |(s, _)| s);
+            let i = parts.iter().position(|p| *p == sensor).unwrap_or_else(|| {
+                parts.push(sensor);
+                parts.len() - 1
+            });
+            u8::try_from(i).unwrap_or(estimator_core::parity::NO_PART)
+        })
+        .collect()
+}
+
 /// Picks the model: command line, else file, else general.
 pub fn choose_model(cli: Option<Model>, loaded: &LoadedArrangement) -> Model {
     cli.or(loaded.model).unwrap_or(Model::General)
@@ -366,6 +384,7 @@ impl ArrangementFile {
                 frame.rotation, frame.translation, frame.size, frame.relative_rotation
             ))
         })?;
+        arr.set_parts(&parts_of(&names));
         Ok(LoadedArrangement {
             names,
             arrangement: arr,

@@ -13,7 +13,9 @@ use crate::housekeeping::{
 };
 use crate::identification::{IdentificationSummary, IdentifiedChannel};
 use crate::ids::{service, sid, subtype, APID};
-use crate::motion::{MotionReport, MOTION_LEN, MOTION_LEN_NO_CONTEXT, MOTION_LEN_NO_MARGIN};
+use crate::motion::{
+    MotionReport, MOTION_LEN, MOTION_LEN_NO_CONTEXT, MOTION_LEN_NO_MARGIN, MOTION_LEN_NO_PROTECTION,
+};
 use crate::verification::{FailureCode, RequestId, Verification};
 
 /// One decoded telemetry packet.
@@ -96,8 +98,13 @@ pub fn decode(raw: &[u8]) -> Result<Decoded, DecodeError> {
     let report = match (s, st) {
         (service::HOUSEKEEPING, subtype::HK_REPORT) => match g.u16().ok_or(bad)? {
             sid::MOTION
-                if [MOTION_LEN, MOTION_LEN_NO_CONTEXT, MOTION_LEN_NO_MARGIN]
-                    .contains(&data.len()) =>
+                if [
+                    MOTION_LEN,
+                    MOTION_LEN_NO_PROTECTION,
+                    MOTION_LEN_NO_CONTEXT,
+                    MOTION_LEN_NO_MARGIN,
+                ]
+                .contains(&data.len()) =>
             {
                 let k = g.u32().ok_or(bad)?;
                 let mut m = MotionReport::decode(&mut g, data.len()).ok_or(bad)?;

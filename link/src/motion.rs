@@ -27,7 +27,11 @@ pub struct MotionReport {
 }
 
 /// Application data length of the motion report.
-pub const MOTION_LEN: usize = 148;
+pub const MOTION_LEN: usize = 160;
+
+/// Application data length of the motion report before the protection levels were added
+/// (telemetry format 2, issue 16): decoded with the levels absent.
+pub const MOTION_LEN_NO_PROTECTION: usize = 148;
 
 /// Application data length of the motion report before the mode and model were added
 /// (telemetry format 1, from issue 15): decoded with [`MotionReport::context`] `None`.
@@ -67,12 +71,14 @@ impl MotionReport {
         // Only the decoder of an old layout leaves the context out; such a report is not sent.
         let (mode, model) = self.context?;
         p.u8(mode as u8).u8(model as u8);
+        // No bound: NaN, as an absent branch margin.
+        p.f32s(&e.protection.unwrap_or([f32::NAN; 3]));
         p.finish()
     }
 
     /// Decodes the application data after the SID and `k`, of length `len` (one of
-    /// [`MOTION_LEN`], [`MOTION_LEN_NO_CONTEXT`], [`MOTION_LEN_NO_MARGIN`]: the older layouts
-    /// lack the fields added at their end).
+    /// [`MOTION_LEN`], [`MOTION_LEN_NO_PROTECTION`], [`MOTION_LEN_NO_CONTEXT`],
+    /// [`MOTION_LEN_NO_MARGIN`]: the older layouts lack the fields added at their end).
     #[cfg_attr(not(feature = "ground"), allow(dead_code))]
     pub(crate) fn decode(g: &mut Get, len: usize) -> Option<Self> {
         let mut e = Estimate::<f32> {
@@ -105,10 +111,14 @@ impl MotionReport {
         } else {
             f32::NAN
         };
-        if len == MOTION_LEN {
+        if len >= MOTION_LEN_NO_PROTECTION {
             let mode = Mode::try_from(g.u8()?).ok()?;
             let model = ModelCode::try_from(g.u8()?).ok()?;
             m.context = Some((mode, model));
+        }
+        if len == MOTION_LEN {
+            let pl: [f32; 3] = g.f32s()?;
+            m.estimate.protection = pl.iter().all(|v| v.is_finite()).then_some(pl);
         }
         Some(m)
     }

@@ -137,6 +137,7 @@ pub fn config_error_code(e: &estimator_core::ConfigError) -> u32 {
         E::CalibrationInvalid { channel } => (11, channel),
         E::FrameUncertaintyInvalid => (12, 0),
         E::NotPositive { .. } => (13, 0),
+        E::NotProbability { .. } => (14, 0),
     };
     (kind << 16) | (detail as u32 & 0xFFFF)
 }

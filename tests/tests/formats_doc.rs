@@ -4,7 +4,7 @@
 
 use ballisto::estimate::FLAG_NAMES;
 use ballisto::estimates_csv::{
-    COLUMNS, EXCLUDED_COLUMNS, EXTRA_COLUMNS, GAMMA_COLUMNS, MARGIN_COLUMNS,
+    COLUMNS, EXCLUDED_COLUMNS, EXTRA_COLUMNS, GAMMA_COLUMNS, MARGIN_COLUMNS, PROTECTION_COLUMNS,
 };
 use hal_sim::arrangement_file::{ArrangementFile, ChannelSpec, Noise, SensorSpec};
 
@@ -30,6 +30,7 @@ fn every_column_written_is_documented() {
         .chain(&GAMMA_COLUMNS)
         .chain(&MARGIN_COLUMNS)
         .chain(&EXCLUDED_COLUMNS)
+        .chain(&PROTECTION_COLUMNS)
         .chain(&ballisto::decode::LINK_COLUMNS)
         .chain(&ballisto::truth_csv::TRUTH_EXTRA_COLUMNS)
         .chain(com.iter())

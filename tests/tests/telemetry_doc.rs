@@ -164,6 +164,7 @@ fn motion_report_table_matches_the_encoder() {
         sd_omega: f(70.0),
         sd_field: six(80.0),
         branch_margin: 42.5,
+        protection: Some(f(90.0)),
         ..Estimate::default()
     };
     let report = MotionReport {
@@ -202,6 +203,7 @@ fn motion_report_table_matches_the_encoder() {
         ("branch margin", vec![42.5]),
         ("mode", vec![1.0]),
         ("model", vec![1.0]),
+        ("protection levels", v3(90.0)),
     ];
     check_rows(&data, &rows, &expected, "motion");
     let packet = format!("(packet {} octets)", 21 + MOTION_LEN + 2);

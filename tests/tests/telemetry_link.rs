@@ -261,20 +261,24 @@ fn a_dead_part_is_reported_down_and_up_again() {
     assert_eq!(before.test, Some(ConsistencyTest::KnownField), "{before:?}");
 }
 
-/// The decoder reads the motion report of telemetry format 2 (148 octets: mode and model), the
-/// layout before it (146: no context) and the one before the branch margin (142: the margin is
-/// absent, NaN, and the estimates file's cell empty); any other length is refused.
+/// The decoder reads the motion report of telemetry format 3 (160 octets: the protection
+/// levels), format 2's (148: mode and model; the levels' cells empty), the layout before it
+/// (146: no context) and the one before the branch margin (142: the margin is absent, NaN, and
+/// the estimates file's cell empty); any other length is refused.
 #[test]
-fn motion_reports_with_and_without_the_branch_margin_decode() {
+fn motion_reports_of_every_layout_decode() {
     use ballisto_link::decode::{decode, DecodeError};
     use ballisto_link::ids::TM_MAX;
-    use ballisto_link::motion::{MOTION_LEN, MOTION_LEN_NO_CONTEXT, MOTION_LEN_NO_MARGIN};
+    use ballisto_link::motion::{
+        MOTION_LEN, MOTION_LEN_NO_CONTEXT, MOTION_LEN_NO_MARGIN, MOTION_LEN_NO_PROTECTION,
+    };
     use ballisto_link::{tm, ChannelSet, Mode, ModelCode, MotionReport, PartSet};
     let m = MotionReport {
         k: 9,
         estimate: estimator_core::Estimate {
             omega: [1.0, 2.0, 3.0],
             branch_margin: 33.0,
+            protection: Some([0.5, 0.25, 0.125]),
             ..Default::default()
         },
         missing_parts: PartSet(0),
@@ -296,19 +300,19 @@ fn motion_reports_with_and_without_the_branch_margin_decode() {
         .unwrap();
         p[..n].to_vec()
     };
-    for (len, margin, context) in [
-        (
-            MOTION_LEN,
-            Some(33.0),
-            Some((Mode::Operate, ModelCode::FreeFloat)),
-        ),
-        (MOTION_LEN_NO_CONTEXT, Some(33.0), None),
-        (MOTION_LEN_NO_MARGIN, None, None),
+    let operate = Some((Mode::Operate, ModelCode::FreeFloat));
+    let levels = Some([0.5, 0.25, 0.125]);
+    for (len, margin, context, protection) in [
+        (MOTION_LEN, Some(33.0), operate, levels),
+        (MOTION_LEN_NO_PROTECTION, Some(33.0), operate, None),
+        (MOTION_LEN_NO_CONTEXT, Some(33.0), None, None),
+        (MOTION_LEN_NO_MARGIN, None, None, None),
     ] {
         let Report::Motion(r) = decode(&packet(len)).expect("decodes").report else {
             panic!("not a motion report");
         };
         assert_eq!(r.context, context);
+        assert_eq!(r.estimate.protection, protection);
         assert_eq!((r.k, r.estimate.omega), (9, [1.0, 2.0, 3.0]));
         assert_eq!(r.excluded_channels.0, 5);
         match margin {
@@ -319,7 +323,13 @@ fn motion_reports_with_and_without_the_branch_margin_decode() {
         let excluded = u64::from(r.excluded_channels.0);
         ballisto::estimates_csv::write_row(&mut row, 0.0, &r.estimate, false, excluded).unwrap();
         let row = String::from_utf8(row).unwrap();
-        let mut fields = row.trim_end().rsplit(',');
+        let mut fields = row.trim_end_matches('\n').rsplit(',');
+        let pl: Vec<&str> = fields.by_ref().take(3).collect();
+        let expected: Vec<String> = match protection {
+            Some(p) => p.iter().rev().map(|v| format!("{v}")).collect(),
+            None => vec![String::new(); 3],
+        };
+        assert_eq!(pl, expected, "the protection levels");
         assert_eq!(fields.next(), Some("5"), "the excluded column");
         let margin_field = fields.next().unwrap().to_string();
         assert_eq!(

@@ -6,6 +6,7 @@ use super::Config;
 use crate::arrangement::{Arrangement, ChannelMask, Model};
 use crate::design::check_structural;
 use crate::error::ConfigError;
+use crate::integrity::{Integrity, DEFAULT_MISSED};
 use crate::linalg::{dot, quat_to_mat, Sym3};
 use crate::real::Real;
 
@@ -23,6 +24,13 @@ pub struct Options {
     /// of the sample rate (its variance over a step Δ is this times Δ). Default
     /// [`DEFAULT_JERK_DENSITY`].
     pub jerk_density: f64,
+    /// The probability that an output's error exceeds its protection level at a row
+    /// ([`crate::integrity`]); default [`DEFAULT_MISSED`].
+    pub missed: f64,
+    /// Alert limits of σ0 (m/s²), Ω′ (rad/s²) and Ω (rad/s): a protection level above its
+    /// limit (or none where a limit is finite) sets [`crate::Flags::INTEGRITY_ALERT`]. Default
+    /// infinite: no alert.
+    pub alert_limits: [f64; 3],
 }
 
 /// The default white-jerk density (rad²/s⁵): Ω′ wanders by ≈ 10 rad/s² RMS in a second, which
@@ -37,6 +45,8 @@ impl Default for Options {
             initial_omega: None,
             gamma: Sym3::zero(),
             jerk_density: DEFAULT_JERK_DENSITY,
+            missed: DEFAULT_MISSED,
+            alert_limits: [f64::INFINITY; 3],
         }
     }
 }
@@ -82,6 +92,16 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
                 what: "jerk density",
             });
         }
+        if !(options.missed > 0.0 && options.missed < 1.0) {
+            return Err(ConfigError::NotProbability {
+                what: "missed probability",
+            });
+        }
+        if !options.alert_limits.iter().all(|v| *v > 0.0) {
+            return Err(ConfigError::NotPositive {
+                what: "alert limit",
+            });
+        }
         if !options.gamma.0.iter().all(|v| v.is_finite()) {
             return Err(ConfigError::NotFinite {
                 what: "gravity gradient Γ",
@@ -119,6 +139,10 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         self.mask = mask;
         self.frames = frames;
         self.options = options;
+        self.integrity = match model {
+            Model::General => Integrity::build(arr, mask, options.missed),
+            Model::FreeFloat => None,
+        };
         self.set_gamma(&options.gamma);
         Ok(())
     }

@@ -4,7 +4,7 @@
 
 use super::{Branch, Config};
 use crate::arrangement::Model;
-use crate::linalg::{dot, mat_t_vec, mat_vec, norm2, scale, sub, Sym3, Vec3};
+use crate::linalg::{dot, mat_t_vec, mat_vec, norm2, omega_jacobian, scale, sub, Sym3, Vec3};
 use crate::real::Real;
 use crate::tracker::MAX_CANDIDATES;
 
@@ -192,38 +192,9 @@ pub(super) const KELVIN_MIN_SCORE: f64 = 0.02;
 /// `dΩ = (dM Ω − Ω (Ωᵀ dM Ω)/(2|Ω|²)) / |Ω|²` with `dM = dA − ½ tr(dA) I` (first order of
 /// `ΩΩᵀ = A − ½ tr A I`). Large but finite at Ω = 0.
 pub(super) fn omega_variances<T: Real>(c: &[[T; 6]; 6], w: &Vec3<T>) -> Vec3<T> {
-    let w2 = norm2(w);
-    if !(w2 > T::ZERO) {
+    let Some(jac) = omega_jacobian(w) else {
         return [T::of(1e12); 3];
-    }
-    let half = T::of(0.5);
-    let two = T::of(2.0);
-    // Columns of ∂Ω/∂A for the six components.
-    let mut jac = [[T::ZERO; 6]; 3];
-    let dmw: [(Vec3<T>, T); 6] = [
-        (
-            [half * w[0], -half * w[1], -half * w[2]],
-            w[0] * w[0] - half * w2,
-        ),
-        (
-            [-half * w[0], half * w[1], -half * w[2]],
-            w[1] * w[1] - half * w2,
-        ),
-        (
-            [-half * w[0], -half * w[1], half * w[2]],
-            w[2] * w[2] - half * w2,
-        ),
-        ([w[1], w[0], T::ZERO], two * w[0] * w[1]),
-        ([w[2], T::ZERO, w[0]], two * w[0] * w[2]),
-        ([T::ZERO, w[2], w[1]], two * w[1] * w[2]),
-    ];
-    let inv = T::ONE / w2;
-    for (col, (d, q)) in dmw.iter().enumerate() {
-        let k = *q * half * inv;
-        for r in 0..3 {
-            jac[r][col] = (d[r] - w[r] * k) * inv;
-        }
-    }
+    };
     // jᵀ C j with C symmetric: the diagonal once, the upper triangle twice.
     let mut var = [T::ZERO; 3];
     for r in 0..3 {

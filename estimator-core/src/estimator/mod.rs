@@ -30,6 +30,7 @@ use crate::design::Projection;
 use crate::error::ConfigError;
 use crate::estimate::{Estimate, Flags};
 use crate::frame_uncertainty::FrameUncertainty;
+use crate::integrity::Integrity;
 use crate::linalg::{norm2, Sym3, Vec3};
 use crate::real::Real;
 use crate::svd::MAX_COLS;
@@ -93,6 +94,8 @@ struct Config<T: Real, const CAP: usize> {
     /// Whether the frame uncertainty is other than zero.
     widen: bool,
     options: Options,
+    /// The protection levels' gains (model G with redundancy).
+    integrity: Option<Integrity<T, CAP>>,
 }
 
 /// Per-sample working storage, kept in the estimator so that the sample loop neither zeroes
@@ -164,6 +167,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
             frame_uncertainty: FrameUncertainty::default(),
             widen: false,
             options: Options::default(),
+            integrity: None,
         }
     }
 }
@@ -425,9 +429,11 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         let (slot, solved) = self.solve_sample(t, p);
         // In place: a new estimate is widened once; a held one is the last output, widened
         // already.
+        let est = &mut self.out[slot];
         if self.cfg.widen && solved {
-            self.cfg.frame_uncertainty.widen(&mut self.out[slot]);
+            self.cfg.frame_uncertainty.widen(est);
         }
+        self.cfg.protect(est);
         &self.out[slot]
     }
 

@@ -23,6 +23,23 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         }
     }
 
+    /// Sets the protection levels of `est` (model G with redundancy, else none) and
+    /// [`Flags::INTEGRITY_ALERT`] where one is above its alert limit or missing under a
+    /// finite one.
+    pub(super) fn protect(&self, est: &mut Estimate<T>) {
+        est.protection = self.integrity.as_ref().map(|i| i.levels(est));
+        let limits = &self.options.alert_limits;
+        let alert = match &est.protection {
+            Some(pl) => pl.iter().zip(limits).any(|(p, l)| p.to_f64() > *l),
+            None => limits.iter().any(|l| l.is_finite()),
+        };
+        if alert {
+            est.flags.0 |= Flags::INTEGRITY_ALERT;
+        } else {
+            est.flags.0 &= !Flags::INTEGRITY_ALERT;
+        }
+    }
+
     /// Unsigned Ω (body) of a branch: model F `Ω = a`; model G from `ΩΩᵀ = (A − Γ) − ½ tr(A − Γ) I`.
     #[inline(never)]
     pub(super) fn omega_of(&self, f: usize, eps: T, b: &Branch<T>) -> Vec3<T> {

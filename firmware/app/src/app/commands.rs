@@ -45,7 +45,7 @@ impl App {
                 let arrangement = self.estimation.estimator().arrangement().clone();
                 let applied = self
                     .estimation
-                    .configure(&arrangement, model)
+                    .configure(arrangement, model)
                     .map_err(refused)?;
                 if applied == Applied::WhenBuilt {
                     return Ok(self.defer_reconfigured(None));
@@ -136,7 +136,7 @@ impl App {
         let model = self.estimation.model();
         let applied = self
             .estimation
-            .configure(&arrangement, model)
+            .configure(arrangement, model)
             .map_err(refused)?;
         let calibration = ballisto_link::CalibrationId {
             source: ballisto_link::CalibrationSource::Commanded,

@@ -146,7 +146,10 @@ impl Estimation {
             initial_omega: config.hint,
             ..Options::default()
         };
-        let estimator = Estimator::new(&config.arrangement, config.model, options)?;
+        let isolation = Isolation::new(config);
+        let mut arrangement = config.arrangement.clone();
+        arrangement.set_parts(isolation.parts());
+        let estimator = Estimator::new(&arrangement, config.model, options)?;
         let mut channels = [[None; 3]; MAX_PARTS];
         for (i, p) in config.sampling.parts() {
             channels[i] = p.channels;
@@ -160,7 +163,7 @@ impl Estimation {
             excluded: PartSet::EMPTY,
             isolated: PartSet::EMPTY,
             refused: None,
-            isolation: Isolation::new(config),
+            isolation,
             commanded: ChannelSet::EMPTY,
             options,
             model: config.model,
@@ -461,7 +464,7 @@ impl Estimation {
     /// change is built there ([`Applied::WhenBuilt`]).
     pub fn configure(
         &mut self,
-        arrangement: &Arrangement<MAX_CHANNELS>,
+        mut arrangement: Arrangement<MAX_CHANNELS>,
         model: Model,
     ) -> Result<Applied, ConfigError> {
         if arrangement.len() != self.n {
@@ -469,6 +472,9 @@ impl Estimation {
                 channel: arrangement.len().min(self.n),
             });
         }
+        // The parts are the sampling's, whatever the arrangement came with.
+        arrangement.set_parts(self.isolation.parts());
+        let arrangement = &arrangement;
         if let Some(applied) = self.order(Some(arrangement), model, self.commanded) {
             return Ok(applied);
         }
@@ -951,7 +957,7 @@ mod tests {
             let m = e.process(&consistent_set(&cfg, k, true));
             assert!(!m.estimate.flags.has(Flags::RESIDUAL_HIGH), "set {k}");
         }
-        let applied = e.configure(&turned.arrangement, Model::General);
+        let applied = e.configure(turned.arrangement.clone(), Model::General);
         assert_eq!(applied, Ok(Applied::WhenBuilt));
         assert!(builds.build_now());
         // Set 50 is tested before the swap, by the old arrangement's parity space.
