@@ -12,15 +12,18 @@
 //! active: runs, median and worst latency); rows with a healthy part out; rows flagged 64 while
 //! the fault is active; rows silently wrong (Ω error above 5 reported deviations, no warning
 //! flag) while it is active and after it; the Ω error while the faulty part is out against the
-//! same run without the fault and without that part (RMS ratio over the runs); NaN in any
-//! estimate, telemetry packets lost. The fault-free runs give the false-alarm rates.
+//! same run without the fault and without that part (RMS ratio over the runs); the share of
+//! rows whose σ0, Ω′ and Ω errors exceed their protection levels (`estimator_core::integrity`)
+//! and the mean levels; NaN in any estimate, telemetry packets lost. The fault-free runs give the false-alarm rates.
 //!
 //! `cargo run -p e2e-tests --example fault_matrix -- [RUNS] [LAYOUT]`: RUNS per fault kind
 //! (default 20; about 2 s), LAYOUT `g` (default: the N = 18 layout in model G), `f` (the same
 //! estimated in model F) or `mixed` (the 24-channel mixed layout,
 //! `e2e_tests::faults::mixed_layout`). `scripts/validate.sh` runs all three.
 
-use e2e_tests::faults::{fault_matrix, layout, layout_free_float, mixed, DURATION, FAULT_S};
+use e2e_tests::faults::{
+    fault_matrix, layout, layout_free_float, mixed, Protection, DURATION, FAULT_S,
+};
 
 fn main() {
     let runs: u64 = std::env::args()
@@ -55,15 +58,17 @@ fn main() {
     println!(
         "layout: {name}, ideal parts (noise and clock offsets only), {DURATION} s at 100 Hz, faults of {FAULT_S} s from 3–7 s, one part chosen at random; σ of one ADXL355 sample ≈ {sigma:.1e} m/s²"
     );
-    println!("| fault | runs | detected ≤ 1 s | latency median / worst (s) | isolated (runs) | isolation latency median / worst (s) | rows with a healthy part out | rows flagged 64 while active | silent while active | silent after | Ω error while out / without the part | NaN | TM lost |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| fault | runs | detected ≤ 1 s | latency median / worst (s) | isolated (runs) | isolation latency median / worst (s) | rows with a healthy part out | rows flagged 64 while active | silent while active | silent after | Ω error while out / without the part | error above PL σ0 / Ω′ / Ω | mean PL σ0 / Ω′ / Ω | NaN | TM lost |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let (clean, rows) = fault_matrix(runs, layout);
     println!(
-        "| none (false alarms) | {runs} | — | — | — | — | {:.3} % | {:.3} % of {} rows | {:.1} % (fault-free) | — | — | {} | {} |",
+        "| none (false alarms) | {runs} | — | — | — | — | {:.3} % | {:.3} % of {} rows | {:.1} % (fault-free) | — | — | {} | {} | {} | {} |",
         pct(clean.wrong_excluded, clean.rows),
         pct(clean.flagged_clean, clean.clean_rows),
         clean.clean_rows,
         pct(clean.silent_clean, clean.clean_rows),
+        above(&clean.protection),
+        levels(&clean.protection),
         clean.nan,
         clean.lost
     );
@@ -76,7 +81,7 @@ fn main() {
             ratio += &format!(" ({n} wrong reference{})", if n > 1 { "s" } else { "" });
         }
         println!(
-            "| {name} | {runs} | {} | {} | {} | {} | {:.2} % | {:.1} % | {:.1} % | {:.1} % | {ratio} | {} | {} |",
+            "| {name} | {runs} | {} | {} | {} | {} | {:.2} % | {:.1} % | {:.1} % | {:.1} % | {ratio} | {} | {} | {} | {} |",
             t.detected.len(),
             median_worst(&mut t.detected),
             t.isolated.len(),
@@ -85,10 +90,28 @@ fn main() {
             pct(t.flagged_active, t.active),
             pct(t.silent_active, t.active),
             pct(t.silent_after, t.after),
+            above(&t.protection),
+            levels(&t.protection),
             t.nan,
             t.lost
         );
     }
+}
+
+/// The shares of rows above each protection level, and the rows without one.
+fn above(p: &Protection) -> String {
+    let [a, b, c] = p.above_pct();
+    let mut s = format!("{a:.2} / {b:.2} / {c:.2} %");
+    if p.unbounded > 0 {
+        s += &format!(" ({} rows without)", p.unbounded);
+    }
+    s
+}
+
+/// The mean protection levels (m/s², rad/s², rad/s).
+fn levels(p: &Protection) -> String {
+    let [a, b, c] = p.mean();
+    format!("{a:.3} / {b:.3} / {c:.3}")
 }
 
 fn pct(part: usize, of: usize) -> f64 {

@@ -131,6 +131,73 @@ pub struct FaultRun {
     /// The rows while the fault is active with the faulty part out of the solve: their times
     /// (s) and squared Ω errors (rad²/s²).
     pub excluded_errors: Vec<(f64, f64)>,
+    /// Integrity, over every row from 1 s on.
+    pub protection: Protection,
+}
+
+/// What the protection levels said over a run's rows (`estimator_core::integrity`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Protection {
+    /// Rows with protection levels.
+    pub bounded: usize,
+    /// Rows without (no bound: model F, or a channel set without redundancy).
+    pub unbounded: usize,
+    /// Of [`Self::bounded`], rows whose σ0, Ω′ and Ω error (norm) is above its level.
+    pub above: [usize; 3],
+    /// Of [`Self::bounded`], rows with the sign of Ω unresolved (flag 1): their Ω error is
+    /// counted against the level all the same.
+    pub sign_unresolved: usize,
+    /// Sum of each level over the bounded rows (their mean: [`Self::mean`]).
+    pub level_sum: [f64; 3],
+}
+
+impl Protection {
+    /// Counts one row: estimate `e` against truth `tr`.
+    pub fn add(&mut self, e: &estimator_core::Estimate<f32>, tr: &hal_sim::motion::Truth) {
+        let Some(pl) = e.protection else {
+            self.unbounded += 1;
+            return;
+        };
+        self.bounded += 1;
+        self.sign_unresolved += usize::from(e.flags.has(Flags::SIGN_UNRESOLVED));
+        let err = |v: [f32; 3], t: [f64; 3]| {
+            (0..3)
+                .map(|k| (f64::from(v[k]) - t[k]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        let errors = [
+            err(e.sigma0, tr.sigma0),
+            err(e.domega, tr.domega),
+            err(e.omega, tr.omega),
+        ];
+        for q in 0..3 {
+            self.above[q] += usize::from(errors[q] > f64::from(pl[q]));
+            self.level_sum[q] += f64::from(pl[q]);
+        }
+    }
+
+    /// Adds another run's counts.
+    pub fn merge(&mut self, o: &Protection) {
+        self.bounded += o.bounded;
+        self.unbounded += o.unbounded;
+        self.sign_unresolved += o.sign_unresolved;
+        for q in 0..3 {
+            self.above[q] += o.above[q];
+            self.level_sum[q] += o.level_sum[q];
+        }
+    }
+
+    /// The share (%) of bounded rows above each level.
+    pub fn above_pct(&self) -> [f64; 3] {
+        self.above
+            .map(|a| 100.0 * a as f64 / self.bounded.max(1) as f64)
+    }
+
+    /// The mean level of each output over the bounded rows.
+    pub fn mean(&self) -> [f64; 3] {
+        self.level_sum.map(|s| s / self.bounded.max(1) as f64)
+    }
 }
 
 /// Runs `sc` through the firmware; `fault`: the faulty part's index, and the fault's start
@@ -157,6 +224,7 @@ pub fn fault_run(sc: &Scenario, fault: Option<(usize, f64, f64)>) -> FaultRun {
         if t < 1.0 {
             return;
         }
+        r.protection.add(e, tr);
         r.wrong_excluded += usize::from(m.excluded.0 & !part_bit & !m.missing.0 != 0);
         if t < start {
             r.clean_rows += 1;
@@ -314,7 +382,19 @@ pub fn bias_jump(b: f64) -> FaultSpec {
     }
 }
 
-/// The fault kinds of hal-sim, as scenario faults on `part` from `start`.
+/// A drift of `rate` (m/s² per s) on the part's x and y, half of it on z: `(r, −r, r/2)`.
+fn drift(name: &'static str, rate: f64) -> (&'static str, FaultSpec) {
+    (
+        name,
+        FaultSpec {
+            rate: Some([rate, -rate, 0.5 * rate]),
+            ..fault("drift")
+        },
+    )
+}
+
+/// The fault kinds of hal-sim, as scenario faults on `part` from `start` (drift and bias at
+/// several sizes).
 pub fn kinds(sigma: f64) -> Vec<(&'static str, FaultSpec)> {
     let f = fault;
     let bias = bias_jump;
@@ -323,13 +403,9 @@ pub fn kinds(sigma: f64) -> Vec<(&'static str, FaultSpec)> {
         ("bias jump 0.1 m/s²", bias(0.1)),
         ("bias jump 10 σ", bias(10.0 * sigma)),
         ("bias jump 3 σ", bias(3.0 * sigma)),
-        (
-            "drift 3 σ per s",
-            FaultSpec {
-                rate: Some([3.0 * sigma, -3.0 * sigma, 1.5 * sigma]),
-                ..f("drift")
-            },
-        ),
+        drift("drift 1 σ per s", sigma),
+        drift("drift 3 σ per s", 3.0 * sigma),
+        drift("drift 10 σ per s", 10.0 * sigma),
         (
             "noise burst ×30",
             FaultSpec {
@@ -398,6 +474,8 @@ pub struct Tally {
     pub nan: usize,
     /// Telemetry packets lost.
     pub lost: u32,
+    /// The protection levels over every row from 1 s on.
+    pub protection: Protection,
 }
 
 impl Tally {
@@ -418,6 +496,7 @@ impl Tally {
         self.silent_after += r.silent_after;
         self.nan += r.nan;
         self.lost += r.lost;
+        self.protection.merge(&r.protection);
     }
 
     /// The RMS Ω error while the faulty part was out over that of the run without the part.

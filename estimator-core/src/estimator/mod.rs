@@ -433,7 +433,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
         if self.cfg.widen && solved {
             self.cfg.frame_uncertainty.widen(est);
         }
-        self.cfg.protect(est);
+        self.cfg.protect(est, solved);
         &self.out[slot]
     }
 

@@ -23,11 +23,27 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         }
     }
 
-    /// Sets the protection levels of `est` (model G with redundancy, else none) and
-    /// [`Flags::INTEGRITY_ALERT`] where one is above its alert limit or missing under a
-    /// finite one.
-    pub(super) fn protect(&self, est: &mut Estimate<T>) {
-        est.protection = self.integrity.as_ref().map(|i| i.levels(est));
+    /// Sets the protection levels of `est` (model G with redundancy and a `solved` sample,
+    /// else none) and [`Flags::INTEGRITY_ALERT`] where one is above its alert limit or missing
+    /// under a finite one.
+    pub(super) fn protect(&self, est: &mut Estimate<T>, solved: bool) {
+        // A prediction (a sample without its readings) has no bound: the motion since the
+        // last estimate is not measured.
+        est.protection = self
+            .integrity
+            .as_ref()
+            .filter(|_| solved)
+            .map(|i| i.levels(est));
+        // Ω may be −Ω while its sign is unresolved, or another root while the branch is
+        // ambiguous (a gross fault not yet isolated can carry the filter to the mirror root:
+        // the mixed layout, a stuck part, 2 rows of 30 000): the level covers the mirror,
+        // `2|Ω|` away (another root it bounds only as far as it lies within that).
+        if let Some(pl) = &mut est.protection {
+            if est.flags.has(Flags::SIGN_UNRESOLVED) || est.flags.has(Flags::BRANCH_AMBIGUOUS) {
+                let w = &est.omega;
+                pl[2] += T::of(2.0) * (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+            }
+        }
         let limits = &self.options.alert_limits;
         let alert = match &est.protection {
             Some(pl) => pl.iter().zip(limits).any(|(p, l)| p.to_f64() > *l),
