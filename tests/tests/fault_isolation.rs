@@ -131,7 +131,8 @@ fn protection_holds(name: &str, p: &e2e_tests::faults::Protection) {
 
 /// One estimator (issue 17): `ballisto estimate` on the samples the firmware read runs the
 /// same monitor and takes the same parts out at the same rows (the `excluded` column of both
-/// estimates files), and writes no silently wrong row.
+/// estimates files), writes the same protection levels (issue 48: empty on the same rows, else
+/// equal to f32's precision), and writes no silently wrong row.
 #[test]
 fn ballisto_estimate_takes_out_the_part_the_firmware_takes_out_at_the_same_rows() {
     use hal_sim::scenario::FaultSpec;
@@ -150,7 +151,14 @@ fn ballisto_estimate_takes_out_the_part_the_firmware_takes_out_at_the_same_rows(
     });
     let dir = std::env::temp_dir().join(format!("ballisto-faults-{}", std::process::id()));
     let out = e2e_tests::faults::firmware_then_host(&sc, &dir);
-    let names = ["t", "excluded", "flags"];
+    let names = [
+        "t",
+        "excluded",
+        "flags",
+        "pl_sigma0",
+        "pl_domega",
+        "pl_omega",
+    ];
     let host = read_columns(&out, &names);
     let firmware = read_columns(&dir.join("estimates.csv"), &names);
     let truth_path = dir.join("truth.csv");
@@ -189,9 +197,26 @@ fn ballisto_estimate_takes_out_the_part_the_firmware_takes_out_at_the_same_rows(
     assert!(events.len() <= 5, "{} events", events.len());
     // The part's three channels (`u2.x/y/z` are channels 6–8 of the arrangement file).
     let bits = 0b111u64 << (3 * part);
-    let (mut out_rows, mut differ) = (0, 0);
+    let (mut out_rows, mut differ, mut bounded) = (0, 0, 0);
     for ((h, f), tr) in host.iter().zip(&firmware).zip(&truth) {
         assert_eq!(h[0], tr[0]);
+        for q in 3..6 {
+            let (a, b) = (h[q], f[q]);
+            assert_eq!(
+                a.is_nan(),
+                b.is_nan(),
+                "t {}: a level on one side only",
+                h[0]
+            );
+            // Equal where the flags are (the host settles the sign of the first rows by its
+            // backward run-in; the firmware's level covers −Ω there).
+            assert!(
+                a.is_nan() || h[2] != f[2] || (a - b).abs() <= 1e-4 * a.abs(),
+                "t {}: level {q} host {a} firmware {b}",
+                h[0]
+            );
+            bounded += usize::from(!a.is_nan());
+        }
         let excluded = h[1] as u64;
         differ += usize::from(excluded != f[1] as u64);
         assert_eq!(excluded & !bits, 0, "t {}: a healthy part out", h[0]);
@@ -203,7 +228,13 @@ fn ballisto_estimate_takes_out_the_part_the_firmware_takes_out_at_the_same_rows(
     }
     let _ = std::fs::remove_dir_all(&dir);
     println!(
-        "rows out: {out_rows}, rows where host and firmware differ: {differ}, silent: {silent}"
+        "rows out: {out_rows}, rows where host and firmware differ: {differ}, silent: {silent}, levels {bounded}"
+    );
+    // Levels on every row but the predictions (the part stuck is no missing reading).
+    assert!(
+        bounded >= 3 * (host.len() - 10),
+        "levels on {bounded} of 3 × {}",
+        host.len()
     );
     // Isolated within a second of the onset and held to its end (3 s at 100 Hz).
     assert!(out_rows >= 200, "rows with the part out: {out_rows}");

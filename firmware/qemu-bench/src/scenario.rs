@@ -32,6 +32,12 @@ pub fn arrangement<const CAP: usize>(channels: usize) -> Arrangement<CAP> {
         }
         part += 1;
     }
+    // Each tri-axial part's channels are one part (the protection levels' faults).
+    let mut parts = [0u8; CAP];
+    for (i, p) in parts.iter_mut().enumerate() {
+        *p = (i / 3) as u8;
+    }
+    a.set_parts(&parts);
     a
 }
 
