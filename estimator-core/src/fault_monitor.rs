@@ -20,6 +20,11 @@
 //!   uses). Each window sum is capped at twice its limit `L`, so that a gross fault is
 //!   forgotten `τ ln((2L − μ)/(L − μ))` samples after its end (μ = `ντ`, the clean mean: 1.9 τ
 //!   at ν = 6, α = 10⁻⁶), and re-admission follows `τ` later.
+//! - **Held out across an intermittent fault**: each re-admission of a part doubles the clean
+//!   run its next one needs (`τ · 2^k`, up to `2⁵ τ`), and each `16 τ` clean sets in a row with
+//!   no part isolated halve it again: a part whose bursts come back within its last clean run
+//!   stays out from its second burst on; the re-admissions are counted per part
+//!   ([`FaultMonitor::readmissions`]).
 //!
 //! Cost per sample: [`crate::parity::Parity::evaluate`] plus two multiply–adds per part.
 
@@ -109,7 +114,19 @@ pub struct FaultMonitor<T, const CAP: usize> {
     variance: [T; CAP],
     scale: T,
     part_scale: [T; CAP],
+    /// Per part: its back-off (its next re-admission needs `τ · 2^k` clean sets) and how many
+    /// times it has been re-admitted (saturating).
+    backoff: [u8; CAP],
+    readmitted: [u8; CAP],
 }
+
+/// The longest back-off: a part re-admitted this many times in a row needs `2⁵ τ` clean sets
+/// (32 s at the default window) before it comes back.
+const MAX_BACKOFF: u8 = 5;
+
+/// Every this many windows of clean sets in a row with no part isolated, each part's back-off
+/// drops by one (a fault long gone is forgotten step by step).
+const FORGET_WINDOWS: u32 = 16;
 
 /// A channel's variance factor moves the monitor's scales once it has changed by more than
 /// this since they were computed (an interpolated part's weight drifts with its clock offset:
@@ -141,6 +158,8 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
             variance: [T::ONE; CAP],
             scale: T::ONE,
             part_scale: [T::ONE; CAP],
+            backoff: [0; CAP],
+            readmitted: [0; CAP],
         }
     }
 
@@ -252,6 +271,19 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         old
     }
 
+    /// How many times part `part` has been re-admitted (saturating at 255).
+    pub fn readmissions(&self, part: u8) -> u8 {
+        self.readmitted.get(usize::from(part)).copied().unwrap_or(0)
+    }
+
+    /// The clean sets in a row part `part` needs to be re-admitted: `τ · 2^k` after `k`
+    /// recent re-admissions (an intermittent fault is held out across the gaps between its
+    /// bursts once they are shorter than that).
+    pub fn readmission_sets(&self, part: u8) -> u32 {
+        let k = self.backoff.get(usize::from(part)).copied().unwrap_or(0);
+        self.window.saturating_mul(1 << k)
+    }
+
     /// The part currently isolated (held until re-admitted).
     pub fn isolated(&self) -> Option<u8> {
         self.isolated
@@ -330,8 +362,30 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         }
         self.verdict = if self.total <= self.limit {
             self.clean = self.clean.saturating_add(1);
-            if self.clean >= self.window {
-                self.isolated = None;
+            match self.isolated.map(usize::from) {
+                Some(q) if q < CAP => {
+                    let need = self.window.saturating_mul(1 << self.backoff[q]);
+                    if self.clean >= need {
+                        self.isolated = None;
+                        self.backoff[q] = (self.backoff[q] + 1).min(MAX_BACKOFF);
+                        self.readmitted[q] = self.readmitted[q].saturating_add(1);
+                    }
+                }
+                Some(_) => {
+                    if self.clean >= self.window {
+                        self.isolated = None;
+                    }
+                }
+                None => {
+                    if self
+                        .clean
+                        .is_multiple_of(self.window.saturating_mul(FORGET_WINDOWS))
+                    {
+                        for b in self.backoff.iter_mut() {
+                            *b = b.saturating_sub(1);
+                        }
+                    }
+                }
             }
             self.isolated.map_or(Verdict::Clean, Verdict::Isolated)
         } else {
@@ -1049,6 +1103,53 @@ mod tests {
         let back = back.expect("re-admitted");
         assert!((250..350).contains(&back), "re-admitted after {back} sets");
         assert_eq!(m.isolated(), None);
+    }
+
+    /// An intermittent fault — 10 σ on part 4's y channel for 0.3 s every 4 s, 4 bursts — is
+    /// isolated at its first burst, re-admitted in the 3.7 s gap after it (τ = 1 s of clean
+    /// sets needed), isolated again at the second burst and from then on held out across the
+    /// gaps (2 τ needed: the window decays for 1.9 τ, the gap is 3.7 s) to the last burst's end;
+    /// re-admitted 1.9 τ + 2 τ after it; never another part; both re-admissions counted; 16 τ
+    /// clean halve the clean run needed again.
+    #[test]
+    fn an_intermittent_fault_is_held_out_across_its_gaps() {
+        let (mut m, arr, mut rng) = warmed_monitor(12);
+        let (period, on, bursts) = (400, 30, 4);
+        let last_end = period * (bursts - 1) + on;
+        let mut out = (0, 0);
+        let mut back = None;
+        for k in 0..last_end + 1000 {
+            let mut p = reading(&arr, &mut rng);
+            if k < last_end && k % period < on {
+                p[13] += 1e-2;
+            }
+            let v = m.step(&p);
+            assert!(
+                matches!(
+                    v,
+                    Verdict::Clean | Verdict::NotIsolated | Verdict::Isolated(4)
+                ),
+                "{v:?}"
+            );
+            // From 1 s after the second burst's onset (its isolation: 0.6 s) to the last's end.
+            if (period + 100..last_end).contains(&k) {
+                out.0 += usize::from(m.isolated() == Some(4));
+                out.1 += 1;
+            }
+            if k >= last_end && back.is_none() && m.isolated().is_none() {
+                back = Some(k - last_end);
+            }
+        }
+        assert_eq!(out.0, out.1, "part 4 out on {} of {} sets", out.0, out.1);
+        // The bursts over: re-admitted after the window's decay (1.9 τ) and 2 τ clean.
+        let back = back.expect("re-admitted");
+        assert!((350..450).contains(&back), "re-admitted after {back} sets");
+        assert_eq!((m.readmissions(4), m.readmission_sets(4)), (2, 400));
+        // 16 τ clean with nothing isolated: the back-off drops by one.
+        for _ in 0..1600 {
+            m.step(&reading(&arr, &mut rng));
+        }
+        assert_eq!(m.readmission_sets(4), 200);
     }
 
     /// A part already isolated by other evidence (the stuck check) that explains the window is

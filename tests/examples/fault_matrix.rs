@@ -10,7 +10,8 @@
 //! `estimator_core::fault_monitor`). Per kind: runs, detection rate within 1 s of the onset,
 //! median and worst latency; isolation (the faulty part out of the solve while the fault is
 //! active: runs, median and worst latency); rows with a healthy part out; rows flagged 64 while
-//! the fault is active; rows silently wrong (Ω error above 5 reported deviations, no warning
+//! the fault is active; the share of its rows with the faulty part out, and of those from its
+//! first exclusion on (the intermittent kind's window spans its bursts and the gaps between); rows silently wrong (Ω error above 5 reported deviations, no warning
 //! flag) while it is active and after it; the Ω error while the faulty part is out against the
 //! same run without the fault and without that part (RMS ratio over the runs); the share of
 //! rows whose σ0, Ω′ and Ω errors exceed their protection levels (`estimator_core::integrity`)
@@ -58,11 +59,11 @@ fn main() {
     println!(
         "layout: {name}, ideal parts (noise and clock offsets only), {DURATION} s at 100 Hz, faults of {FAULT_S} s from 3–7 s, one part chosen at random; σ of one ADXL355 sample ≈ {sigma:.1e} m/s²"
     );
-    println!("| fault | runs | detected ≤ 1 s | latency median / worst (s) | isolated (runs) | isolation latency median / worst (s) | rows with a healthy part out | rows flagged 64 while active | silent while active | silent after | Ω error while out / without the part | error above PL σ0 / Ω′ / Ω | mean PL σ0 / Ω′ / Ω | NaN | TM lost |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| fault | runs | detected ≤ 1 s | latency median / worst (s) | isolated (runs) | isolation latency median / worst (s) | rows with a healthy part out | rows flagged 64 while active | part out while active / since its first exclusion | silent while active | silent after | Ω error while out / without the part | error above PL σ0 / Ω′ / Ω | mean PL σ0 / Ω′ / Ω | NaN | TM lost |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let (clean, rows) = fault_matrix(runs, layout);
     println!(
-        "| none (false alarms) | {runs} | — | — | — | — | {:.3} % | {:.3} % of {} rows | {:.1} % (fault-free) | — | — | {} | {} | {} | {} |",
+        "| none (false alarms) | {runs} | — | — | — | — | {:.3} % | {:.3} % of {} rows | — | {:.1} % (fault-free) | — | — | {} | {} | {} | {} |",
         pct(clean.wrong_excluded, clean.rows),
         pct(clean.flagged_clean, clean.clean_rows),
         clean.clean_rows,
@@ -81,13 +82,15 @@ fn main() {
             ratio += &format!(" ({n} wrong reference{})", if n > 1 { "s" } else { "" });
         }
         println!(
-            "| {name} | {runs} | {} | {} | {} | {} | {:.2} % | {:.1} % | {:.1} % | {:.1} % | {ratio} | {} | {} | {} | {} |",
+            "| {name} | {runs} | {} | {} | {} | {} | {:.2} % | {:.1} % | {:.1} % / {:.1} % | {:.1} % | {:.1} % | {ratio} | {} | {} | {} | {} |",
             t.detected.len(),
             median_worst(&mut t.detected),
             t.isolated.len(),
             median_worst(&mut t.isolated),
             pct(t.wrong_excluded, t.rows),
             pct(t.flagged_active, t.active),
+            pct(t.out_active, t.active),
+            pct(t.out_since_isolation, t.since_isolation),
             pct(t.silent_active, t.active),
             pct(t.silent_after, t.after),
             above(&t.protection),

@@ -126,6 +126,11 @@ pub struct FaultRun {
     pub wrong_excluded: usize,
     /// Of [`Self::active_rows`], those with the faulty part out of the solve.
     pub excluded_active: usize,
+    /// Rows while the fault is active from the first with the part out, and of them those
+    /// with the part out (the goal: all).
+    pub since_isolation: usize,
+    /// See [`Self::since_isolation`].
+    pub out_since_isolation: usize,
     /// Rows after the fault with the faulty part still out of the solve.
     pub excluded_after_end: usize,
     /// The rows while the fault is active with the faulty part out of the solve: their times
@@ -243,6 +248,10 @@ pub fn fault_run(sc: &Scenario, fault: Option<(usize, f64, f64)>) -> FaultRun {
                 if r.excluded_after.is_none() {
                     r.excluded_after = Some(t - start);
                 }
+            }
+            if r.excluded_after.is_some() {
+                r.since_isolation += 1;
+                r.out_since_isolation += usize::from(out);
             }
         } else {
             r.after_rows += 1;
@@ -393,8 +402,19 @@ fn drift(name: &'static str, rate: f64) -> (&'static str, FaultSpec) {
     )
 }
 
+/// The name prefix of the intermittent kind: [`BURSTS`] bursts of [`BURST_S`] every
+/// [`BURST_PERIOD_S`] (gaps longer than a re-admission takes after one burst, 2.9 s: the
+/// monitor's back-off must hold the part out across them).
+pub const INTERMITTENT: &str = "intermittent";
+/// Bursts of the intermittent kind.
+pub const BURSTS: usize = 3;
+/// Length of one burst, s.
+pub const BURST_S: f64 = 0.3;
+/// Bursts start this far apart, s.
+pub const BURST_PERIOD_S: f64 = 3.8;
+
 /// The fault kinds of hal-sim, as scenario faults on `part` from `start` (drift and bias at
-/// several sizes).
+/// several sizes; noise bursts also intermittent).
 pub fn kinds(sigma: f64) -> Vec<(&'static str, FaultSpec)> {
     let f = fault;
     let bias = bias_jump;
@@ -408,6 +428,13 @@ pub fn kinds(sigma: f64) -> Vec<(&'static str, FaultSpec)> {
         drift("drift 10 σ per s", 10.0 * sigma),
         (
             "noise burst ×30",
+            FaultSpec {
+                density: Some(30.0 * 2.2e-4),
+                ..f("noise-burst")
+            },
+        ),
+        (
+            "intermittent noise bursts ×30 (0.3 s every 3.8 s)",
             FaultSpec {
                 density: Some(30.0 * 2.2e-4),
                 ..f("noise-burst")
@@ -458,6 +485,12 @@ pub struct Tally {
     pub flagged_active: usize,
     /// Of `active`, silently wrong.
     pub silent_active: usize,
+    /// Of `active`, rows with the faulty part out.
+    pub out_active: usize,
+    /// Rows while active from the part's first exclusion on, and of them with the part out.
+    pub since_isolation: usize,
+    /// See `since_isolation`.
+    pub out_since_isolation: usize,
     /// Rows after the fault, and of them silently wrong.
     pub after: usize,
     /// Of `after`, silently wrong.
@@ -492,6 +525,9 @@ impl Tally {
         self.active += r.active_rows;
         self.flagged_active += r.flagged_active;
         self.silent_active += r.silent_active;
+        self.out_active += r.excluded_active;
+        self.since_isolation += r.since_isolation;
+        self.out_since_isolation += r.out_since_isolation;
         self.after += r.after_rows;
         self.silent_after += r.silent_after;
         self.nan += r.nan;
@@ -529,12 +565,25 @@ pub fn fault_matrix(runs: u64, layout: fn(u64) -> Scenario) -> (Tally, Vec<(&'st
             let mut sc = layout(2000 + seed);
             let part = (next() * sc.parts.len() as f64) as usize % sc.parts.len();
             let start = 3.0 + 4.0 * next();
-            let mut f = spec.clone();
-            f.part = sc.parts[part].name.clone();
-            f.start = start;
-            f.end = Some(start + FAULT_S);
-            sc.faults.push(f);
-            let r = fault_run(&sc, Some((part, start, start + FAULT_S)));
+            let bursts = if name.starts_with(INTERMITTENT) {
+                // Three bursts from 2–4 s: the window spans their pattern.
+                let s0 = 2.0 + 0.5 * (start - 3.0);
+                (0..BURSTS)
+                    .map(|b| s0 + BURST_PERIOD_S * b as f64)
+                    .map(|t| (t, t + BURST_S))
+                    .collect()
+            } else {
+                vec![(start, start + FAULT_S)]
+            };
+            for (t0, t1) in &bursts {
+                let mut f = spec.clone();
+                f.part = sc.parts[part].name.clone();
+                f.start = *t0;
+                f.end = Some(*t1);
+                sc.faults.push(f);
+            }
+            let window = (bursts[0].0, bursts[bursts.len() - 1].1);
+            let r = fault_run(&sc, Some((part, window.0, window.1)));
             if let Some(l) = r.excluded_after {
                 tally.isolated.push(l);
                 let out = r.excluded_errors.iter().map(|(_, e)| e).sum::<f64>();

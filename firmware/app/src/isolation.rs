@@ -141,7 +141,9 @@ impl Isolation {
                     bits |= 1 << c;
                 }
             }
-            (EventId::PartIsolated, p as u32, bits)
+            // The high octet: the part's re-admissions so far (an intermittent fault).
+            let back = u32::from(self.monitor.readmissions(p as u8));
+            (EventId::PartIsolated, p as u32, bits | back << 24)
         });
         [suspicion, named]
     }
