@@ -81,7 +81,9 @@ EOF
 ## Fault detection, isolation and exclusion (ideal parts)
 
 Every fault kind of hal-sim in one part at a random time, 20 runs each, through the firmware on
-the simulated buses. \`cargo run -p e2e-tests --example fault_matrix -- 20 LAYOUT\`.
+the simulated buses; per kind also the share of rows whose σ0, Ω′ and Ω errors exceed their
+protection levels (\`docs/integrity.md\`; rows without a level: predictions) and the mean
+levels. \`cargo run -p e2e-tests --example fault_matrix -- 20 LAYOUT\`.
 EOF
   for layout in g f mixed; do
     step "fault matrix ($layout)"

@@ -136,6 +136,51 @@ fn mimu4444_rate_error_against_gyros() {
     }
 }
 
+/// The protection levels on real parts (issue 48): the board's 24 channels in model G (the
+/// levels need 13 or more), Ω against its gyros on the unsaturated rows. The levels assume one
+/// faulty part at most; the hand-held motion misfits every part at once (its residual is
+/// 15–25 × the static noise), so Ω's error is above its level on many rows — and each such row
+/// must say so by flag 64 (residual high): none may be silently above its level.
+#[test]
+fn mimu4444_protection_levels_are_never_silently_exceeded() {
+    let dir = data_dir();
+    let loaded = load_arrangement(&dir.join("arrangement.toml")).unwrap();
+    let mut reader = SamplesReader::open(&dir.join("samples.csv"), &loaded.names).unwrap();
+    let mut est = HostEstimator::<f64>::new(&loaded, Model::General, Options::default()).unwrap();
+    let mut out = Vec::new();
+    let mut row = vec![0.0; loaded.names.len()];
+    let mut emit = |_t: f64, e: &estimator_core::Estimate<f64>| out.push(*e);
+    while let Some(t) = reader.next_row(&mut row).unwrap() {
+        est.push(t, &row, &mut emit);
+    }
+    est.finish(&mut emit);
+    let reference = read_columns(
+        &dir.join("reference.csv"),
+        &["omega_x", "omega_y", "omega_z"],
+    );
+    let flags = read_columns(&dir.join("reference_flags.csv"), &["gyro_saturated"]);
+    assert_eq!(out.len(), reference.len());
+    let (mut rows, mut above, mut silent, mut clean, mut clean_above) = (0, 0, 0, 0, 0);
+    for ((e, r), f) in out.iter().zip(&reference).zip(&flags) {
+        let Some(pl) = e.protection.filter(|_| f[0] == 0.0) else {
+            continue;
+        };
+        rows += 1;
+        let err = norm(&[e.omega[0] - r[0], e.omega[1] - r[1], e.omega[2] - r[2]]);
+        let residual = e.flags.has(estimator_core::Flags::RESIDUAL_HIGH);
+        above += usize::from(err > pl[2]);
+        silent += usize::from(err > pl[2] && !residual);
+        clean += usize::from(!residual);
+        clean_above += usize::from(!residual && err > pl[2]);
+    }
+    println!(
+        "mimu4444_exp6 general filtered: Ω above its protection level on {above} of {rows} unsaturated rows ({:.1} %), {silent} of them without flag 64; rows without flag 64: {clean}, of them above: {clean_above}",
+        100.0 * above as f64 / rows.max(1) as f64
+    );
+    assert!(rows > 3000, "{rows} rows with a level");
+    assert_eq!(silent, 0, "rows above their level without flag 64");
+}
+
 /// The calibration of a raw recording `k` (exp1–exp6) into `out`: self-calibration, or
 /// gyro-aided with the recording's reference and its saturation flags. The error if refused.
 fn calibrate_raw(k: usize, gyro: bool, out: &std::path::Path) -> Result<(), String> {
