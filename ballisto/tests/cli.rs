@@ -69,7 +69,10 @@ fn estimate_writes_the_contract_columns_one_row_per_sample() {
     let mut se = 0.0;
     for (r, tr) in rows.iter().zip(truth.iter()) {
         assert_eq!(r[0], tr.t);
-        assert!(r.iter().all(|v| v.is_finite()));
+        // Every column but the protection levels (empty without redundancy: 12 channels).
+        let levels = header.iter().position(|h| h == "pl_sigma0").unwrap();
+        assert!(r[..levels].iter().all(|v| v.is_finite()));
+        assert!(r[levels..].iter().all(|v| v.is_nan()));
         se += (0..3)
             .map(|k| (r[7 + k] - tr.omega[k]).powi(2))
             .sum::<f64>();
