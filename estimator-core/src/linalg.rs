@@ -414,6 +414,45 @@ pub fn quat_to_mat(q: [f64; 4]) -> Mat3<f64> {
     ]
 }
 
+/// `∂Ω/∂A` at `w` (3 × 6, columns for `A`'s `[xx, yy, zz, xy, xz, yz]`), from the first order
+/// of `ΩΩᵀ = M`, `M = (A − Γ) − ½ tr(A − Γ) I`: `dΩ = (dM Ω − Ω (Ωᵀ dM Ω)/(2|Ω|²)) / |Ω|²` with
+/// `dM = dA − ½ tr(dA) I`. `None` at `w = 0` (no first order there).
+pub fn omega_jacobian<T: Real>(w: &Vec3<T>) -> Option<[[T; 6]; 3]> {
+    let w2 = norm2(w);
+    if !(w2 > T::ZERO) {
+        return None;
+    }
+    let half = T::of(0.5);
+    let two = T::of(2.0);
+    // `dM Ω` and `Ωᵀ dM Ω` for a unit step of each component.
+    let dmw: [(Vec3<T>, T); 6] = [
+        (
+            [half * w[0], -half * w[1], -half * w[2]],
+            w[0] * w[0] - half * w2,
+        ),
+        (
+            [-half * w[0], half * w[1], -half * w[2]],
+            w[1] * w[1] - half * w2,
+        ),
+        (
+            [-half * w[0], -half * w[1], half * w[2]],
+            w[2] * w[2] - half * w2,
+        ),
+        ([w[1], w[0], T::ZERO], two * w[0] * w[1]),
+        ([w[2], T::ZERO, w[0]], two * w[0] * w[2]),
+        ([T::ZERO, w[2], w[1]], two * w[1] * w[2]),
+    ];
+    let inv = T::ONE / w2;
+    let mut jac = [[T::ZERO; 6]; 3];
+    for (col, (d, q)) in dmw.iter().enumerate() {
+        let k = *q * half * inv;
+        for r in 0..3 {
+            jac[r][col] = (d[r] - w[r] * k) * inv;
+        }
+    }
+    Some(jac)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -466,43 +505,4 @@ mod tests {
         let va = mat_vec(&v, &a);
         assert!((r.quad(&va) - m.quad(&a)).abs() < 1e-12);
     }
-}
-
-/// `∂Ω/∂A` at `w` (3 × 6, columns for `A`'s `[xx, yy, zz, xy, xz, yz]`), from the first order
-/// of `ΩΩᵀ = M`, `M = (A − Γ) − ½ tr(A − Γ) I`: `dΩ = (dM Ω − Ω (Ωᵀ dM Ω)/(2|Ω|²)) / |Ω|²` with
-/// `dM = dA − ½ tr(dA) I`. `None` at `w = 0` (no first order there).
-pub fn omega_jacobian<T: Real>(w: &Vec3<T>) -> Option<[[T; 6]; 3]> {
-    let w2 = norm2(w);
-    if !(w2 > T::ZERO) {
-        return None;
-    }
-    let half = T::of(0.5);
-    let two = T::of(2.0);
-    // `dM Ω` and `Ωᵀ dM Ω` for a unit step of each component.
-    let dmw: [(Vec3<T>, T); 6] = [
-        (
-            [half * w[0], -half * w[1], -half * w[2]],
-            w[0] * w[0] - half * w2,
-        ),
-        (
-            [-half * w[0], half * w[1], -half * w[2]],
-            w[1] * w[1] - half * w2,
-        ),
-        (
-            [-half * w[0], -half * w[1], half * w[2]],
-            w[2] * w[2] - half * w2,
-        ),
-        ([w[1], w[0], T::ZERO], two * w[0] * w[1]),
-        ([w[2], T::ZERO, w[0]], two * w[0] * w[2]),
-        ([T::ZERO, w[2], w[1]], two * w[1] * w[2]),
-    ];
-    let inv = T::ONE / w2;
-    let mut jac = [[T::ZERO; 6]; 3];
-    for (col, (d, q)) in dmw.iter().enumerate() {
-        let k = *q * half * inv;
-        for r in 0..3 {
-            jac[r][col] = (d[r] - w[r] * k) * inv;
-        }
-    }
-    Some(jac)
 }
