@@ -460,7 +460,7 @@ impl<T: Real> FieldCheck<T> {
                 *x = c.to_f64();
             }
         }
-        let inv = invert_spd6(&a)?;
+        let inv = crate::identify::cholesky::invert_spd(&a)?;
         let mut weight = [[T::ZERO; 6]; 6];
         for (wr, ir) in weight.iter_mut().zip(inv.iter()) {
             for (w, x) in wr.iter_mut().zip(ir.iter()) {
@@ -664,26 +664,6 @@ fn residual_and_jacobian<T: Real>(s: &[T; 6], w: &[T; 3]) -> ([T; 6], [[T; 3]; 6
         [zero, z, y],
     ];
     (core::array::from_fn(|i| s[i] - f[i]), j)
-}
-
-/// The inverse of a symmetric positive definite 6 × 6 matrix (configuration time), by the
-/// Cholesky factor of `identify`'s fits.
-fn invert_spd6(a: &[[f64; 6]; 6]) -> Option<[[f64; 6]; 6]> {
-    use crate::identify::cholesky::{cholesky, cholesky_solve};
-    let mut l = *a;
-    if !cholesky(&mut l, 6) {
-        return None;
-    }
-    let mut inv = [[0.0f64; 6]; 6];
-    for c in 0..6 {
-        let mut e = [0.0f64; 6];
-        e[c] = 1.0;
-        let x = cholesky_solve(&l, 6, &e);
-        for (row, v) in inv.iter_mut().zip(x) {
-            row[c] = v;
-        }
-    }
-    Some(inv)
 }
 
 /// Sets in a row with every channel of a part unchanged, bit for bit, after which the part is

@@ -32,10 +32,11 @@ use crate::arrangement::{Arrangement, ChannelMask};
 use crate::design::design_row;
 use crate::estimate::Estimate;
 use crate::fault_monitor::{chi2_quantile, upper_normal_quantile};
-use crate::identify::cholesky::{cholesky, cholesky_solve};
+use crate::identify::cholesky::{cholesky, cholesky_solve, invert_spd};
 use crate::linalg::{omega_jacobian, Sym3, Vec3};
 use crate::parity::{NO_PART, PART_CHANNELS, UNKNOWNS};
 use crate::real::Real;
+use crate::svd::{Svd, MAX_COLS};
 
 /// The default probability that an output's error exceeds its protection level at a row
 /// (half of it for the fault-free error, half for the parity space's noise).
@@ -156,19 +157,7 @@ impl<T: Real, const CAP: usize> Integrity<T, CAP> {
             // pivots) can hide a fault: no bound. Nearly dependent ones give a large slope, not
             // none (an absolute determinant threshold refused the mixed layout's parts with
             // P_SS ≈ 0.005 I, a well-posed bound).
-            let mut l = pss;
-            if !cholesky(&mut l, 3) {
-                return None;
-            }
-            let mut r = [[0.0f64; 3]; 3];
-            for c in 0..3 {
-                let mut e = [0.0f64; 3];
-                e[c] = 1.0;
-                let col = cholesky_solve(&l, 3, &e);
-                for a in 0..3 {
-                    r[a][c] = col[a];
-                }
-            }
+            let mut r = invert_spd(&pss)?;
             if !cholesky(&mut r, 3) {
                 return None;
             }
@@ -179,15 +168,16 @@ impl<T: Real, const CAP: usize> Integrity<T, CAP> {
                     fc[j] = (j..s.len()).map(|a| k[s[a]][c] * r[a][j]).sum::<f64>() / norm[c];
                 }
             }
-            // σ0's and Ω′'s slopes exactly: the largest singular value of their 3 × 3 block.
+            // σ0's and Ω′'s slopes exactly: the largest singular value of their 3 × |S| block
+            // (the configuration's own SVD).
             let gain = |from: usize| -> f64 {
-                let mut m = [[0.0f64; 3]; 3];
-                for a in 0..3 {
-                    for b in 0..3 {
-                        m[a][b] = (0..3).map(|r| f[from + r][a] * f[from + r][b]).sum();
+                let mut cols = [[0.0f64; CAP]; MAX_COLS];
+                for (j, col) in cols.iter_mut().enumerate().take(s.len()) {
+                    for r in 0..3 {
+                        col[r] = f[from + r][j];
                     }
                 }
-                Real::sqrt(largest_eigenvalue(m))
+                Svd::<CAP>::new(&cols, 3, s.len()).s[0]
             };
             slope[0] = slope[0].max(gain(0));
             slope[1] = slope[1].max(gain(3));
@@ -254,40 +244,6 @@ impl<T: Real, const CAP: usize> Integrity<T, CAP> {
             level(&e.sd_omega, omega_slope),
         ]
     }
-}
-
-/// The largest eigenvalue of a symmetric 3 × 3 matrix (cyclic Jacobi rotations; configuration
-/// time). Written here rather than taken from nalgebra: estimator-core's target build has no
-/// nalgebra (its SVD is its own, `svd.rs`), and this is 25 lines.
-fn largest_eigenvalue(mut m: [[f64; 3]; 3]) -> f64 {
-    for _ in 0..32 {
-        let off = m[0][1].abs() + m[0][2].abs() + m[1][2].abs();
-        let scale = m[0][0].abs() + m[1][1].abs() + m[2][2].abs();
-        if !(off > 1e-15 * scale) {
-            break;
-        }
-        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
-            if m[p][q] == 0.0 {
-                continue;
-            }
-            let theta = (m[q][q] - m[p][p]) / (2.0 * m[p][q]);
-            let t = theta.signum() / (theta.abs() + Real::sqrt(theta * theta + 1.0));
-            let c = 1.0 / Real::sqrt(t * t + 1.0);
-            let s = t * c;
-            // m ← Jᵀ m J, J the rotation in the (p, q) plane.
-            for k in 0..3 {
-                let (mkp, mkq) = (m[k][p], m[k][q]);
-                m[k][p] = c * mkp - s * mkq;
-                m[k][q] = s * mkp + c * mkq;
-            }
-            for k in 0..3 {
-                let (mpk, mqk) = (m[p][k], m[q][k]);
-                m[p][k] = c * mpk - s * mqk;
-                m[q][k] = s * mpk + c * mqk;
-            }
-        }
-    }
-    m[0][0].max(m[1][1]).max(m[2][2])
 }
 
 #[cfg(test)]
@@ -437,22 +393,6 @@ mod tests {
             let median = ratio[q][rows / 2];
             assert!(median > 0.02, "output {q}: median error / level {median}");
         }
-    }
-
-    #[test]
-    fn the_largest_eigenvalue_of_a_symmetric_matrix() {
-        // diag(1, 4, 2) rotated: 4.
-        let (c, s) = (0.6f64, 0.8f64);
-        let r = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]];
-        let d = [1.0, 4.0, 2.0];
-        let m: [[f64; 3]; 3] = core::array::from_fn(|a| {
-            core::array::from_fn(|b| (0..3).map(|k| r[a][k] * d[k] * r[b][k]).sum())
-        });
-        assert!((largest_eigenvalue(m) - 4.0).abs() < 1e-12);
-        assert_eq!(
-            largest_eigenvalue([[2.0, 0.0, 0.0], [0.0, 5.0, 0.0], [0.0, 0.0, 3.0]]),
-            5.0
-        );
     }
 
     /// No bound without redundancy (12 channels), with a part of more channels than its parity

@@ -56,6 +56,25 @@ pub(crate) fn cholesky_solve<const N: usize>(
     x
 }
 
+/// The inverse of the symmetric positive definite `a` (configuration time); `None` unless
+/// [`cholesky`] factors it.
+pub(crate) fn invert_spd<const N: usize>(a: &[[f64; N]; N]) -> Option<[[f64; N]; N]> {
+    let mut l = *a;
+    if !cholesky(&mut l, N) {
+        return None;
+    }
+    let mut inv = [[0.0f64; N]; N];
+    for c in 0..N {
+        let mut e = [0.0f64; N];
+        e[c] = 1.0;
+        let x = cholesky_solve(&l, N, &e);
+        for (row, v) in inv.iter_mut().zip(x) {
+            row[c] = v;
+        }
+    }
+    Some(inv)
+}
+
 /// `(L Lᵀ)⁻¹` at `(k, k)`.
 #[inline]
 pub(super) fn inverse_diagonal(l: &[[f64; PARAMS]; PARAMS], n: usize, k: usize) -> f64 {
