@@ -538,7 +538,7 @@ impl<T: Real> FieldCheck<T> {
 /// has the degrees of freedom"): with 10–12 channels model F has no parity space (model G's
 /// needs 13) and no known-field test (that is model G's), but its per-sample `χ²` has `N − 9`
 /// degrees of freedom ([`Estimate::chi2`], [`Estimate::dof`]). Summed over the monitor's window
-/// against the same false-alarm rate, a bias too small for the per-sample 99.9 % point shows.
+/// against the same false-alarm rate, a bias too small for the per-sample 99.99 % point shows.
 /// It tests, it does not isolate.
 #[derive(Clone, Debug)]
 pub struct ResidualCheck<T> {
@@ -1330,7 +1330,7 @@ mod tests {
     }
 
     /// Model F's own residual windowed: `χ²₃` draws raise nothing in 6 000 sets; the same draws
-    /// 60 % larger (mean 4.8: the per-sample 99.9 % point, 16.3, sees few) are seen within 2 s
+    /// 60 % larger (mean 4.8: the per-sample 99.99 % point, 21.1, sees few) are seen within 2 s
     /// (the window's limit at 1 − 10⁻⁶ is about 1.3 × its mean);
     /// predictions add nothing; no test for no degree of freedom.
     #[test]

@@ -46,6 +46,7 @@ fn the_matrix_holds(layout: fn(u64) -> hal_sim::scenario::Scenario) {
     assert_eq!(clean.silent_clean, 0, "fault-free rows silently wrong");
     assert_eq!((clean.nan, clean.lost), (0, 0));
     assert!(clean.clean_rows > 20_000);
+    false_alarms_within_the_goal(&clean);
     protection_holds("none", &clean.protection);
     for (name, t) in &rows {
         protection_holds(name, &t.protection);
@@ -108,6 +109,18 @@ fn the_matrix_holds(layout: fn(u64) -> hal_sim::scenario::Scenario) {
             t.detected.len()
         );
     }
+}
+
+/// Issue 48's goal: flag 64 on at most 0.1 % of the fault-free rows (the per-sample point
+/// at 99.99 % leaves the budget to the readings' systematic misfit and the monitor's window;
+/// at 99.9 % the per-sample test alone flagged 0.118 % of the N = 18 layout's rows).
+fn false_alarms_within_the_goal(clean: &e2e_tests::faults::Tally) {
+    assert!(
+        clean.flagged_clean * 1000 <= clean.clean_rows,
+        "false alarms: {} of {} rows",
+        clean.flagged_clean,
+        clean.clean_rows
+    );
 }
 
 /// Issue 48's goal for the protection levels: each output's error above its level on at most
@@ -397,6 +410,7 @@ fn a_start_up_suspicion_on_twelve_channels_ends_when_the_field_test_passes() {
 fn the_mixed_layout_is_not_silently_wrong_after_a_fault() {
     let (clean, rows) = fault_matrix(10, e2e_tests::faults::mixed);
     assert_eq!((clean.nan, clean.lost), (0, 0));
+    false_alarms_within_the_goal(&clean);
     protection_holds("none", &clean.protection);
     assert_eq!(clean.silent_clean, 0, "fault-free rows silently wrong");
     assert_eq!(
@@ -548,4 +562,42 @@ fn one_axis_on_its_rail_names_its_part_at_the_first_clipped_set() {
         }
         assert_eq!((silent_fw, silent_host), (0, 0), "silently wrong rows");
     }
+}
+
+/// What the layout itself can attribute (`e2e_tests::faults::attributable`, the yardstick of the
+/// matrix's "isolated ≤ 2 s" column): in the N = 18 layout parts u2 and u5 stand in for each
+/// other for the matrix's fault direction `(1, −1, ½)` — a 3 σ bias or a 3 σ/s drift on either
+/// is not attributable within 2 s by any test on the residual, on every other part it is —
+/// and a 10 σ bias on any part is.
+#[test]
+fn parts_that_can_stand_in_for_each_other_are_not_attributable() {
+    use e2e_tests::faults::attributable;
+    let sc = e2e_tests::faults::layout(2000);
+    let sigma = sc.channel_noise(&sc.parts[0]);
+    let pattern = |b: f64| [b, -b, 0.5 * b];
+    let twins = [2, 5];
+    for p in 0..sc.parts.len() {
+        let small = pattern(3.0 * sigma);
+        let expected = Some(!twins.contains(&p));
+        assert_eq!(
+            attributable(&sc, p, small, [0.0; 3]),
+            expected,
+            "3 σ bias, u{p}"
+        );
+        assert_eq!(
+            attributable(&sc, p, [0.0; 3], small),
+            expected,
+            "3 σ/s drift, u{p}"
+        );
+        let large = pattern(10.0 * sigma);
+        assert_eq!(
+            attributable(&sc, p, large, [0.0; 3]),
+            Some(true),
+            "10 σ, u{p}"
+        );
+    }
+    // No parity space without the two extra parts: nothing can be attributed.
+    let mut four = sc.clone();
+    four.parts.truncate(4);
+    assert_eq!(attributable(&four, 0, pattern(1.0), [0.0; 3]), None);
 }

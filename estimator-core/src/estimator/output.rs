@@ -142,7 +142,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         }
         let chi2 = b.fit;
         let dof = m.saturating_sub(3);
-        if dof > 0 && chi2 > pr.chi2_gate {
+        if dof > 0 && chi2 > pr.fault_gate {
             flags |= Flags::RESIDUAL_HIGH;
         }
         out.a = b.a;

@@ -70,8 +70,11 @@ pub struct Projection<T, const CAP: usize> {
     /// Equilibrated condition number of the whitened design matrix.
     pub condition: f64,
     /// 99.9 % point of χ² for the `m − 3` degrees of freedom of the residual (infinite when
-    /// `m = 3`): above it the fit is suspect.
+    /// `m = 3`): a first root that fits below it is taken without trying the other starts.
     pub chi2_gate: T,
+    /// 99.99 % point of the same ([`crate::estimate::chi2_9999`]): above it the row is flagged
+    /// [`crate::Flags::RESIDUAL_HIGH`].
+    pub fault_gate: T,
 }
 
 impl<T: Real, const CAP: usize> Projection<T, CAP> {
@@ -102,6 +105,7 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             identity: true,
             condition: f64::INFINITY,
             chi2_gate: T::of(f64::MAX),
+            fault_gate: T::of(f64::MAX),
         }
     }
 
@@ -206,6 +210,7 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
         self.m = m;
         self.condition = condition;
         self.chi2_gate = T::of(crate::estimate::chi2_999(m - 3).min(f64::MAX));
+        self.fault_gate = T::of(crate::estimate::chi2_9999(m - 3).min(f64::MAX));
         self.wt = [[T::ZERO; CAP]; CAP];
         // A calibrated channel reads `scale · (s·f) + bias`: its column takes `1 / scale` and
         // its bias goes into `W bias`.
