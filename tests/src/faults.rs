@@ -602,7 +602,7 @@ impl Tally {
 /// The fault matrix: `runs` fault-free runs, then `runs` of every kind of [`kinds`], each in
 /// one part drawn at random for [`FAULT_S`] from a time drawn in 3–7 s (the draws are the
 /// same for the same `runs`), sized by that part's own noise (in the mixed layout a LIS3DH's
-/// is ten times an ADXL355's).
+/// σ is 13 times an ADXL355's).
 pub fn fault_matrix(runs: u64, layout: fn(u64) -> Scenario) -> (Tally, Vec<(&'static str, Tally)>) {
     let mut rng = 0x9E37_79B9_7F4A_7C15u64;
     let mut next = move || {
