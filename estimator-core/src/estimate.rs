@@ -112,7 +112,7 @@ pub fn chi2_9999(dof: usize) -> f64 {
 }
 
 /// `table[dof − 1]`, infinite for 0, and beyond the table Wilson–Hilferty at the upper normal
-/// point `z`.
+/// point `z` ([`crate::fault_monitor::chi2_quantile`]).
 fn chi2_point(dof: usize, table: &[f64; 30], z: f64) -> f64 {
     if dof == 0 {
         return f64::INFINITY;
@@ -120,10 +120,7 @@ fn chi2_point(dof: usize, table: &[f64; 30], z: f64) -> f64 {
     if dof <= table.len() {
         return table[dof - 1];
     }
-    let k = dof as f64;
-    let h = 2.0 / (9.0 * k);
-    let c = 1.0 - h + z * Real::sqrt(h);
-    k * c * c * c
+    crate::fault_monitor::chi2_quantile(dof as f64, z)
 }
 
 impl<T: Real> Estimate<T> {

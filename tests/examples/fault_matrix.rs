@@ -91,12 +91,9 @@ fn main() {
             let n = t.wrong_references;
             ratio += &format!(" ({n} wrong reference{})", if n > 1 { "s" } else { "" });
         }
-        let attributable = if t.attributable > 0 || name.contains("bias") || name.contains("drift")
-        {
-            format!("{} of {}", t.attributable_isolated, t.attributable)
-        } else {
-            "—".to_string()
-        };
+        let attributable = t.attributable.map_or("—".to_string(), |(runs, isolated)| {
+            format!("{isolated} of {runs}")
+        });
         println!(
             "| {name} | {runs} | {} | {} | {} | {} | {attributable} | {:.2} % | {:.1} % | {:.1} % / {:.1} % | {:.1} % | {:.1} % | {ratio} | {} | {} | {} | {} |",
             t.detected.len(),

@@ -522,11 +522,10 @@ pub struct Tally {
     /// Runs whose faulty part went out of the solve while the fault was active, and when (s
     /// after the onset).
     pub isolated: Vec<f64>,
-    /// Runs whose fault the layout can attribute to its part within [`ISOLATE_WITHIN_S`]
-    /// ([`attributable`]; a bias or a drift), and of them those isolated within that time.
-    pub attributable: usize,
-    /// See [`Self::attributable`].
-    pub attributable_isolated: usize,
+    /// For a bias or a drift (`None` for other kinds): the runs whose fault the layout can
+    /// attribute to its part within [`ISOLATE_WITHIN_S`] ([`attributable`]), and of them
+    /// those isolated within that time.
+    pub attributable: Option<(usize, usize)>,
     /// Rows with a healthy part out of the solve, of `rows`.
     pub wrong_excluded: usize,
     /// Rows from 1 s on.
@@ -654,9 +653,10 @@ pub fn fault_matrix(runs: u64, layout: fn(u64) -> Scenario) -> (Tally, Vec<(&'st
             if spec.bias.is_some() || spec.rate.is_some() {
                 let bias = spec.bias.unwrap_or_default();
                 let rate = spec.rate.unwrap_or_default();
+                let (runs, isolated) = tally.attributable.get_or_insert((0, 0));
                 if attributable(&sc, part, bias, rate) == Some(true) {
-                    tally.attributable += 1;
-                    tally.attributable_isolated +=
+                    *runs += 1;
+                    *isolated +=
                         usize::from(r.excluded_after.is_some_and(|l| l <= ISOLATE_WITHIN_S));
                 }
             }
