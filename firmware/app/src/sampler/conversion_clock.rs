@@ -10,7 +10,10 @@
 //! jitter margin) and cut by every new observation. The sampler reads each part at the
 //! predicted time of a conversion (see [`ConversionClock::probe_after`]), so every reading
 //! halves the interval: the phase is found within a few sample sets and then tracked within
-//! about the jitter margin. A long baseline between two sharp intervals measures the period.
+//! about the jitter margin. A long baseline between two sharp intervals measures the period
+//! (the sharpest interval so far, within a factor of two, anchors it). The bounds are not
+//! intersected: the margin covers most of the jitter, not all of it, and an intersection of
+//! two slightly wrong bounds can leave none.
 //!
 //! Times are `f64` seconds since boot: the arithmetic is a handful of operations per part and
 //! sample set.
@@ -149,18 +152,24 @@ impl ConversionClock {
             return;
         }
         let mid = 0.5 * (self.lo + self.hi);
-        match self.anchor {
-            None => self.anchor = Some((self.n, mid, half)),
-            Some((n0, mid0, half0)) if self.n >= n0 + BASELINE => {
-                let span = (self.n - n0) as f64;
-                let period = (mid - mid0) / span;
-                let tolerance = (half + half0) / span / period;
-                if period > 0.0 && tolerance < self.tolerance {
-                    self.period = period;
-                    self.tolerance = tolerance;
-                }
+        let Some((n0, mid0, half0)) = self.anchor else {
+            self.anchor = Some((self.n, mid, half));
+            return;
+        };
+        if self.n >= n0 + BASELINE {
+            let span = (self.n - n0) as f64;
+            let period = (mid - mid0) / span;
+            let tolerance = (half + half0) / span / period;
+            if period > 0.0 && tolerance < self.tolerance {
+                self.period = period;
+                self.tolerance = tolerance;
             }
-            Some(_) => {}
+        }
+        // A much sharper interval anchors the later measurements instead (the first sharp
+        // one comes while the phase is still being found, up to a tenth of a period wide,
+        // and would bound the period's error by that width over the whole baseline).
+        if half < 0.5 * half0 {
+            self.anchor = Some((self.n, mid, half));
         }
     }
 }
@@ -207,6 +216,38 @@ mod tests {
         let true_period = 1.0 / 400.0 / 1.005;
         let err = (clock.period() - true_period).abs() / true_period;
         assert!(err < 1e-4, "relative period error {err:e}");
+    }
+
+    /// The period's bound holds and narrows with the baseline: a sharper interval re-anchors
+    /// the measurement (here the first sharp ones come from slow transfers, 0.24 ms, then the
+    /// reads speed up to 50 µs).
+    #[test]
+    fn the_period_bound_holds_and_narrows() {
+        for ppm in [0.0, 150.0, -80.0, 5000.0] {
+            let nominal = 1.0 / 400.0;
+            let true_period = nominal / (1.0 + ppm * 1e-6);
+            let c0 = 0.000_731;
+            let count = |t: f64| libm::floor((t - c0) / true_period).max(0.0) as u64;
+            let mut clock = ConversionClock::new(nominal, 0.01, 5e-6);
+            for k in 1..=3000 {
+                let t = k as f64 * 0.01;
+                let transfer = if k <= 50 { 240e-6 } else { 50e-6 };
+                let a = clock.probe_after(t) - 0.5 * transfer;
+                let n = count(a + 0.6 * transfer);
+                clock.observe(a, a + transfer, n);
+            }
+            let err = (clock.period - true_period).abs() / true_period;
+            assert!(
+                err <= clock.tolerance,
+                "{ppm} ppm: error {err:e} beyond the bound {:e}",
+                clock.tolerance
+            );
+            assert!(
+                clock.tolerance < 3e-6,
+                "{ppm} ppm: bound {:e}",
+                clock.tolerance
+            );
+        }
     }
 
     #[test]

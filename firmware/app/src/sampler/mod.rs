@@ -3,10 +3,12 @@
 //!
 //! At each instant `t_k = t_0 + k/rate` the sampler pulses the SYNC line (parts on it take one
 //! sample then) and reads those parts; then it reads each free-running part through its FIFO
-//! at the instant its [`ConversionClock`] says is most informative (at most one part period
-//! later), timestamps the FIFO samples and interpolates to `t_k`
+//! at the instant its [`ConversionClock`] says is most informative (its next conversion, if a
+//! read there ends well before `t_{k+1}`; else at once, and the FIFO level alone at that
+//! conversion), timestamps the FIFO samples and interpolates to `t_k`
 //! ([`Alignment::Interpolate`]); or it takes the latest output as the value at `t_k`
-//! ([`Alignment::Latest`], the unaligned reference). A set records which parts have no value.
+//! ([`Alignment::Latest`], the unaligned reference). The reads of a set run in time order.
+//! A set records which parts have no value.
 //!
 //! The loop never stalls on a part: a failed read is counted and leaves that part's value
 //! empty; a part failing repeatedly is marked down and restarted every second or so; if a set
@@ -21,10 +23,11 @@ use embassy_sync::channel::Sender;
 use embedded_hal::digital::OutputPin;
 use embedded_hal_async::i2c::I2c;
 use embedded_hal_async::spi::SpiDevice;
+use heapless::Vec;
 
 pub use conversion_clock::ConversionClock;
 pub use health::{Health, HealthBoard};
-pub use part::{Part, PartBus, PartHealth};
+pub use part::{Part, PartBus, PartHealth, Reading};
 
 use crate::config::{Alignment, SamplingConfig, MAX_PARTS};
 use crate::time::{Nanos, TimeBase};
@@ -197,36 +200,64 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
         t: Nanos,
         set: &mut SampleSet,
     ) {
-        // Free-running parts may be read until 7/8 of the period (room for their transfers
-        // before the next instant), so that a probe can meet a conversion at any phase.
-        let latest = t + self.period - self.period / 8;
-        let mut order = [(0 as Nanos, 0usize); MAX_PARTS];
-        let mut n = 0;
+        // Reads end before the next instant, when the SYNC line is pulsed again: they start by
+        // 7/8 of the period (room for the transfers). Each part is read once (twice if the
+        // first read came before its conversion after `t`), and its level read once more at its
+        // next conversion if the read could not meet it (see `Part::probe_time`); all in time
+        // order, so that no part's wait holds up another's.
+        let end = t + self.period;
+        let latest = end - self.period / 8;
+        let mut steps: Vec<(Nanos, usize, Step), { 3 * MAX_PARTS }> = Vec::new();
         for (i, p) in self.parts.iter().enumerate() {
             if let Some(p) = p.as_ref().filter(|p| !p.synced()) {
-                order[n] = (p.read_time(t, latest), i);
-                n += 1;
+                let _ = steps.push((p.read_time(t, latest), i, Step::Read));
+                if let Some(at) = p.probe_time(t, latest, end) {
+                    let _ = steps.push((at, i, Step::Probe));
+                }
             }
         }
-        order[..n].sort_unstable();
-        for &(at, i) in &order[..n] {
+        while let Some(next) = (0..steps.len()).min_by_key(|&j| steps[j]) {
+            let (at, i, step) = steps.swap_remove(next);
             let Some(p) = self.parts[i].as_mut() else {
                 continue;
             };
-            set.parts[i] = match self.alignment {
-                Alignment::Latest => p.read_latest().await,
-                Alignment::Interpolate => {
-                    time.wait_until(at).await;
-                    p.read_interpolated(time, t, latest)
+            if self.alignment == Alignment::Latest {
+                set.parts[i] = p.read_latest().await;
+                continue;
+            }
+            time.wait_until(at).await;
+            match step {
+                Step::Read | Step::Reread => {
+                    match p
+                        .read_interpolated(time, t, latest, step == Step::Read)
                         .await
-                        .map(|(value, variance)| {
-                            set.variance[i] = variance;
-                            value
-                        })
+                    {
+                        Reading::Value(value) => {
+                            set.parts[i] = value.map(|(value, variance)| {
+                                set.variance[i] = variance;
+                                value
+                            });
+                        }
+                        Reading::Later(at) => {
+                            let _ = steps.push((at, i, Step::Reread));
+                        }
+                    }
                 }
-            };
+                Step::Probe => p.probe_level(time, end).await,
+            }
         }
     }
+}
+
+/// One step of a set's reads of the free-running parts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Step {
+    /// The set's read.
+    Read,
+    /// A second read, after the conversion the first came before.
+    Reread,
+    /// A level read alone, at a conversion the read could not meet.
+    Probe,
 }
 
 /// The sampling task: one sample set per period into the estimation queue, without waiting

@@ -80,8 +80,27 @@ impl<E> From<lis3dh::Error<E>> for Fault {
     }
 }
 
+/// What a read of a free-running part came to.
+pub enum Reading {
+    /// The part's value at the set instant and its variance factor, or `None`.
+    Value(Option<([f32; 3], f32)>),
+    /// Read once more at this instant, when the conversion after the set instant has surely
+    /// happened.
+    Later(Nanos),
+}
+
 /// A recent sample: (conversion index, x, y, z).
 type Recent = (u64, [f32; 3]);
+
+/// One read of a FIFO's level: between the instants `a` and `b` it held `samples` samples
+/// (`entries` in the part's own unit) and had, or had not, overrun.
+struct Level {
+    a: Nanos,
+    b: Nanos,
+    samples: usize,
+    entries: u8,
+    lost: bool,
+}
 
 /// One part.
 pub struct Part<SPI, I2C> {
@@ -93,6 +112,8 @@ pub struct Part<SPI, I2C> {
     popped: u64,
     /// The most recent samples: (conversion index, x, y, z); a new one replaces the oldest.
     recent: HistoryBuf<Recent, RECENT>,
+    /// Duration of the latest level read (ns).
+    level_read: Nanos,
     failures: u16,
     health: PartHealth,
 }
@@ -117,6 +138,7 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
             clock: ConversionClock::new(period, ODR_TOLERANCE, TIMING_MARGIN),
             popped: 0,
             recent: HistoryBuf::new(),
+            level_read: 0,
             failures: 0,
             health: PartHealth::default(),
         })
@@ -245,85 +267,155 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
         self.or_missed(value)
     }
 
-    /// The instant at which to read this part for the sample instant `t`.
+    /// The instant at which to read this part for the sample instant `t`: at its next
+    /// conversion if that comes by `latest` (reads until then end before the next instant),
+    /// else at once (the set's value is extrapolated then, and the conversion gets a level
+    /// read of its own, [`Part::probe_time`]).
     pub fn read_time(&self, t: Nanos, latest: Nanos) -> Nanos {
-        let p = self.clock.probe_after(seconds(t));
-        ((p * 1e9) as Nanos).clamp(t, latest)
+        let at = self.predicted_after(t).saturating_sub(self.level_read / 2);
+        if at >= t && at <= latest {
+            at
+        } else {
+            t
+        }
+    }
+
+    /// When to read the FIFO level alone, at the next conversion after `t`, if the set's read
+    /// cannot meet it (it comes after `latest`) but a level read there ends well before the
+    /// next instant `end`; `None` otherwise. Without it a conversion late in the period is
+    /// never met by a read: at the set rate, a LIS3DH at +150 ppm stayed in the last eighth of
+    /// the period for 8 s, its conversion clock running on the period estimate alone and
+    /// 0.3–1.0 ms off, its values 1.5–2.9 × white noise in their 0.5 s means at 3 rad/s.
+    pub fn probe_time(&self, t: Nanos, latest: Nanos, end: Nanos) -> Option<Nanos> {
+        if !self.health.running || !self.clock.is_locked() {
+            return None;
+        }
+        let at = self.predicted_after(t).saturating_sub(self.level_read / 2);
+        (at > latest && at + 2 * self.level_read <= end).then_some(at)
+    }
+
+    /// A level read only, at [`Part::probe_time`]: it cuts the conversion clock's interval;
+    /// the samples wait in the FIFO for the next set's read. Skipped if it could not end
+    /// well before the next instant `end` (the reads before it ran long).
+    pub async fn probe_level<T: TimeBase>(&mut self, time: &T, end: Nanos) {
+        if time.now() + 2 * self.level_read > end {
+            return;
+        }
+        let r = self.read_level(time).await;
+        if let Some(level) = self.count(r) {
+            self.observe(&level, false);
+        }
+    }
+
+    /// The predicted first conversion after `t` (`t` itself while the phase is unknown). A
+    /// level read is best started half its duration before it: the instant at which the
+    /// part counts is somewhere in the transfer, and a read that starts at the prediction
+    /// sees the conversion counted whenever it came up to a transfer late, which cuts the
+    /// clock's interval from one side only.
+    fn predicted_after(&self, t: Nanos) -> Nanos {
+        (self.clock.probe_after(seconds(t)) * 1e9) as Nanos
     }
 
     /// Reads the FIFO (level, then the samples, timestamped by the conversion clock) and
     /// interpolates to the instant `t`: the value and its noise variance over one sample's
-    /// (see [`value_at`]). If the newest sample is still before `t` (the read came
-    /// before the next conversion, which happens about half the time while the conversion
-    /// clock's interval is wide: the first ~0.7 s after a start, before its period is
-    /// measured), reads once more when that conversion has surely happened, if that is not
-    /// after `latest`: otherwise the value is extrapolated from the two samples before `t`,
-    /// with up to √5 ≈ 2.2 × their noise (measured on the mixed layout's LIS3DHs: 1.5–2.0 × the
-    /// declared noise over the first 0.7 s, against 1.0 after; the fault monitor's window
-    /// was 3 × its degrees of freedom there, and every fault-free run flagged).
+    /// (see [`value_at`]). If the newest sample is still before `t` (the read came before the
+    /// next conversion, which happens about half the time while the conversion clock's
+    /// interval is wide: the first ~0.7 s after a start, before its period is measured), and
+    /// `again` allows, asks to be read once more when that conversion has surely happened, if
+    /// that is not after `latest`: otherwise the value is extrapolated from the two samples
+    /// before `t`, with up to √5 ≈ 2.2 × their noise (measured on the mixed layout's LIS3DHs:
+    /// 1.5–2.0 × the declared noise over the first 0.7 s, against 1.0 after; the fault
+    /// monitor's window was 3 × its degrees of freedom there, and every fault-free run
+    /// flagged).
     pub async fn read_interpolated<T: TimeBase>(
         &mut self,
-        time: &mut T,
+        time: &T,
         t: Nanos,
         latest: Nanos,
-    ) -> Option<([f32; 3], f32)> {
+        again: bool,
+    ) -> Reading {
         if !self.health.running {
-            return self.or_missed(None);
+            return Reading::Value(self.or_missed(None));
         }
-        let mut again = true;
-        let value = loop {
-            let r = self.drain(time).await;
-            if self.count(r).is_none() {
-                break None;
-            }
-            let newest = self.recent.recent().map_or(0, |s| s.0);
-            let at = (self.clock.surely_by(newest + 1) * 1e9) as Nanos;
-            if !(again && self.clock.time_of(newest) < seconds(t) && at <= latest) {
-                break self.value_at(seconds(t));
-            }
-            again = false;
-            time.wait_until(at).await;
-        };
-        self.or_missed(value)
+        let r = self.drain(time).await;
+        if self.count(r).is_none() {
+            return Reading::Value(self.or_missed(None));
+        }
+        let newest = self.recent.recent().map_or(0, |s| s.0);
+        let at = (self.clock.surely_by(newest + 1) * 1e9) as Nanos;
+        if again && self.clock.time_of(newest) < seconds(t) && at <= latest {
+            return Reading::Later(at);
+        }
+        let value = self.value_at(seconds(t));
+        Reading::Value(self.or_missed(value))
     }
 
-    /// One FIFO read: the level between two time stamps (an observation of the conversion
-    /// count), then that many samples.
+    /// One FIFO read: the level (an observation of the conversion count), then that many
+    /// samples.
     async fn drain<T: TimeBase>(&mut self, time: &T) -> Result<(), Fault> {
         let mut buf = [[0.0f32; 3]; 32];
-        let (a, b, level, lost, got) = match &mut self.driver {
+        let level = self.read_level(time).await?;
+        let got = match &mut self.driver {
+            Driver::Adxl355(d) => d.read_fifo_entries(level.entries, &mut buf).await?,
+            Driver::Lis3dh(d) => {
+                d.read_fifo(&mut buf[..level.samples]).await?;
+                level.samples
+            }
+        };
+        self.observe(&level, got != level.samples);
+        for (i, s) in buf[..got].iter().enumerate() {
+            self.remember(self.popped + 1 + i as u64, *s);
+        }
+        self.popped += level.samples as u64;
+        Ok(())
+    }
+
+    /// The FIFO level between two time stamps, and whether it overran.
+    async fn read_level<T: TimeBase>(&mut self, time: &T) -> Result<Level, Fault> {
+        let level = match &mut self.driver {
             Driver::Adxl355(d) => {
                 let lost = d.status().await?.fifo_overrun();
                 let a = time.now();
                 let entries = d.fifo_entries().await?;
                 let b = time.now();
-                let level = usize::from(entries / 3);
-                let got = d.read_fifo_entries(entries, &mut buf).await?;
-                (a, b, level, lost, got)
+                let samples = usize::from(entries / 3);
+                Level {
+                    a,
+                    b,
+                    samples,
+                    entries,
+                    lost,
+                }
             }
             Driver::Lis3dh(d) => {
                 let a = time.now();
                 let l = d.fifo_level().await?;
                 let b = time.now();
-                let level = usize::from(l.samples);
-                d.read_fifo(&mut buf[..level]).await?;
-                (a, b, level, l.overrun, level)
+                Level {
+                    a,
+                    b,
+                    samples: usize::from(l.samples),
+                    entries: l.samples,
+                    lost: l.overrun,
+                }
             }
         };
-        if lost || got != level {
-            // The count is broken: start counting again from these samples.
+        self.level_read = level.b.saturating_sub(level.a);
+        Ok(level)
+    }
+
+    /// Tells the conversion clock the count a level read saw; if the count is broken (an
+    /// overrun, or fewer samples read than the level said) counting starts again from the
+    /// samples then in the FIFO.
+    fn observe(&mut self, level: &Level, short: bool) {
+        if level.lost || short {
             self.clock.unlock();
             self.health.resyncs += 1;
             self.popped = 0;
             self.recent.clear();
         }
-        let n = self.popped + level as u64;
-        self.clock.observe(seconds(a), seconds(b), n);
-        for (i, s) in buf[..got].iter().enumerate() {
-            self.remember(self.popped + 1 + i as u64, *s);
-        }
-        self.popped = n;
-        Ok(())
+        let n = self.popped + level.samples as u64;
+        self.clock.observe(seconds(level.a), seconds(level.b), n);
     }
 
     fn remember(&mut self, index: u64, value: [f32; 3]) {
