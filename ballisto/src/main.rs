@@ -18,7 +18,7 @@ const FLAGS_HELP: &str = "The flags column of estimates.csv is a bit set:
   32  input invalid: a reading was missing (empty field) or absurd (128); the row is the
       prediction
   64  residual high: χ² above its 99.99 % point, or (model G) the fault monitor's window
-      inconsistent with no part isolated (fault suspected)
+      or mean test inconsistent with no part isolated (fault suspected)
   128 reading absurd: beyond twice its part's full scale (`range`), or 10 000 m/s^2 where
       none is declared: read as missing (32 is set too), counted in a warning
 Model G: with redundancy to spare (16 or more channels for tri-axial parts) a part the fault

@@ -269,8 +269,17 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
     }
 
     /// The residual of one sample set (`p[i]`: channel `i`'s reading, m/s²), or `None` if a
-    /// reading of the channel set is not finite.
+    /// reading of the channel set is not finite: `χ²` and each part's residual without it
+    /// ([`Self::residual`], then [`Self::split`]).
     pub fn evaluate(&self, p: &[T]) -> Option<ParitySample<T, CAP>> {
+        self.residual(p).map(|r| self.split(&r))
+    }
+
+    /// The residual vector `r = P w` of one sample set, by row of the channel set (zero
+    /// beyond it), or `None` if a reading of the channel set is not finite. `N²`
+    /// multiply–adds. Linear in the readings: the mean of residuals is the residual of the
+    /// mean ([`crate::fault_monitor`]'s mean test).
+    pub fn residual(&self, p: &[T]) -> Option<[T; CAP]> {
         if p.len() < self.n {
             return None;
         }
@@ -291,20 +300,25 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
             return None;
         }
         let w = &w[..rows];
-        // χ² as `|P w|²`, not `wᵀ P w`: the readings' rigid-body part (`|w|` ≈ 10⁴ for
-        // gravity at σ = 1 mg) is what `P` removes, and `wᵀ (P w)` would multiply the round-off
-        // of `P w` by it (in f32: 886.8 against 893.4 in f64 for one sample of the test below).
+        // `r = P w` then `χ² = |r|²`, not `wᵀ P w`: the readings' rigid-body part (`|w|` ≈ 10⁴
+        // for gravity at σ = 1 mg) is what `P` removes, and `wᵀ (P w)` would multiply the
+        // round-off of `P w` by it (in f32: 886.8 against 893.4 in f64 for one sample of the
+        // test below).
         let mut r = [T::ZERO; CAP];
-        let mut chi2 = T::ZERO;
         for (ra, pa) in r.iter_mut().zip(self.projector.iter()).take(rows) {
-            let acc = pa[..rows]
+            *ra = pa[..rows]
                 .iter()
                 .zip(w)
                 .fold(T::ZERO, |acc, (x, y)| acc + *x * *y);
-            *ra = acc;
-            chi2 += acc * acc;
         }
-        let r = &r[..rows];
+        Some(r)
+    }
+
+    /// `χ² = |r|²` of a residual vector (by row, [`Self::residual`]) and each part's residual
+    /// without it: `4 N` multiply–adds per part.
+    pub fn split(&self, r: &[T; CAP]) -> ParitySample<T, CAP> {
+        let r = &r[..self.rows];
+        let chi2 = r.iter().fold(T::ZERO, |acc, x| acc + *x * *x);
         // Without part S: `r − P_{·S} (P_SS)⁻¹ r_S`, component by component, then its square.
         // (`χ² − r_Sᵀ (P_SS)⁻¹ r_S` is the same in exact arithmetic, but under a gross fault
         // both terms are ≈ |w|² ≈ 10⁸ and f32 leaves their difference at ±10: a part whose
@@ -321,7 +335,9 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
             }
             let g = t.inverse.mul_vec(&rs);
             // Padded rows have g = 0 (identity inverse, zero residual).
-            let [c0, c1, c2] = t.rows.map(|row| &self.projector[usize::from(row)][..rows]);
+            let [c0, c1, c2] = t
+                .rows
+                .map(|row| &self.projector[usize::from(row)][..self.rows]);
             let mut acc = T::ZERO;
             for (((ra, x0), x1), x2) in r.iter().zip(c0).zip(c1).zip(c2) {
                 let d = *ra - *x0 * g[0] - *x1 * g[1] - *x2 * g[2];
@@ -329,7 +345,7 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
             }
             *out = acc;
         }
-        Some(ParitySample { chi2, without })
+        ParitySample { chi2, without }
     }
 
     /// The mean of [`Self::evaluate`]'s `χ²` and of each part's residual without it when the

@@ -148,8 +148,8 @@ impl Isolation {
         [suspicion, named]
     }
 
-    /// The window's χ² over its limit: the monitor's, or the test's where it has no parity
-    /// space.
+    /// The window's χ² over its limit (or the mean test's over its own, if higher): the
+    /// monitor's, or the test's where it has no parity space.
     fn level(&self) -> f32 {
         self.no_parity
             .level()
