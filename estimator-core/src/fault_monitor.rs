@@ -189,8 +189,9 @@ impl<T: Real, const CAP: usize> MeanTest<T, CAP> {
         }
     }
 
-    /// Empty, for a parity space of `dof` degrees of freedom and per part `part_dof`, at
-    /// window `tau` (sets), baseline `span` (sets) and false-alarm probability `alpha`.
+    /// Empty, for the parity space `par` (its degrees of freedom, and each part's without
+    /// it), at window `tau` (sets), baseline `span` (sets) and false-alarm probability
+    /// `alpha`.
     fn reset(&mut self, par: &Parity<T, CAP>, tau: f64, span: f64, alpha: f64) {
         let tau = (MEAN_WINDOW * tau).max(2.0);
         let z = upper_normal_quantile(alpha);
@@ -237,12 +238,9 @@ impl<T: Real, const CAP: usize> MeanTest<T, CAP> {
         let ceiling = T::of(CAP_FACTOR) * self.limit;
         // Capped as the window is: the mean is pulled toward the baseline, every statistic
         // shrinks by one factor (a gross fault is forgotten in about `τ/2 · ln 2` sets).
-        let shrink = if total > ceiling {
-            ceiling / total
-        } else {
-            T::ONE
-        };
-        if shrink < T::ONE {
+        let mut shrink = T::ONE;
+        if total > ceiling {
+            shrink = ceiling / total;
             let f = shrink.sqrt();
             for (m, (b, x)) in self.mean.iter_mut().zip(self.baseline.iter().zip(d.iter())) {
                 *m = *b + f * *x;
@@ -491,8 +489,6 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         let ceiling = T::of(CAP_FACTOR) * self.limit;
         self.total = (self.lambda * self.total + self.scale * s.chi2).min(ceiling);
         self.fill = self.lambda * self.fill + T::ONE;
-        // The window's excess over its fault-free mean (ν per set).
-        let excess = self.total - self.dof * self.fill;
         let parts = par.parts();
         let mut restoring = 0usize;
         let mut found = None;
@@ -504,17 +500,31 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
             if par.part_dof(q).is_none() {
                 continue;
             }
-            // A part restores consistency if the window without it is under its limit and its
-            // removal takes away most of the excess (`part_bar`); and so for the mean test
-            // if it is high (its fault-free mean is `ν`).
-            let (dof_out, bar) = self.part_bar[q];
-            let removed = self.total - *w - dof_out * self.fill;
-            let window_ok = *w <= self.part_limit[q] && removed >= bar * excess;
+            // A part restores consistency if it explains the window (or the window is under
+            // its limit) and, if the mean test is high, the mean test (one set's worth).
+            let (out, bar) = self.part_bar[q];
+            let window_ok = self.total <= self.limit
+                || explains(
+                    self.total,
+                    *w,
+                    self.part_limit[q],
+                    out,
+                    bar,
+                    self.fill,
+                    self.dof,
+                );
             let m = &self.mean;
             let mean_ok = !mean_high
-                || (m.without[q] <= m.part_limit[q]
-                    && m.total - m.without[q] - dof_out >= bar * (m.total - self.dof));
-            if (window_ok || self.total <= self.limit) && mean_ok {
+                || explains(
+                    m.total,
+                    m.without[q],
+                    m.part_limit[q],
+                    out,
+                    bar,
+                    T::ONE,
+                    self.dof,
+                );
+            if window_ok && mean_ok {
                 restoring += 1;
                 found = Some(q as u8);
                 if self.isolated == Some(q as u8) {
@@ -592,6 +602,14 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         }
         self.verdict
     }
+}
+
+/// Whether a part's removal explains a test: the test without it (`without`) is under the
+/// part's limit, and the removal takes away at least the share `bar` of the test's excess over
+/// its fault-free mean (`dof` per set, over `fill` sets' worth; `out` of those degrees of
+/// freedom leave with the part).
+fn explains<T: Real>(total: T, without: T, limit: T, out: T, bar: T, fill: T, dof: T) -> bool {
+    without <= limit && total - without - out * fill >= bar * (total - dof * fill)
 }
 
 /// The limit of a window sum of `χ²_dof` over `tau` samples, exceeded with probability `alpha`

@@ -203,15 +203,16 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
         // Reads end before the next instant, when the SYNC line is pulsed again: they start by
         // 7/8 of the period (room for the transfers). Each part is read once (twice if the
         // first read came before its conversion after `t`), and its level read once more at its
-        // next conversion if the read could not meet it (see `Part::probe_time`); all in time
+        // next conversion if the read could not meet it (see `Part::read_times`); all in time
         // order, so that no part's wait holds up another's.
         let end = t + self.period;
         let latest = end - self.period / 8;
         let mut steps: Vec<(Nanos, usize, Step), { 3 * MAX_PARTS }> = Vec::new();
         for (i, p) in self.parts.iter().enumerate() {
             if let Some(p) = p.as_ref().filter(|p| !p.synced()) {
-                let _ = steps.push((p.read_time(t, latest), i, Step::Read));
-                if let Some(at) = p.probe_time(t, latest, end) {
+                let (read, probe) = p.read_times(t, latest, end);
+                let _ = steps.push((read, i, Step::Read));
+                if let Some(at) = probe {
                     let _ = steps.push((at, i, Step::Probe));
                 }
             }

@@ -267,34 +267,28 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
         self.or_missed(value)
     }
 
-    /// The instant at which to read this part for the sample instant `t`: at its next
-    /// conversion if that comes by `latest` (reads until then end before the next instant),
-    /// else at once (the set's value is extrapolated then, and the conversion gets a level
-    /// read of its own, [`Part::probe_time`]).
-    pub fn read_time(&self, t: Nanos, latest: Nanos) -> Nanos {
+    /// When to read this part for the sample instant `t`, and when to read its FIFO level
+    /// alone, both from one prediction of its next conversion: the read at that conversion if
+    /// it comes by `latest` (reads until then end before the next instant `end`); else the
+    /// read at once (the set's value is extrapolated then) and, if the part's phase is known
+    /// and a level read there ends well before `end`, the level read at the conversion.
+    /// Without that level read a conversion late in the period is never met by a read: at the
+    /// set rate, a LIS3DH at +150 ppm stayed in the last eighth of the period for 8 s, its
+    /// conversion clock running on the period estimate alone and 0.3–1.0 ms off, its values
+    /// 1.5–2.9 × white noise in their 0.5 s means at 3 rad/s.
+    pub fn read_times(&self, t: Nanos, latest: Nanos, end: Nanos) -> (Nanos, Option<Nanos>) {
         let at = self.predicted_after(t).saturating_sub(self.level_read / 2);
         if at >= t && at <= latest {
-            at
-        } else {
-            t
+            return (at, None);
         }
+        let probe = self.health.running
+            && self.clock.is_locked()
+            && at > latest
+            && at + 2 * self.level_read <= end;
+        (t, probe.then_some(at))
     }
 
-    /// When to read the FIFO level alone, at the next conversion after `t`, if the set's read
-    /// cannot meet it (it comes after `latest`) but a level read there ends well before the
-    /// next instant `end`; `None` otherwise. Without it a conversion late in the period is
-    /// never met by a read: at the set rate, a LIS3DH at +150 ppm stayed in the last eighth of
-    /// the period for 8 s, its conversion clock running on the period estimate alone and
-    /// 0.3–1.0 ms off, its values 1.5–2.9 × white noise in their 0.5 s means at 3 rad/s.
-    pub fn probe_time(&self, t: Nanos, latest: Nanos, end: Nanos) -> Option<Nanos> {
-        if !self.health.running || !self.clock.is_locked() {
-            return None;
-        }
-        let at = self.predicted_after(t).saturating_sub(self.level_read / 2);
-        (at > latest && at + 2 * self.level_read <= end).then_some(at)
-    }
-
-    /// A level read only, at [`Part::probe_time`]: it cuts the conversion clock's interval;
+    /// A level read only, at [`Part::read_times`]' second instant: it cuts the conversion clock's interval;
     /// the samples wait in the FIFO for the next set's read. Skipped if it could not end
     /// well before the next instant `end` (the reads before it ran long).
     pub async fn probe_level<T: TimeBase>(&mut self, time: &T, end: Nanos) {
