@@ -20,11 +20,14 @@
 //!   uses). Each window sum is capped at twice its limit `L`, so that a gross fault is
 //!   forgotten `τ ln((2L − μ)/(L − μ))` samples after its end (μ = `ντ`, the clean mean: 1.9 τ
 //!   at ν = 6, α = 10⁻⁶), and re-admission follows `τ` later.
-//! - **Held out across an intermittent fault**: each re-admission of a part doubles the clean
-//!   run its next one needs (`τ · 2^k`, up to `2⁵ τ`), and each `16 τ` clean sets in a row with
-//!   no part isolated halve it again: a part whose bursts come back within its last clean run
-//!   stays out from its second burst on; the re-admissions are counted per part
-//!   ([`FaultMonitor::readmissions`]).
+//! - **Held out across an intermittent fault**: a part isolated again within [`FORGET_WINDOWS`]
+//!   windows after its re-admission (beyond the clean run that re-admitted it) is taken to
+//!   fault in a pattern: its next re-admission needs twice the clean time it had between the
+//!   two isolations (the pattern's gap as measured, at least twice the run before; at most
+//!   [`MAX_HOLD_WINDOWS`] windows). Such a part stays out from its second burst on across every
+//!   gap shorter than twice the one before it; the first gap cannot be told from a fault that
+//!   ended, and the part is re-admitted in it. A part back in for longer is held for `τ` again;
+//!   re-admissions are counted per part ([`FaultMonitor::readmissions`]).
 //!
 //! - **A mean test beside the window** (issue 48: slow faults): the window sums energy, and a
 //!   bias that grows slowly adds little of it at first. The residual is linear in the
@@ -142,9 +145,13 @@ pub struct FaultMonitor<T, const CAP: usize> {
     variance: [T; CAP],
     scale: T,
     part_scale: [T; CAP],
-    /// Per part: its back-off (its next re-admission needs `τ · 2^k` clean sets) and how many
-    /// times it has been re-admitted (saturating).
-    backoff: [u8; CAP],
+    /// Sets so far (wrapping: only differences are used).
+    sets: u32,
+    /// Per part: the clean sets its next re-admission needs (below `τ`: `τ`), the set of its
+    /// last re-admission while that is remembered, and how many times it has been re-admitted
+    /// (saturating).
+    hold: [u32; CAP],
+    back_at: [Option<u32>; CAP],
     readmitted: [u8; CAP],
     /// The mean test (module doc).
     mean: MeanTest<T, CAP>,
@@ -271,13 +278,13 @@ impl<T: Real, const CAP: usize> MeanTest<T, CAP> {
     }
 }
 
-/// The longest back-off: a part re-admitted this many times in a row needs `2⁵ τ` clean sets
-/// (32 s at the default window) before it comes back.
-const MAX_BACKOFF: u8 = 5;
+/// The longest hold: a part in an intermittent pattern needs at most this many windows of
+/// clean sets (32 s at the default window) before it comes back.
+pub const MAX_HOLD_WINDOWS: u32 = 32;
 
-/// Every this many windows of clean sets in a row with no part isolated, each part's back-off
-/// drops by one (a fault long gone is forgotten step by step).
-const FORGET_WINDOWS: u32 = 16;
+/// A re-admitted part's pattern is remembered for this many windows beyond the clean run that
+/// re-admitted it: isolated again within that, its gap is measured and its hold set from it.
+pub const FORGET_WINDOWS: u32 = 16;
 
 /// A channel's variance factor moves the monitor's scales once it has changed by more than
 /// this since they were computed (an interpolated part's weight drifts with its clock offset:
@@ -309,7 +316,9 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
             variance: [T::ONE; CAP],
             scale: T::ONE,
             part_scale: [T::ONE; CAP],
-            backoff: [0; CAP],
+            sets: 0,
+            hold: [0; CAP],
+            back_at: [None; CAP],
             readmitted: [0; CAP],
             mean: MeanTest::new(),
         }
@@ -429,12 +438,47 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         self.readmitted.get(usize::from(part)).copied().unwrap_or(0)
     }
 
-    /// The clean sets in a row part `part` needs to be re-admitted: `τ · 2^k` after `k`
-    /// recent re-admissions (an intermittent fault is held out across the gaps between its
-    /// bursts once they are shorter than that).
+    /// The clean sets in a row part `part` needs to be re-admitted: `τ`, or after a re-admission
+    /// and an isolation within [`FORGET_WINDOWS`] windows, twice the clean time between the two
+    /// (module doc: an intermittent fault).
     pub fn readmission_sets(&self, part: u8) -> u32 {
-        let k = self.backoff.get(usize::from(part)).copied().unwrap_or(0);
-        self.window.saturating_mul(1 << k)
+        let i = usize::from(part);
+        let hold = self
+            .hold
+            .get(i)
+            .map_or(self.window, |h| (*h).max(self.window));
+        match self.back_at.get(i).copied().flatten() {
+            Some(at) if self.sets.wrapping_sub(at) > self.memory(hold) => self.window,
+            _ => hold,
+        }
+    }
+
+    /// How long after its re-admission a part with hold `hold` is remembered.
+    fn memory(&self, hold: u32) -> u32 {
+        hold.saturating_add(self.window.saturating_mul(FORGET_WINDOWS))
+    }
+
+    /// Isolates part `q`. Back within memory of its re-admission (its pattern's gap: the sets
+    /// since then and the clean run that re-admitted it), its next re-admission needs twice
+    /// that gap; otherwise `τ`.
+    fn isolate(&mut self, q: u8) {
+        if self.isolated == Some(q) {
+            return;
+        }
+        self.isolated = Some(q);
+        let i = usize::from(q);
+        if i >= CAP {
+            return;
+        }
+        let stored = self.hold[i].max(self.window);
+        let max = self.window.saturating_mul(MAX_HOLD_WINDOWS);
+        self.hold[i] = match self.back_at[i].take() {
+            Some(at) if self.sets.wrapping_sub(at) <= self.memory(stored) => {
+                let gap = self.sets.wrapping_sub(at).saturating_add(stored);
+                gap.saturating_mul(2).min(max)
+            }
+            _ => self.window,
+        };
     }
 
     /// The part currently isolated (held until re-admitted).
@@ -467,6 +511,7 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
     /// [`StuckCheck`]): one of them that explains the window is isolated at once, with no
     /// confirmation, and the window is then not "unexplained".
     pub fn step_with(&mut self, p: &[T], known: u32) -> Verdict {
+        self.sets = self.sets.wrapping_add(1);
         let Some(par) = &self.parity else {
             self.verdict = Verdict::NoTest;
             return self.verdict;
@@ -537,28 +582,15 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         }
         self.verdict = if self.total <= self.limit && !mean_high {
             self.clean = self.clean.saturating_add(1);
-            match self.isolated.map(usize::from) {
-                Some(q) if q < CAP => {
-                    let need = self.window.saturating_mul(1 << self.backoff[q]);
-                    if self.clean >= need {
-                        self.isolated = None;
-                        self.backoff[q] = (self.backoff[q] + 1).min(MAX_BACKOFF);
-                        self.readmitted[q] = self.readmitted[q].saturating_add(1);
+            if let Some(q) = self.isolated {
+                if self.clean >= self.readmission_sets(q) {
+                    self.isolated = None;
+                    let i = usize::from(q);
+                    if let Some(at) = self.back_at.get_mut(i) {
+                        *at = Some(self.sets);
                     }
-                }
-                Some(_) => {
-                    if self.clean >= self.window {
-                        self.isolated = None;
-                    }
-                }
-                None => {
-                    if self
-                        .clean
-                        .is_multiple_of(self.window.saturating_mul(FORGET_WINDOWS))
-                    {
-                        for b in self.backoff.iter_mut() {
-                            *b = b.saturating_sub(1);
-                        }
+                    if let Some(n) = self.readmitted.get_mut(i) {
+                        *n = n.saturating_add(1);
                     }
                 }
             }
@@ -566,7 +598,7 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         } else {
             self.clean = 0;
             if let Some(q) = known_restores {
-                self.isolated = Some(q);
+                self.isolate(q);
                 held_restores = true;
             } else if restoring == 1 && found != self.isolated {
                 // A new part: isolated once it alone explains the window for `confirm` sets.
@@ -576,8 +608,8 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
                     self.candidate = found;
                     self.run = 1;
                 }
-                if self.run >= self.confirm {
-                    self.isolated = found;
+                if let Some(q) = found.filter(|_| self.run >= self.confirm) {
+                    self.isolate(q);
                     held_restores = true;
                 }
             } else {
@@ -1377,27 +1409,33 @@ mod tests {
         assert_eq!(m.isolated(), None);
     }
 
-    /// An intermittent fault — 10 σ on part 4's y channel for 0.3 s every 4 s, 4 bursts — is
-    /// isolated at its first burst, re-admitted in the 3.7 s gap after it (τ = 1 s of clean
-    /// sets needed), isolated again at the second burst and from then on held out across the
-    /// gaps (2 τ needed: the window decays for 1.9 τ, the gap is 3.7 s) to the last burst's end;
-    /// re-admitted 1.9 τ + 2 τ after it; never another part; both re-admissions counted; 16 τ
-    /// clean halve the clean run needed again.
-    #[test]
-    fn an_intermittent_fault_is_held_out_across_its_gaps() {
+    /// Runs an intermittent fault — 10 σ on part 4's y channel for `on` sets every `period`,
+    /// `bursts` times — and then `after` clean sets; returns the monitor, the sets with part 4
+    /// out and all sets from 1 s after the second burst's onset (its isolation: 0.6 s) to the
+    /// last burst's end, and the sets from the last burst's end to part 4's re-admission.
+    fn intermittent(
+        period: usize,
+        on: usize,
+        bursts: usize,
+        after: usize,
+    ) -> (
+        FaultMonitor<f32, 24>,
+        Arrangement<24>,
+        ChaCha8Rng,
+        (usize, usize),
+        Option<usize>,
+    ) {
         let (mut m, arr, mut rng) = warmed_monitor(12);
-        let (period, on, bursts) = (400, 30, 4);
         let last_end = period * (bursts - 1) + on;
         let mut out = (0, 0);
         let mut back = None;
-        for k in 0..last_end + 1000 {
+        for k in 0..last_end + after {
             let mut p = reading(&arr, &mut rng);
             if k < last_end && k % period < on {
                 p[13] += 1e-2;
             }
             let v = m.step(&p);
             blames_at_most_part_4(v);
-            // From 1 s after the second burst's onset (its isolation: 0.6 s) to the last's end.
             if (period + 100..last_end).contains(&k) {
                 out.0 += usize::from(m.isolated() == Some(4));
                 out.1 += 1;
@@ -1406,16 +1444,46 @@ mod tests {
                 back = Some(k - last_end);
             }
         }
+        (m, arr, rng, out, back)
+    }
+
+    /// 0.3 s every 4 s, 4 bursts: isolated at the first burst, re-admitted in the 3.7 s gap
+    /// after it (τ = 1 s of clean sets needed, after the window's 1.9 τ decay), isolated again
+    /// at the second burst — its gap measured, about 1.1 τ in and τ clean before, so 4–5 τ
+    /// clean are needed from then on — and held out across the gaps (1.8 τ clean each) to the
+    /// last burst's end; re-admitted 1.9 τ + the hold after it; never another part; both
+    /// re-admissions counted; forgotten 16 τ after the hold.
+    #[test]
+    fn an_intermittent_fault_is_held_out_across_its_gaps() {
+        let (mut m, arr, mut rng, out, back) = intermittent(400, 30, 4, 1000);
         assert_eq!(out.0, out.1, "part 4 out on {} of {} sets", out.0, out.1);
-        // The bursts over: re-admitted after the window's decay (1.9 τ) and 2 τ clean.
+        let hold = m.readmission_sets(4) as usize;
+        assert!((400..500).contains(&hold), "hold {hold} sets");
         let back = back.expect("re-admitted");
-        assert!((350..450).contains(&back), "re-admitted after {back} sets");
-        assert_eq!((m.readmissions(4), m.readmission_sets(4)), (2, 400));
-        // 16 τ clean with nothing isolated: the back-off drops by one.
-        for _ in 0..1600 {
+        assert!(
+            (150 + hold..250 + hold).contains(&back),
+            "re-admitted after {back} sets"
+        );
+        assert_eq!(m.readmissions(4), 2);
+        for _ in 0..(hold + 1600 - (1000 - back)) {
             m.step(&reading(&arr, &mut rng));
         }
-        assert_eq!(m.readmission_sets(4), 200);
+        assert_eq!(m.readmission_sets(4) as usize, hold, "forgotten too early");
+        for _ in 0..2 {
+            m.step(&reading(&arr, &mut rng));
+        }
+        assert_eq!(m.readmission_sets(4), 100, "remembered for ever");
+    }
+
+    /// A pattern with long gaps — 0.3 s every 10 s — is held out from its second burst on: the
+    /// hold comes from the gap measured, not from a fixed step per re-admission (doubling τ
+    /// each time needed 2, 4, 8 τ: re-admitted in three gaps of the four).
+    #[test]
+    fn an_intermittent_fault_with_long_gaps_is_held_out_from_its_second_burst() {
+        let (m, _, _, out, back) = intermittent(1000, 30, 5, 100);
+        assert_eq!(out.0, out.1, "part 4 out on {} of {} sets", out.0, out.1);
+        assert_eq!(back, None, "re-admitted within 1 s of the last burst");
+        assert_eq!(m.readmissions(4), 1);
     }
 
     /// A part already isolated by other evidence (the stuck check) that explains the window is

@@ -131,6 +131,13 @@ pub struct FaultRun {
     pub since_isolation: usize,
     /// See [`Self::since_isolation`].
     pub out_since_isolation: usize,
+    /// Times the part went out of the solve while the fault was active.
+    pub exclusions: usize,
+    /// Rows while active from the part's second exclusion on (an intermittent fault's
+    /// pattern known), and of them with the part out.
+    pub since_second: usize,
+    /// See [`Self::since_second`].
+    pub out_since_second: usize,
     /// Rows after the fault with the faulty part still out of the solve.
     pub excluded_after_end: usize,
     /// The rows while the fault is active with the faulty part out of the solve: their times
@@ -213,6 +220,7 @@ pub fn fault_run(sc: &Scenario, fault: Option<(usize, f64, f64)>) -> FaultRun {
     let mut r = FaultRun::default();
     let part_bit = fault.map_or(0, |(p, _, _)| 1u8 << p);
     let (start, end) = fault.map_or((f64::INFINITY, f64::INFINITY), |f| (f.1, f.2));
+    let mut out_before = false;
     let report = run_firmware(sc, &config, sc.samples() as u32, &mut |_, m, tr| {
         // The set's instant in simulated time, as the fault's start and end (the report's `t`
         // is on-board time, from boot: 50 ms earlier in these scenarios).
@@ -226,6 +234,7 @@ pub fn fault_run(sc: &Scenario, fault: Option<(usize, f64, f64)>) -> FaultRun {
         let residual = e.flags.has(Flags::RESIDUAL_HIGH);
         let seen = residual || (m.missing.0 | m.excluded.0) & part_bit != 0;
         let out = m.excluded.0 & part_bit != 0;
+        let was_out = core::mem::replace(&mut out_before, out);
         if t < 1.0 {
             return;
         }
@@ -252,6 +261,11 @@ pub fn fault_run(sc: &Scenario, fault: Option<(usize, f64, f64)>) -> FaultRun {
             if r.excluded_after.is_some() {
                 r.since_isolation += 1;
                 r.out_since_isolation += usize::from(out);
+            }
+            r.exclusions += usize::from(out && !was_out);
+            if r.exclusions >= 2 {
+                r.since_second += 1;
+                r.out_since_second += usize::from(out);
             }
         } else {
             r.after_rows += 1;
@@ -454,16 +468,44 @@ fn drift(name: &'static str, rate: f64) -> (&'static str, FaultSpec) {
     )
 }
 
-/// The name prefix of the intermittent kind: [`BURSTS`] bursts of [`BURST_S`] every
+/// The name prefix of the intermittent kinds: [`BURSTS`] bursts of [`BURST_S`], every
 /// [`BURST_PERIOD_S`] (gaps longer than a re-admission takes after one burst, 2.9 s: the
-/// monitor's back-off must hold the part out across them).
+/// monitor must hold the part out across them from its second burst on), or ([`JITTERED`]) at
+/// a period drawn in [`JITTERED_PERIOD_S`] per run, each gap within ±[`JITTER`] of it.
 pub const INTERMITTENT: &str = "intermittent";
-/// Bursts of the intermittent kind.
+/// Bursts of the intermittent kinds.
 pub const BURSTS: usize = 3;
 /// Length of one burst, s.
 pub const BURST_S: f64 = 0.3;
-/// Bursts start this far apart, s.
+/// Bursts of the regular kind start this far apart, s.
 pub const BURST_PERIOD_S: f64 = 3.8;
+/// The intermittent kind with a drawn, jittered period.
+pub const JITTERED: &str = "intermittent noise bursts ×30 (0.3 s every 5–10 s ± 20 %)";
+/// The range of [`JITTERED`]'s period, s.
+pub const JITTERED_PERIOD_S: (f64, f64) = (5.0, 10.0);
+/// Each of [`JITTERED`]'s gaps is its period times 1 ± up to this.
+pub const JITTER: f64 = 0.2;
+
+/// The bursts (start, end; s) of an intermittent kind `name` whose first starts at `s0`;
+/// `draw` gives numbers uniform in [0, 1).
+fn burst_times(name: &str, s0: f64, draw: &mut impl FnMut() -> f64) -> Vec<(f64, f64)> {
+    let period = if name == JITTERED {
+        let (lo, hi) = JITTERED_PERIOD_S;
+        lo + (hi - lo) * draw()
+    } else {
+        BURST_PERIOD_S
+    };
+    let mut t = s0;
+    let mut out = Vec::new();
+    for b in 0..BURSTS {
+        if b > 0 {
+            let jitter = if name == JITTERED { JITTER } else { 0.0 };
+            t += period * (1.0 + jitter * (2.0 * draw() - 1.0));
+        }
+        out.push((t, t + BURST_S));
+    }
+    out
+}
 
 /// The fault kinds of hal-sim, as scenario faults on `part` from `start` (drift and bias at
 /// several sizes; noise bursts also intermittent), in the faulty part's own terms: `sigma` its
@@ -509,6 +551,14 @@ pub fn kinds(sigma: f64, density: f64) -> Vec<(&'static str, FaultSpec)> {
                 ..f("timeout")
             },
         ),
+        // Last: the kinds before it draw their parts and times as they did without it.
+        (
+            JITTERED,
+            FaultSpec {
+                density: Some(30.0 * density),
+                ..f("noise-burst")
+            },
+        ),
     ]
 }
 
@@ -548,6 +598,10 @@ pub struct Tally {
     pub since_isolation: usize,
     /// See `since_isolation`.
     pub out_since_isolation: usize,
+    /// Rows while active from the part's second exclusion on, and of them with the part out.
+    pub since_second: usize,
+    /// See `since_second`.
+    pub out_since_second: usize,
     /// Rows after the fault, and of them silently wrong.
     pub after: usize,
     /// Of `after`, silently wrong.
@@ -585,6 +639,8 @@ impl Tally {
         self.out_active += r.excluded_active;
         self.since_isolation += r.since_isolation;
         self.out_since_isolation += r.out_since_isolation;
+        self.since_second += r.since_second;
+        self.out_since_second += r.out_since_second;
         self.after += r.after_rows;
         self.silent_after += r.silent_after;
         self.nan += r.nan;
@@ -632,12 +688,11 @@ pub fn fault_matrix(runs: u64, layout: fn(u64) -> Scenario) -> (Tally, Vec<(&'st
             .swap_remove(k);
             let start = 3.0 + 4.0 * next();
             let bursts = if name.starts_with(INTERMITTENT) {
-                // Three bursts from 2–4 s: the window spans their pattern.
-                let s0 = 2.0 + 0.5 * (start - 3.0);
-                (0..BURSTS)
-                    .map(|b| s0 + BURST_PERIOD_S * b as f64)
-                    .map(|t| (t, t + BURST_S))
-                    .collect()
+                // Three bursts from 2–4 s: the window spans their pattern, and the run goes
+                // on for FAULT_S after the last.
+                let bursts = burst_times(name, 2.0 + 0.5 * (start - 3.0), &mut next);
+                sc.duration = sc.duration.max(bursts[BURSTS - 1].1 + FAULT_S);
+                bursts
             } else {
                 vec![(start, start + FAULT_S)]
             };

@@ -5,7 +5,7 @@
 use ballisto_link::decode::Report;
 use ballisto_link::EventId;
 use e2e_tests::csv::read_columns;
-use e2e_tests::faults::{fault_matrix, omega_error};
+use e2e_tests::faults::{fault_matrix, omega_error, INTERMITTENT};
 
 /// Kinds the parity space must isolate in every run or all but one (a 10 σ bias in a part
 /// whose removal leaves little redundancy can take longer than its 3 s).
@@ -50,6 +50,7 @@ fn the_matrix_holds(layout: fn(u64) -> hal_sim::scenario::Scenario) {
     protection_holds("none", &clean.protection);
     for (name, t) in &rows {
         protection_holds(name, &t.protection);
+        held_across_its_gaps(name, t);
         println!(
             "{name}: isolated {} of {runs}, healthy part out on {} rows, silent {} / {} while active, {} after, Ω error ratio {:?}",
             t.isolated.len(),
@@ -120,6 +121,24 @@ fn false_alarms_within_the_goal(clean: &e2e_tests::faults::Tally) {
         "false alarms: {} of {} rows",
         clean.flagged_clean,
         clean.clean_rows
+    );
+}
+
+/// Issue 48's goal for an intermittent fault: its part out on at least 99 % of the rows from
+/// its second exclusion on, across the gaps between its bursts (a regular pattern and one whose
+/// period is drawn per run, each gap within ±20 % of it). The first gap is not asserted: no
+/// test can tell it from the end of a fault, and the part is re-admitted in it
+/// (`estimator_core::fault_monitor`: the hold comes from the gap measured).
+fn held_across_its_gaps(name: &str, t: &e2e_tests::faults::Tally) {
+    if !name.starts_with(INTERMITTENT) {
+        return;
+    }
+    assert!(t.since_second > 0, "{name}: never excluded twice");
+    assert!(
+        t.out_since_second * 100 >= 99 * t.since_second,
+        "{name}: part out on {} of {} rows from its second exclusion on",
+        t.out_since_second,
+        t.since_second
     );
 }
 
@@ -436,6 +455,7 @@ fn the_mixed_layout_is_not_silently_wrong_after_a_fault() {
             assert!(!t.detected.is_empty(), "{name}: never seen");
         }
         protection_holds(name, &t.protection);
+        held_across_its_gaps(name, t);
         assert!(
             t.silent_after * 200 <= t.after,
             "{name}: silent after {} of {}",
