@@ -70,7 +70,7 @@ fn main() {
     println!(
         "layout: {name}, ideal parts (noise and clock offsets only), {DURATION} s at 100 Hz, faults of {FAULT_S} s from 3–7 s, one part chosen at random, the fault sized by its own σ (one sample: {sigmas})"
     );
-    println!("| fault | runs | detected ≤ 1 s | latency median / worst (s) | isolated (runs) | isolation latency median / worst (s) | isolated ≤ 2 s, of the runs the layout can attribute by then | rows with a healthy part out | rows flagged 64 while active | part out while active / since its first exclusion (intermittent: / since its second) | silent while active | silent after | Ω error while out / without the part | error above PL σ0 / Ω′ / Ω | mean PL σ0 / Ω′ / Ω | NaN | TM lost |");
+    println!("| fault | runs | detected ≤ 1 s | latency median / worst (s) | isolated (runs) | isolation latency median / worst (s) | isolated ≤ 2 s, of the runs the layout can attribute by then at even odds (with 99 % probability) | rows with a healthy part out | rows flagged 64 while active | part out while active / since its first exclusion (intermittent: / since its second) | silent while active | silent after | Ω error while out / without the part | error above PL σ0 / Ω′ / Ω | mean PL σ0 / Ω′ / Ω | NaN | TM lost |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let (clean, rows) = fault_matrix(runs, layout);
     println!(
@@ -92,8 +92,8 @@ fn main() {
             let n = t.wrong_references;
             ratio += &format!(" ({n} wrong reference{})", if n > 1 { "s" } else { "" });
         }
-        let attributable = t.attributable.map_or("—".to_string(), |(runs, isolated)| {
-            format!("{isolated} of {runs}")
+        let attributable = t.attributable.map_or("—".to_string(), |[even, sure]| {
+            format!("{} of {} ({} of {})", even.1, even.0, sure.1, sure.0)
         });
         let mut out = format!(
             "{:.1} % / {:.1} %",

@@ -367,17 +367,23 @@ pub const FAULT_S: f64 = 3.0;
 pub const ISOLATE_WITHIN_S: f64 = 2.0;
 
 /// Whether the layout itself can attribute a fault of `bias + rate · t` (m/s², per axis x, y, z
-/// of part `part`) to that part within [`ISOLATE_WITHIN_S`] of its onset: for every other part
-/// `q`, the fault's noncentrality in the residual without `q`, `Σ |P⁽q⁾ b(t)|²` over the sets of
-/// that time, reaches what a `χ²` test with that residual's degrees of freedom at the monitor's
-/// false-alarm probability (10⁻⁶) needs for even odds (its point less its mean). Below it, `q`
-/// can stand in for `part` (it explains the fault as well) and no test on the residual tells
-/// the two apart in that time: the monitor rightly says "not isolated". In the N = 18 layout
-/// parts 2 and 5 are such a pair for the matrix's fault direction `(1, −1, ½)`: without the
-/// other, 1 % of either's parity energy is left. `None`: the part cannot be isolated at all
-/// (no parity space, or its removal leaves no test).
-pub fn attributable(sc: &Scenario, part: usize, bias: [f64; 3], rate: [f64; 3]) -> Option<bool> {
-    use estimator_core::fault_monitor::{chi2_quantile, upper_normal_quantile};
+/// of part `part`) to that part within [`ISOLATE_WITHIN_S`] of its onset with probability
+/// `power`: for every other part `q`, the fault's noncentrality in the residual without `q`,
+/// `Σ |P⁽q⁾ b(t)|²` over the sets of that time, reaches what a `χ²` test with that residual's
+/// degrees of freedom at the monitor's false-alarm probability (10⁻⁶) needs to see it with that
+/// probability ([`needed_noncentrality`]; [`EVEN_ODDS`] or [`SURELY`]). Below it, `q` can stand
+/// in for `part` (it explains the fault as well) and no test on the residual tells the two
+/// apart in that time: the monitor rightly says "not isolated". In the N = 18 layout parts 2
+/// and 5 are such a pair for the matrix's fault direction `(1, −1, ½)`: without the other, 1 %
+/// of either's parity energy is left. `None`: the part cannot be isolated at all (no parity
+/// space, or its removal leaves no test).
+pub fn attributable(
+    sc: &Scenario,
+    part: usize,
+    bias: [f64; 3],
+    rate: [f64; 3],
+    power: f64,
+) -> Option<bool> {
     let loaded = sc.arrangement().load("arrangement.toml").ok()?;
     let arr = &loaded.arrangement;
     let parts = hal_sim::arrangement_file::parts_of(&loaded.names);
@@ -406,13 +412,45 @@ pub fn attributable(sc: &Scenario, part: usize, bias: [f64; 3], rate: [f64; 3]) 
             *n += w;
         }
     }
-    let z = upper_normal_quantile(1e-6);
     Some((0..parity.parts()).filter(|q| *q != number).all(|q| {
-        parity.part_dof(q).is_none_or(|dof| {
-            let dof = dof as f64;
-            noncentrality[q] >= chi2_quantile(dof, z) - dof
-        })
+        parity
+            .part_dof(q)
+            .is_none_or(|dof| noncentrality[q] >= needed_noncentrality(dof as f64, power))
     }))
+}
+
+/// [`attributable`] at even odds: the boundary of what any test can do.
+pub const EVEN_ODDS: f64 = 0.5;
+/// [`attributable`] with 99 % probability: a fault any good test should isolate in time.
+pub const SURELY: f64 = 0.99;
+
+/// The noncentrality at which `χ²` with `dof` degrees of freedom exceeds its point at the
+/// monitor's false-alarm probability (10⁻⁶) with probability `power` (Patnaik: the
+/// noncentral `χ²_ν(λ)` as `c χ²_f`, `c = (ν + 2λ)/(ν + λ)`, `f = (ν + λ)²/(ν + 2λ)`; the
+/// quantiles by Wilson–Hilferty; λ by bisection).
+pub fn needed_noncentrality(dof: f64, power: f64) -> f64 {
+    use estimator_core::fault_monitor::{chi2_quantile, upper_normal_quantile};
+    let point = chi2_quantile(dof, upper_normal_quantile(1e-6));
+    let z = if power >= 0.5 {
+        -upper_normal_quantile(1.0 - power)
+    } else {
+        upper_normal_quantile(power)
+    };
+    let sees = |l: f64| {
+        let c = (dof + 2.0 * l) / (dof + l);
+        let f = (dof + l).powi(2) / (dof + 2.0 * l);
+        point / c <= chi2_quantile(f, z)
+    };
+    let (mut lo, mut hi) = (0.0, 1e6);
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if sees(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi
 }
 
 /// The matrix's layout for `seed` (the tetrahedron and two more ADXL355, N = 18).
@@ -573,9 +611,9 @@ pub struct Tally {
     /// after the onset).
     pub isolated: Vec<f64>,
     /// For a bias or a drift (`None` for other kinds): the runs whose fault the layout can
-    /// attribute to its part within [`ISOLATE_WITHIN_S`] ([`attributable`]), and of them
-    /// those isolated within that time.
-    pub attributable: Option<(usize, usize)>,
+    /// attribute to its part within [`ISOLATE_WITHIN_S`] ([`attributable`]) at even odds and
+    /// with 99 % probability, and of each those isolated within that time.
+    pub attributable: Option<[(usize, usize); 2]>,
     /// Rows with a healthy part out of the solve, of `rows`.
     pub wrong_excluded: usize,
     /// Rows from 1 s on.
@@ -708,11 +746,13 @@ pub fn fault_matrix(runs: u64, layout: fn(u64) -> Scenario) -> (Tally, Vec<(&'st
             if spec.bias.is_some() || spec.rate.is_some() {
                 let bias = spec.bias.unwrap_or_default();
                 let rate = spec.rate.unwrap_or_default();
-                let (runs, isolated) = tally.attributable.get_or_insert((0, 0));
-                if attributable(&sc, part, bias, rate) == Some(true) {
-                    *runs += 1;
-                    *isolated +=
-                        usize::from(r.excluded_after.is_some_and(|l| l <= ISOLATE_WITHIN_S));
+                let counts = tally.attributable.get_or_insert([(0, 0); 2]);
+                for ((runs, isolated), power) in counts.iter_mut().zip([EVEN_ODDS, SURELY]) {
+                    if attributable(&sc, part, bias, rate, power) == Some(true) {
+                        *runs += 1;
+                        *isolated +=
+                            usize::from(r.excluded_after.is_some_and(|l| l <= ISOLATE_WITHIN_S));
+                    }
                 }
             }
             if let Some(l) = r.excluded_after {

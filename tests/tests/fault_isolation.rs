@@ -591,7 +591,7 @@ fn one_axis_on_its_rail_names_its_part_at_the_first_clipped_set() {
 /// and a 10 σ bias on any part is.
 #[test]
 fn parts_that_can_stand_in_for_each_other_are_not_attributable() {
-    use e2e_tests::faults::attributable;
+    use e2e_tests::faults::{attributable, EVEN_ODDS};
     let sc = e2e_tests::faults::layout(2000);
     let sigma = sc.channel_noise(&sc.parts[0]);
     let pattern = |b: f64| [b, -b, 0.5 * b];
@@ -600,18 +600,18 @@ fn parts_that_can_stand_in_for_each_other_are_not_attributable() {
         let small = pattern(3.0 * sigma);
         let expected = Some(!twins.contains(&p));
         assert_eq!(
-            attributable(&sc, p, small, [0.0; 3]),
+            attributable(&sc, p, small, [0.0; 3], EVEN_ODDS),
             expected,
             "3 σ bias, u{p}"
         );
         assert_eq!(
-            attributable(&sc, p, [0.0; 3], small),
+            attributable(&sc, p, [0.0; 3], small, EVEN_ODDS),
             expected,
             "3 σ/s drift, u{p}"
         );
         let large = pattern(10.0 * sigma);
         assert_eq!(
-            attributable(&sc, p, large, [0.0; 3]),
+            attributable(&sc, p, large, [0.0; 3], EVEN_ODDS),
             Some(true),
             "10 σ, u{p}"
         );
@@ -619,5 +619,8 @@ fn parts_that_can_stand_in_for_each_other_are_not_attributable() {
     // No parity space without the two extra parts: nothing can be attributed.
     let mut four = sc.clone();
     four.parts.truncate(4);
-    assert_eq!(attributable(&four, 0, pattern(1.0), [0.0; 3]), None);
+    assert_eq!(
+        attributable(&four, 0, pattern(1.0), [0.0; 3], EVEN_ODDS),
+        None
+    );
 }
