@@ -51,6 +51,7 @@ fn the_matrix_holds(layout: fn(u64) -> hal_sim::scenario::Scenario) {
     for (name, t) in &rows {
         protection_holds(name, &t.protection);
         held_across_its_gaps(name, t);
+        isolated_in_time_where_the_layout_surely_can(name, t);
         println!(
             "{name}: isolated {} of {runs}, healthy part out on {} rows, silent {} / {} while active, {} after, Ω error ratio {:?}",
             t.isolated.len(),
@@ -122,6 +123,19 @@ fn false_alarms_within_the_goal(clean: &e2e_tests::faults::Tally) {
         clean.flagged_clean,
         clean.clean_rows
     );
+}
+
+/// Issue 48's goal for a bias or a drift: isolated within 2 s in every run whose fault the
+/// layout can attribute to its part by then with 99 % probability (`e2e_tests::faults::
+/// attributable`: what a test over the whole 2 s would see). At even odds, the boundary of
+/// what any test can do, the share is reported (`docs/validation.md`).
+fn isolated_in_time_where_the_layout_surely_can(name: &str, t: &e2e_tests::faults::Tally) {
+    if let Some([_, (runs, isolated)]) = t.attributable {
+        assert_eq!(
+            isolated, runs,
+            "{name}: isolated within 2 s in {isolated} of the {runs} runs surely attributable"
+        );
+    }
 }
 
 /// Issue 48's goal for an intermittent fault: its part out on at least 99 % of the rows from
@@ -456,6 +470,7 @@ fn the_mixed_layout_is_not_silently_wrong_after_a_fault() {
         }
         protection_holds(name, &t.protection);
         held_across_its_gaps(name, t);
+        isolated_in_time_where_the_layout_surely_can(name, t);
         assert!(
             t.silent_after * 200 <= t.after,
             "{name}: silent after {} of {}",
@@ -582,6 +597,38 @@ fn one_axis_on_its_rail_names_its_part_at_the_first_clipped_set() {
         }
         assert_eq!((silent_fw, silent_host), (0, 0), "silently wrong rows");
     }
+}
+
+/// A part that stands in for the faulty one is not taken out in its place. Noise bursts (×30,
+/// 0.3 s) in u2 of the N = 18 layout, whose removal u5's nearly matches (a fresh seed of the
+/// matrix's drawn-period intermittent kind, 8014): as the tests decay after the first burst,
+/// u5's removal explained a little more of the excess than u2's, and u5 was taken out for
+/// 245 rows. Isolation now needs every other part's removal to leave a test above its limit.
+#[test]
+fn a_part_that_stands_in_for_the_faulty_one_is_not_taken_out_in_its_place() {
+    use e2e_tests::faults::{fault_run, kinds, layout, JITTERED};
+    let mut sc = layout(8014);
+    let part = 2;
+    let faulty = &sc.parts[part];
+    let (_, spec) = kinds(
+        sc.channel_noise(faulty),
+        faulty.noise_density.unwrap_or(0.0),
+    )
+    .into_iter()
+    .find(|(name, _)| *name == JITTERED)
+    .unwrap();
+    let bursts = [(2.689, 2.989), (8.989, 9.289), (17.217, 17.517)];
+    for (start, end) in bursts {
+        let mut f = spec.clone();
+        f.part = sc.parts[part].name.clone();
+        f.start = start;
+        f.end = Some(end);
+        sc.faults.push(f);
+    }
+    sc.duration = 20.5;
+    let r = fault_run(&sc, Some((part, bursts[0].0, bursts[2].1)));
+    assert_eq!(r.wrong_excluded, 0, "rows with a healthy part out");
+    assert_eq!((r.nan, r.lost), (0, 0));
 }
 
 /// What the layout itself can attribute (`e2e_tests::faults::attributable`, the yardstick of the
