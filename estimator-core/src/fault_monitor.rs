@@ -223,7 +223,7 @@ impl<T: Real, const CAP: usize> MeanTest<T, CAP> {
     }
 
     /// One set's residual `r`: the mean moves, the statistic and each part's without it are
-    /// evaluated (capped at [`CAP_FACTOR`] × the limit).
+    /// evaluated (capped at `MEAN_CAP_FACTOR` × the limit).
     fn step(&mut self, par: &Parity<T, CAP>, r: &[T; CAP]) {
         let l = self.lambda;
         let k = T::ONE - l;
@@ -543,6 +543,7 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         let ceiling = T::of(CAP_FACTOR) * self.limit;
         self.total = (self.lambda * self.total + self.scale * s.chi2).min(ceiling);
         self.fill = self.lambda * self.fill + T::ONE;
+        let window_high = self.total > self.limit;
         let parts = par.parts();
         let mut restoring = 0usize;
         let mut standing_in = 0usize;
@@ -555,37 +556,18 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
             if par.part_dof(q).is_none() {
                 continue;
             }
-            // A part restores consistency if it explains the window (or the window is under
-            // its limit) and, if the mean test is high, the mean test (one set's worth).
+            // Without it every high test is under its own limit: the part could stand in for
+            // the faulty one. It restores consistency if its removal also takes away its
+            // share of each high test's excess (the mean test: one set's worth).
             let (out, bar) = self.part_bar[q];
-            // Without it every high test is under its limit: the part could stand in for the
-            // faulty one (explaining the excess or not).
             let m = &self.mean;
-            standing_in += usize::from(
-                (self.total <= self.limit || *w <= self.part_limit[q])
-                    && (!mean_high || m.without[q] <= m.part_limit[q]),
-            );
-            let window_ok = self.total <= self.limit
-                || explains(
-                    self.total,
-                    *w,
-                    self.part_limit[q],
-                    out,
-                    bar,
-                    self.fill,
-                    self.dof,
-                );
-            let mean_ok = !mean_high
-                || explains(
-                    m.total,
-                    m.without[q],
-                    m.part_limit[q],
-                    out,
-                    bar,
-                    T::ONE,
-                    self.dof,
-                );
-            if window_ok && mean_ok {
+            let under = (!window_high || *w <= self.part_limit[q])
+                && (!mean_high || m.without[q] <= m.part_limit[q]);
+            standing_in += usize::from(under);
+            let restores = under
+                && (!window_high || takes_share(self.total, *w, out, bar, self.fill, self.dof))
+                && (!mean_high || takes_share(m.total, m.without[q], out, bar, T::ONE, self.dof));
+            if restores {
                 restoring += 1;
                 found = Some(q as u8);
                 if self.isolated == Some(q as u8) {
@@ -596,7 +578,7 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
                 }
             }
         }
-        self.verdict = if self.total <= self.limit && !mean_high {
+        self.verdict = if !window_high && !mean_high {
             self.clean = self.clean.saturating_add(1);
             if let Some(q) = self.isolated {
                 if self.clean >= self.readmission_sets(q) {
@@ -648,19 +630,18 @@ impl<T: Real, const CAP: usize> FaultMonitor<T, CAP> {
         // set, extrapolated, was learned and the test then stayed high, every row flagged)
         // would never be put right.
         let extrapolated = self.variance.iter().any(|v| *v > T::of(EXTRAPOLATED));
-        if self.total <= self.limit && self.isolated.is_none() && !extrapolated {
+        if !window_high && self.isolated.is_none() && !extrapolated {
             self.mean.learn(&r);
         }
         self.verdict
     }
 }
 
-/// Whether a part's removal explains a test: the test without it (`without`) is under the
-/// part's limit, and the removal takes away at least the share `bar` of the test's excess over
-/// its fault-free mean (`dof` per set, over `fill` sets' worth; `out` of those degrees of
-/// freedom leave with the part).
-fn explains<T: Real>(total: T, without: T, limit: T, out: T, bar: T, fill: T, dof: T) -> bool {
-    without <= limit && total - without - out * fill >= bar * (total - dof * fill)
+/// Whether a part's removal takes away at least the share `bar` of a test's excess over its
+/// fault-free mean (`dof` per set, over `fill` sets' worth; `out` of those degrees of freedom
+/// leave with the part): `total` the test, `without` the test without the part.
+fn takes_share<T: Real>(total: T, without: T, out: T, bar: T, fill: T, dof: T) -> bool {
+    total - without - out * fill >= bar * (total - dof * fill)
 }
 
 /// The limit of a window sum of `χ²_dof` over `tau` samples, exceeded with probability `alpha`

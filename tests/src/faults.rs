@@ -527,22 +527,32 @@ pub const JITTER: f64 = 0.2;
 /// The bursts (start, end; s) of an intermittent kind `name` whose first starts at `s0`;
 /// `draw` gives numbers uniform in [0, 1).
 fn burst_times(name: &str, s0: f64, draw: &mut impl FnMut() -> f64) -> Vec<(f64, f64)> {
-    let period = if name == JITTERED {
+    let (period, jitter) = if name == JITTERED {
         let (lo, hi) = JITTERED_PERIOD_S;
-        lo + (hi - lo) * draw()
+        (lo + (hi - lo) * draw(), JITTER)
     } else {
-        BURST_PERIOD_S
+        (BURST_PERIOD_S, 0.0)
     };
     let mut t = s0;
     let mut out = Vec::new();
     for b in 0..BURSTS {
         if b > 0 {
-            let jitter = if name == JITTERED { JITTER } else { 0.0 };
             t += period * (1.0 + jitter * (2.0 * draw() - 1.0));
         }
         out.push((t, t + BURST_S));
     }
     out
+}
+
+/// Adds fault `spec` to part `part` of `sc` over each of `windows` (start, end; s).
+pub fn inject(sc: &mut Scenario, part: usize, spec: &FaultSpec, windows: &[(f64, f64)]) {
+    for (start, end) in windows {
+        let mut f = spec.clone();
+        f.part = sc.parts[part].name.clone();
+        f.start = *start;
+        f.end = Some(*end);
+        sc.faults.push(f);
+    }
 }
 
 /// The fault kinds of hal-sim, as scenario faults on `part` from `start` (drift and bias at
@@ -734,13 +744,7 @@ pub fn fault_matrix(runs: u64, layout: fn(u64) -> Scenario) -> (Tally, Vec<(&'st
             } else {
                 vec![(start, start + FAULT_S)]
             };
-            for (t0, t1) in &bursts {
-                let mut f = spec.clone();
-                f.part = sc.parts[part].name.clone();
-                f.start = *t0;
-                f.end = Some(*t1);
-                sc.faults.push(f);
-            }
+            inject(&mut sc, part, &spec, &bursts);
             let window = (bursts[0].0, bursts[bursts.len() - 1].1);
             let r = fault_run(&sc, Some((part, window.0, window.1)));
             if spec.bias.is_some() || spec.rate.is_some() {

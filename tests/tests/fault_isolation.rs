@@ -606,7 +606,7 @@ fn one_axis_on_its_rail_names_its_part_at_the_first_clipped_set() {
 /// 245 rows. Isolation now needs every other part's removal to leave a test above its limit.
 #[test]
 fn a_part_that_stands_in_for_the_faulty_one_is_not_taken_out_in_its_place() {
-    use e2e_tests::faults::{fault_run, kinds, layout, JITTERED};
+    use e2e_tests::faults::{fault_run, inject, kinds, layout, JITTERED};
     let mut sc = layout(8014);
     let part = 2;
     let faulty = &sc.parts[part];
@@ -618,13 +618,7 @@ fn a_part_that_stands_in_for_the_faulty_one_is_not_taken_out_in_its_place() {
     .find(|(name, _)| *name == JITTERED)
     .unwrap();
     let bursts = [(2.689, 2.989), (8.989, 9.289), (17.217, 17.517)];
-    for (start, end) in bursts {
-        let mut f = spec.clone();
-        f.part = sc.parts[part].name.clone();
-        f.start = start;
-        f.end = Some(end);
-        sc.faults.push(f);
-    }
+    inject(&mut sc, part, &spec, &bursts);
     sc.duration = 20.5;
     let r = fault_run(&sc, Some((part, bursts[0].0, bursts[2].1)));
     assert_eq!(r.wrong_excluded, 0, "rows with a healthy part out");
