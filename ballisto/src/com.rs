@@ -21,6 +21,12 @@ use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 use crate::estimate::HostEstimator;
 use crate::samples_csv::SamplesReader;
 
+/// What ρ is, wherever ballisto writes one (`com`'s columns, `decode`'s identification
+/// summary and calibration header): one convention, paper eq. 12's, as hal-sim's
+/// `origin_offset` and the identification's telemetry (format 4) carry it.
+pub const RHO_MEANING: &str =
+    "rho (paper eq. 12) is the instrument origin seen from the centre of mass, which is at -rho from the origin";
+
 /// The columns of the output (interfaces.md).
 pub const COLUMNS: &str = "t,rho_x,rho_y,rho_z,f_x,f_y,f_z,sd_rho_x,sd_rho_y,sd_rho_z";
 

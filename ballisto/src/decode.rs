@@ -250,10 +250,10 @@ pub fn log_line(p: &Decoded, time_offset: f64) -> Option<String> {
         }
         Report::Alive => "ALIVE".to_string(),
         Report::IdentificationSummary(s) => format!(
-            "IDENTIFICATION solution={} channels={} sets={} not_covered={} incomplete={} reference_points={} restarts={} centre_of_mass=[{:.6},{:.6},{:.6}] m sd=[{:.2e},{:.2e},{:.2e}] frame rotation_sd={:.2e} translation_sd={:.2e} size_sd={:.2e}",
+            "IDENTIFICATION solution={} channels={} sets={} not_covered={} incomplete={} reference_points={} restarts={} rho=[{:.6},{:.6},{:.6}] m sd=[{:.2e},{:.2e},{:.2e}] frame rotation_sd={:.2e} translation_sd={:.2e} size_sd={:.2e}",
             s.solution, s.channels, s.sets, s.not_covered, s.incomplete, s.points, s.restarts,
-            s.centre_of_mass[0], s.centre_of_mass[1], s.centre_of_mass[2],
-            s.centre_of_mass_sd[0], s.centre_of_mass_sd[1], s.centre_of_mass_sd[2],
+            s.rho[0], s.rho[1], s.rho[2],
+            s.rho_sd[0], s.rho_sd[1], s.rho_sd[2],
             s.frame[0], s.frame[1], s.frame[2]
         ),
         Report::IdentifiedChannel(c) => {
@@ -469,11 +469,11 @@ pub fn identified_arrangement(
         summary.points,
         arrangement.display()
     );
-    let c = summary.centre_of_mass;
+    let (r, sd) = (summary.rho, summary.rho_sd);
     let _ = writeln!(
         header,
-        "# Centre of mass from the origin: [{:.6}, {:.6}, {:.6}] m. The scale is held in free fall (one product with the lever arm).",
-        c[0], c[1], c[2]
+        "# rho = [{:.6}, {:.6}, {:.6}] m, sd [{:.2e}, {:.2e}, {:.2e}] m: {}.\n# The scale is held in free fall (one product with the lever arm).",
+        r[0], r[1], r[2], sd[0], sd[1], sd[2], crate::com::RHO_MEANING
     );
     header.push_str("# A missing *_sd key means that parameter was not identified.\n");
     Ok(header + &file.to_toml())

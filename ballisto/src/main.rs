@@ -331,9 +331,9 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
-    /// The centre of mass relative to the instrument origin (paper eq. 12) over sliding
-    /// windows: t, rho_x.., f_x.., sd_rho_x.. (interfaces.md); empty fields where a window's
-    /// rotation cannot separate ρ from f.
+    /// Where the centre of mass is (paper eq. 12's ρ: the instrument origin seen from the
+    /// centre of mass, which is at −ρ) over sliding windows: t, rho_x.., f_x.., sd_rho_x..
+    /// (interfaces.md); empty fields where a window's rotation cannot separate ρ from f.
     Com {
         /// Arrangement file (TOML).
         #[arg(long, value_name = "FILE.toml")]
@@ -713,11 +713,12 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 eprintln!("ballisto com: WARNING: {w}");
             }
             say.info(format!(
-                "ballisto com: {} windows of {window} s ({} could not separate rho from f), model {} -> {}",
+                "ballisto com: {} windows of {window} s ({} could not separate rho from f), model {} -> {} ({})",
                 s.windows,
                 s.undetermined,
                 s.model.map(|m| m.name()).unwrap_or("?"),
-                out.display()
+                out.display(),
+                ballisto::com::RHO_MEANING
             ));
             Ok(ExitCode::SUCCESS)
         }

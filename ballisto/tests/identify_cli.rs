@@ -52,6 +52,27 @@ fn decode_with_calibration(
     ])
 }
 
+/// ρ and its deviation from the calibrated file's header (`# rho = [x, y, z] m, sd [..] m: ..`).
+fn header_rho(text: &str) -> ([f64; 3], [f64; 3]) {
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("# rho = ["))
+        .expect("a rho line in the header");
+    let vectors: Vec<[f64; 3]> = line
+        .split('[')
+        .skip(1)
+        .take(2)
+        .map(|v| {
+            let parts: Vec<f64> = v[..v.find(']').unwrap()]
+                .split(',')
+                .map(|x| x.trim().parse().unwrap())
+                .collect();
+            [parts[0], parts[1], parts[2]]
+        })
+        .collect();
+    (vectors[0], vectors[1])
+}
+
 #[test]
 fn identify_in_flight_then_decode_the_solution_as_an_arrangement_file() {
     let d = common::tmpdir("identify", "orbit");
@@ -87,6 +108,47 @@ fn identify_in_flight_then_decode_the_solution_as_an_arrangement_file() {
         .zip(truth.arrangement.channels())
     {
         assert!((c.bias - t.bias).abs() < 2e-3, "{} vs {}", c.bias, t.bias);
+    }
+
+    // One ρ (paper eq. 12: the origin from the centre of mass) in the identification's
+    // report, in `ballisto com` on the identified geometry, and in the scenario: its
+    // origin_offset. The identification's deviation holds the frame's translation (the parts'
+    // mean mounting error); `com` on the identified geometry shares that frame, so the two
+    // agree to `com`'s own deviation.
+    let origin_offset = [0.02, -0.01, 0.03]; // orbit-identify.toml
+    let (rho, rho_sd) = header_rho(&text);
+    for k in 0..3 {
+        assert!(
+            (rho[k] - origin_offset[k]).abs() < 4.0 * rho_sd[k],
+            "identified rho_{k} {} ± {} vs origin_offset {}",
+            rho[k],
+            rho_sd[k],
+            origin_offset[k]
+        );
+    }
+    let com = d.join("com.csv");
+    let r = ballisto(&[
+        "com",
+        "--arrangement",
+        cal.to_str().unwrap(),
+        "--samples",
+        d.join("samples.csv").to_str().unwrap(),
+        "--out",
+        com.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let (_, rows) = common::read_table(&com);
+    assert_eq!(rows.len(), 11, "60 s in windows of 10 s every 5 s");
+    for row in &rows {
+        for k in 0..3 {
+            let (c, sd): (f64, f64) = (row[1 + k].parse().unwrap(), row[7 + k].parse().unwrap());
+            assert!(
+                (c - rho[k]).abs() < 4.0 * sd,
+                "com rho_{k} {c} ± {sd} at t {} vs identified {}",
+                row[0],
+                rho[k]
+            );
+        }
     }
 
     // A stream without a solution: said so, nothing written.

@@ -232,13 +232,14 @@ fn errors(com: [f64; 3], noise: f64, seed: u64) -> Errors {
         }
         e.bias.push((f.channel.bias - t.bias) / f.sd[6]);
     }
-    // The centre of mass, through the same convention.
+    // ρ (paper eq. 12, the origin from the centre of mass, which is at `com`), through the
+    // same convention.
     for l in 0..3 {
-        let want = com[l] + mean[l];
+        let want = -(com[l] + mean[l]);
         assert!(
-            (id.centre_of_mass[l] - want).abs() < 5.0 * id.centre_of_mass_sd[l].max(1e-9),
-            "centre of mass {l}: {} against {want}",
-            id.centre_of_mass[l]
+            (id.rho[l] - want).abs() < 5.0 * id.rho_sd[l].max(1e-9),
+            "rho {l}: {} against {want}",
+            id.rho[l]
         );
     }
     e
@@ -286,7 +287,7 @@ fn noise_free_tumble_recovers_every_parameter() {
         );
     }
     for l in 0..3 {
-        assert!((id.centre_of_mass[l] - off0[l] - com[l]).abs() < 1e-10);
+        assert!((id.rho[l] + off0[l] + com[l]).abs() < 1e-10);
     }
     // The calibrated arrangement carries it, with a frame uncertainty.
     let cal = id.arrangement().expect("arrangement");

@@ -79,10 +79,13 @@ pub struct IdentificationSummary {
     pub points: u32,
     /// Reference points that restarted the reference after a gap or a step back in time.
     pub restarts: u32,
-    /// Centre of mass from the instrument origin, m (paper §8).
-    pub centre_of_mass: [f32; 3],
+    /// ρ of paper eq. 12, m: the instrument origin seen from the centre of mass (which is at
+    /// −ρ from the origin; the sign `ballisto com` writes). Streams before telemetry format 4
+    /// sent the centre of mass from the origin, −ρ: [`Self::decode`] turns it round
+    /// ([`RHO_CONVENTION`]).
+    pub rho: [f32; 3],
     /// Its standard deviation per axis, m.
-    pub centre_of_mass_sd: [f32; 3],
+    pub rho_sd: [f32; 3],
     /// The frame's uncertainty: rotation (rad), translation (m), size (relative).
     pub frame: [f32; 3],
 }
@@ -90,20 +93,25 @@ pub struct IdentificationSummary {
 /// Application data length of TM[200,128].
 pub const SUMMARY_LEN: usize = 60;
 
+/// Octet 3 of TM[200,128] since telemetry format 4: the vector at octet 24 is ρ of paper eq. 12
+/// (the origin from the centre of mass). It was a spare 0 before, when that vector was the
+/// centre of mass from the origin (−ρ).
+pub const RHO_CONVENTION: u8 = 1;
+
 impl IdentificationSummary {
     /// Encodes the application data.
     pub fn encode(&self, out: &mut [u8]) -> Option<usize> {
         let mut p = Put::new(out);
         p.u16(self.solution)
             .u8(self.channels)
-            .u8(0)
+            .u8(RHO_CONVENTION)
             .u32(self.sets)
             .u32(self.not_covered)
             .u32(self.incomplete)
             .u32(self.points)
             .u32(self.restarts)
-            .f32s(&self.centre_of_mass)
-            .f32s(&self.centre_of_mass_sd)
+            .f32s(&self.rho)
+            .f32s(&self.rho_sd)
             .f32s(&self.frame);
         p.finish()
     }
@@ -116,7 +124,8 @@ impl IdentificationSummary {
         let mut g = Get::new(data);
         let solution = g.u16()?;
         let channels = g.u8()?;
-        g.u8()?;
+        // Format ≤ 3 (octet 0) sent −ρ.
+        let sign = if g.u8()? == RHO_CONVENTION { 1.0 } else { -1.0 };
         Some(IdentificationSummary {
             solution,
             channels,
@@ -125,8 +134,8 @@ impl IdentificationSummary {
             incomplete: g.u32()?,
             points: g.u32()?,
             restarts: g.u32()?,
-            centre_of_mass: g.f32s()?,
-            centre_of_mass_sd: g.f32s()?,
+            rho: g.f32s::<3>()?.map(|v| sign * v),
+            rho_sd: g.f32s()?,
             frame: g.f32s()?,
         })
     }
@@ -216,13 +225,20 @@ mod tests {
             incomplete: 1,
             points: 400,
             restarts: 2,
-            centre_of_mass: [0.02, -0.01, 0.03],
-            centre_of_mass_sd: [1e-4, 2e-4, 3e-4],
+            rho: [0.02, -0.01, 0.03],
+            rho_sd: [1e-4, 2e-4, 3e-4],
             frame: [1e-4, 3e-4, 1e-3],
         };
         let mut b = [0u8; 80];
         assert_eq!(s.encode(&mut b), Some(SUMMARY_LEN));
         assert_eq!(IdentificationSummary::decode(&b[..SUMMARY_LEN]), Some(s));
+        // A format-3 summary (octet 3 spare, 0) carried the centre of mass from the origin:
+        // read as ρ, turned round.
+        assert_eq!(b[3], RHO_CONVENTION);
+        b[3] = 0;
+        let old = IdentificationSummary::decode(&b[..SUMMARY_LEN]).unwrap();
+        assert_eq!(old.rho, s.rho.map(|v| -v));
+        assert_eq!(old.rho_sd, s.rho_sd);
         let c = IdentifiedChannel {
             solution: 3,
             channel: 11,

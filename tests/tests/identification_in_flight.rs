@@ -175,12 +175,13 @@ fn identify_commit_reset_and_the_errors_return_to_ideal_parts() {
 
     // Where the identified geometry's origin is in the true one. In free fall the specific
     // force at a point x is (A + {Ω′}) (x − c), c the centre of mass: the estimate refers to
-    // the point the identified centre of mass ρ̂ is seen from, x = c − ρ̂. It differs from the
-    // drawn origin by what no accelerometer record in free fall can see — the parts' mean
-    // mounting error and the mean of the held scales' lever-arm shifts — whose deviation is
-    // the frame's translation (in every reported deviation).
+    // the point the identified ρ̂ (paper eq. 12, the origin from the centre of mass) leads to,
+    // x = c + ρ̂; in the drawn geometry c = −ρ (the scenario's origin_offset), so x = ρ̂ − ρ.
+    // It differs from the drawn origin by what no accelerometer record in free fall can see —
+    // the parts' mean mounting error and the mean of the held scales' lever-arm shifts — whose
+    // deviation is the frame's translation (in every reported deviation).
     let rho = sc.body.origin_offset.unwrap_or([0.0; 3]);
-    let origin: [f64; 3] = core::array::from_fn(|k| -rho[k] - f64::from(summary.centre_of_mass[k]));
+    let origin: [f64; 3] = core::array::from_fn(|k| f64::from(summary.rho[k]) - rho[k]);
     println!(
         "identified origin from the drawn one: [{:.3}, {:.3}, {:.3}] mm (frame translation sd {:.3} mm)",
         origin[0] * 1e3,

@@ -378,8 +378,8 @@ fn identification_tables_match_the_encoders() {
         incomplete: 5,
         points: 1161,
         restarts: 2,
-        centre_of_mass: [0.25, 0.5, 0.75],
-        centre_of_mass_sd: [1.25, 1.5, 1.75],
+        rho: [0.25, 0.5, 0.75],
+        rho_sd: [1.25, 1.5, 1.75],
         frame: [2.25, 2.5, 2.75],
     };
     let mut data = [0u8; SUMMARY_LEN];
@@ -387,13 +387,13 @@ fn identification_tables_match_the_encoders() {
     let expected = [
         ("solution number", vec![3.0]),
         ("channels", vec![12.0]),
-        ("spare", vec![0.0]),
+        ("1: octet 24 is ρ", vec![1.0]),
         ("sample sets in the solution", vec![5800.0]),
         ("sets the reference did not cover", vec![4.0]),
         ("sets with a reading missing", vec![5.0]),
         ("reference points taken", vec![1161.0]),
         ("reference restarts", vec![2.0]),
-        ("centre of mass", vec![0.25, 0.5, 0.75]),
+        ("ρ of paper eq. 12", vec![0.25, 0.5, 0.75]),
         ("its standard deviation", vec![1.25, 1.5, 1.75]),
         ("the identified frame's uncertainty", vec![2.25, 2.5, 2.75]),
     ];

@@ -28,8 +28,9 @@
 //! half its tolerance ([`Tolerance`]) is held at its nominal value, the worst first, and named
 //! ([`ChannelFit::held`]). The positions come out relative to the centre of mass; their common
 //! translation — which no accelerometer record separates from where the centre of mass is —
-//! is held by convention (the mean mounting error is zero), and the centre of mass seen from
-//! the instrument origin ([`Identified::centre_of_mass`], paper §8) is what is left.
+//! is held by convention (the mean mounting error is zero), and where the centre of mass is
+//! is what is left: reported as paper eq. 12's ρ, the instrument origin seen from the centre of
+//! mass ([`Identified::rho`], paper §8), the sign `ballisto com` writes.
 //!
 //! Without a reference, in a torque-free tumble with the inertia given, the motion is fitted
 //! with the geometry ([`identify_tumble`]): Euler's equations carry the start rate to every

@@ -148,11 +148,13 @@ pub enum IdentifyError {
 pub struct Identified<const CAP: usize> {
     pub(super) fits: [ChannelFit; CAP],
     pub(super) len: usize,
-    /// The centre of mass from the instrument origin (m, paper §8), with the positions'
-    /// common translation held by convention (their mean mounting error is zero).
-    pub centre_of_mass: Vec3<f64>,
+    /// ρ of paper eq. 12 (m): the instrument origin seen from the centre of mass — the
+    /// centre of mass is at −ρ from the origin; `ballisto com`'s ρ and hal-sim's
+    /// `origin_offset` are the same vector — with the positions' common translation held by
+    /// convention (their mean mounting error is zero).
+    pub rho: Vec3<f64>,
     /// Its standard deviation per axis (the convention's included).
-    pub centre_of_mass_sd: Vec3<f64>,
+    pub rho_sd: Vec3<f64>,
     /// Sample sets in the window.
     pub sets: u32,
     /// The tolerances the hold decisions used.
@@ -169,8 +171,8 @@ impl<const CAP: usize> Identified<CAP> {
     /// errors are independent (each has its own normal equations), so the common ones are
     /// their means: the translation is the convention's (`tolerance / √n` of the free
     /// position components per axis, the largest) and that of the held scales (a scale off by
-    /// `δ` moves its channel's lever arm from the centre of mass by `δ (R − ρ)`: their mean is
-    /// a translation, `tolerance · rms|R − ρ| / √(3n)` per axis), the rotation the mean of
+    /// `δ` moves its channel's lever arm from the centre of mass by `δ (R + ρ)`: their mean is
+    /// a translation, `tolerance · rms|R + ρ| / √(3n)` per axis), the rotation the mean of
     /// the axis tilts, the size the mean of the relative position errors; the rotation of the
     /// axes against the lever arms is taken as the rotation (the reference ties both).
     #[inline]
@@ -187,8 +189,8 @@ impl<const CAP: usize> Identified<CAP> {
                 }
             }
             if f.is_held(Param::Scale) {
-                let arm: Vec3<f64> =
-                    core::array::from_fn(|l| f.channel.position[l] - self.centre_of_mass[l]);
+                // The lever arm from the centre of mass, at −ρ.
+                let arm: Vec3<f64> = core::array::from_fn(|l| f.channel.position[l] + self.rho[l]);
                 scale_shift += self.tolerance.scale * self.tolerance.scale * norm2(&arm) / 3.0;
             }
             let r2 = norm2(&f.channel.position);

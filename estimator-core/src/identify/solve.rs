@@ -36,13 +36,14 @@ pub fn identify<const CAP: usize>(
     let mut out = Identified {
         fits: [ChannelFit::default(); CAP],
         len: n,
-        centre_of_mass: [0.0; 3],
-        centre_of_mass_sd: [tolerance.position; 3],
+        rho: [0.0; 3],
+        rho_sd: [tolerance.position; 3],
         sets: sums.sets(),
         tolerance: *tolerance,
     };
+    // `c`: the centre of mass from the origin (−ρ) while the passes run.
+    let mut c = [0.0f64; 3];
     for _pass in 0..2 {
-        let rho = out.centre_of_mass;
         for (i, ch) in nominal.channels().iter().enumerate() {
             let (g, sq) = sums.channel(i);
             let problem = Problem {
@@ -53,9 +54,9 @@ pub fn identify<const CAP: usize>(
                 tolerance,
             };
             let position = [
-                ch.position[0] - rho[0],
-                ch.position[1] - rho[1],
-                ch.position[2] - rho[2],
+                ch.position[0] - c[0],
+                ch.position[1] - c[1],
+                ch.position[2] - c[2],
             ];
             let start = State::new(ch.scale, ch.axis, position, ch.bias);
             out.fits[i] = problem
@@ -74,18 +75,17 @@ pub fn identify<const CAP: usize>(
                 }
             }
             if sw > 0.0 {
-                out.centre_of_mass[l] = swx / sw;
-                out.centre_of_mass_sd[l] =
-                    Real::sqrt(1.0 / sw + tolerance.position * tolerance.position / k);
+                c[l] = swx / sw;
+                out.rho_sd[l] = Real::sqrt(1.0 / sw + tolerance.position * tolerance.position / k);
             }
         }
     }
-    // Positions from the instrument origin.
-    let rho = out.centre_of_mass;
+    // Positions from the instrument origin; ρ (paper eq. 12) the origin from the centre of mass.
     for f in out.fits[..n].iter_mut() {
         for l in 0..3 {
-            f.channel.position[l] += rho[l];
+            f.channel.position[l] += c[l];
         }
     }
+    out.rho = c.map(|v| -v);
     Ok(out)
 }

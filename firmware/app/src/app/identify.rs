@@ -95,12 +95,8 @@ impl App {
             (FailureCode::NotReady, data)
         })?;
         info!(
-            "identification {}: {} sets, centre of mass {} {} {} m",
-            summary.solution,
-            summary.sets,
-            summary.centre_of_mass[0],
-            summary.centre_of_mass[1],
-            summary.centre_of_mass[2]
+            "identification {}: {} sets, origin from the centre of mass (rho) {} {} {} m",
+            summary.solution, summary.sets, summary.rho[0], summary.rho[1], summary.rho[2]
         );
         // Encoded in the writer's own buffer (`Telemetry::stage`), as every report.
         let framed = tm.stage(

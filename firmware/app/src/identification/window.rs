@@ -179,8 +179,8 @@ impl Identification {
             incomplete: c.incomplete,
             points: c.points,
             restarts: c.restarts,
-            centre_of_mass: id.centre_of_mass.map(|v| v as f32),
-            centre_of_mass_sd: id.centre_of_mass_sd.map(|v| v as f32),
+            rho: id.rho.map(|v| v as f32),
+            rho_sd: id.rho_sd.map(|v| v as f32),
             frame: [
                 frame.rotation as f32,
                 frame.translation as f32,
