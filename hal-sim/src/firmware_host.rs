@@ -21,6 +21,7 @@ use ballisto_fw::config::{
 };
 use ballisto_fw::drivers::{adxl355, lis3dh};
 use ballisto_fw::estimation::{Builds, SetEstimate};
+use ballisto_fw::identification::{Identification, Identifier};
 use ballisto_fw::sampler::{
     sampling_task, HealthBoard, LoopHealth, PartBus, PartHealth, SampleSet, Sampler,
 };
@@ -117,6 +118,29 @@ impl Drop for SpareBuffer {
     fn drop(&mut self) {
         self.0.clear();
         if let Ok(mut pool) = SPARE_BUFFERS.lock() {
+            pool.push(self.0);
+        }
+    }
+}
+
+/// The identification task's queues for one run, pooled as [`SpareBuffer`] (the application
+/// holds them for `'static`; about 11 KB each).
+struct IdentifierQueues(&'static Identifier);
+
+static IDENTIFIERS: std::sync::Mutex<Vec<&'static Identifier>> = std::sync::Mutex::new(Vec::new());
+
+impl IdentifierQueues {
+    fn take() -> Self {
+        let pooled = IDENTIFIERS.lock().ok().and_then(|mut pool| pool.pop());
+        IdentifierQueues(pooled.unwrap_or_else(|| Box::leak(Box::new(Identifier::new()))))
+    }
+}
+
+impl Drop for IdentifierQueues {
+    /// Back to the pool, emptied (declared before the application, it outlives it).
+    fn drop(&mut self) {
+        self.0.clear();
+        if let Ok(mut pool) = IDENTIFIERS.lock() {
             pool.push(self.0);
         }
     }
@@ -398,9 +422,12 @@ pub fn run_firmware_boot(
     };
     let mut sampler = Sampler::new(&config.sampling, buses, sync);
     let spare = SpareBuffer::take();
+    let identifier = IdentifierQueues::take();
     let mut app =
         App::new(config, Mode::Operate).map_err(|e| format!("firmware estimator: {e}"))?;
     app.attach_builds(spare.0);
+    app.attach_identifier(identifier.0);
+    let mut window = Box::new(Identification::new());
     app.set_calibration(boot.calibration);
     app.set_boot_info(boot.info);
     let requests = CommitRequests::<NoopRawMutex>::new();
@@ -486,6 +513,9 @@ pub fn run_firmware_boot(
                 None => core::future::pending::<()>().await,
             }
         };
+        // The identification task: polled after the others, as its lower priority on the board
+        // (every task here handles what is queued in one poll: it runs between two sets).
+        let identifying = identifier.0.run(&mut window);
         task_sizes = (
             std::mem::size_of_val(&sampling),
             std::mem::size_of_val(&application),
@@ -493,7 +523,10 @@ pub fn run_firmware_boot(
         );
         embassy_futures::block_on(select(
             sampling,
-            select(application, select(receiving, select(observing, storing))),
+            select(
+                application,
+                select(receiving, select(observing, select(storing, identifying))),
+            ),
         ));
     }
     let parts = (0..sc.parts.len())

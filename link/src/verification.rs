@@ -64,6 +64,11 @@ pub mod not_ready {
     /// A commanded configuration change (model, arrangement, channels) is still being built
     /// (the builder task of a board without a double-precision FPU): send it again later.
     pub const CONFIGURATION_BUSY: u32 = 10;
+    /// The identification task has not yet taken the orders before this one (a solve under
+    /// way, or a TC[200,10] not yet answered): send it again later.
+    pub const IDENTIFICATION_BUSY: u32 = 11;
+    /// The unit runs no identification task (a board that does not attach one).
+    pub const NO_IDENTIFICATION_TASK: u32 = 12;
 }
 
 /// The data of [`FailureCode::StoreFailed`].

@@ -13,6 +13,7 @@ use ballisto_fw::app::{
 use ballisto_fw::boot::count_boot;
 use ballisto_fw::calstore::{CalibrationStore, Programming, RamFlash};
 use ballisto_fw::config::AppConfig;
+use ballisto_fw::identification::{Identification, Identifier};
 use ballisto_fw::sampler::{HealthBoard, SampleSet};
 use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
 use ballisto_fw::telemetry::Telemetry;
@@ -60,6 +61,10 @@ fn run_boot(
     store: &mut HostStore<'_>,
 ) -> Vec<u8> {
     let mut app = App::new(config, Mode::Operate).unwrap();
+    // The identification task's queues, as the board's static (one per boot: a few KB).
+    let identifier: &'static Identifier = Box::leak(Box::new(Identifier::new()));
+    app.attach_identifier(identifier);
+    let mut window = Box::new(Identification::new());
     app.set_calibration(id);
     app.set_boot_info(info);
     let mut time = StepTime(Rc::new(Cell::new(0)));
@@ -105,9 +110,13 @@ fn run_boot(
         );
         let uplink = uplink_task(ScriptedUplink::new(&app_time, t0, period, script), tx);
         let storing = storage_task(store, requests.receiver(), replies.sender());
+        let identifying = identifier.run(&mut window);
         embassy_futures::block_on(select(
             last_set,
-            select(application, join(join(sampling, uplink), storing)),
+            select(
+                application,
+                join(join(sampling, uplink), join(storing, identifying)),
+            ),
         ));
     }
     drop(tm);

@@ -7,6 +7,7 @@ use std::convert::Infallible;
 use arbitrary_int::{u11, u14};
 use ballisto_fw::app::{App, Incoming, Mode};
 use ballisto_fw::config::{tetra, AppConfig, MAX_PARTS};
+use ballisto_fw::identification::{Identification, Identifier, SET_QUEUE};
 use ballisto_fw::sampler::{Health, HealthBoard, SampleSet};
 use ballisto_fw::telemetry::Telemetry;
 use ballisto_link::decode::{decode, Decoded, Report};
@@ -16,6 +17,7 @@ use ballisto_link::{service, subtype, ChannelSet, EventId, FailureCode, APID};
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use estimator_core::Model;
 use futures::executor::block_on;
+use futures::FutureExt;
 use spacepackets::ecss::tc::{AckFlags, PusTcCreator, PusTcSecondaryHeader};
 use spacepackets::ecss::{CreatorConfig, MessageTypeId};
 use spacepackets::SpHeader;
@@ -116,6 +118,11 @@ struct Unit {
     app: App,
     tm: Telemetry<Capture>,
     k: u32,
+    /// The identification task's queues and state; the task runs after each set and command
+    /// (its lower priority on the board) while `identifying` is set.
+    identifier: &'static Identifier,
+    window: Box<Identification>,
+    identifying: bool,
 }
 
 impl Unit {
@@ -124,13 +131,18 @@ impl Unit {
     }
 
     fn with(cfg: AppConfig) -> Self {
-        let app = App::new(&cfg, Mode::Operate).unwrap();
+        let mut app = App::new(&cfg, Mode::Operate).unwrap();
+        let identifier: &'static Identifier = Box::leak(Box::new(Identifier::new()));
+        app.attach_identifier(identifier);
         let mut tm = Telemetry::new(Capture::default());
         let mut unit = Unit {
             cfg,
             app,
             tm: Telemetry::new(Capture::default()),
             k: 0,
+            identifier,
+            window: Box::new(Identification::new()),
+            identifying: true,
         };
         block_on(unit.app.boot(0, &mut tm));
         unit.tm = tm;
@@ -144,6 +156,18 @@ impl Unit {
             board.publish(health(&self.cfg));
             block_on(self.app.on_set(&s, &board, &mut self.tm));
             self.k += 1;
+            self.identification_task();
+        }
+    }
+
+    /// The identification task, if it runs: everything queued to it; a solution it hands over
+    /// goes to the application at once (its task waits for it beside sets and commands).
+    fn identification_task(&mut self) {
+        if self.identifying {
+            self.identifier.run_now(&mut self.window);
+        }
+        if let Some(solved) = self.identifier.solved().now_or_never() {
+            block_on(self.app.on_solved(solved, 0, &mut self.tm));
         }
     }
 
@@ -156,6 +180,7 @@ impl Unit {
     fn command_at(&mut self, raw: &[u8], t: u64) -> Vec<Decoded> {
         let before = self.tm.link().0.len();
         block_on(self.app.on_incoming(&incoming(raw), t, &mut self.tm));
+        self.identification_task();
         packets(&self.tm.link().0[before..])
     }
 
@@ -898,6 +923,7 @@ fn a_window_is_reported_and_committed_through_the_store() {
         u.command(&tc(b, subtype::REFERENCE_RATE, &reference_data(&pts), seq));
         seq += 1;
     }
+    // Solved by the identification task; reported and completed as it hands the solution over.
     let r = u.command(&tc(b, subtype::REPORT_IDENTIFICATION, &[], seq));
     let summary = r
         .iter()
@@ -925,7 +951,15 @@ fn a_window_is_reported_and_committed_through_the_store() {
         );
         assert!(c.residual_rms < 1e-4, "{c:?}");
     }
-    assert_eq!(verification(r.last().unwrap()).0, subtype::COMPLETED);
+    let verified: Vec<_> = r
+        .iter()
+        .filter(|p| matches!(p.report, Report::Verification(_)))
+        .map(verification)
+        .collect();
+    assert_eq!(
+        verified,
+        vec![(subtype::ACCEPTED, None), (subtype::COMPLETED, None)]
+    );
     let n = summary.solution;
     // Not the reported solution.
     let r = u.command(&tc(
@@ -994,6 +1028,107 @@ fn a_window_is_reported_and_committed_through_the_store() {
     );
     // The calibration in use is still the boot's: a commit is used from the next boot.
     assert_eq!(u.app.calibration(), ballisto_link::CalibrationId::default());
+}
+
+/// The window's work is the identification task's, below the estimate: with the task stalled
+/// every set is still estimated and reported at once; the sets beyond the task's queue are lost
+/// to the window and counted in its summary (`not_covered`); an order beyond the queue and a
+/// second solve before the first is answered are refused as busy; once the task runs, the
+/// solution is reported. A unit without the task refuses the window by name.
+#[test]
+fn the_estimate_never_waits_for_the_identification_task() {
+    use ballisto_link::verification::not_ready;
+    let b = service::BALLISTOMETER;
+    let busy = Some((FailureCode::NotReady, not_ready::IDENTIFICATION_BUSY));
+    let last = |r: &[Decoded]| verification(r.last().unwrap());
+    let motion = |r: &[Decoded]| {
+        r.iter()
+            .filter(|p| matches!(p.report, Report::Motion(_)))
+            .count()
+    };
+    let mut u = Unit::new();
+    u.identifying = false;
+    let r = u.command(&tc(
+        b,
+        subtype::START_IDENTIFICATION,
+        &start_data(1, 50, 4_000),
+        90,
+    ));
+    assert_eq!(last(&r).0, subtype::COMPLETED);
+    // 40 sets while the task does nothing: each estimated and reported.
+    let before = u.all().len();
+    u.sets(40);
+    assert_eq!(motion(&u.all()[before..]), 40);
+    let pts = |from: u64| -> Vec<u8> {
+        let p: Vec<_> = (0..4)
+            .map(|i| (from + i * 50_000_000, [0.0f32, 0.0, 0.5]))
+            .collect();
+        reference_data(&p)
+    };
+    // The start and one batch fill the task's two order slots; the next batch is refused.
+    let r = u.command(&tc(b, subtype::REFERENCE_RATE, &pts(0), 91));
+    assert_eq!(last(&r).0, subtype::COMPLETED);
+    let r = u.command(&tc(b, subtype::REFERENCE_RATE, &pts(200_000_000), 92));
+    assert_eq!(last(&r), (subtype::NOT_COMPLETED, busy));
+    // The task runs again: the rest of the window goes through.
+    u.identifying = true;
+    u.identification_task();
+    for (seq, batch) in (93..).zip(1..10u64) {
+        u.sets(20);
+        u.command(&tc(
+            b,
+            subtype::REFERENCE_RATE,
+            &pts(batch * 200_000_000),
+            seq,
+        ));
+    }
+    // A solve asked while the task is stalled; a second one is busy.
+    u.identifying = false;
+    let r = u.command(&tc(b, subtype::REPORT_IDENTIFICATION, &[], 110));
+    assert_eq!(
+        r.iter().map(verification).collect::<Vec<_>>(),
+        vec![(subtype::ACCEPTED, None)]
+    );
+    let r = u.command(&tc(b, subtype::REPORT_IDENTIFICATION, &[], 111));
+    assert_eq!(last(&r), (subtype::NOT_COMPLETED, busy));
+    let before = u.all().len();
+    u.sets(1);
+    u.identifying = true;
+    u.identification_task();
+    let r = u.all()[before..].to_vec();
+    let summary = r
+        .iter()
+        .find_map(|p| match p.report {
+            Report::IdentificationSummary(s) => Some(s),
+            _ => None,
+        })
+        .expect("the summary once the task has solved");
+    assert!(
+        summary.not_covered >= (40 - SET_QUEUE) as u32,
+        "the sets lost on the way are counted: {summary:?}"
+    );
+    assert!(summary.sets > 100, "{summary:?}");
+
+    // No identification task: the window is refused by name.
+    let cfg = config();
+    let mut app = App::new(&cfg, Mode::Operate).unwrap();
+    let mut tm = Telemetry::new(Capture::default());
+    block_on(app.boot(0, &mut tm));
+    let raw = tc(
+        b,
+        subtype::START_IDENTIFICATION,
+        &start_data(1, 50, 4_000),
+        5,
+    );
+    block_on(app.on_incoming(&incoming(&raw), 0, &mut tm));
+    let r = packets(&tm.link().0);
+    assert_eq!(
+        last(&r),
+        (
+            subtype::NOT_COMPLETED,
+            Some((FailureCode::NotReady, not_ready::NO_IDENTIFICATION_TASK))
+        )
+    );
 }
 
 /// TC[9,128] correlates the unit's time to the spacecraft's: the boot's spacecraft time

@@ -97,13 +97,12 @@ impl App {
                 self.since_housekeeping = 0;
                 None
             }
-            Command::StartIdentification { .. }
-            | Command::ReferenceRate(_)
-            | Command::ReportIdentification
-            | Command::CommitCalibration { .. } => {
-                self.identification_command(command, t, tm).await?;
+            Command::StartIdentification { .. } | Command::ReferenceRate(_) => {
+                self.identification_command(command, t)?;
                 None
             }
+            // Handled before execution (`App::on_incoming`): completed by their tasks.
+            Command::ReportIdentification | Command::CommitCalibration { .. } => None,
             Command::ReportHousekeeping => {
                 self.send_housekeeping(t, tm).await;
                 None

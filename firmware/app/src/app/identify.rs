@@ -1,15 +1,18 @@
 //! The identification's telecommands (TC[200,8–11]) and reports (TM[200,128–129]), and the
 //! commit of a solution through the storage task with its completion reported when the store
-//! answers.
+//! answers. The window's work is the identification task's (`crate::identification::task`):
+//! here, the sets and orders queued to it and the solution it hands back.
 
-use ballisto_link::identification::IdentifiedChannel;
+use ballisto_link::identification::{IdentifiedChannel, ReferencePoint, MAX_POINTS};
 use ballisto_link::telecommand::Command;
 use ballisto_link::verification::{config_error_code, not_ready};
 use ballisto_link::{service, subtype, EventId, FailureCode, RequestId};
 use embedded_io_async::Write;
-use estimator_core::identify::{IdentifyError, PARAMS};
+use estimator_core::identify::{Identified, IdentifyError, PARAMS};
 
 use super::App;
+use crate::config::MAX_CHANNELS;
+use crate::identification::{Identifier, Order, Solved};
 use crate::storage::{CommitReply, CommitRequest};
 use crate::telemetry::Telemetry;
 use crate::time::Nanos;
@@ -30,37 +33,149 @@ pub(super) enum Store {
     Busy(RequestId, bool),
 }
 
+/// The application's side of identification in flight.
+#[derive(Default)]
+pub(super) struct IdentificationLink {
+    /// The identification task's queues (the board's).
+    task: Option<&'static Identifier>,
+    /// The window commanded: its start and end on the unit's time.
+    window: Option<(Nanos, Nanos)>,
+    /// Sets of the window that found the queue full.
+    lost: u32,
+    /// The TC[200,10] whose solve the task is doing, and whether its completion is reported.
+    solving: Option<(RequestId, bool)>,
+    /// The last solution reported, under its number.
+    solution: Option<(u16, Identified<MAX_CHANNELS>)>,
+}
+
+impl IdentificationLink {
+    /// The task, or the refusal of a command that needs it.
+    fn task(&self) -> Result<&'static Identifier, (FailureCode, u32)> {
+        self.task
+            .ok_or((FailureCode::NotReady, not_ready::NO_IDENTIFICATION_TASK))
+    }
+
+    /// Queues `order`, or refuses the command (the task has not taken the last ones yet).
+    fn post(&self, order: Order) -> Result<(), (FailureCode, u32)> {
+        if self.task()?.post(order) {
+            Ok(())
+        } else {
+            Err((FailureCode::NotReady, not_ready::IDENTIFICATION_BUSY))
+        }
+    }
+}
+
+/// The refusal of a solve that found no solution.
+fn unsolved(e: Option<IdentifyError>) -> (FailureCode, u32) {
+    let data = match e {
+        None => not_ready::NO_WINDOW,
+        Some(IdentifyError::TooFewSets { have }) => not_ready::TOO_FEW_SETS | have.min(0xFFFF),
+        Some(IdentifyError::NotConverged { channel }) => not_ready::NOT_CONVERGED | channel as u32,
+        // The sums are started with the arrangement's channel count.
+        Some(IdentifyError::ChannelCount { .. }) => not_ready::NO_WINDOW,
+    };
+    (FailureCode::NotReady, data)
+}
+
 impl App {
-    /// TC[200,8–10] (TC[200,11] is handled before execution: its completion comes from the
-    /// storage task).
-    pub(super) async fn identification_command<W: Write>(
+    /// Takes `identifier` as the identification task's queues: the board must run
+    /// [`Identifier::run`] in a task of lower priority than this one's. Without it TC[200,8–10]
+    /// are refused (not ready, `NO_IDENTIFICATION_TASK`).
+    pub fn attach_identifier(&mut self, identifier: &'static Identifier) {
+        self.identification.task = Some(identifier);
+    }
+
+    /// TC[200,8–9] (TC[200,10] and TC[200,11] are handled before execution: their completions
+    /// come from the identification and storage tasks).
+    pub(super) fn identification_command(
         &mut self,
         command: Command<'_>,
         t: Nanos,
-        tm: &mut Telemetry<W>,
     ) -> Result<(), (FailureCode, u32)> {
         match command {
             Command::StartIdentification {
                 period_ms,
                 window_ms,
             } => {
-                let channels = self.estimation.channels();
-                let rate = self.rate_hz;
-                self.identification
-                    .start(t, period_ms, window_ms, channels, rate);
+                let arrangement = self.estimation.estimator().arrangement().clone();
+                self.identification.post(Order::Start {
+                    now: t,
+                    period_ms,
+                    window_ms,
+                    rate_hz: self.rate_hz,
+                    arrangement,
+                })?;
+                let end = t + u64::from(window_ms) * 1_000_000;
+                self.identification.window = Some((t, end));
+                self.identification.lost = 0;
                 info!("identification window of {} ms started", window_ms);
             }
             Command::ReferenceRate(data) => {
-                if !self.identification.started() {
+                if self.identification.window.is_none() {
                     return Err((FailureCode::NotReady, not_ready::NO_WINDOW));
                 }
-                self.identification
-                    .on_points(ballisto_link::identification::points(data));
+                let points: heapless::Vec<ReferencePoint, MAX_POINTS> =
+                    ballisto_link::identification::points(data)
+                        .take(MAX_POINTS)
+                        .collect();
+                self.identification.post(Order::Points(points))?;
             }
-            Command::ReportIdentification => self.report_identification(t, tm).await?,
             _ => {}
         }
         Ok(())
+    }
+
+    /// A set's channel vector for the window, if one is open at `t`: queued to the task, or
+    /// counted as lost if the queue is full (the estimate never waits for the task).
+    pub(super) fn identification_set(&mut self, t: Nanos) {
+        let link = &mut self.identification;
+        let (Some(task), Some((start, end))) = (link.task, link.window) else {
+            return;
+        };
+        if t >= start && t <= end && !task.post_set(t, self.estimation.readings()) {
+            link.lost = link.lost.wrapping_add(1);
+        }
+    }
+
+    /// TC[200,10]: asks the task to solve the window; the summary, every channel and the
+    /// completion are sent when it has ([`App::on_solved`]).
+    pub(super) fn request_solution(
+        &mut self,
+        request: RequestId,
+        ack_completion: bool,
+    ) -> Result<(), (FailureCode, u32)> {
+        let link = &mut self.identification;
+        link.task()?;
+        if link.solving.is_some() {
+            return Err((FailureCode::NotReady, not_ready::IDENTIFICATION_BUSY));
+        }
+        if link.window.is_none() {
+            return Err(unsolved(None));
+        }
+        link.post(Order::Solve { lost: link.lost })?;
+        link.solving = Some((request, ack_completion));
+        Ok(())
+    }
+
+    /// The identification task's queues, if the board attached them.
+    pub fn identifier(&self) -> Option<&'static Identifier> {
+        self.identification.task
+    }
+
+    /// The solve asked for, as the task hands it over (the application task waits for it
+    /// beside sets and commands): its reports and completion, or its failure.
+    pub async fn on_solved<W: Write>(&mut self, solved: Solved, t: Nanos, tm: &mut Telemetry<W>) {
+        let Some((request, ack)) = self.identification.solving.take() else {
+            return;
+        };
+        match self.report_identification(solved, t, tm).await {
+            Ok(()) if ack => self.verify(t, tm, subtype::COMPLETED, request, None).await,
+            Ok(()) => {}
+            Err(failure) => {
+                self.verify(t, tm, subtype::NOT_COMPLETED, request, Some(failure))
+                    .await
+            }
+        }
     }
 
     /// Says that a storage task takes commits (the board has a writable store).
@@ -73,27 +188,19 @@ impl App {
         self.outbox.take()
     }
 
-    /// TC[200,10]: solves the window and sends the summary and every channel.
+    /// A solve's outcome: the summary and every channel sent, the solution kept under its
+    /// number; or why there is none.
     async fn report_identification<W: Write>(
         &mut self,
+        solved: Solved,
         t: Nanos,
         tm: &mut Telemetry<W>,
     ) -> Result<(), (FailureCode, u32)> {
-        let arrangement = self.estimation.estimator().arrangement();
-        let (id, summary) = self.identification.solve(arrangement).map_err(|e| {
-            let data = match e {
-                None => not_ready::NO_WINDOW,
-                Some(IdentifyError::TooFewSets { have }) => {
-                    not_ready::TOO_FEW_SETS | have.min(0xFFFF)
-                }
-                Some(IdentifyError::NotConverged { channel }) => {
-                    not_ready::NOT_CONVERGED | channel as u32
-                }
-                // The sums are started with the arrangement's channel count.
-                Some(IdentifyError::ChannelCount { .. }) => not_ready::NO_WINDOW,
-            };
-            (FailureCode::NotReady, data)
-        })?;
+        let (solution, summary) = solved.map_err(unsolved)?;
+        let (_, id) = self
+            .identification
+            .solution
+            .insert((summary.solution, solution));
         info!(
             "identification {}: {} sets, origin from the centre of mass (rho) {} {} {} m",
             summary.solution, summary.sets, summary.rho[0], summary.rho[1], summary.rho[2]
@@ -145,7 +252,12 @@ impl App {
             Store::Busy(..) => return refuse(not_ready::STORE_BUSY),
             Store::Idle => {}
         }
-        let Some(id) = self.identification.solution(solution) else {
+        let Some((_, id)) = self
+            .identification
+            .solution
+            .as_ref()
+            .filter(|(n, _)| *n == solution)
+        else {
             return refuse(not_ready::NO_SUCH_SOLUTION);
         };
         for (c, f) in id.channels().iter().enumerate() {

@@ -36,7 +36,6 @@ pub use uplink::{uplink_task, Incoming, COMMAND_QUEUE};
 
 use crate::config::{AppConfig, MAX_PARTS};
 use crate::estimation::Estimation;
-use crate::identification::Identification;
 use crate::sampler::{Health, HealthBoard, SampleSet};
 use crate::storage::CommitRequest;
 use crate::telemetry::Telemetry;
@@ -86,7 +85,7 @@ pub struct App {
     /// The spacecraft time of the boot, once TC[9,128] has given it.
     time: TimeCorrelation,
     /// Identification in flight (TC[200,8–11]).
-    identification: Identification,
+    identification: identify::IdentificationLink,
     /// The storage task's state, and a commit waiting to be sent to it.
     store: identify::Store,
     outbox: Option<CommitRequest>,
@@ -122,7 +121,7 @@ impl App {
             calibration: CalibrationId::default(),
             boot_info: BootInfo::default(),
             time: TimeCorrelation::default(),
-            identification: Identification::new(),
+            identification: identify::IdentificationLink::default(),
             store: identify::Store::None,
             outbox: None,
             deferring: None,
@@ -213,8 +212,7 @@ impl App {
             let m = self.estimation.process(set);
             self.estimates = self.estimates.wrapping_add(1);
             // After the estimate: the identification only reads the channel vector.
-            self.identification
-                .on_set(set.t, self.estimation.readings());
+            self.identification_set(set.t);
             for (id, a, b) in self
                 .estimation
                 .fault_events(m.verdict)
@@ -304,9 +302,19 @@ impl App {
         if ack_acceptance {
             self.verify(t, tm, subtype::ACCEPTED, request, None).await;
         }
-        if let telecommand::Command::CommitCalibration { solution } = command {
+        let deferred = match command {
+            // Completed when the identification task has solved (`on_solved`).
+            telecommand::Command::ReportIdentification => {
+                Some(self.request_solution(request, ack_completion))
+            }
             // Completed when the store answers (`on_commit_reply`).
-            if let Err(failure) = self.commit_calibration(solution, request, ack_completion) {
+            telecommand::Command::CommitCalibration { solution } => {
+                Some(self.commit_calibration(solution, request, ack_completion))
+            }
+            _ => None,
+        };
+        if let Some(outcome) = deferred {
+            if let Err(failure) = outcome {
                 self.verify(t, tm, subtype::NOT_COMPLETED, request, Some(failure))
                     .await;
             }

@@ -3,7 +3,7 @@
 //! board ends its run) published on an embassy-sync `PubSubChannel` — no hooks in the
 //! application. With no subscriber (the flight board) nothing is queued.
 
-use embassy_futures::select::{select3, Either3 as Event};
+use embassy_futures::select::{select4, Either4 as Event};
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::channel::Receiver;
 use embassy_sync::pubsub::PubSubChannel;
@@ -88,8 +88,10 @@ where
     let publisher = observations.publisher();
     app.set_store_writable(storage.is_some());
     app.boot(time.now(), tm).await;
+    let identifier = app.identifier();
     loop {
-        // Commits come from identification (TC[200,11]) where the board has a writable store.
+        // Commits come from identification (TC[200,11]) where the board has a writable store;
+        // solutions from the identification task (TC[200,10]), reported as soon as they come.
         let event = {
             let replies = async {
                 match &storage {
@@ -97,7 +99,13 @@ where
                     None => core::future::pending().await,
                 }
             };
-            select3(samples.receive(), commands.receive(), replies).await
+            let solved = async {
+                match identifier {
+                    Some(i) => i.solved().await,
+                    None => core::future::pending().await,
+                }
+            };
+            select4(samples.receive(), commands.receive(), replies, solved).await
         };
         match event {
             Event::First(set) => {
@@ -116,6 +124,7 @@ where
                 }
             }
             Event::Third(reply) => app.on_commit_reply(reply, time.now(), tm).await,
+            Event::Fourth(solved) => app.on_solved(solved, time.now(), tm).await,
         }
     }
 }

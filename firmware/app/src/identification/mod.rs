@@ -5,15 +5,18 @@
 //! estimator got it) waits in a short queue until the reference points (TC[200,9], Ω on the
 //! unit's time) cover its instant; then Ω and Ω′ there ([`reference`]) make the field's terms
 //! and the set goes into estimator-core's sums (`identify::FieldSums`: 55 + 11 N multiply-adds,
-//! no set kept). TC[200,10] solves the sums (`identify::identify`) and keeps the solution under
-//! a number; TC[200,11] names that number to commit it. The field: `σ(0) = 0` at the centre of
+//! no set kept). TC[200,10] solves the sums (`identify::identify`); the application keeps the
+//! solution under a number and TC[200,11] names that number to commit it. All of it but the
+//! copy of each set runs in the identification task, below the estimate ([`task`]). The field: `σ(0) = 0` at the centre of
 //! mass (free flight) and the reference's Ω and Ω′; the gravity gradient (≈ 4e-6 s⁻² in low
 //! orbit, 4e-7 m/s² on a 0.1 m arm) is left out.
 
 mod reference;
+mod task;
 mod window;
 
 pub use reference::{Push, ReferenceTrack};
+pub use task::{Identifier, Order, Solved, ORDERS, SET_QUEUE};
 pub use window::Identification;
 
 /// Sample sets that can wait for the reference to cover them. At sample rates where that is

@@ -1,4 +1,5 @@
-//! The window: sample sets waiting for the reference, the sums, the solution.
+//! The window: sample sets waiting for the reference, the sums, the solve. Run by the
+//! identification task ([`super::Identifier::run`]), below the estimate.
 
 use ballisto_link::identification::{IdentificationSummary, ReferencePoint};
 use estimator_core::identify::Tolerance;
@@ -16,14 +17,15 @@ const GAP_PERIODS: u64 = 3;
 
 /// The identification's state.
 pub struct Identification {
-    /// The open window: its end, and which sets it takes (every `decimation`-th).
-    window: Option<(Nanos, u32)>,
+    /// The open window: its start and end, and which sets it takes (every `decimation`-th).
+    window: Option<(Nanos, Nanos, u32)>,
+    /// The arrangement in force when the window was started: the one its sets were read with.
+    arrangement: Arrangement<MAX_CHANNELS>,
     seen: u32,
     track: ReferenceTrack,
     pending: Deque<(Nanos, [f32; MAX_CHANNELS]), PENDING>,
     sums: FieldSums<MAX_CHANNELS>,
     counters: Counters,
-    solution: Option<(u16, Identified<MAX_CHANNELS>)>,
     next_solution: u16,
 }
 
@@ -38,6 +40,7 @@ impl Identification {
     pub const fn new() -> Self {
         Identification {
             window: None,
+            arrangement: Arrangement::new(),
             seen: 0,
             track: ReferenceTrack::new(0),
             pending: Deque::new(),
@@ -48,28 +51,29 @@ impl Identification {
                 points: 0,
                 restarts: 0,
             },
-            solution: None,
             next_solution: 1,
         }
     }
 
-    /// Starts a window of `window_ms` from `now` over `channels` channels sampled at
-    /// `rate_hz`, with the reference sent every `period_ms`; what was accumulated is dropped
-    /// (a reported solution stays committable).
+    /// Starts a window of `window_ms` from `now` over the channels of `arrangement` sampled
+    /// at `rate_hz`, with the reference sent every `period_ms`; what was accumulated is
+    /// dropped (a reported solution stays committable).
     #[inline(never)]
     pub fn start(
         &mut self,
         now: Nanos,
         period_ms: u16,
         window_ms: u32,
-        channels: usize,
+        arrangement: &Arrangement<MAX_CHANNELS>,
         rate_hz: f32,
     ) {
         let period = u64::from(period_ms) * 1_000_000;
         // Sets the queue must hold: three periods' worth.
         let needed = libm::ceilf(3.0 * f32::from(period_ms) * 1e-3 * rate_hz);
         let decimation = libm::ceilf(needed / PENDING as f32).max(1.0) as u32;
-        self.window = Some((now + u64::from(window_ms) * 1_000_000, decimation));
+        self.window = Some((now, now + u64::from(window_ms) * 1_000_000, decimation));
+        self.arrangement.clone_from(arrangement);
+        let channels = arrangement.len();
         self.seen = 0;
         self.track = ReferenceTrack::new(GAP_PERIODS * period);
         self.pending.clear();
@@ -85,10 +89,10 @@ impl Identification {
     /// A sample set's channel vector (NaN where a part had no value) at `t`.
     #[inline(never)]
     pub fn on_set(&mut self, t: Nanos, p: &[f32]) {
-        let Some((end, decimation)) = self.window else {
+        let Some((start, end, decimation)) = self.window else {
             return;
         };
-        if t > end {
+        if t < start || t > end {
             return;
         }
         self.seen = self.seen.wrapping_add(1);
@@ -156,16 +160,18 @@ impl Identification {
         }
     }
 
-    /// Solves the window for `arrangement` (paper §6) and keeps the solution under a new
-    /// number; returns it with its summary.
+    /// Solves the window for the arrangement in force at its start (paper §6) and numbers the
+    /// solution; `lost` sets never reached the window (the queue to this task was full) and are
+    /// counted as not covered.
     #[inline(never)]
     pub fn solve(
         &mut self,
-        arrangement: &Arrangement<MAX_CHANNELS>,
-    ) -> Result<(&Identified<MAX_CHANNELS>, IdentificationSummary), Option<IdentifyError>> {
+        lost: u32,
+    ) -> Result<(Identified<MAX_CHANNELS>, IdentificationSummary), Option<IdentifyError>> {
         if self.window.is_none() {
             return Err(None);
         }
+        let arrangement = &self.arrangement;
         let id = identify(&self.sums, arrangement, &Tolerance::DATASHEET).map_err(Some)?;
         let number = self.next_solution;
         self.next_solution = self.next_solution.wrapping_add(1).max(1);
@@ -175,7 +181,7 @@ impl Identification {
             solution: number,
             channels: arrangement.len() as u8,
             sets: id.sets,
-            not_covered: c.not_covered + self.pending.len() as u32,
+            not_covered: c.not_covered + self.pending.len() as u32 + lost,
             incomplete: c.incomplete,
             points: c.points,
             restarts: c.restarts,
@@ -187,16 +193,7 @@ impl Identification {
                 frame.size as f32,
             ],
         };
-        let (_, kept) = self.solution.insert((number, id));
-        Ok((kept, summary))
-    }
-
-    /// The solution reported under `number`, if it is the last one.
-    pub fn solution(&self, number: u16) -> Option<&Identified<MAX_CHANNELS>> {
-        self.solution
-            .as_ref()
-            .filter(|(n, _)| *n == number)
-            .map(|(_, id)| id)
+        Ok((id, summary))
     }
 
     /// The window's counters.

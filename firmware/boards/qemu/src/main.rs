@@ -5,8 +5,8 @@
 //! - two priorities: sampling, the application and the observer on an interrupt executor (a
 //!   software-pended interrupt), and below them, in thread mode, the builder of the
 //!   estimator's configurations (issue 17: a part's exclusion is precomputed there, in soft
-//!   f64 on this Cortex-M4F, while the estimates go on), the calibration storage task and the
-//!   scripted uplink,
+//!   f64 on this Cortex-M4F, while the estimates go on), the identification task (the window's
+//!   sums and solve, soft f64 too), the calibration storage task and the scripted uplink,
 //! - the built-in scenario in place of the parts (QEMU has no accelerometers) and its
 //!   scripted uplink,
 //! - the telemetry link written through semihosting into QEMU's working directory:
@@ -35,6 +35,7 @@ mod board {
     use ballisto_fw::boot::{count_boot, ResetCause};
     use ballisto_fw::calstore::{CalibrationStore, Programming, RamFlash};
     use ballisto_fw::estimation::Builds;
+    use ballisto_fw::identification::{Identification, Identifier};
     use ballisto_fw::sampler::{HealthBoard, SampleSet};
     use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
     use ballisto_fw::telemetry::Telemetry;
@@ -174,6 +175,9 @@ mod board {
     static HEALTH: HealthBoard<Cs> = HealthBoard::new();
     static APP: StaticCell<App> = StaticCell::new();
     static BUILDS: StaticCell<Builds> = StaticCell::new();
+    // Initialised at run time: a const-initialised one is 9 KB of .data, in flash.
+    static IDENTIFIER: StaticCell<Identifier> = StaticCell::new();
+    static WINDOW: StaticCell<Identification> = StaticCell::new();
     static SOURCE: StaticCell<Synthetic> = StaticCell::new();
     static TELEMETRY: StaticCell<Telemetry<HostFile>> = StaticCell::new();
     /// Sector of the RAM-backed calibration flash.
@@ -244,6 +248,12 @@ mod board {
         builds.run().await
     }
 
+    /// The identification's window: sums and solve (thread mode: below the estimate).
+    #[embassy_executor::task]
+    async fn identification(identifier: &'static Identifier, window: &'static mut Identification) {
+        identifier.run(window).await
+    }
+
     /// Ends the boot once the application has handled its last set: boot 1 resets the
     /// machine, boot 2 ends the run.
     #[embassy_executor::task]
@@ -254,7 +264,7 @@ mod board {
         loop {
             let o = seen.next_message_pure().await;
             // The last set, or the first after the source's last (the last may have been
-            // dropped while the application was busy: the identification's solve).
+            // dropped while the application was busy).
             if o.set.k + 1 >= sets || o.status.sampling.sets >= sets {
                 let s = o.status;
                 hprintln!(
@@ -381,7 +391,9 @@ mod board {
         app.set_calibration(calibration);
         app.set_boot_info(boot_info);
         let builds = BUILDS.init_with(Builds::background);
+        let identifier: &'static Identifier = IDENTIFIER.init_with(Identifier::new);
         app.attach_builds(builds);
+        app.attach_identifier(identifier);
         let app = APP.init(app);
         // The parts as mounted (`demo::truth`); boot 1 in free flight for the identification,
         // boot 2 with the scenario's faults.
@@ -395,6 +407,7 @@ mod board {
         let source = SOURCE.init(source);
         let tm = TELEMETRY.init(Telemetry::new(file));
         spawner.spawn(builder(builds).unwrap());
+        spawner.spawn(identification(identifier, WINDOW.init_with(Identification::new)).unwrap());
         spawner.spawn(storage(STORE.init(store)).unwrap());
         let upper = UPPER.start(SoftwareInterrupt);
         let period = source.period();

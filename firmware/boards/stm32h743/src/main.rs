@@ -19,8 +19,8 @@
 //! Two priorities, as on the QEMU board: sampling, the application and the uplink on an
 //! interrupt executor (UART4's vector, a peripheral this board does not use), and below them,
 //! in thread mode, the builder of the estimator's configurations (a part's exclusion is
-//! precomputed there while the estimates go on) and the calibration storage task (a sector
-//! erase blocks for up to seconds).
+//! precomputed there while the estimates go on), the identification task (the window's sums
+//! and solve) and the calibration storage task (a sector erase blocks for up to seconds).
 //!
 //! Calibration: the store in bank 2's first two sectors (`CAL_RANGE`), read at boot without
 //! writing; its newest whole record replaces the built-in arrangement if it is for the same
@@ -41,6 +41,7 @@ mod board {
     use ballisto_fw::config::AppConfig;
     use ballisto_fw::config::{PartKind, MAX_PARTS};
     use ballisto_fw::estimation::Builds;
+    use ballisto_fw::identification::{Identification, Identifier};
     use ballisto_fw::sampler::{sampling_task, HealthBoard, PartBus, SampleSet, Sampler};
     use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
     use ballisto_fw::telemetry::Telemetry;
@@ -127,6 +128,9 @@ mod board {
     static COMMANDS: StaticCell<ZeroCopyChannel<'static, Cs, Incoming>> = StaticCell::new();
     static RX_DMA: StaticCell<[u8; 256]> = StaticCell::new();
     static BUILDS: StaticCell<Builds> = StaticCell::new();
+    // Initialised at run time: a const-initialised one is 9 KB of .data, in flash.
+    static IDENTIFIER: StaticCell<Identifier> = StaticCell::new();
+    static WINDOW: StaticCell<Identification> = StaticCell::new();
     static STORE: StaticCell<Store> = StaticCell::new();
     static COMMIT_REQUESTS: CommitRequests<Cs> = CommitRequests::new();
     static COMMIT_REPLIES: CommitReplies<Cs> = CommitReplies::new();
@@ -218,6 +222,12 @@ mod board {
     #[embassy_executor::task]
     async fn builder(builds: &'static Builds) {
         builds.run().await
+    }
+
+    /// The identification's window: sums and solve (thread mode: below the estimate).
+    #[embassy_executor::task]
+    async fn identification(identifier: &'static Identifier, window: &'static mut Identification) {
+        identifier.run(window).await
     }
 
     /// Commits calibrations (thread mode).
@@ -343,11 +353,13 @@ mod board {
         let rx = rx.into_ring_buffered(RX_DMA.init([0; 256]));
 
         let builds = BUILDS.init_with(Builds::background);
+        let identifier: &'static Identifier = IDENTIFIER.init_with(Identifier::new);
         let app = match App::new(&config, Mode::Operate) {
             Ok(mut app) => {
                 app.set_calibration(calibration);
                 app.set_boot_info(boot);
                 app.attach_builds(builds);
+                app.attach_identifier(identifier);
                 app
             }
             Err(e) => {
@@ -361,6 +373,7 @@ mod board {
         let (command_tx, command_rx) = COMMANDS.init(ZeroCopyChannel::new(slots)).split();
 
         spawner.spawn(builder(builds).unwrap());
+        spawner.spawn(identification(identifier, WINDOW.init_with(Identification::new)).unwrap());
         let writable = store.is_some();
         if let Some(store) = store {
             spawner.spawn(storage(STORE.init(store)).unwrap());
