@@ -420,3 +420,48 @@ fn too_few_sets_and_a_channel_mismatch_are_refused() {
         })
     ));
 }
+
+/// Why free flight cannot give the scale (the Fisher bound is infinite, not just large): a
+/// channel reads `c s·(L (R − c_m))`, so its scale and its lever arm from the centre of mass
+/// are one product. Identified from a noise-free manoeuvre with every scale held at 1 while
+/// the parts' are 1 ± 1 %, every channel still fits the record to the round-off, its axis
+/// and bias come out exact, and its lever arm comes out as the true one times the true scale:
+/// any scale explains the record as well as the true one, so the record carries no
+/// information on it. What the estimate needs — the product — is exact, so Ω′ and Ω are, and
+/// σ0 at the origin the identified geometry defines; the held scales' share of where that
+/// origin is sits in the frame's translation (`Identified::frame_uncertainty`).
+#[test]
+fn in_free_flight_the_scale_is_one_product_with_the_lever_arm() {
+    let a = nominal();
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let truth = perturbed(&a, &mut rng);
+    assert!(truth.iter().any(|t| (t.scale - 1.0).abs() > 5e-3));
+    let com = [0.02, -0.01, 0.03];
+    let sums = record(&truth, com, 60.0, 0.0, Motion::Manoeuvre, &mut rng);
+    // The nominal geometry with every scale at 1 (no ground calibration).
+    let id = identify(&sums, &a, &Tolerance::DATASHEET).expect("identified");
+    for (i, (f, t)) in id.channels().iter().zip(&truth).enumerate() {
+        assert!(f.is_held(Param::Scale), "channel {i}");
+        assert_eq!(
+            f.channel.scale, 1.0,
+            "channel {i}: the scale stays at the nominal 1"
+        );
+        assert!(
+            f.residual_rms < NOISE_FREE_RESIDUAL,
+            "channel {i}: the record is explained without its scale: {}",
+            f.residual_rms
+        );
+        assert!((f.channel.bias - t.bias).abs() < 1e-9, "bias {i}");
+        for k in 0..3 {
+            assert!((f.channel.axis[k] - t.axis[k]).abs() < 1e-9, "axis {i}");
+            // The lever arm from the identified centre of mass (at −ρ) is the true one
+            // times the true scale.
+            let arm = f.channel.position[k] + id.rho[k];
+            let want = t.scale * (t.position[k] - com[k]);
+            assert!(
+                (arm - want).abs() < 1e-9,
+                "channel {i} lever arm {k}: {arm} against scale × true {want}"
+            );
+        }
+    }
+}

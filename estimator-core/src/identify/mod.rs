@@ -22,8 +22,11 @@
 //! linearisation of eq. 9 is only the step, not the model.
 //!
 //! In free fall a channel's scale is not separable from its distance to the centre of mass
-//! (`c s·(L R)` is a product): the scale is held at the arrangement's value (the ground
-//! calibration's) and named, always ([`ALWAYS_HELD`]); the estimate needs only the product.
+//! (`c s·(L R)` is a product): any scale explains the record exactly with its lever arm scaled
+//! to match, so the record carries no information on it (the Fisher bound is infinite;
+//! `tests/identify.rs`, `in_free_flight_the_scale_is_one_product_with_the_lever_arm`). The
+//! scale is held at the arrangement's value (the ground calibration's) and named, always
+//! ([`ALWAYS_HELD`]); the estimate needs only the product.
 //! What else the window did not excite is decided, not assumed: a parameter whose deviation exceeds
 //! half its tolerance ([`Tolerance`]) is held at its nominal value, the worst first, and named
 //! ([`ChannelFit::held`]). The positions come out relative to the centre of mass; their common
