@@ -72,6 +72,22 @@ fn positive_rate(s: &str) -> Result<f64, String> {
 }
 
 /// A relative deviation: a number above 0 and below 1.
+/// `--inertia`: three principal moments or the six components of a symmetric tensor.
+fn inertia(s: &str) -> Result<[f64; 6], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    if !v.iter().all(|x| x.is_finite()) {
+        return Err("every component must be a finite number".into());
+    }
+    match v.len() {
+        3 => Ok([v[0], v[1], v[2], 0.0, 0.0, 0.0]),
+        6 => Ok([v[0], v[1], v[2], v[3], v[4], v[5]]),
+        n => Err(format!("{n} numbers: give XX,YY,ZZ or XX,YY,ZZ,XY,XZ,YZ")),
+    }
+}
+
 fn relative_sd(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(r) if r > 0.0 && r < 1.0 => Ok(r),
@@ -330,6 +346,13 @@ enum Command {
         /// out of the fit (every fifth 2 s of motion); the warning goes into the file.
         #[arg(long)]
         force: bool,
+        /// Without a reference, from a torque-free tumble in free flight: the body's inertia
+        /// in the body frame, XX,YY,ZZ or XX,YY,ZZ,XY,XZ,YZ (any unit: only the ratios
+        /// matter). The record is then fitted with the motion Euler's equations give (paper
+        /// §6); a record that cannot decide is refused, naming the channel and parameter.
+        #[arg(long, value_name = "XX,YY,ZZ[,XY,XZ,YZ]", value_parser = inertia,
+              conflicts_with_all = ["reference", "reference_scale_sd", "report", "force", "model"])]
+        inertia: Option<[f64; 6]>,
     },
     /// Where the centre of mass is (paper eq. 12's ρ: the instrument origin seen from the
     /// centre of mass, which is at −ρ) over sliding windows: t, rho_x.., f_x.., sd_rho_x..
@@ -643,7 +666,41 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             model,
             report,
             force,
+            inertia,
         } => {
+            if let Some(inertia) = inertia {
+                let s = ballisto::calibrate::tumble::calibrate_tumble(
+                    &ballisto::calibrate::tumble::TumbleJob {
+                        arrangement: &arrangement,
+                        samples: &samples,
+                        out: &out,
+                        inertia,
+                    },
+                )?;
+                let (w, sd) = s.omega0;
+                say.info(format!(
+                    "ballisto calibrate: torque-free tumble, {} sample sets, start rate [{:.4}, {:.4}, {:.4}] rad/s (sd {:.1e} {:.1e} {:.1e}) after {} evaluations, rho [{:.4}, {:.4}, {:.4}] m -> {}",
+                    s.sets,
+                    w[0],
+                    w[1],
+                    w[2],
+                    sd[0],
+                    sd[1],
+                    sd[2],
+                    s.evaluations,
+                    s.rho[0],
+                    s.rho[1],
+                    s.rho[2],
+                    out.display()
+                ));
+                for (name, held) in &s.held {
+                    say.info(format!(
+                        "  {name}: not identified (kept nominal): {}",
+                        held.join(", ")
+                    ));
+                }
+                return Ok(ExitCode::SUCCESS);
+            }
             let fit = parse_fit(&fit)?;
             let model = model.map(Model::from);
             let s = ballisto::calibrate::calibrate_files(&ballisto::calibrate::CalibrateJob {

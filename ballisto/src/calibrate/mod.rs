@@ -11,6 +11,8 @@
 //! - [`reference_align`] estimates the reference's bias, time offset and frame rotation;
 //! - [`holdout`] holds part of the motion out of the fit and scores both geometries on it;
 //! - [`thinning`] keeps a long record's motion to what the fit needs;
+//! - [`tumble`] identifies without a reference from a torque-free tumble in free flight, the
+//!   inertia given (`--inertia`; estimator-core's identification, as on board);
 //! - this module reads the files, runs the fit and writes the calibrated arrangement.
 
 pub mod fit;
@@ -23,6 +25,7 @@ pub mod reference_rate;
 pub mod report;
 pub mod scatter;
 pub mod thinning;
+pub mod tumble;
 
 use std::error::Error;
 use std::path::Path;
