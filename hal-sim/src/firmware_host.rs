@@ -97,50 +97,61 @@ impl OutputPin for SimSyncPin {
     }
 }
 
-/// The firmware's second configuration buffer for one run, [`Builds::inline`]: changes are
-/// built in the sample path at once, as `ballisto estimate` makes them, since simulated time
-/// does not pass during a build. The application holds it for `'static`, so buffers are kept in
-/// a pool across runs (about 26 KB each: configuration, request, parity space; as many as runs
+/// What the application holds for `'static` across one run — the second configuration buffer
+/// ([`Builds::inline`]: changes are built in the sample path at once, as `ballisto estimate`
+/// makes them, since simulated time does not pass during a build; about 26 KB) and the
+/// identification task's queues (about 11 KB) — kept in a pool across runs (as many as runs
 /// at a time) instead of leaked per run.
-struct SpareBuffer(&'static Builds);
+trait Pooled: Sync + 'static {
+    /// The pool.
+    fn pool() -> &'static std::sync::Mutex<Vec<&'static Self>>;
+    /// A new one.
+    fn make() -> Self;
+    /// Emptied for the next run.
+    fn empty(&self);
+}
 
-static SPARE_BUFFERS: std::sync::Mutex<Vec<&'static Builds>> = std::sync::Mutex::new(Vec::new());
-
-impl SpareBuffer {
-    fn take() -> Self {
-        let pooled = SPARE_BUFFERS.lock().ok().and_then(|mut pool| pool.pop());
-        SpareBuffer(pooled.unwrap_or_else(|| Box::leak(Box::new(Builds::inline()))))
+impl Pooled for Builds {
+    fn pool() -> &'static std::sync::Mutex<Vec<&'static Self>> {
+        static POOL: std::sync::Mutex<Vec<&'static Builds>> = std::sync::Mutex::new(Vec::new());
+        &POOL
+    }
+    fn make() -> Self {
+        Builds::inline()
+    }
+    fn empty(&self) {
+        self.clear();
     }
 }
 
-impl Drop for SpareBuffer {
+impl Pooled for Identifier {
+    fn pool() -> &'static std::sync::Mutex<Vec<&'static Self>> {
+        static POOL: std::sync::Mutex<Vec<&'static Identifier>> = std::sync::Mutex::new(Vec::new());
+        &POOL
+    }
+    fn make() -> Self {
+        Identifier::new()
+    }
+    fn empty(&self) {
+        self.clear();
+    }
+}
+
+/// One run's loan from a [`Pooled`] pool.
+struct Loan<T: Pooled>(&'static T);
+
+impl<T: Pooled> Loan<T> {
+    fn take() -> Self {
+        let pooled = T::pool().lock().ok().and_then(|mut pool| pool.pop());
+        Loan(pooled.unwrap_or_else(|| Box::leak(Box::new(T::make()))))
+    }
+}
+
+impl<T: Pooled> Drop for Loan<T> {
     /// Back to the pool, emptied (declared before the application, it outlives it).
     fn drop(&mut self) {
-        self.0.clear();
-        if let Ok(mut pool) = SPARE_BUFFERS.lock() {
-            pool.push(self.0);
-        }
-    }
-}
-
-/// The identification task's queues for one run, pooled as [`SpareBuffer`] (the application
-/// holds them for `'static`; about 11 KB each).
-struct IdentifierQueues(&'static Identifier);
-
-static IDENTIFIERS: std::sync::Mutex<Vec<&'static Identifier>> = std::sync::Mutex::new(Vec::new());
-
-impl IdentifierQueues {
-    fn take() -> Self {
-        let pooled = IDENTIFIERS.lock().ok().and_then(|mut pool| pool.pop());
-        IdentifierQueues(pooled.unwrap_or_else(|| Box::leak(Box::new(Identifier::new()))))
-    }
-}
-
-impl Drop for IdentifierQueues {
-    /// Back to the pool, emptied (declared before the application, it outlives it).
-    fn drop(&mut self) {
-        self.0.clear();
-        if let Ok(mut pool) = IDENTIFIERS.lock() {
+        self.0.empty();
+        if let Ok(mut pool) = T::pool().lock() {
             pool.push(self.0);
         }
     }
@@ -421,8 +432,8 @@ pub fn run_firmware_boot(
         clock: rig.clock.clone(),
     };
     let mut sampler = Sampler::new(&config.sampling, buses, sync);
-    let spare = SpareBuffer::take();
-    let identifier = IdentifierQueues::take();
+    let spare = Loan::<Builds>::take();
+    let identifier = Loan::<Identifier>::take();
     let mut app =
         App::new(config, Mode::Operate).map_err(|e| format!("firmware estimator: {e}"))?;
     app.attach_builds(spare.0);

@@ -91,6 +91,28 @@ fn silent_rows(sc: &Scenario, stream: &[u8], skip: f64) -> (usize, usize) {
     (silent, rows.len())
 }
 
+/// RMS errors of σ0, Ω′, Ω through the firmware on the scenario with ideal parts (every
+/// datasheet error removed) and its nominal geometry, after `skip` s.
+fn ideal_errors(
+    sc: &Scenario,
+    loaded: &hal_sim::arrangement_file::LoadedArrangement,
+    skip: f64,
+) -> [f64; 3] {
+    let ideal_sc = ideal(sc);
+    let config = firmware_config(&ideal_sc, loaded, Alignment::Interpolate).unwrap();
+    let mut stream = Vec::new();
+    run_firmware_with(
+        &ideal_sc,
+        &config,
+        ideal_sc.samples() as u32,
+        &[],
+        &mut stream,
+        &mut |_, _, _| {},
+    )
+    .unwrap();
+    rms_from_stream(&ideal_sc, &stream, skip, [0.0; 3])
+}
+
 #[test]
 fn identify_commit_reset_and_the_errors_return_to_ideal_parts() {
     let sc = Scenario::load("orbit-identify").unwrap();
@@ -195,19 +217,7 @@ fn identify_commit_reset_and_the_errors_return_to_ideal_parts() {
     let before = rms_from_stream(&sc, &first, skip, [0.0; 3]);
     let after_drawn = rms_from_stream(&sc, &second, skip, [0.0; 3]);
     let after = rms_from_stream(&sc, &second, skip, origin);
-    let ideal_sc = ideal(&sc);
-    let ideal_config = firmware_config(&ideal_sc, &loaded, Alignment::Interpolate).unwrap();
-    let mut ideal_stream = Vec::new();
-    run_firmware_with(
-        &ideal_sc,
-        &ideal_config,
-        ideal_sc.samples() as u32,
-        &[],
-        &mut ideal_stream,
-        &mut |_, _, _| {},
-    )
-    .unwrap();
-    let reference = rms_from_stream(&ideal_sc, &ideal_stream, skip, [0.0; 3]);
+    let reference = ideal_errors(&sc, &loaded, skip);
     println!(
         "σ0 at the drawn origin: identified {:.3e} ({:.2}× ideal)",
         after_drawn[0],
@@ -344,19 +354,7 @@ fn identify_against_ideal(sc: &Scenario) -> ([f64; 4], (usize, usize)) {
     let skip = 2.0;
     let after = rms_from_stream(sc, &second, skip, origin);
     let after_drawn = rms_from_stream(sc, &second, skip, [0.0; 3]);
-    let ideal_sc = ideal(sc);
-    let ideal_config = firmware_config(&ideal_sc, &loaded, Alignment::Interpolate).unwrap();
-    let mut ideal_stream = Vec::new();
-    run_firmware_with(
-        &ideal_sc,
-        &ideal_config,
-        ideal_sc.samples() as u32,
-        &[],
-        &mut ideal_stream,
-        &mut |_, _, _| {},
-    )
-    .unwrap();
-    let reference = rms_from_stream(&ideal_sc, &ideal_stream, skip, [0.0; 3]);
+    let reference = ideal_errors(sc, &loaded, skip);
     (
         [
             after[0] / reference[0],
