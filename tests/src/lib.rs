@@ -1,8 +1,10 @@
 //! Shared pieces of the end-to-end tests: test cases (arrangement families × motions), a slow
-//! f64 multi-start maximum-likelihood reference, error statistics, and scenarios' records.
+//! f64 multi-start maximum-likelihood reference, error statistics, scenarios' records, and
+//! scenarios drawn at random for the identification.
 
 pub mod cases;
 pub mod csv;
+pub mod drawn;
 pub mod faults;
 pub mod ml;
 pub mod nine;
