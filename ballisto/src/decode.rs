@@ -389,7 +389,7 @@ pub fn identified_arrangement(
     arrangement: &Path,
 ) -> Result<String, String> {
     use ballisto_link::identification::IdentifiedChannel;
-    use hal_sim::arrangement_file::{ArrangementFile, ChannelSpec};
+    use hal_sim::arrangement_file::ArrangementFile;
     let summary = stream
         .packets
         .iter()
@@ -435,22 +435,21 @@ pub fn identified_arrangement(
                 summary.solution
             )
         })?;
-        let free = |bit: u8| c.held & (1 << bit) == 0;
-        let sd = |k: usize| f64::from(c.sd[k]);
-        let f3 = |v: [f32; 3]| v.map(f64::from);
-        out.push(ChannelSpec {
-            name: spec.name.clone(),
-            position: f3(c.position),
-            axis: f3(c.axis),
-            noise: Some(f64::from(c.noise)),
-            bias: Some(f64::from(c.bias)),
-            scale: Some(f64::from(c.scale)),
-            position_sd: (free(3) && free(4) && free(5)).then(|| [sd(3), sd(4), sd(5)]),
-            axis_sd: (free(1) && free(2)).then(|| sd(1).max(sd(2))),
-            bias_sd: free(6).then(|| sd(6)),
-            scale_sd: free(0).then(|| sd(0)),
-            range: spec.range,
-        });
+        let fit = estimator_core::identify::ChannelFit {
+            channel: estimator_core::Channel {
+                position: c.position.map(f64::from),
+                axis: c.axis.map(f64::from),
+                noise: f64::from(c.noise),
+                bias: f64::from(c.bias),
+                scale: f64::from(c.scale),
+            },
+            sd: c.sd.map(f64::from),
+            held: c.held,
+            residual_rms: f64::from(c.residual_rms),
+        };
+        out.push(crate::calibrate::identified_channel(
+            &spec.name, spec.range, &fit,
+        ));
     }
     let file = ArrangementFile {
         model: nominal.model.clone(),

@@ -120,6 +120,34 @@ pub const RESIDUAL_FACTOR: f64 = 2.0;
 /// An identified parameter more than this many tolerances from nominal is doubted.
 pub const IMPLAUSIBLE_TOLERANCES: f64 = 5.0;
 
+/// One channel of an identification in flight (estimator-core's, on board or on the ground)
+/// as the arrangement file writes it: the identified geometry, bias and scale, and the
+/// deviation of each parameter the window determined — a held one gets no `*_sd` key (not
+/// identified: kept at the value in use). `name` and `range` are the nominal file's.
+pub fn identified_channel(
+    name: &str,
+    range: Option<f64>,
+    fit: &estimator_core::identify::ChannelFit,
+) -> ChannelSpec {
+    use estimator_core::identify::Param;
+    let free = |p: Param| !fit.is_held(p);
+    let (c, sd) = (&fit.channel, fit.sd);
+    ChannelSpec {
+        name: name.to_string(),
+        position: c.position,
+        axis: c.axis,
+        noise: Some(c.noise),
+        bias: Some(c.bias),
+        scale: Some(c.scale),
+        position_sd: (free(Param::PositionX) && free(Param::PositionY) && free(Param::PositionZ))
+            .then_some([sd[3], sd[4], sd[5]]),
+        axis_sd: (free(Param::TiltA) && free(Param::TiltB)).then_some(sd[1].max(sd[2])),
+        bias_sd: free(Param::Bias).then_some(sd[6]),
+        scale_sd: free(Param::Scale).then_some(sd[0]),
+        range,
+    }
+}
+
 /// Checks the identification against what a sound record gives, and says what it doubts:
 /// a channel whose residual exceeds [`RESIDUAL_FACTOR`] × its noise (the fit then weighed
 /// its data by their measured scatter: [`scatter`]); a parameter more than

@@ -20,7 +20,7 @@ use estimator_core::identify::{
     identify_tumble, Body, ChannelFit, Param, Sets, Tolerance, TumbleError, TumbleFit,
 };
 use estimator_core::{Options, Sym3};
-use hal_sim::arrangement_file::{load_arrangement, ArrangementFile, ChannelSpec, HOST_CAP};
+use hal_sim::arrangement_file::{load_arrangement, ArrangementFile, HOST_CAP};
 
 use crate::estimate::HostEstimator;
 use crate::exit::Refused;
@@ -211,27 +211,7 @@ fn arrangement_file(
         .channels()
         .iter()
         .zip(specs.iter().zip(names))
-        .map(|(f, (spec, name))| {
-            let free = |p: Param| !f.is_held(p);
-            let c = &f.channel;
-            let sd = f.sd;
-            ChannelSpec {
-                name: name.clone(),
-                position: c.position,
-                axis: c.axis,
-                noise: Some(c.noise),
-                bias: Some(c.bias),
-                scale: Some(c.scale),
-                position_sd: (free(Param::PositionX)
-                    && free(Param::PositionY)
-                    && free(Param::PositionZ))
-                .then_some([sd[3], sd[4], sd[5]]),
-                axis_sd: (free(Param::TiltA) && free(Param::TiltB)).then_some(sd[1].max(sd[2])),
-                bias_sd: free(Param::Bias).then_some(sd[6]),
-                scale_sd: free(Param::Scale).then_some(sd[0]),
-                range: spec.range,
-            }
-        })
+        .map(|(f, (spec, name))| super::identified_channel(name, spec.range, f))
         .collect();
     let frame = fit.identified.frame_uncertainty();
     Ok(ArrangementFile {

@@ -7,9 +7,9 @@
 //! and the set goes into estimator-core's sums (`identify::FieldSums`: 55 + 11 N multiply-adds,
 //! no set kept). TC[200,10] solves the sums (`identify::identify`); the application keeps the
 //! solution under a number and TC[200,11] names that number to commit it. All of it but the
-//! copy of each set runs in the identification task, below the estimate ([`task`]). The field: `σ(0) = 0` at the centre of
-//! mass (free flight) and the reference's Ω and Ω′; the gravity gradient (≈ 4e-6 s⁻² in low
-//! orbit, 4e-7 m/s² on a 0.1 m arm) is left out.
+//! copy of each set runs in the identification task, below the estimate ([`task`]). The
+//! field: `σ(0) = 0` at the centre of mass (free flight) and the reference's Ω and Ω′; the
+//! gravity gradient (≈ 4e-6 s⁻² in low orbit, 4e-7 m/s² on a 0.1 m arm) is left out.
 
 mod reference;
 mod task;

@@ -107,24 +107,19 @@ impl Identifier {
     }
 
     /// What the task does, at once: every set and order queued (for a board or test that
-    /// runs it from its own loop); whether there was any.
-    pub fn run_now(&self, window: &mut Identification) -> bool {
-        let mut any = self.take_sets(window);
+    /// runs it from its own loop).
+    pub fn run_now(&self, window: &mut Identification) {
+        self.take_sets(window);
         while let Ok(order) = self.orders.try_receive() {
             self.execute(order, window);
             self.take_sets(window);
-            any = true;
         }
-        any
     }
 
-    fn take_sets(&self, window: &mut Identification) -> bool {
-        let mut any = false;
+    fn take_sets(&self, window: &mut Identification) {
         while let Ok((t, p)) = self.sets.try_receive() {
             window.on_set(t, &p);
-            any = true;
         }
-        any
     }
 
     fn execute(&self, order: Order, window: &mut Identification) {

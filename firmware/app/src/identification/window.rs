@@ -81,11 +81,6 @@ impl Identification {
         self.counters = Counters::default();
     }
 
-    /// Whether a window was started.
-    pub fn started(&self) -> bool {
-        self.window.is_some()
-    }
-
     /// A sample set's channel vector (NaN where a part had no value) at `t`.
     #[inline(never)]
     pub fn on_set(&mut self, t: Nanos, p: &[f32]) {
