@@ -6,6 +6,7 @@ use ballisto::calibrate::fit::{
     identify, FitSet, Geometry, Identification, RateSource, Record, Tolerance,
 };
 use ballisto::calibrate::{estimator_rates, poses::find_poses};
+use estimator_core::identify::Param;
 use hal_sim::motion::Truth;
 use hal_sim::scenario::Scenario;
 use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -317,15 +318,15 @@ fn deviation_ratios(r: &Run) -> Vec<f64> {
         .zip(r.id.channels.iter())
         .zip(r.truth_geo.iter())
     {
-        for (err, sd) in [(e[0], c.sd[0]), (e[2], c.sd[3])] {
+        for (err, sd) in [(e[0], c.sd[0]), (e[2], c.sd[Param::Bias as usize])] {
             if sd.is_finite() {
                 z.push(err / sd);
             }
         }
         let d = c.geometry.position - shift - t.position;
         for k in 0..3 {
-            if c.sd[4 + k].is_finite() {
-                z.push(d[k] / c.sd[4 + k]);
+            if c.sd[Param::PositionX as usize + k].is_finite() {
+                z.push(d[k] / c.sd[Param::PositionX as usize + k]);
             }
         }
     }
@@ -341,7 +342,7 @@ fn errors_match_deviations(seeds: std::ops::Range<u64>, noise: f64, misfit: f64)
         let r = run_with_misfit(seed, noise, misfit, true);
         for (e, c) in errors(&r).iter().zip(r.id.channels.iter()) {
             // scale and bias are signed; for the axis, a 2-D angle against the larger tilt sd.
-            for (err, sd) in [(e[0], c.sd[0]), (e[2], c.sd[3])] {
+            for (err, sd) in [(e[0], c.sd[0]), (e[2], c.sd[Param::Bias as usize])] {
                 assert!(sd.is_finite() && sd > 0.0);
                 z.push(err / sd);
             }
@@ -351,7 +352,7 @@ fn errors_match_deviations(seeds: std::ops::Range<u64>, noise: f64, misfit: f64)
         for (c, t) in r.id.channels.iter().zip(r.truth_geo.iter()) {
             let d = c.geometry.position - shift - t.position;
             for k in 0..3 {
-                let sd = c.sd[4 + k];
+                let sd = c.sd[Param::PositionX as usize + k];
                 if sd.is_finite() {
                     zp.push(d[k] / sd);
                 }

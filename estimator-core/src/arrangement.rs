@@ -21,6 +21,12 @@ pub struct Channel {
     pub scale: f64,
 }
 
+impl AsRef<Channel> for Channel {
+    fn as_ref(&self) -> &Channel {
+        self
+    }
+}
+
 /// The estimation model (paper section 7).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

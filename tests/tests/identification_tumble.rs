@@ -131,7 +131,10 @@ fn a_torque_free_tumble_identifies_the_geometry_without_a_reference() {
         &Tolerance::DATASHEET,
     )
     .expect("a 20 s tumble determines the motion");
-    let identified = fit.identified.arrangement().unwrap();
+    let identified = fit
+        .identified
+        .arrangement(&fit.identified.frame_uncertainty())
+        .unwrap();
     let (before, after) = (
         rms(&rates(&nominal, &rec), &rec.omega),
         rms(&rates(&identified, &rec), &rec.omega),
@@ -180,7 +183,10 @@ fn a_torque_free_tumble_identifies_the_geometry_without_a_reference() {
         let off = |w: &[f64; 3]| rms(&[*w], &[rec.omega[k0]]) * 3f64.sqrt();
         match identify_tumble(&sets, &body, &est[0], &nominal, &Tolerance::DATASHEET) {
             Ok(fit) => {
-                let arr = fit.identified.arrangement().unwrap();
+                let arr = fit
+                    .identified
+                    .arrangement(&fit.identified.frame_uncertainty())
+                    .unwrap();
                 let after = rms(&rates(&arr, &rec), &rec.omega);
                 let quiet = silent(&arr, &rec);
                 println!(
@@ -329,7 +335,10 @@ fn drawn_torque_free_tumbles_are_identified_or_refused_by_name() {
             &Tolerance::DATASHEET,
         ) {
             Ok(fit) => {
-                let arr = fit.identified.arrangement().unwrap();
+                let arr = fit
+                    .identified
+                    .arrangement(&fit.identified.frame_uncertainty())
+                    .unwrap();
                 let rho = sc.body.origin_offset.unwrap_or([0.0; 3]);
                 let origin: [f64; 3] = core::array::from_fn(|k| fit.identified.rho[k] - rho[k]);
                 let (after, silent) = errors(&arr, &sets, &truth, origin);

@@ -2,7 +2,9 @@
 //! scale and bias, from a record of static poses and motion.
 //!
 //! A channel reads `h = scale · (s·f(R)) + bias` with `f(R) = σ0 + ({Ω′} + {Ω}² + Γ) R`
-//! (paper eq. 4). Each alternation:
+//! (paper eq. 4): estimator-core's channel model, parameters and tolerances
+//! ([`estimator_core::identify::model`]), the same as the identification in flight's; the frame's
+//! uncertainty is estimator-core's too ([`super::frame`]). Each alternation:
 //! - **the field** at the present geometry: in a static pose `σ0 = g` (|g| = [`G0`], its
 //!   direction by least squares, Ω = Ω′ = 0); in motion Ω from the reference rate sensor, or
 //!   (self-calibration, or a reference of inexact scale as one more reading) from the estimator
@@ -29,18 +31,21 @@ use super::kinematics::RelativeRotation;
 use super::scatter::Scatter;
 use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, SVector, SymmetricEigen, Vector3};
 
-use estimator_core::G0;
+pub use estimator_core::identify::Tolerance;
+use estimator_core::identify::{reading_gradient, ChannelFit, Param, PARAMS};
+use estimator_core::{Channel, G0};
 
-/// Per-channel parameters, in the order of the normal equations.
-pub const PARAMETERS: [&str; 7] = [
-    "scale",
-    "axis tilt 1",
-    "axis tilt 2",
-    "bias",
-    "position x",
-    "position y",
-    "position z",
-];
+/// Per-channel parameters, in the order of the normal equations: estimator-core's, one for
+/// every identification ([`Param`]).
+pub const PARAMETERS: [&str; PARAMS] = {
+    let mut names = [""; PARAMS];
+    let mut p = 0;
+    while p < PARAMS {
+        names[p] = Param::ALL[p].name();
+        p += 1;
+    }
+    names
+};
 
 /// What a calibration may change (`--fit`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -69,49 +74,11 @@ impl FitSet {
             self.scale,
             self.axis,
             self.axis,
+            self.position,
+            self.position,
+            self.position,
             self.bias,
-            self.position,
-            self.position,
-            self.position,
         ]
-    }
-}
-
-/// The tolerances that decide what counts as identified: a parameter direction is moved only
-/// if the record determines it to half of these (the mounting and datasheet tolerances one
-/// calibrates against).
-#[derive(Clone, Copy, Debug)]
-pub struct Tolerance {
-    /// Scale (dimensionless).
-    pub scale: f64,
-    /// Axis direction (rad).
-    pub axis: f64,
-    /// Bias (m/s²).
-    pub bias: f64,
-    /// Position (m).
-    pub position: f64,
-}
-
-impl Default for Tolerance {
-    fn default() -> Self {
-        Tolerance {
-            scale: 0.02,
-            axis: 0.01,
-            bias: 0.5,
-            position: 1e-3,
-        }
-    }
-}
-
-impl Tolerance {
-    /// The tolerance of parameter `j` (`0..7`) of [`PARAMETERS`].
-    pub fn of(&self, j: usize) -> f64 {
-        match j {
-            0 => self.scale,
-            1 | 2 => self.axis,
-            3 => self.bias,
-            _ => self.position,
-        }
     }
 }
 
@@ -132,6 +99,17 @@ pub struct Geometry {
 }
 
 impl Geometry {
+    /// The channel as estimator-core describes it.
+    pub fn channel(&self) -> Channel {
+        Channel {
+            position: self.position.into(),
+            axis: self.axis.into(),
+            noise: self.noise,
+            bias: self.bias,
+            scale: self.scale,
+        }
+    }
+
     /// What the channel reads in the field `f` at its position.
     pub fn reading(&self, f: &Vector3<f64>) -> f64 {
         self.scale * self.axis.dot(f) + self.bias
@@ -301,6 +279,29 @@ pub struct Identified {
     pub rest_scatter: f64,
 }
 
+impl Identified {
+    /// The channel's fit as every identification reports it (estimator-core's
+    /// [`ChannelFit`]): a parameter this record did not determine is held, with its
+    /// tolerance for deviation; the residual is the identified geometry's.
+    pub fn channel_fit(&self, tol: &Tolerance) -> ChannelFit {
+        let mut held = 0u8;
+        let sd = core::array::from_fn(|p| {
+            if self.sd[p].is_finite() {
+                self.sd[p]
+            } else {
+                held |= Param::ALL[p].bit();
+                tol.of(p)
+            }
+        });
+        ChannelFit {
+            channel: self.geometry.channel(),
+            sd,
+            held,
+            residual_rms: self.residual_rms.1,
+        }
+    }
+}
+
 /// The outcome of [`identify`].
 #[derive(Clone, Debug)]
 pub struct Identification {
@@ -325,6 +326,8 @@ pub struct Identification {
     pub kinematic: Option<RelativeRotation>,
     /// With a reference of inexact scale ([`RatePrior`]): its common scale factor as fitted.
     pub reference_scale: Option<f64>,
+    /// The tolerances the identified subspace was decided with.
+    pub tolerance: Tolerance,
 }
 
 /// The last step of a converged identification moves no parameter by more than this many
@@ -597,6 +600,7 @@ pub fn identify(
         channels,
         conventions,
         reference_scale: prior.map(|p| p.scale),
+        tolerance: *tol,
         iterations,
         last_step,
         frame,
@@ -961,32 +965,26 @@ fn reject_outliers(geo: &[Geometry], record: &Record, fields: &mut [Option<Field
 /// Gauss–Newton steps per sample for σ0, Ω′ and Ω.
 const FIELD_ITERATIONS: usize = 6;
 
-/// A basis `u1, u2` perpendicular to the unit axis `a`.
+/// The tilt directions `u1, u2` perpendicular to the unit `a` (estimator-core's
+/// [`estimator_core::identify::tilt_basis`]).
 pub(super) fn tilt_basis(a: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
-    let helper = if a.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let u1 = a.cross(&helper).normalize();
-    let u2 = a.cross(&u1);
-    (u1, u2)
+    let (u1, u2) = estimator_core::identify::tilt_basis(&(*a).into());
+    (u1.into(), u2.into())
 }
 
 /// The channel's Jacobian row (in [`PARAMETERS`] order) at the specific force `f` seen at its
-/// position, with `m` the field matrix (`f = σ0 + m R`).
+/// position, with `m` the field matrix (`f = σ0 + m R`): the channel model's gradient
+/// ([`reading_gradient`]).
 fn jacobian(g: &Geometry, f: &Vector3<f64>, m: &Matrix3<f64>) -> SVector<f64, 7> {
-    let (u1, u2) = tilt_basis(&g.axis);
-    let dr = m.transpose() * (g.axis * g.scale);
-    SVector::<f64, 7>::from_column_slice(&[
-        g.axis.dot(f),
-        g.scale * u1.dot(f),
-        g.scale * u2.dot(f),
-        1.0,
-        dr.x,
-        dr.y,
-        dr.z,
-    ])
+    let (u1, u2) = estimator_core::identify::tilt_basis(&g.axis.into());
+    let rows: [[f64; 3]; 3] = core::array::from_fn(|a| core::array::from_fn(|l| m[(a, l)]));
+    SVector::<f64, 7>::from(reading_gradient(
+        g.scale,
+        &g.axis.into(),
+        &(u1, u2),
+        &rows,
+        &(*f).into(),
+    ))
 }
 
 /// The joint normal equations of all channels' parameters (7 per channel, [`PARAMETERS`]
@@ -1174,8 +1172,10 @@ fn decided_step(
         // channel's scale or axis is held, its bias (estimated as if they were exact) is
         // held too, rather than reported with a deviation that ignores theirs.
         let dependent: Vec<usize> = (0..n)
-            .map(|i| 7 * i + 3)
-            .filter(|&b| fitted[b] && (0..3).any(|j| kinds[j] && !fitted[b - 3 + j]))
+            .map(|i| 7 * i + Param::Bias as usize)
+            .filter(|&b| {
+                fitted[b] && (0..3).any(|j| kinds[j] && !fitted[b - Param::Bias as usize + j])
+            })
             .collect();
         if scaled.is_empty() && !dependent.is_empty() {
             for p in dependent {
@@ -1371,8 +1371,8 @@ fn apply(g: &mut Geometry, d: &SVector<f64, 7>) {
     let (u1, u2) = tilt_basis(&g.axis);
     g.scale += d[0];
     g.axis = (g.axis + u1 * d[1] + u2 * d[2]).normalize();
-    g.bias += d[3];
-    g.position += Vector3::new(d[4], d[5], d[6]);
+    g.position += Vector3::new(d[3], d[4], d[5]);
+    g.bias += d[6];
 }
 
 /// What a geometry leaves unexplained in a record (the field re-estimated for it).

@@ -551,8 +551,8 @@ fn held_counts(id: &Identification, fit: FitSet) -> Vec<(&'static str, usize, us
     let kinds: [(&str, &[usize], bool); 4] = [
         ("scale", &[0], fit.scale),
         ("axis", &[1, 2], fit.axis),
-        ("bias", &[3], fit.bias),
-        ("position", &[4, 5, 6], fit.position),
+        ("bias", &[6], fit.bias),
+        ("position", &[3, 4, 5], fit.position),
     ];
     kinds
         .iter()
@@ -720,30 +720,10 @@ fn calibrated_file(
         .zip(id.channels.iter())
         .zip(noise.iter())
         .map(|((spec, c), &noise)| {
-            let g = &c.geometry;
-            let sd = |j: usize| c.sd[j].is_finite().then_some(c.sd[j]);
-            let axis_sd = match (sd(1), sd(2)) {
-                (Some(a), Some(b)) => Some(a.max(b)),
-                _ => None,
-            };
-            let position_sd = match (sd(4), sd(5), sd(6)) {
-                (Some(x), Some(y), Some(z)) => Some([x, y, z]),
-                _ => None,
-            };
-            ChannelSpec {
-                name: spec.name.clone(),
-                position: g.position.into(),
-                axis: g.axis.into(),
-                noise: Some(noise),
-                bias: Some(g.bias),
-                scale: Some(g.scale),
-                position_sd,
-                axis_sd,
-                bias_sd: sd(3),
-                scale_sd: sd(0),
-                // The parts' full scale is not identified: kept from the nominal file.
-                range: spec.range,
-            }
+            let mut fit = c.channel_fit(&id.tolerance);
+            fit.channel.noise = noise;
+            // The parts' full scale is not identified: kept from the nominal file.
+            identified_channel(&spec.name, spec.range, &fit)
         })
         .collect();
     let out = ArrangementFile {

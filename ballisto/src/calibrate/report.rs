@@ -8,6 +8,7 @@ use plotters::prelude::*;
 
 use super::fit::PARAMETERS;
 use super::{CalibrateJob, CalibrationSummary};
+use estimator_core::identify::Param;
 
 const WIDTH: u32 = 1200;
 const HEIGHT: u32 = 900;
@@ -84,15 +85,15 @@ pub fn markdown(s: &CalibrationSummary, job: &CalibrateJob, png: Option<&str>) -
         r.push_str(&format!(
             "| {name} | {:.5}{} | {tilt} | {:.4}{} | {:.2}, {:.2}, {:.2} ± {}, {}, {} | {:.3e} → {:.3e} | {} |\n",
             g.scale,
-            pm(0),
+            pm(Param::Scale as usize),
             g.bias,
-            pm(3),
+            pm(Param::Bias as usize),
             g.position.x * 1e3,
             g.position.y * 1e3,
             g.position.z * 1e3,
-            mm(4),
-            mm(5),
-            mm(6),
+            mm(Param::PositionX as usize),
+            mm(Param::PositionY as usize),
+            mm(Param::PositionZ as usize),
             c.residual_rms.0,
             c.residual_rms.1,
             c.held.join("; ")

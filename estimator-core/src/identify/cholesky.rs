@@ -1,9 +1,9 @@
 //! The small symmetric positive definite solves of a channel's fit.
 
-use super::result::PARAMS;
+use super::model::PARAMS;
 use crate::real::Real;
 
-// A 7×7 (and, for the tumble's search, 10×10) Cholesky of our own, not nalgebra's: estimator-core has no nalgebra in its target
+// A 7×7 (and, for the tumble's search and the frame's motions, 10×10) Cholesky of our own, not nalgebra's: estimator-core has no nalgebra in its target
 // build (its SVD is its own, `svd.rs`), and the flight image had 244 B of flash left when this
 // was written; these three functions are 40 lines.
 

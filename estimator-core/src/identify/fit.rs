@@ -2,10 +2,11 @@
 //! scale and bias), what the window did not determine held at nominal.
 
 use super::cholesky::{cholesky, cholesky_solve, inverse_diagonal};
-use super::result::{ChannelFit, Param, Tolerance, PARAMS};
+use super::model::{tilt_basis, Param, Tolerance, PARAMS};
+use super::result::ChannelFit;
 use super::sums::TERMS;
 use crate::arrangement::Channel;
-use crate::linalg::{cross, norm2, Vec3};
+use crate::linalg::{norm2, Vec3};
 use crate::real::Real;
 
 /// A channel's parameters: scale, axis (the nominal axis tilted by `tilt` along the nominal
@@ -100,24 +101,6 @@ impl State {
             ..*self
         }
     }
-}
-
-/// Two unit vectors perpendicular to the unit `s` and to each other (the tilt directions):
-/// the first along `s × e`, `e` the coordinate axis least aligned with `s`.
-#[inline]
-fn tilt_basis(s: &Vec3<f64>) -> (Vec3<f64>, Vec3<f64>) {
-    let a = [s[0].abs(), s[1].abs(), s[2].abs()];
-    let e = if a[0] <= a[1] && a[0] <= a[2] {
-        [1.0, 0.0, 0.0]
-    } else if a[1] <= a[2] {
-        [0.0, 1.0, 0.0]
-    } else {
-        [0.0, 0.0, 1.0]
-    };
-    let u = cross(s, &e);
-    let n = Real::sqrt(norm2(&u));
-    let u = [u[0] / n, u[1] / n, u[2] / n];
-    (u, cross(s, &u))
 }
 
 /// One channel's least squares over the window's sums.
@@ -341,26 +324,41 @@ fn compact(
 
 #[cfg(test)]
 mod tests {
+    use super::super::model::reading_gradient;
     use super::*;
-    use crate::linalg::dot;
 
-    /// Whether the three are orthonormal.
-    fn orthonormal(s: &Vec3<f64>, t1: &Vec3<f64>, t2: &Vec3<f64>) -> bool {
-        let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
-        close(dot(s, t1), 0.0)
-            && close(dot(s, t2), 0.0)
-            && close(dot(t1, t2), 0.0)
-            && close(norm2(t1), 1.0)
-            && close(norm2(t2), 1.0)
-    }
-
+    /// The sums' form of the Jacobian is the channel model's gradient
+    /// ([`reading_gradient`]) rearranged: for any field `L` with σ(0) = 0,
+    /// `∂h/∂θ = Σ_t (∂q_t/∂θ) k_t` with `k = (vec L, 1)`, and the tilted axis's derivative
+    /// `(t − s (s·t)) / |v|`.
     #[test]
-    fn tilt_basis_is_orthonormal() {
-        for s in [[1.0, 0.0, 0.0], [0.0, 0.6, 0.8], [0.577, 0.577, 0.5774]] {
-            let n = Real::sqrt(norm2(&s));
-            let s = [s[0] / n, s[1] / n, s[2] / n];
-            let (t1, t2) = tilt_basis(&s);
-            assert!(orthonormal(&s, &t1, &t2));
+    fn the_sums_jacobian_is_the_models_gradient() {
+        let mut st = State::new(1.02, [0.0, 0.6, 0.8], [0.05, -0.02, 0.03], 0.1);
+        st = st.step(&[0.0, 3e-3, -2e-3, 0.0, 0.0, 0.0, 0.0]);
+        let l = [[-1.1, 0.3, 0.8], [-0.2, -1.9, 0.4], [0.6, -0.7, -0.4]];
+        let mut k = [0.0; TERMS];
+        for a in 0..3 {
+            for c in 0..3 {
+                k[3 * a + c] = l[a][c];
+            }
+        }
+        k[9] = 1.0;
+        let jq = st.jacobian();
+        let (s, n) = st.axis();
+        let d = |t: &Vec3<f64>| -> Vec3<f64> {
+            let st = s[0] * t[0] + s[1] * t[1] + s[2] * t[2];
+            core::array::from_fn(|k| (t[k] - s[k] * st) / n)
+        };
+        let tilt = (d(&st.basis.0), d(&st.basis.1));
+        let f: Vec3<f64> = core::array::from_fn(|a| (0..3).map(|c| l[a][c] * st.position[c]).sum());
+        let g = reading_gradient(st.scale, &s, &tilt, &l, &f);
+        for p in 0..PARAMS {
+            let from_sums: f64 = (0..TERMS).map(|t| jq[t][p] * k[t]).sum();
+            assert!(
+                (from_sums - g[p]).abs() < 1e-12,
+                "{p}: {from_sums} vs {}",
+                g[p]
+            );
         }
     }
 }

@@ -39,18 +39,27 @@
 //! with the geometry ([`identify_tumble`]): Euler's equations carry the start rate to every
 //! sample, and the search is over that rate alone.
 //!
+//! The channel's model, its parameters and tolerances ([`model`]) and the frame's uncertainty
+//! of the result ([`crate::frame_uncertainty::motions`]) are the ones `ballisto calibrate`'s
+//! ground fit uses too. That fit stays on the host: with the field unknown (static poses,
+//! self-calibration) every channel's parameters are tied to every other's through the field
+//! of each sample, a joint problem of `7N` parameters (84 × 84 for twelve channels, in
+//! nalgebra, with allocation), where the field known here leaves one 7 × 7 problem per channel.
+//!
 //! A constant specific force at the centre of mass (drag, thrust) would be taken as bias: the
 //! identification is for free flight, where it is far below the parts' noise (1e-6 m/s²).
 
 pub(crate) mod cholesky;
 mod fit;
+pub mod model;
 mod result;
 mod solve;
 mod sums;
 mod tumble;
 
 pub use fit::ALWAYS_HELD;
-pub use result::{ChannelFit, Identified, IdentifyError, Param, Tolerance, PARAMS};
+pub use model::{reading_gradient, tilt_basis, Param, Tolerance, PARAMS};
+pub use result::{ChannelFit, Identified, IdentifyError};
 pub use solve::identify;
 pub use sums::{field_terms, FieldSums, TERMS};
 pub use tumble::{identify_tumble, Body, Sets, TumbleError, TumbleFit, RESIDUAL_LIMIT};

@@ -3,98 +3,10 @@
 
 use crate::arrangement::{Arrangement, Channel};
 use crate::error::ConfigError;
-use crate::frame_uncertainty::FrameUncertainty;
-use crate::linalg::{norm2, Vec3};
-use crate::real::Real;
+use crate::frame_uncertainty::{motions, FrameUncertainty};
+use crate::linalg::Vec3;
 
-/// Parameters per channel.
-pub const PARAMS: usize = 7;
-
-/// A channel's parameters, in the order of [`ChannelFit::sd`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Param {
-    /// Scale factor.
-    Scale,
-    /// Axis tilt towards the first direction perpendicular to the axis (rad).
-    TiltA,
-    /// Axis tilt towards the second (rad).
-    TiltB,
-    /// Position, x (m).
-    PositionX,
-    /// Position, y (m).
-    PositionY,
-    /// Position, z (m).
-    PositionZ,
-    /// Bias (m/s²).
-    Bias,
-}
-
-impl Param {
-    /// All, in order.
-    pub const ALL: [Param; PARAMS] = [
-        Param::Scale,
-        Param::TiltA,
-        Param::TiltB,
-        Param::PositionX,
-        Param::PositionY,
-        Param::PositionZ,
-        Param::Bias,
-    ];
-
-    /// Its bit in [`ChannelFit::held`].
-    pub const fn bit(self) -> u8 {
-        1 << self as u8
-    }
-
-    /// Its name in reports.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Param::Scale => "scale",
-            Param::TiltA => "tilt a",
-            Param::TiltB => "tilt b",
-            Param::PositionX => "position x",
-            Param::PositionY => "position y",
-            Param::PositionZ => "position z",
-            Param::Bias => "bias",
-        }
-    }
-}
-
-/// How far from nominal each parameter may be (the parts' datasheet and the mounting): a
-/// parameter the window determines to worse than half of it is held at nominal.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Tolerance {
-    /// Scale factor (relative).
-    pub scale: f64,
-    /// Axis tilt, rad.
-    pub axis: f64,
-    /// Position, m.
-    pub position: f64,
-    /// Bias, m/s².
-    pub bias: f64,
-}
-
-impl Tolerance {
-    /// The host calibration's tolerances (`ballisto calibrate`): scale 0.02, axis 10 mrad,
-    /// position 1 mm, bias 0.5 m/s² (an ADXL355's ±25 mg offset is 0.25 m/s²).
-    pub const DATASHEET: Tolerance = Tolerance {
-        scale: 0.02,
-        axis: 0.01,
-        position: 1e-3,
-        bias: 0.5,
-    };
-
-    #[inline]
-    pub(super) fn of(&self, p: usize) -> f64 {
-        match p {
-            0 => self.scale,
-            1 | 2 => self.axis,
-            6 => self.bias,
-            _ => self.position,
-        }
-    }
-}
+use super::model::{Param, Tolerance, PARAMS};
 
 /// One channel's identified parameters.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -110,6 +22,12 @@ pub struct ChannelFit {
     pub held: u8,
     /// RMS of the channel's residual over the window, m/s².
     pub residual_rms: f64,
+}
+
+impl AsRef<Channel> for ChannelFit {
+    fn as_ref(&self) -> &Channel {
+        &self.channel
+    }
 }
 
 impl ChannelFit {
@@ -167,80 +85,99 @@ impl<const CAP: usize> Identified<CAP> {
         &self.fits[..self.len]
     }
 
-    /// How well the frame of the identified geometry is tied to the body. The channels'
-    /// errors are independent (each has its own normal equations), so the common ones are
-    /// their means: the translation is the convention's (`tolerance / √n` of the free
-    /// position components per axis, the largest) and that of the held scales (a scale off by
-    /// `δ` moves its channel's lever arm from the centre of mass by `δ (R + ρ)`: their mean is
-    /// a translation, `tolerance · rms|R + ρ| / √(3n)` per axis), the rotation the mean of
-    /// the axis tilts, the size the mean of the relative position errors; the rotation of the
-    /// axes against the lever arms is taken as the rotation (the reference ties both).
+    /// How well the frame of the identified geometry is tied to the body: the frame motions
+    /// fitted to the parameters' errors ([`motions::from_covariance`]). Each channel's
+    /// errors are its own fit's (independent of the others'; a held parameter's one
+    /// tolerance), with what the positions share:
+    /// - their weighted mean offset is taken for the centre of mass ([`super::identify`]) and
+    ///   removed, and the common translation put back by convention, only as good as the mean
+    ///   mounting error (`tolerance / √k` per axis, `k` the channels whose position component
+    ///   was free);
+    /// - a held scale off by `δ` leaves its channel's lever arm from the centre of mass off by
+    ///   `−δ (R + ρ)`, and the product right: Ω and Ω′ do not see it, σ0 at the origin sees
+    ///   their mean, a translation (`tolerance² Σ (R + ρ)(R + ρ)ᵀ / n²`).
     #[inline]
     pub fn frame_uncertainty(&self) -> FrameUncertainty<f64> {
-        let (mut tilt, mut nt, mut size, mut ns) = (0.0, 0.0, 0.0, 0.0);
-        let mut free_axis = [0.0f64; 3];
-        let mut scale_shift = 0.0;
-        let n = self.len as f64;
-        for f in self.channels() {
-            for k in [1, 2] {
-                if !f.is_held(Param::ALL[k]) {
-                    tilt += f.sd[k] * f.sd[k];
-                    nt += 1.0;
-                }
-            }
-            if f.is_held(Param::Scale) {
-                // The lever arm from the centre of mass, at −ρ.
-                let arm: Vec3<f64> = core::array::from_fn(|l| f.channel.position[l] + self.rho[l]);
-                scale_shift += self.tolerance.scale * self.tolerance.scale * norm2(&arm) / 3.0;
-            }
-            let r2 = norm2(&f.channel.position);
-            for (l, n) in free_axis.iter_mut().enumerate() {
-                if !f.is_held(Param::ALL[3 + l]) {
-                    *n += 1.0;
-                    if r2 > 0.0 {
-                        size += f.sd[3 + l] * f.sd[3 + l] / r2;
-                        ns += 1.0;
-                    }
+        let tol = &self.tolerance;
+        let fits = self.channels();
+        let free =
+            |i: usize, l: usize| !fits[i].is_held(Param::ALL[3 + l]) && fits[i].sd[3 + l] > 0.0;
+        let own = |i: usize, l: usize| fits[i].sd[3 + l] * fits[i].sd[3 + l];
+        // What the positions share, per axis pair: the held scales' translation and the
+        // convention's.
+        let mut common = [[0.0f64; 3]; 3];
+        let n2 = (fits.len() * fits.len()).max(1) as f64;
+        for f in fits.iter().filter(|f| f.is_held(Param::Scale)) {
+            let arm: Vec3<f64> = core::array::from_fn(|k| f.channel.position[k] + self.rho[k]);
+            for (l, row) in common.iter_mut().enumerate() {
+                for (m, v) in row.iter_mut().enumerate() {
+                    *v += tol.scale * tol.scale * arm[l] * arm[m] / n2;
                 }
             }
         }
-        let pos = self.tolerance.position;
-        let convention = free_axis
-            .iter()
-            .map(|n| if *n > 0.0 { pos / Real::sqrt(*n) } else { pos })
-            .fold(0.0f64, f64::max);
-        let translation = Real::sqrt(convention * convention + scale_shift / (n * n).max(1.0));
-        let rotation = if nt > 0.0 {
-            Real::sqrt(tilt / nt / nt)
-        } else {
-            self.tolerance.axis
-        };
-        let size = if ns > 0.0 {
-            Real::sqrt(size / ns / ns)
-        } else {
-            0.0
-        };
-        FrameUncertainty {
-            rotation,
-            translation,
-            size,
-            relative_rotation: rotation,
+        // The weighted mean (weights `1 / v` over the free components) has the variance
+        // `1 / W`, which is also its covariance with each of them.
+        let mut spread = [0.0f64; 3];
+        for (l, s) in spread.iter_mut().enumerate() {
+            let (mut sw, mut k) = (0.0, 0.0);
+            for i in (0..fits.len()).filter(|&i| free(i, l)) {
+                sw += 1.0 / own(i, l);
+                k += 1.0;
+            }
+            if sw > 0.0 {
+                *s = 1.0 / sw;
+            }
+            common[l][l] += tol.position * tol.position / f64::max(k, 1.0);
         }
+        // cov(x_i − x̄ , x_j − x̄) + common.
+        let position = |i: usize, l: usize, j: usize, m: usize| -> f64 {
+            let mut c = common[l][m];
+            if l == m {
+                if i == j {
+                    c += own(i, l);
+                }
+                let shared = |i: usize| if free(i, l) { spread[l] } else { 0.0 };
+                c += spread[l] - shared(i) - shared(j);
+            }
+            c
+        };
+        motions::from_covariance(
+            fits,
+            &|p, r| {
+                let (i, a, j, b) = (p / PARAMS, p % PARAMS, r / PARAMS, r % PARAMS);
+                let pos = Param::PositionX as usize;
+                if (pos..pos + 3).contains(&a) && (pos..pos + 3).contains(&b) {
+                    position(i, a - pos, j, b - pos) / (tol.position * tol.position)
+                } else if i == j && a == b {
+                    let s = fits[i].sd[a] / tol.of(a);
+                    s * s
+                } else {
+                    0.0
+                }
+            },
+            tol,
+        )
     }
 
-    /// The calibrated arrangement: every channel as identified, with the frame's uncertainty.
+    /// The calibrated arrangement: every channel as identified, with the frame's uncertainty
+    /// `frame` ([`Self::frame_uncertainty`], passed in: it is the costly part, computed once
+    /// where there is time for it — on the target, in the identification task, not in the
+    /// command that commits).
     ///
     /// Errors: the estimator-core checks (an identified scale outside (0.5, 2) is refused by
     /// channel).
     #[inline]
-    pub fn arrangement(&self) -> Result<Arrangement<CAP>, ConfigError> {
+    pub fn arrangement(
+        &self,
+        frame: &FrameUncertainty<f64>,
+    ) -> Result<Arrangement<CAP>, ConfigError> {
         let mut a = Arrangement::new();
         for f in self.channels() {
             let c = &f.channel;
             let i = a.push(c.position, c.axis, c.noise)?;
             a.set_calibration(i, c.bias, c.scale)?;
         }
-        a.set_frame_uncertainty(self.frame_uncertainty())?;
+        a.set_frame_uncertainty(*frame)?;
         Ok(a)
     }
 }

@@ -2,7 +2,8 @@
 //! from the positions.
 
 use super::fit::{Problem, State};
-use super::result::{ChannelFit, Identified, IdentifyError, Param, Tolerance, PARAMS};
+use super::model::{Param, Tolerance, PARAMS};
+use super::result::{ChannelFit, Identified, IdentifyError};
 use super::sums::FieldSums;
 use crate::arrangement::Arrangement;
 use crate::real::Real;

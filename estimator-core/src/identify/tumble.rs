@@ -31,7 +31,8 @@
 //! over all of them.
 
 use super::cholesky::{cholesky, cholesky_solve};
-use super::result::{Identified, IdentifyError, Param, Tolerance};
+use super::model::{Param, Tolerance};
+use super::result::{Identified, IdentifyError};
 use super::solve::identify;
 use super::sums::{field_terms, FieldSums, TERMS};
 use crate::arrangement::Arrangement;

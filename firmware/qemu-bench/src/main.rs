@@ -233,7 +233,7 @@ fn run_identification<P: Platform>(p: &mut P, per_tick: f64) {
             }
         }
     }
-    let (solved, solve) = measure(p, per_tick, || id.solve(0).map(|(_, s)| s.sets));
+    let (solved, solve) = measure(p, per_tick, || id.solve(0).map(|(_, _, s)| s.sets));
     let sets = SAMPLES as u64;
     let _ = writeln!(
         p,

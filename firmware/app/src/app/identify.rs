@@ -9,6 +9,7 @@ use ballisto_link::verification::{config_error_code, not_ready};
 use ballisto_link::{service, subtype, EventId, FailureCode, RequestId};
 use embedded_io_async::Write;
 use estimator_core::identify::{Identified, IdentifyError, PARAMS};
+use estimator_core::FrameUncertainty;
 
 use super::App;
 use crate::config::MAX_CHANNELS;
@@ -45,7 +46,7 @@ pub(super) struct IdentificationLink {
     /// The TC[200,10] whose solve the task is doing, and whether its completion is reported.
     solving: Option<(RequestId, bool)>,
     /// The last solution reported, under its number.
-    solution: Option<(u16, Identified<MAX_CHANNELS>)>,
+    solution: Option<(u16, Identified<MAX_CHANNELS>, FrameUncertainty<f64>)>,
 }
 
 impl IdentificationLink {
@@ -196,11 +197,11 @@ impl App {
         t: Nanos,
         tm: &mut Telemetry<W>,
     ) -> Result<(), (FailureCode, u32)> {
-        let (solution, summary) = solved.map_err(unsolved)?;
-        let (_, id) = self
+        let (solution, frame, summary) = solved.map_err(unsolved)?;
+        let (_, id, _) = self
             .identification
             .solution
-            .insert((summary.solution, solution));
+            .insert((summary.solution, solution, frame));
         info!(
             "identification {}: {} sets, origin from the centre of mass (rho) {} {} {} m",
             summary.solution, summary.sets, summary.rho[0], summary.rho[1], summary.rho[2]
@@ -252,11 +253,11 @@ impl App {
             Store::Busy(..) => return refuse(not_ready::STORE_BUSY),
             Store::Idle => {}
         }
-        let Some((_, id)) = self
+        let Some((_, id, frame)) = self
             .identification
             .solution
             .as_ref()
-            .filter(|(n, _)| *n == solution)
+            .filter(|(n, _, _)| *n == solution)
         else {
             return refuse(not_ready::NO_SUCH_SOLUTION);
         };
@@ -265,7 +266,7 @@ impl App {
                 return refuse(not_ready::RESIDUAL_HIGH | c as u32);
             }
         }
-        let arrangement = id.arrangement().map_err(|e| {
+        let arrangement = id.arrangement(frame).map_err(|e| {
             (
                 FailureCode::NotReady,
                 not_ready::INVALID | (config_error_code(&e) >> 16),

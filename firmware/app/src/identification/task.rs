@@ -21,7 +21,7 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex as Cs;
 use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
 use estimator_core::identify::{Identified, IdentifyError};
-use estimator_core::Arrangement;
+use estimator_core::{Arrangement, FrameUncertainty};
 
 use super::Identification;
 use crate::config::MAX_CHANNELS;
@@ -35,7 +35,14 @@ pub const ORDERS: usize = 2;
 
 /// A solve's outcome: the solution and its summary, or why there is none (`None`: no
 /// window was started).
-pub type Solved = Result<(Identified<MAX_CHANNELS>, IdentificationSummary), Option<IdentifyError>>;
+pub type Solved = Result<
+    (
+        Identified<MAX_CHANNELS>,
+        FrameUncertainty<f64>,
+        IdentificationSummary,
+    ),
+    Option<IdentifyError>,
+>;
 
 /// What the application asks of the task.
 #[allow(clippy::large_enum_variant)] // one slot per order, two orders: no allocation.

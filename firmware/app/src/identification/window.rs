@@ -3,12 +3,12 @@
 
 use ballisto_link::identification::{IdentificationSummary, ReferencePoint};
 use estimator_core::identify::Tolerance;
-use estimator_core::identify::{field_terms, identify, FieldSums, Identified, IdentifyError};
+use estimator_core::identify::{field_terms, identify, FieldSums};
 use estimator_core::{Arrangement, Sym3};
 use heapless::Deque;
 
 use super::reference::{Push, ReferenceTrack};
-use super::{Counters, PENDING};
+use super::{Counters, Solved, PENDING};
 use crate::config::MAX_CHANNELS;
 use crate::time::Nanos;
 
@@ -159,10 +159,7 @@ impl Identification {
     /// solution; `lost` sets never reached the window (the queue to this task was full) and are
     /// counted as not covered.
     #[inline(never)]
-    pub fn solve(
-        &mut self,
-        lost: u32,
-    ) -> Result<(Identified<MAX_CHANNELS>, IdentificationSummary), Option<IdentifyError>> {
+    pub fn solve(&mut self, lost: u32) -> Solved {
         if self.window.is_none() {
             return Err(None);
         }
@@ -188,7 +185,7 @@ impl Identification {
                 frame.size as f32,
             ],
         };
-        Ok((id, summary))
+        Ok((id, frame, summary))
     }
 
     /// The window's counters.

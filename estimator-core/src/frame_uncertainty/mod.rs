@@ -26,7 +26,10 @@
 //! estimator on turned geometries: `tests/calibration.rs`).
 //!
 //! With `δ`, `d`, `t` independent and isotropic (standard deviations per axis) and `s`
-//! independent, the variances add to the estimate's own.
+//! independent, the variances add to the estimate's own. How large they are follows from an
+//! identification's parameter errors ([`motions`]).
+
+pub mod motions;
 
 use crate::estimate::Estimate;
 use crate::linalg::{Sym3, Vec3};
