@@ -32,7 +32,7 @@ use super::scatter::Scatter;
 use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, SVector, SymmetricEigen, Vector3};
 
 pub use estimator_core::identify::Tolerance;
-use estimator_core::identify::{reading_gradient, ChannelFit, Param, PARAMS};
+use estimator_core::identify::{reading_gradient, too_few_determined, ChannelFit, Param, PARAMS};
 use estimator_core::{Channel, G0};
 
 /// Per-channel parameters, in the order of the normal equations: estimator-core's, one for
@@ -436,7 +436,7 @@ pub fn identify(
                 .filter(|&p| mask[p % 7] && step.sd[p].is_finite())
                 .count();
             let last_stage = !std::ptr::eq(stage, &poses_only);
-            if last_stage && 2 * determined < asked {
+            if last_stage && too_few_determined(determined, asked) {
                 last_step = f64::INFINITY;
                 break;
             }

@@ -172,6 +172,13 @@ fn refusal(e: &TumbleError, names: &[String]) -> String {
              is too short to find the motion)",
             name(*channel)
         ),
+        TumbleError::NotExcited { channel, param } => format!(
+            "the motion does not determine most of the geometry (fewer than half of what a \
+             tumble can; {}'s {} among what it does not): a longer record, or a tumble further \
+             from a spin about one axis",
+            name(*channel),
+            param.name()
+        ),
         TumbleError::MotionUncertain {
             channel,
             param,

@@ -58,7 +58,7 @@ mod sums;
 mod tumble;
 
 pub use fit::ALWAYS_HELD;
-pub use model::{reading_gradient, tilt_basis, Param, Tolerance, PARAMS};
+pub use model::{reading_gradient, tilt_basis, too_few_determined, Param, Tolerance, PARAMS};
 pub use result::{ChannelFit, Identified, IdentifyError};
 pub use solve::identify;
 pub use sums::{field_terms, FieldSums, TERMS};

@@ -104,6 +104,15 @@ impl Tolerance {
     }
 }
 
+/// Whether a record that determined `determined` of the `asked` parameters (to half their
+/// tolerance) is refused as not exciting enough: fewer than half. One rule for every
+/// identification that decides on its own (`ballisto calibrate`'s joint fit, the tumble's); a
+/// window with a reference is solved on command and reports what it held.
+#[inline]
+pub const fn too_few_determined(determined: usize, asked: usize) -> bool {
+    2 * determined < asked
+}
+
 impl Default for Tolerance {
     /// [`Tolerance::DATASHEET`].
     fn default() -> Self {

@@ -9,11 +9,13 @@
 //! solve's whitened residual `Σ (rmsᵢ / σᵢ)²` where that solve settles, and above every such
 //! value the residual of the linear model `p = qᵀ k` (the field's ten numbers without the
 //! geometry's constraints) where it does not, so that it is defined at every start. Nelder–Mead,
-//! which needs no derivative, runs three rounds of shrinking simplex, from the `Ω0` whose motion
-//! follows the estimator's rates (when the window kept them) and, unless that ends at the
-//! noise, from six starts 20 % of `|Ω0|` off; in stages over the window's first quarter, half
-//! and whole. The geometry is then solved at the rate found, and the rate's uncertainty
-//! carried into it.
+//! which needs no derivative, runs three rounds of shrinking simplex from each start until one
+//! ends at the noise: the `Ω0` whose motion follows the estimator's rates (when the window kept
+//! them), the one that follows their negatives, the estimator's first rate and its negative (an
+//! estimator on an uncalibrated geometry can hold Ω's sign wrong), each also 20 % of `|Ω0|` off
+//! along each axis; in stages over the window's first quarter, half and whole. The geometry is
+//! then solved at the rate found, and the rate's uncertainty carried into it. A window that
+//! determines fewer than half of the geometry is refused ([`TumbleError::NotExcited`]).
 //!
 //! Nothing of the frame is left free: the inertia fixes its rotation (its principal axes are in
 //! the body frame) and `σ(0) = 0` at the centre of mass its origin. What a torque-free window
@@ -31,7 +33,8 @@
 //! over all of them.
 
 use super::cholesky::{cholesky, cholesky_solve};
-use super::model::{Param, Tolerance};
+use super::fit::ALWAYS_HELD;
+use super::model::{too_few_determined, Param, Tolerance, PARAMS};
 use super::result::{Identified, IdentifyError};
 use super::solve::identify;
 use super::sums::{field_terms, FieldSums, TERMS};
@@ -121,6 +124,15 @@ pub enum TumbleError {
         param: Param,
         /// Its deviation from the start rate's uncertainty over its tolerance.
         ratio: f64,
+    },
+    /// The window determined fewer than half of the parameters the tumble can
+    /// ([`super::model::too_few_determined`]; the scale is never one): the geometry would be
+    /// the nominal one with another name.
+    NotExcited {
+        /// The channel with the most parameters held.
+        channel: usize,
+        /// The first of them.
+        param: Param,
     },
 }
 
@@ -272,9 +284,12 @@ pub fn identify_tumble<S: Sets, const CAP: usize>(
     };
     let mut evaluations = 0u32;
     let scale = Real::sqrt(omega0.iter().map(|v| v * v).sum::<f64>()).max(1e-3);
-    let mut best = *omega0;
-    // The start: the motion that follows the estimator's rates over the window.
-    let mut follow = |w0: &Vec3<f64>| {
+    // The starts: the motions that follow the estimator's rates over the window and their
+    // negatives, the first rate and its negative. The centripetal terms do not see Ω's sign,
+    // and an estimator on an uncalibrated geometry can hold the wrong one (measured: on 12
+    // drawn tumbles the estimator's first rate had the wrong sign in 6; with these four starts
+    // 6 of the 12 are identified at 0.98–1.04 × ideal parts, with the first alone 3).
+    let follow = |w0: &Vec3<f64>, sign: f64| {
         let (mut w, mut last, mut sum) = (*w0, None::<f64>, 0.0);
         sets.rates(&mut |t, r| {
             if let Some(t0) = last {
@@ -283,7 +298,9 @@ pub fn identify_tumble<S: Sets, const CAP: usize>(
                 }
             }
             last = Some(t);
-            sum += (0..3).map(|k| (w[k] - r[k]) * (w[k] - r[k])).sum::<f64>();
+            sum += (0..3)
+                .map(|k| (w[k] - sign * r[k]) * (w[k] - sign * r[k]))
+                .sum::<f64>();
         });
         if sum.is_finite() {
             sum
@@ -291,12 +308,18 @@ pub fn identify_tumble<S: Sets, const CAP: usize>(
             f64::INFINITY
         }
     };
-    if follow(omega0) > 0.0 {
-        for step in STEPS {
-            best = nelder_mead(&mut follow, best, step * scale);
+    let followed = [1.0, -1.0].map(|sign| {
+        let mut x = omega0.map(|v| sign * v);
+        if follow(&x, sign) > 0.0 {
+            for step in STEPS {
+                x = nelder_mead(&mut |w| follow(w, sign), x, step * scale);
+            }
         }
-    }
-    // The search from that start and, unless it ends at the noise, from six more, 20 % of |Ω0|
+        x
+    });
+    let starts = [followed[0], followed[1], *omega0, omega0.map(|v| -v)];
+    let mut best = starts[0];
+    // The search from those starts and, unless one ends at the noise, from six more each, 20 % of |Ω0|
     // off along each axis (measured: from the estimator's rates at 15 s and at 35 s of the
     // `orbit-identify` tumble, 0.50 and 0.34 rad/s off, the first search ended in a local
     // minimum where no geometry fits); the cheapest end wins.
@@ -323,11 +346,12 @@ pub fn identify_tumble<S: Sets, const CAP: usize>(
         *span = total / (1u32 << (stages - 1 - k)) as f64;
     }
     spans[stages - 1] = f64::INFINITY;
-    for span in spans.iter().take(stages) {
+    for (stage, span) in spans.iter().take(stages).enumerate() {
         problem.span.set(*span);
-        let first = best;
+        // Both signs in the first stage; then from where the last stage ended.
+        let firsts = if stage == 0 { &starts[..] } else { &[best][..] };
         let mut best_cost = f64::INFINITY;
-        for s in 0..7 {
+        for (first, s) in firsts.iter().flat_map(|f| (0..7).map(move |s| (*f, s))) {
             let mut x = first;
             if s > 0 {
                 x[(s - 1) / 2] += if s % 2 == 1 { 0.2 } else { -0.2 } * scale;
@@ -361,6 +385,22 @@ pub fn identify_tumble<S: Sets, const CAP: usize>(
             channel: worst.0,
             ratio: worst.1,
         });
+    }
+    let asked = identified.channels().len() * (PARAMS - ALWAYS_HELD.count_ones() as usize);
+    let held = |f: &super::result::ChannelFit| (f.held & !ALWAYS_HELD).count_ones() as usize;
+    let determined = asked - identified.channels().iter().map(held).sum::<usize>();
+    if too_few_determined(determined, asked) {
+        let (channel, fit) = identified
+            .channels()
+            .iter()
+            .enumerate()
+            .max_by_key(|(_, f)| held(f))
+            .ok_or(TumbleError::Identify(IdentifyError::TooFewSets { have: 0 }))?;
+        let param = Param::ALL
+            .into_iter()
+            .find(|p| *p != Param::Scale && fit.is_held(*p))
+            .unwrap_or(Param::Scale);
+        return Err(TumbleError::NotExcited { channel, param });
     }
     let mut identified = identified;
     let omega0_sd =
