@@ -17,7 +17,7 @@ use crate::real::Real;
 /// Parameters per channel.
 pub const PARAMS: usize = 7;
 
-/// A channel's parameters, in the order of [`ChannelFit::sd`].
+/// A channel's parameters, in the order of [`super::ChannelFit::sd`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Param {
@@ -49,7 +49,7 @@ impl Param {
         Param::Bias,
     ];
 
-    /// Its bit in [`ChannelFit::held`].
+    /// Its bit in [`super::ChannelFit::held`].
     pub const fn bit(self) -> u8 {
         1 << self as u8
     }
