@@ -203,8 +203,9 @@ impl Problem<'_> {
 
     /// The channel's fit: Gauss–Newton, then what the window did not determine held at
     /// nominal (the worst first) and Gauss–Newton again, until every
-    /// free parameter is determined to half its tolerance. `None` if a Gauss–Newton does not
-    /// settle.
+    /// free parameter is determined to half its tolerance; a Gauss–Newton that does not settle
+    /// holds the least informed free parameter and runs again. `None` if the normal matrix at
+    /// the solution is not positive definite with nothing left to hold.
     #[inline(never)]
     pub(super) fn fit(&self, nominal: State, noise: f64) -> Option<ChannelFit> {
         let mut held = ALWAYS_HELD;

@@ -348,7 +348,7 @@ pub fn identify_tumble<S: Sets, const CAP: usize>(
     spans[stages - 1] = f64::INFINITY;
     for (stage, span) in spans.iter().take(stages).enumerate() {
         problem.span.set(*span);
-        // Both signs in the first stage; then from where the last stage ended.
+        // Every start in the first stage; then from where the last stage ended.
         let firsts = if stage == 0 { &starts[..] } else { &[best][..] };
         let mut best_cost = f64::INFINITY;
         for (first, s) in firsts.iter().flat_map(|f| (0..7).map(move |s| (*f, s))) {
