@@ -468,14 +468,21 @@ enum TcCommand {
         #[arg(long, value_name = "N")]
         housekeeping_every: u16,
     },
-    /// TC[200,8]: start an identification window with a reference rate sent by TC[200,9].
+    /// TC[200,8]: start an identification window with a reference rate sent by TC[200,9], or
+    /// with --inertia without one, in a torque-free tumble.
     Identify {
-        /// The reference's period on the bus, ms (a longer interval is a gap).
+        /// The reference's period on the bus, ms (a longer interval is a gap); with --inertia,
+        /// the interval the unit averages into one kept set (short: the motion's curvature
+        /// within a mean grows with its square; 40 ms at 100 Hz).
         #[arg(long, value_name = "MS")]
         period_ms: u16,
         /// The window's length from reception, s (at most one hour).
         #[arg(long, value_name = "SECONDS")]
         window: f64,
+        /// Without a reference (source 2): the body's inertia in the body frame, XX,YY,ZZ or
+        /// XX,YY,ZZ,XY,XZ,YZ (only the ratios matter); the motion must be torque-free.
+        #[arg(long, value_name = "XX,YY,ZZ[,XY,XZ,YZ]", value_parser = inertia)]
+        inertia: Option<[f64; 6]>,
     },
     /// TC[200,9]: reference rate points from a file (CSV: t, omega_x, omega_y, omega_z; t on
     /// the unit's clock, s since boot), 16 points per packet.
@@ -1041,7 +1048,11 @@ fn telecommands(
             },
             None,
         )?],
-        TcCommand::Identify { period_ms, window } => {
+        TcCommand::Identify {
+            period_ms,
+            window,
+            inertia,
+        } => {
             let ms = (window * 1000.0).round();
             if !(ms >= 1.0 && ms <= f64::from(u32::MAX)) {
                 return Err(format!("--window {window}: not a window length in seconds").into());
@@ -1050,6 +1061,7 @@ fn telecommands(
                 Tc::StartIdentification {
                     period_ms,
                     window_ms: ms as u32,
+                    inertia: inertia.map(|j| j.map(|v| v as f32)),
                 },
                 None,
             )?]

@@ -32,8 +32,9 @@ pub struct SimJob<'a> {
     /// With `firmware`: identify in flight first (issue 16, paper §6). A first boot on an
     /// erased calibration store gets the scenario's reference gyro by telecommand
     /// (TC[200,8–11]: window, reference points, report, commit; its telemetry in
-    /// `telemetry-identify.bin`); the unit is reset, boots with the stored calibration and
-    /// runs the scenario again: that second boot is what the other files hold.
+    /// `telemetry-identify.bin`), or, in a scenario without one, a torque-free tumble's
+    /// inertia (TC[200,8] source 2, the same window); the unit is reset, boots with the stored
+    /// calibration and runs the scenario again: that second boot is what the other files hold.
     pub identify: bool,
     /// With `firmware` (not `identify`): telecommand frames sent on the unit's command link,
     /// each chunk at its scenario time (s), e.g. what `ballisto tc` wrote.
@@ -297,8 +298,16 @@ fn record_firmware(
     let (downlink_out, mut downlink) = crate::output::create(&tm_path)?;
     let mut identification = Vec::new();
     let fw = if job.identify {
-        use hal_sim::in_flight::{identify_and_reboot, uplink, Plan};
-        let up = uplink(sc, &Plan::for_scenario(sc))?;
+        use hal_sim::in_flight::{identify_and_reboot, uplink, uplink_tumble, Plan};
+        let plan = Plan::for_scenario(sc);
+        let up = if sc.reference.is_some() {
+            uplink(sc, &plan)?
+        } else {
+            // Without a reference: a torque-free tumble over the same window, means of 40 ms
+            // kept.
+            uplink_tumble(sc, &plan, 40)
+                .map_err(|e| format!("{e}; and no [reference] sensor to identify with"))?
+        };
         let first_path = job.out.join("telemetry-identify.bin");
         let mut first = Vec::new();
         let (_, second, id) =

@@ -95,8 +95,17 @@ pub fn describe(command: &Command) -> String {
         Command::StartIdentification {
             period_ms,
             window_ms,
+            inertia: None,
         } => format!(
             "start identification: reference every {period_ms} ms, window {:.3} s",
+            f64::from(*window_ms) / 1000.0
+        ),
+        Command::StartIdentification {
+            period_ms,
+            window_ms,
+            inertia: Some(j),
+        } => format!(
+            "start identification in a torque-free tumble: means of {period_ms} ms kept, window {:.3} s, inertia {j:?}",
             f64::from(*window_ms) / 1000.0
         ),
         Command::ReferenceRate(data) => {

@@ -161,14 +161,32 @@ fn identify_in_flight_then_decode_the_solution_as_an_arrangement_file() {
 }
 
 #[test]
-fn identifying_needs_a_reference_sensor() {
+fn identifying_needs_a_reference_sensor_or_a_torque_free_tumble() {
     let d = common::tmpdir("identify", "no-reference");
-    let r = sim_identify(true, "tetra-orbit", &d);
+    // orbit-identify without its reference gyro: the attitude-control torque leaves no
+    // source of the field.
+    let text: String = common::scenario_text("orbit-identify").replace(
+        "[reference]\nnoise_density = 1e-4\nbias = [0.0, 0.0, 0.0]\nrate = 20.0\n",
+        "",
+    );
+    assert!(!text.contains("[reference]"));
+    let file = d.join("no-reference.toml");
+    std::fs::write(&file, text).unwrap();
+    let r = sim_identify(true, file.to_str().unwrap(), &d);
     assert!(!r.status.success());
     let err = String::from_utf8_lossy(&r.stderr);
     assert!(
-        err.contains("no [reference] sensor to identify with"),
+        err.contains("not a torque-free tumble")
+            && err.contains("no [reference] sensor to identify with"),
         "{err}"
+    );
+    // tetra-orbit, a torque-free tumble without a reference: identified from its motion.
+    let r = sim_identify(true, "tetra-orbit", &d);
+    let stdout = common::summary(&r);
+    assert!(
+        stdout.contains("IDENTIFICATION solution=1 channels=12")
+            && stdout.contains("reference_points=0"),
+        "{stdout}"
     );
     // --identify without --firmware is a usage error.
     let r = sim_identify(false, "tetra-orbit", &d);

@@ -178,6 +178,16 @@ impl<const CAP: usize> Arrangement<CAP> {
         Ok(())
     }
 
+    /// A copy with every channel's noise multiplied by `factor` (> 0): the arrangement of
+    /// sets that are each the mean of `k` sample sets has `factor = 1/√k`.
+    pub fn with_noise_scaled(&self, factor: f64) -> Self {
+        let mut a = self.clone();
+        for c in a.channels.iter_mut().take(a.len) {
+            c.noise *= factor;
+        }
+        a
+    }
+
     /// The frame's uncertainty (zero unless set).
     pub fn frame_uncertainty(&self) -> FrameUncertainty<f64> {
         self.frame

@@ -44,6 +44,36 @@ impl Plan {
     }
 }
 
+/// Telecommand frames of an uplink, numbered in order: COBS, as on the line, each with the
+/// scenario time it arrives at.
+#[derive(Default)]
+struct Frames {
+    out: Vec<(f64, Vec<u8>)>,
+    seq: u16,
+}
+
+impl Frames {
+    fn push(&mut self, at: f64, ack: u8, command: Command) -> Result<(), String> {
+        let mut raw = vec![0u8; TC_MAX];
+        let n = build_command(&mut raw, self.seq, ack, &command).ok_or("telecommand too long")?;
+        let mut framed = vec![0u8; framing::max_encoded_len(n)];
+        let m = framing::encode(&raw[..n], &mut framed).ok_or("framing")?;
+        framed.truncate(m);
+        self.out.push((at, framed));
+        self.seq = self.seq.wrapping_add(1);
+        Ok(())
+    }
+
+    /// TC[200,10] at `at`, TC[200,11] committing solution 1 (the first one a boot reports)
+    /// 0.1 s after it; the frames.
+    fn report_and_commit(mut self, at: f64) -> Result<Vec<(f64, Vec<u8>)>, String> {
+        let acks = ACK_ACCEPTANCE | ACK_COMPLETION;
+        self.push(at, acks, Command::ReportIdentification)?;
+        self.push(at + 0.1, acks, Command::CommitCalibration { solution: 1 })?;
+        Ok(self.out)
+    }
+}
+
 /// The uplink of an identification: TC[200,8] at the start, the reference (the scenario's
 /// `[reference]` sensor, on the unit's time) in batches, TC[200,10] after the last batch and
 /// TC[200,11] committing solution 1 (the first one a boot reports) after it. Frames are COBS,
@@ -62,29 +92,18 @@ pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String>
         .unwrap_or(sc.rate);
     let batch = plan.batch.clamp(1, MAX_POINTS);
     let mut truth = Propagator::new(sc.motion(), TRUTH_STEP);
-    let mut out = Vec::new();
-    let mut seq = 0u16;
-    let mut frame = |at: f64, ack: u8, command: Command, out: &mut Vec<(f64, Vec<u8>)>| {
-        let mut raw = vec![0u8; TC_MAX];
-        let n = build_command(&mut raw, seq, ack, &command).ok_or("telecommand too long")?;
-        let mut framed = vec![0u8; framing::max_encoded_len(n)];
-        let m = framing::encode(&raw[..n], &mut framed).ok_or("framing")?;
-        framed.truncate(m);
-        out.push((at, framed));
-        seq = seq.wrapping_add(1);
-        Ok::<(), String>(())
-    };
+    let mut frames = Frames::default();
     let acks = ACK_ACCEPTANCE | ACK_COMPLETION;
     let period_ms = (1000.0 / reference_rate).round().clamp(1.0, 1000.0) as u16;
     let window_ms = ((plan.end - plan.start) * 1000.0).round() as u32;
-    frame(
+    frames.push(
         plan.start - 0.002,
         acks,
         Command::StartIdentification {
             period_ms,
             window_ms,
+            inertia: None,
         },
-        &mut out,
     )?;
     // The reference's points in the window, with their scenario times.
     let mut points: Vec<(f64, ReferencePoint)> = Vec::new();
@@ -111,18 +130,42 @@ pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String>
         let mut data = vec![0u8; 1 + POINT_LEN * batch.len()];
         let n = points_data(&batch, &mut data).ok_or("reference batch")?;
         let at = chunk.last().map_or(plan.start, |p| p.0) + plan.latency;
-        frame(at, 0, Command::ReferenceRate(&data[..n]), &mut out)?;
+        frames.push(at, 0, Command::ReferenceRate(&data[..n]))?;
     }
     let last = points.last().map_or(plan.start, |p| p.0);
-    let report_at = last + plan.latency + 0.1;
-    frame(report_at, acks, Command::ReportIdentification, &mut out)?;
-    frame(
-        report_at + 0.1,
-        acks,
-        Command::CommitCalibration { solution: 1 },
-        &mut out,
+    frames.report_and_commit(last + plan.latency + 0.1)
+}
+
+/// The uplink of an identification without a reference (TC[200,8] source 2): the window from
+/// `plan.start` to `plan.end` with the body's inertia (the scenario's principal moments), the
+/// unit keeping means of `mean_ms` of sets; TC[200,10] 0.1 s after the window, TC[200,11] after it. Errors: a
+/// scenario whose body has no inertia or a torque (not a torque-free tumble).
+pub fn uplink_tumble(
+    sc: &Scenario,
+    plan: &Plan,
+    mean_ms: u16,
+) -> Result<Vec<(f64, Vec<u8>)>, String> {
+    let j = match (sc.body.inertia, &sc.body.torque) {
+        (Some(j), None) => j,
+        _ => {
+            return Err(format!(
+                "scenario {}: not a torque-free tumble with its inertia given",
+                sc.description
+            ))
+        }
+    };
+    let mut frames = Frames::default();
+    let window_ms = ((plan.end - plan.start) * 1000.0).round() as u32;
+    frames.push(
+        plan.start - 0.002,
+        ACK_ACCEPTANCE | ACK_COMPLETION,
+        Command::StartIdentification {
+            period_ms: mean_ms,
+            window_ms,
+            inertia: Some([j[0] as f32, j[1] as f32, j[2] as f32, 0.0, 0.0, 0.0]),
+        },
     )?;
-    Ok(out)
+    frames.report_and_commit(plan.end + 0.1)
 }
 
 /// Flash of the host's calibration store: four sectors.

@@ -17,6 +17,9 @@ pub const WINDOW_MAX_MS: u32 = 3_600_000;
 
 /// Source of the field in TC[200,8]: a reference rate on the bus (TC[200,9]).
 pub const SOURCE_REFERENCE: u8 = 1;
+/// Source of the field in TC[200,8]: the estimator itself in a torque-free tumble, the body's
+/// inertia given (six f32 after the window: xx, yy, zz, xy, xz, yz).
+pub const SOURCE_TUMBLE: u8 = 2;
 
 /// One reference point: on-board time (ns since boot) and Ω (rad/s, body frame).
 #[derive(Clone, Copy, Debug, PartialEq)]

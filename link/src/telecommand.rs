@@ -61,13 +61,17 @@ pub enum Command<'a> {
         housekeeping_every: u16,
     },
     /// TC[200,8]: start accumulating an identification window (paper §6) with the field from
-    /// a reference rate (TC[200,9]); what was accumulated before is dropped.
+    /// a reference rate (TC[200,9]), or, with the body's inertia, from the motion of a
+    /// torque-free tumble (source 2); what was accumulated before is dropped.
     StartIdentification {
-        /// The reference's period as the bus sends it, ms (a longer interval between two
-        /// points is a gap, not covered).
+        /// With a reference, its period as the bus sends it, ms (a longer interval between
+        /// two points is a gap, not covered); in a tumble, the interval averaged into one kept set.
         period_ms: u16,
         /// The window's length from now, ms.
         window_ms: u32,
+        /// Source 2: the body's inertia in the body frame, `[xx, yy, zz, xy, xz, yz]` (any unit:
+        /// only the ratios matter); `None`: source 1, the reference.
+        inertia: Option<[f32; 6]>,
     },
     /// TC[200,9]: reference rate points (the application data, already checked;
     /// [`crate::identification::points`] reads them).
@@ -128,10 +132,20 @@ impl Command<'_> {
             Command::StartIdentification {
                 period_ms,
                 window_ms,
+                inertia: None,
             } => p
                 .u8(identification::SOURCE_REFERENCE)
                 .u16(period_ms)
                 .u32(window_ms),
+            Command::StartIdentification {
+                period_ms,
+                window_ms,
+                inertia: Some(j),
+            } => p
+                .u8(identification::SOURCE_TUMBLE)
+                .u16(period_ms)
+                .u32(window_ms)
+                .f32s(&j),
             Command::CommitCalibration { solution } => p.u16(solution),
             Command::ReportHousekeeping => p.u8(1).u16(sid::HOUSEKEEPING),
             Command::SetTime(ticks) => p.bytes(&ticks.to_be_bytes()[1..]),
@@ -322,23 +336,42 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
             })
         }
         (service::BALLISTOMETER, subtype::START_IDENTIFICATION) => {
-            length(7)?;
-            let source = g.u8().unwrap_or(0);
+            let source = *data.first().ok_or((FailureCode::DataLength, 7))?;
+            match source {
+                identification::SOURCE_REFERENCE => length(7)?,
+                identification::SOURCE_TUMBLE => length(7 + 24)?,
+                _ => return Err((FailureCode::OutOfRange, 0)),
+            }
+            g.u8();
             let period_ms = g.u16().unwrap_or(0);
             let window_ms = g.u32().unwrap_or(0);
-            if source != identification::SOURCE_REFERENCE {
-                // 2 (the estimator itself in a torque-free tumble) is not in this version.
-                return Err((FailureCode::OutOfRange, 0));
-            }
             if !(1..=identification::PERIOD_MAX_MS).contains(&period_ms) {
                 return Err((FailureCode::OutOfRange, 1));
             }
             if !(1..=identification::WINDOW_MAX_MS).contains(&window_ms) {
                 return Err((FailureCode::OutOfRange, 2));
             }
+            let inertia = if source == identification::SOURCE_TUMBLE {
+                let j: [f32; 6] = g.f32s().unwrap_or([f32::NAN; 6]);
+                for (k, v) in j.iter().enumerate() {
+                    real(*v, 3 + k, f32::MAX)?;
+                }
+                // Positive definite (Sylvester's leading minors), in f64.
+                let [xx, yy, zz, xy, xz, yz] = j.map(f64::from);
+                let minor2 = xx * yy - xy * xy;
+                let det =
+                    xx * (yy * zz - yz * yz) - xy * (xy * zz - yz * xz) + xz * (xy * yz - yy * xz);
+                if !(xx > 0.0 && minor2 > 0.0 && det > 0.0) {
+                    return Err((FailureCode::OutOfRange, 3));
+                }
+                Some(j)
+            } else {
+                None
+            };
             Ok(Command::StartIdentification {
                 period_ms,
                 window_ms,
+                inertia,
             })
         }
         (service::BALLISTOMETER, subtype::REFERENCE_RATE) => {
@@ -565,6 +598,12 @@ mod tests {
             Command::StartIdentification {
                 period_ms: 50,
                 window_ms: 20_000,
+                inertia: None,
+            },
+            Command::StartIdentification {
+                period_ms: 80,
+                window_ms: 20_000,
+                inertia: Some([1.0, 1.8, 2.5, 0.0, -0.1, 0.0]),
             },
             Command::ReferenceRate(&reference),
             Command::ReportIdentification,

@@ -69,6 +69,21 @@ pub mod not_ready {
     pub const IDENTIFICATION_BUSY: u32 = 11;
     /// The unit runs no identification task (a board that does not attach one).
     pub const NO_IDENTIFICATION_TASK: u32 = 12;
+    /// A torque-free tumble's window does not determine a parameter: the start rate's
+    /// uncertainty moves it by more than half its tolerance (bits 8–15: the parameter, as
+    /// `estimator_core::identify::Param`; low 8 bits: the channel).
+    pub const MOTION_UNCERTAIN: u32 = 13 << 16;
+    /// A torque-free tumble's window determines fewer than half of the geometry (low 8 bits:
+    /// the channel with the most parameters held; bits 8–15: the first of them, as
+    /// `estimator_core::identify::Param`): a longer window, or a motion further from a spin about one axis.
+    pub const NOT_EXCITED: u32 = 14 << 16;
+    /// A torque-free tumble's window is explained at the noise by two motions whose geometries
+    /// are apart by more than half a tolerance in a parameter both determine: it does not
+    /// decide between them (a longer window, or another motion).
+    pub const MOTION_AMBIGUOUS: u32 = 15 << 16;
+    /// A tumble's window would not fit the unit's room for its means at the period given (low
+    /// 16 bits: the longest window that fits, s): a shorter window, or a longer period.
+    pub const WINDOW_TOO_LONG: u32 = 16 << 16;
 }
 
 /// The data of [`FailureCode::StoreFailed`].

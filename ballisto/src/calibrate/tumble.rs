@@ -179,6 +179,13 @@ fn refusal(e: &TumbleError, names: &[String]) -> String {
             name(*channel),
             param.name()
         ),
+        TumbleError::Ambiguous { omega0: [a, b] } => format!(
+            "two motions explain the record at the noise, with geometries apart by more than \
+             half a tolerance: start rates [{:.4}, {:.4}, {:.4}] and [{:.4}, {:.4}, {:.4}] \
+             rad/s — the record does not decide between them: a longer record, or another \
+             tumble",
+            a[0], a[1], a[2], b[0], b[1], b[2]
+        ),
         TumbleError::MotionUncertain {
             channel,
             param,

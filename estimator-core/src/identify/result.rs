@@ -80,6 +80,16 @@ pub struct Identified<const CAP: usize> {
 }
 
 impl<const CAP: usize> Identified<CAP> {
+    /// Multiplies every channel's noise and residual RMS by `factor`: a solve over the means
+    /// of `k` sample sets reports them as of one set (`factor = √k`, the residual taken as
+    /// white).
+    pub(super) fn scale_noise(&mut self, factor: f64) {
+        for f in self.fits.iter_mut().take(self.len) {
+            f.channel.noise *= factor;
+            f.residual_rms *= factor;
+        }
+    }
+
     /// Every channel's fit, in arrangement order.
     pub fn channels(&self) -> &[ChannelFit] {
         &self.fits[..self.len]

@@ -741,17 +741,58 @@ fn bad_identification_commands() -> Vec<(&'static str, Vec<u8>, FailureCode, u32
     let mut nan = reference_data(&[p(1_000_000_000), p(1_010_000_000)]);
     nan[1 + 20 + 8 + 4..1 + 20 + 8 + 8].copy_from_slice(&f32::NAN.to_be_bytes());
     let many: Vec<_> = (0..17).map(|i| p(1_000_000_000 + i * 10_000_000)).collect();
+    // Source 2: the window, then the inertia (xx, yy, zz, xy, xz, yz).
+    let tumble = |j: [f32; 6]| {
+        let mut d = start_data(2, 100, 10_000);
+        for v in j {
+            d.extend_from_slice(&v.to_be_bytes());
+        }
+        d
+    };
     vec![
         (
-            "tumble source (not in this version)",
+            "source 3",
+            tc(
+                b,
+                subtype::START_IDENTIFICATION,
+                &start_data(3, 50, 10_000),
+                60,
+            ),
+            FailureCode::OutOfRange,
+            0,
+        ),
+        (
+            "tumble source without the inertia",
             tc(
                 b,
                 subtype::START_IDENTIFICATION,
                 &start_data(2, 50, 10_000),
                 60,
             ),
+            FailureCode::DataLength,
+            31,
+        ),
+        (
+            "tumble with an inertia that is no body's",
+            tc(
+                b,
+                subtype::START_IDENTIFICATION,
+                &tumble([1.0, 1.8, 2.5, 3.0, 0.0, 0.0]),
+                60,
+            ),
             FailureCode::OutOfRange,
-            0,
+            3,
+        ),
+        (
+            "tumble with a NaN in the inertia",
+            tc(
+                b,
+                subtype::START_IDENTIFICATION,
+                &tumble([1.0, 1.8, f32::NAN, 0.0, 0.0, 0.0]),
+                60,
+            ),
+            FailureCode::NotFinite,
+            5,
         ),
         (
             "period 0",
@@ -889,6 +930,26 @@ fn identification_commands_are_refused_with_their_reason() {
         not_ready(&u.command(&tc(b, subtype::COMMIT_CALIBRATION, &[0, 1], 82))),
         (subtype::NOT_COMPLETED, Some((FailureCode::NotReady, 6)))
     );
+    // A tumble's window longer than the room for its means: 12 channels, means of 40 ms at
+    // 100 Hz, 2 048 of them, 81.92 s. Refused naming the longest that fits; that one starts.
+    let tumble = |window_ms: u32| {
+        let mut d = start_data(2, 40, window_ms);
+        for v in [1.0f32, 1.8, 2.5, 0.0, 0.0, 0.0] {
+            d.extend_from_slice(&v.to_be_bytes());
+        }
+        tc(b, subtype::START_IDENTIFICATION, &d, 83)
+    };
+    assert_eq!(
+        not_ready(&u.command(&tumble(82_000))),
+        (
+            subtype::NOT_COMPLETED,
+            Some((
+                FailureCode::NotReady,
+                ballisto_link::verification::not_ready::WINDOW_TOO_LONG | 81
+            ))
+        )
+    );
+    assert_eq!(not_ready(&u.command(&tumble(81_000))).0, subtype::COMPLETED);
 }
 
 /// A window over a steady spin about z with the reference sent in batches: the report names

@@ -72,7 +72,7 @@ pub fn outputs<const CAP: usize>(arr: &Arrangement<CAP>, t: f64, noise: f64, out
 
 /// A standard normal draw for channel `i` at time `t`: Box–Muller on two hashed uniforms, so
 /// the QEMU count and the host benchmark see the same noise without a generator's state.
-fn gaussian(i: usize, t: f64) -> f64 {
+pub fn gaussian(i: usize, t: f64) -> f64 {
     let uniform = |salt: f64| {
         let h = libm::sin((i as f64 + 1.0) * 12.9898 + t * 78.233 + salt) * 43758.5453;
         h - libm::floor(h)

@@ -8,12 +8,12 @@ use ballisto_link::telecommand::Command;
 use ballisto_link::verification::{config_error_code, not_ready};
 use ballisto_link::{service, subtype, EventId, FailureCode, RequestId};
 use embedded_io_async::Write;
-use estimator_core::identify::{Identified, IdentifyError, PARAMS};
+use estimator_core::identify::{Identified, IdentifyError, TumbleError, PARAMS};
 use estimator_core::FrameUncertainty;
 
 use super::App;
 use crate::config::MAX_CHANNELS;
-use crate::identification::{Identifier, Order, Solved};
+use crate::identification::{longest_window_ms, Identifier, Order, Solved, Unsolved};
 use crate::storage::{CommitReply, CommitRequest};
 use crate::telemetry::Telemetry;
 use crate::time::Nanos;
@@ -66,14 +66,30 @@ impl IdentificationLink {
     }
 }
 
-/// The refusal of a solve that found no solution.
-fn unsolved(e: Option<IdentifyError>) -> (FailureCode, u32) {
-    let data = match e {
-        None => not_ready::NO_WINDOW,
-        Some(IdentifyError::TooFewSets { have }) => not_ready::TOO_FEW_SETS | have.min(0xFFFF),
-        Some(IdentifyError::NotConverged { channel }) => not_ready::NOT_CONVERGED | channel as u32,
+/// The refusal of a solve that found no solution, naming what the data could not decide.
+fn unsolved(e: Unsolved) -> (FailureCode, u32) {
+    let identify = |e: IdentifyError| match e {
+        IdentifyError::TooFewSets { have } => not_ready::TOO_FEW_SETS | have.min(0xFFFF),
+        IdentifyError::NotConverged { channel } => not_ready::NOT_CONVERGED | channel as u32,
         // The sums are started with the arrangement's channel count.
-        Some(IdentifyError::ChannelCount { .. }) => not_ready::NO_WINDOW,
+        IdentifyError::ChannelCount { .. } => not_ready::NO_WINDOW,
+    };
+    let data = match e {
+        Unsolved::NoWindow => not_ready::NO_WINDOW,
+        Unsolved::Identify(e) | Unsolved::Tumble(TumbleError::Identify(e)) => identify(e),
+        // No start rate explains the kept sets: the field does not explain that channel.
+        Unsolved::Tumble(TumbleError::NotDetermined { channel, .. }) => {
+            not_ready::RESIDUAL_HIGH | channel as u32
+        }
+        Unsolved::Tumble(TumbleError::MotionUncertain { channel, param, .. }) => {
+            not_ready::MOTION_UNCERTAIN | ((param as u32) << 8) | channel as u32
+        }
+        Unsolved::Tumble(TumbleError::NotExcited { channel, param }) => {
+            not_ready::NOT_EXCITED | ((param as u32) << 8) | channel as u32
+        }
+        Unsolved::Tumble(TumbleError::Ambiguous { .. }) => not_ready::MOTION_AMBIGUOUS,
+        // Acceptance checked the inertia.
+        Unsolved::Tumble(TumbleError::Inertia) => not_ready::INVALID,
     };
     (FailureCode::NotReady, data)
 }
@@ -97,14 +113,23 @@ impl App {
             Command::StartIdentification {
                 period_ms,
                 window_ms,
+                inertia,
             } => {
                 let arrangement = self.estimation.estimator().arrangement().clone();
+                if inertia.is_some() {
+                    let longest = longest_window_ms(arrangement.len(), period_ms, self.rate_hz);
+                    if window_ms > longest {
+                        let seconds = (longest / 1000).min(0xFFFF);
+                        return Err((FailureCode::NotReady, not_ready::WINDOW_TOO_LONG | seconds));
+                    }
+                }
                 self.identification.post(Order::Start {
                     now: t,
                     period_ms,
                     window_ms,
                     rate_hz: self.rate_hz,
                     arrangement,
+                    inertia,
                 })?;
                 let end = t + u64::from(window_ms) * 1_000_000;
                 self.identification.window = Some((t, end));
@@ -126,14 +151,15 @@ impl App {
         Ok(())
     }
 
-    /// A set's channel vector for the window, if one is open at `t`: queued to the task, or
-    /// counted as lost if the queue is full (the estimate never waits for the task).
-    pub(super) fn identification_set(&mut self, t: Nanos) {
+    /// A set's channel vector for the window, if one is open at `t`, with the estimate's rate
+    /// `omega`: queued to the task, or counted as lost if the queue is full (the estimate
+    /// never waits for the task).
+    pub(super) fn identification_set(&mut self, t: Nanos, omega: [f32; 3]) {
         let link = &mut self.identification;
         let (Some(task), Some((start, end))) = (link.task, link.window) else {
             return;
         };
-        if t >= start && t <= end && !task.post_set(t, self.estimation.readings()) {
+        if t >= start && t <= end && !task.post_set(t, self.estimation.readings(), omega) {
             link.lost = link.lost.wrapping_add(1);
         }
     }
@@ -151,7 +177,7 @@ impl App {
             return Err((FailureCode::NotReady, not_ready::IDENTIFICATION_BUSY));
         }
         if link.window.is_none() {
-            return Err(unsolved(None));
+            return Err(unsolved(Unsolved::NoWindow));
         }
         link.post(Order::Solve { lost: link.lost })?;
         link.solving = Some((request, ack_completion));

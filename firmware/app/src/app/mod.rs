@@ -212,7 +212,7 @@ impl App {
             let m = self.estimation.process(set);
             self.estimates = self.estimates.wrapping_add(1);
             // After the estimate: the identification only reads the channel vector.
-            self.identification_set(set.t);
+            self.identification_set(set.t, m.estimate.omega);
             for (id, a, b) in self
                 .estimation
                 .fault_events(m.verdict)

@@ -13,11 +13,25 @@
 
 mod reference;
 mod task;
+mod tumble;
 mod window;
 
 pub use reference::{Push, ReferenceTrack};
 pub use task::{Identifier, Order, Solved, ORDERS, SET_QUEUE};
+pub use tumble::{longest_window_ms, TUMBLE_FLOATS};
 pub use window::Identification;
+
+/// Why a window gives no solution.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Unsolved {
+    /// No window was started.
+    NoWindow,
+    /// With a reference: the solve failed.
+    Identify(estimator_core::identify::IdentifyError),
+    /// In a tumble: the search or the solve failed, or the motion does not determine a
+    /// parameter.
+    Tumble(estimator_core::identify::TumbleError),
+}
 
 /// Sample sets that can wait for the reference to cover them. At sample rates where that is
 /// less than three reference periods, only every d-th set is taken (the window then averages

@@ -20,10 +20,10 @@ use embassy_futures::select::{select, Either};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex as Cs;
 use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
-use estimator_core::identify::{Identified, IdentifyError};
+use estimator_core::identify::Identified;
 use estimator_core::{Arrangement, FrameUncertainty};
 
-use super::Identification;
+use super::{Identification, Unsolved};
 use crate::config::MAX_CHANNELS;
 use crate::time::Nanos;
 
@@ -33,15 +33,17 @@ pub const SET_QUEUE: usize = 16;
 /// Orders the application can queue ahead of the task.
 pub const ORDERS: usize = 2;
 
-/// A solve's outcome: the solution and its summary, or why there is none (`None`: no
-/// window was started).
+/// A set on its way to the task: its time, channels and the estimator's rate.
+type QueuedSet = (Nanos, [f32; MAX_CHANNELS], [f32; 3]);
+
+/// A solve's outcome: the solution, its frame and summary, or why there is none.
 pub type Solved = Result<
     (
         Identified<MAX_CHANNELS>,
         FrameUncertainty<f64>,
         IdentificationSummary,
     ),
-    Option<IdentifyError>,
+    Unsolved,
 >;
 
 /// What the application asks of the task.
@@ -59,6 +61,8 @@ pub enum Order {
         rate_hz: f32,
         /// The arrangement in force.
         arrangement: Arrangement<MAX_CHANNELS>,
+        /// Without a reference: the body's inertia (a torque-free tumble).
+        inertia: Option<[f32; 6]>,
     },
     /// TC[200,9]: reference points, in time order.
     Points(heapless::Vec<ReferencePoint, MAX_POINTS>),
@@ -71,7 +75,7 @@ pub enum Order {
 
 /// The queues between the application and the identification task.
 pub struct Identifier {
-    sets: Channel<Cs, (Nanos, [f32; MAX_CHANNELS]), SET_QUEUE>,
+    sets: Channel<Cs, QueuedSet, SET_QUEUE>,
     orders: Channel<Cs, Order, ORDERS>,
     solved: Signal<Cs, Solved>,
 }
@@ -108,7 +112,7 @@ impl Identifier {
                     self.take_sets(window);
                     self.execute(order, window);
                 }
-                Either::Second((t, p)) => window.on_set(t, &p),
+                Either::Second((t, p, w)) => window.on_set(t, &p, &w),
             }
         }
     }
@@ -124,8 +128,8 @@ impl Identifier {
     }
 
     fn take_sets(&self, window: &mut Identification) {
-        while let Ok((t, p)) = self.sets.try_receive() {
-            window.on_set(t, &p);
+        while let Ok((t, p, w)) = self.sets.try_receive() {
+            window.on_set(t, &p, &w);
         }
     }
 
@@ -137,19 +141,20 @@ impl Identifier {
                 window_ms,
                 rate_hz,
                 arrangement,
-            } => window.start(now, period_ms, window_ms, &arrangement, rate_hz),
+                inertia,
+            } => window.start(now, period_ms, window_ms, &arrangement, rate_hz, inertia),
             Order::Points(points) => window.on_points(points.into_iter()),
             Order::Solve { lost } => self.solved.signal(window.solve(lost)),
         }
     }
 
-    /// Queues a set's channel vector (NaN where a part had no value) taken at `t`; `false`
-    /// if the queue is full (the set is lost to the window).
-    pub fn post_set(&self, t: Nanos, p: &[f32]) -> bool {
+    /// Queues a set's channel vector (NaN where a part had no value) taken at `t` and the
+    /// estimator's rate then; `false` if the queue is full (the set is lost to the window).
+    pub fn post_set(&self, t: Nanos, p: &[f32], omega: [f32; 3]) -> bool {
         let mut v = [0.0; MAX_CHANNELS];
         let n = p.len().min(MAX_CHANNELS);
         v[..n].copy_from_slice(&p[..n]);
-        self.sets.try_send((t, v)).is_ok()
+        self.sets.try_send((t, v, omega)).is_ok()
     }
 
     /// Queues an order; `false` if the queue is full (nothing was asked).

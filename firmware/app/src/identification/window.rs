@@ -8,7 +8,8 @@ use estimator_core::{Arrangement, Sym3};
 use heapless::Deque;
 
 use super::reference::{Push, ReferenceTrack};
-use super::{Counters, Solved, PENDING};
+use super::tumble::Tumble;
+use super::{Counters, Solved, Unsolved, PENDING};
 use crate::config::MAX_CHANNELS;
 use crate::time::Nanos;
 
@@ -25,6 +26,8 @@ pub struct Identification {
     track: ReferenceTrack,
     pending: Deque<(Nanos, [f32; MAX_CHANNELS]), PENDING>,
     sums: FieldSums<MAX_CHANNELS>,
+    /// Without a reference: the kept sets of a tumble.
+    tumble: Tumble,
     counters: Counters,
     next_solution: u16,
 }
@@ -45,6 +48,7 @@ impl Identification {
             track: ReferenceTrack::new(0),
             pending: Deque::new(),
             sums: FieldSums::new(),
+            tumble: Tumble::new(),
             counters: Counters {
                 not_covered: 0,
                 incomplete: 0,
@@ -56,8 +60,9 @@ impl Identification {
     }
 
     /// Starts a window of `window_ms` from `now` over the channels of `arrangement` sampled
-    /// at `rate_hz`, with the reference sent every `period_ms`; what was accumulated is
-    /// dropped (a reported solution stays committable).
+    /// at `rate_hz`: with the reference sent every `period_ms`, or, with the body's `inertia`,
+    /// a torque-free tumble whose sets are kept as means over `period_ms`. What was
+    /// accumulated is dropped (a reported solution stays committable).
     #[inline(never)]
     pub fn start(
         &mut self,
@@ -66,11 +71,19 @@ impl Identification {
         window_ms: u32,
         arrangement: &Arrangement<MAX_CHANNELS>,
         rate_hz: f32,
+        inertia: Option<[f32; 6]>,
     ) {
         let period = u64::from(period_ms) * 1_000_000;
-        // Sets the queue must hold: three periods' worth.
-        let needed = libm::ceilf(3.0 * f32::from(period_ms) * 1e-3 * rate_hz);
-        let decimation = libm::ceilf(needed / PENDING as f32).max(1.0) as u32;
+        let decimation = if inertia.is_some() {
+            // Every set joins a mean.
+            1
+        } else {
+            // Sets the queue must hold: three periods' worth.
+            let needed = libm::ceilf(3.0 * f32::from(period_ms) * 1e-3 * rate_hz);
+            libm::ceilf(needed / PENDING as f32).max(1.0) as u32
+        };
+        self.tumble
+            .start(inertia, arrangement.len(), period_ms, rate_hz);
         self.window = Some((now, now + u64::from(window_ms) * 1_000_000, decimation));
         self.arrangement.clone_from(arrangement);
         let channels = arrangement.len();
@@ -81,9 +94,10 @@ impl Identification {
         self.counters = Counters::default();
     }
 
-    /// A sample set's channel vector (NaN where a part had no value) at `t`.
+    /// A sample set's channel vector (NaN where a part had no value) at `t`, and the
+    /// estimator's rate then.
     #[inline(never)]
-    pub fn on_set(&mut self, t: Nanos, p: &[f32]) {
+    pub fn on_set(&mut self, t: Nanos, p: &[f32], omega: &[f32; 3]) {
         let Some((start, end, decimation)) = self.window else {
             return;
         };
@@ -95,7 +109,18 @@ impl Identification {
             return;
         }
         if p.iter().any(|v| !v.is_finite()) {
-            self.counters.incomplete += 1;
+            // In a tumble the mean under way is dropped too (its noise would not be the one
+            // the search is told).
+            self.counters.incomplete += 1 + self.tumble.drop_mean();
+            return;
+        }
+        if self.tumble.active() {
+            if !omega.iter().all(|v| v.is_finite()) {
+                // The mean under way cannot be completed with its sets' spacing.
+                self.counters.incomplete += 1 + self.tumble.drop_mean();
+            } else if !self.tumble.add(t - start, p, omega) {
+                self.counters.not_covered += self.tumble.averaged();
+            }
             return;
         }
         let mut v = [0.0; MAX_CHANNELS];
@@ -112,7 +137,8 @@ impl Identification {
     /// Reference points (in time order, as acceptance checked).
     #[inline(never)]
     pub fn on_points(&mut self, points: impl Iterator<Item = ReferencePoint>) {
-        if self.window.is_none() {
+        // A tumble's window takes no reference.
+        if self.window.is_none() || self.tumble.active() {
             return;
         }
         for p in points {
@@ -161,10 +187,14 @@ impl Identification {
     #[inline(never)]
     pub fn solve(&mut self, lost: u32) -> Solved {
         if self.window.is_none() {
-            return Err(None);
+            return Err(Unsolved::NoWindow);
         }
         let arrangement = &self.arrangement;
-        let id = identify(&self.sums, arrangement, &Tolerance::DATASHEET).map_err(Some)?;
+        let id = if self.tumble.active() {
+            self.tumble.solve(arrangement).map_err(Unsolved::Tumble)?
+        } else {
+            identify(&self.sums, arrangement, &Tolerance::DATASHEET).map_err(Unsolved::Identify)?
+        };
         let number = self.next_solution;
         self.next_solution = self.next_solution.wrapping_add(1).max(1);
         let frame = id.frame_uncertainty();
@@ -172,7 +202,12 @@ impl Identification {
         let summary = IdentificationSummary {
             solution: number,
             channels: arrangement.len() as u8,
-            sets: id.sets,
+            // A tumble's kept sets are means: the sample sets behind them.
+            sets: if self.tumble.active() {
+                id.sets.saturating_mul(self.tumble.averaged())
+            } else {
+                id.sets
+            },
             not_covered: c.not_covered + self.pending.len() as u32 + lost,
             incomplete: c.incomplete,
             points: c.points,

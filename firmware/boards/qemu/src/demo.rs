@@ -59,6 +59,7 @@ const BATCH: u32 = 4;
 const START: Command<'static> = Command::StartIdentification {
     period_ms: 50,
     window_ms: WINDOW_SETS * 10 + 5,
+    inertia: None,
 };
 
 /// Part u3 silent from 4.0 s to 4.5 s.
