@@ -26,8 +26,8 @@ use crate::config::MAX_CHANNELS;
 use crate::time::Nanos;
 
 /// Numbers the kept sets may take: per set its time (s from the window's start), the
-/// estimator's Ω (3) and the channels — 1 724 sets of 15 channels, 60 s of means of 4 sets
-/// at 100 Hz.
+/// estimator's Ω (3) and the channels — 1 724 means of 15 channels, 69 s in means of 40 ms at
+/// 100 Hz.
 pub const TUMBLE_FLOATS: usize = 32 * 1024;
 
 /// Sets in a mean of `period_ms` at `rate_hz` (at least one; the telecommand's acceptance
@@ -111,13 +111,14 @@ impl Tumble {
         if *count < self.averaged {
             return true;
         }
-        let k = *count as f32;
+        let k = *count;
         *count = 0;
         if self.kept.len() + 4 + n > TUMBLE_FLOATS {
             return false;
         }
         // Room was checked above.
-        let _ = self.kept.push((*t as f64 / f64::from(k) * 1e-9) as f32);
+        let _ = self.kept.push((*t / u64::from(k)) as f32 / 1e9);
+        let k = k as f32;
         let _ = self.kept.extend_from_slice(w);
         for s in sums.iter().take(n) {
             let _ = self.kept.push(s / k);
