@@ -10,7 +10,8 @@
 use ballisto_fw::config::Alignment;
 use ballisto_link::decode::{decode, Report};
 use ballisto_link::framing::Deframer;
-use ballisto_link::{subtype, CalibrationSource, EventId};
+use ballisto_link::identification::IdentificationSummary;
+use ballisto_link::{subtype, CalibrationSource, EventId, FailureCode};
 use e2e_tests::drawn::drawn_case;
 use e2e_tests::recorded::ideal;
 use hal_sim::firmware_host::{firmware_config, run_firmware_with};
@@ -114,6 +115,47 @@ fn ideal_errors(
     rms_from_stream(&ideal_sc, &stream, skip, [0.0; 3])
 }
 
+/// The identification's summary (TM[200,128]) in a boot's packets.
+fn summary(packets: &[ballisto_link::decode::Decoded]) -> IdentificationSummary {
+    packets
+        .iter()
+        .find_map(|p| match &p.report {
+            Report::IdentificationSummary(s) => Some(*s),
+            _ => None,
+        })
+        .expect("an identification summary")
+}
+
+/// The first command not completed in a boot's packets: its failure code and data.
+fn refusal(packets: &[ballisto_link::decode::Decoded]) -> Option<(FailureCode, u32)> {
+    packets.iter().find_map(|p| match p.report {
+        Report::Verification(v) if v.subtype == subtype::NOT_COMPLETED => v.failure,
+        _ => None,
+    })
+}
+
+/// A torque-free `sc` (no reference) identified on board: TC[200,8] source 2 with its inertia
+/// over the scenario's window, means of 40 ms, then the commit and the reset. The outcome and
+/// both boots' telemetry.
+fn tumble_on_board(sc: &Scenario) -> (Booted, Vec<u8>, Vec<u8>) {
+    let loaded = sc.arrangement().load("arrangement.toml").unwrap();
+    let config = firmware_config(sc, &loaded, Alignment::Interpolate).unwrap();
+    let up = uplink_tumble(sc, &Plan::for_scenario(sc), 40).unwrap();
+    let (mut first, mut second) = (Vec::new(), Vec::new());
+    let booted = identify_and_reboot(sc, &config, &up, &mut first, &mut second, &mut |_, _, _| {});
+    (booted, first, second)
+}
+
+/// What [`identify_and_reboot`] gives.
+type Booted = Result<
+    (
+        hal_sim::firmware_host::FirmwareReport,
+        hal_sim::firmware_host::FirmwareReport,
+        ballisto_link::CalibrationId,
+    ),
+    String,
+>;
+
 /// Prints σ0's, Ω′'s and Ω's RMS errors with the nominal geometry (`before`), the identified
 /// one (`after`) and ideal parts (`reference`), and asserts `after` within `bound` × ideal.
 fn within(label: &str, before: &[f64; 3], after: &[f64; 3], reference: &[f64; 3], bound: f64) {
@@ -163,13 +205,7 @@ fn identify_commit_reset_and_the_errors_return_to_ideal_parts() {
 
     // Boot 1: the window's report and the commit, from its telemetry.
     let p1 = packets(&first);
-    let summary = p1
-        .iter()
-        .find_map(|p| match &p.report {
-            Report::IdentificationSummary(s) => Some(*s),
-            _ => None,
-        })
-        .expect("an identification summary");
+    let summary = summary(&p1);
     println!("summary: {summary:?}");
     let channels: Vec<_> = p1
         .iter()
@@ -261,13 +297,7 @@ fn identify_against_ideal(sc: &Scenario) -> ([f64; 4], (usize, usize)) {
     let (mut first, mut second) = (Vec::new(), Vec::new());
     identify_and_reboot(sc, &config, &up, &mut first, &mut second, &mut |_, _, _| {})
         .expect("identified, committed and booted on it");
-    let summary = packets(&first)
-        .iter()
-        .find_map(|p| match &p.report {
-            Report::IdentificationSummary(s) => Some(*s),
-            _ => None,
-        })
-        .expect("an identification summary");
+    let summary = summary(&packets(&first));
     let rho = sc.body.origin_offset.unwrap_or([0.0; 3]);
     let origin: [f64; 3] = core::array::from_fn(|k| f64::from(summary.rho[k]) - rho[k]);
     let skip = 2.0;
@@ -331,18 +361,7 @@ fn without_a_reference_a_torque_free_tumble_is_identified_on_board() {
     sc.body.torque = None;
     sc.reference = None;
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
-    let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
-    let plan = Plan::for_scenario(&sc);
-    let up = uplink_tumble(&sc, &plan, 40).unwrap();
-    let (mut first, mut second) = (Vec::new(), Vec::new());
-    let r = identify_and_reboot(
-        &sc,
-        &config,
-        &up,
-        &mut first,
-        &mut second,
-        &mut |_, _, _| {},
-    );
+    let (r, first, second) = tumble_on_board(&sc);
     let failures: Vec<_> = packets(&first)
         .into_iter()
         .filter_map(|p| match p.report {
@@ -353,13 +372,7 @@ fn without_a_reference_a_torque_free_tumble_is_identified_on_board() {
     assert!(failures.is_empty(), "{failures:?}");
     let (_, _, id) = r.unwrap();
     assert_eq!(id.source, CalibrationSource::Flash);
-    let summary = packets(&first)
-        .iter()
-        .find_map(|p| match &p.report {
-            Report::IdentificationSummary(s) => Some(*s),
-            _ => None,
-        })
-        .expect("an identification summary");
+    let summary = summary(&packets(&first));
     println!("without a reference: {summary:?}");
     assert_eq!(summary.points, 0);
     let rho = sc.body.origin_offset.unwrap_or([0.0; 3]);
@@ -381,23 +394,8 @@ fn without_a_reference_a_torque_free_tumble_is_identified_on_board() {
 
     // Near a spin about z: refused, naming the channel and the parameter.
     sc.body.omega0 = Some([0.0, 0.02, 1.5]);
-    let up = uplink_tumble(&sc, &plan, 40).unwrap();
-    let (mut first, mut second) = (Vec::new(), Vec::new());
-    let _ = identify_and_reboot(
-        &sc,
-        &config,
-        &up,
-        &mut first,
-        &mut second,
-        &mut |_, _, _| {},
-    );
-    let refused = packets(&first)
-        .into_iter()
-        .find_map(|p| match p.report {
-            Report::Verification(v) if v.subtype == subtype::NOT_COMPLETED => v.failure,
-            _ => None,
-        })
-        .expect("the solve refused");
+    let (_, first, _) = tumble_on_board(&sc);
+    let refused = refusal(&packets(&first)).expect("the solve refused");
     println!("near a spin: refused {refused:?}");
     let (code, data) = refused;
     assert_eq!(code, ballisto_link::FailureCode::NotReady);
@@ -424,23 +422,9 @@ fn without_a_reference_drawn_tumbles_are_identified_or_refused_by_name() {
         sc.body.torque = None;
         sc.reference = None;
         let loaded = sc.arrangement().load("arrangement.toml").unwrap();
-        let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
-        let plan = Plan::for_scenario(&sc);
-        let up = uplink_tumble(&sc, &plan, 40).unwrap();
-        let (mut first, mut second) = (Vec::new(), Vec::new());
-        let booted = identify_and_reboot(
-            &sc,
-            &config,
-            &up,
-            &mut first,
-            &mut second,
-            &mut |_, _, _| {},
-        );
+        let (booted, first, second) = tumble_on_board(&sc);
         let p1 = packets(&first);
-        let refused = p1.iter().find_map(|p| match p.report {
-            Report::Verification(v) if v.subtype == subtype::NOT_COMPLETED => v.failure,
-            _ => None,
-        });
+        let refused = refusal(&p1);
         if let Some((code, data)) = refused {
             println!(
                 "case {seed} ({parts} parts): refused, {code:?} data {data:#x} (channel {})",
@@ -453,13 +437,7 @@ fn without_a_reference_drawn_tumbles_are_identified_or_refused_by_name() {
             continue;
         }
         booted.unwrap_or_else(|e| panic!("case {seed}: {e}"));
-        let summary = p1
-            .iter()
-            .find_map(|p| match &p.report {
-                Report::IdentificationSummary(s) => Some(*s),
-                _ => None,
-            })
-            .expect("an identification summary");
+        let summary = summary(&p1);
         let rho = sc.body.origin_offset.unwrap_or([0.0; 3]);
         let origin: [f64; 3] = core::array::from_fn(|k| f64::from(summary.rho[k]) - rho[k]);
         let skip = 2.0;
