@@ -467,27 +467,30 @@ pub fn identify_tumble<S: Sets + ?Sized, const CAP: usize>(
     // that holds a parameter — leave the geometry undecided (measured: a drawn tumble kept as
     // means of 4 sets had its first start end at a rate whose geometry was 56 mm off, at the
     // noise, Ω then 45 × ideal; another start ended near the true one).
+    let (cost, identified) = problem.solve(&best).map_err(TumbleError::Identify)?;
+    evaluations += 1;
     for other in candidates[..kept].iter().filter(|c| c.1 <= at_noise) {
         if same(&other.0, &best) {
             continue;
         }
-        evaluations += 2;
-        let (_, a) = problem.solve(&best).map_err(TumbleError::Identify)?;
+        evaluations += 1;
         let (_, b) = problem.solve(&other.0).map_err(TumbleError::Identify)?;
-        let apart = a.channels().iter().zip(b.channels()).any(|(fa, fb)| {
-            let d = difference(fa, fb);
-            Param::ALL.iter().enumerate().any(|(k, p)| {
-                !fa.is_held(*p) && !fb.is_held(*p) && !(d[k] <= 0.5 * tolerance.of(k))
-            })
-        });
+        let apart = identified
+            .channels()
+            .iter()
+            .zip(b.channels())
+            .any(|(fa, fb)| {
+                let d = difference(fa, fb);
+                Param::ALL.iter().enumerate().any(|(k, p)| {
+                    !fa.is_held(*p) && !fb.is_held(*p) && !(d[k] <= 0.5 * tolerance.of(k))
+                })
+            });
         if apart {
             return Err(TumbleError::Ambiguous {
                 omega0: [best, other.0],
             });
         }
     }
-    let (cost, identified) = problem.solve(&best).map_err(TumbleError::Identify)?;
-    evaluations += 1;
     let worst = identified
         .channels()
         .iter()
