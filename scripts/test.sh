@@ -3,8 +3,9 @@
 # instruction counts of the estimate under QEMU in the flashed profile (which fail if a mean
 # exceeds the per-sample budget), the STM32H743 build, the QEMU board running the built-in
 # scenario (boot 1: identification and commit; a reset; boot 2 on the stored calibration, a part
-# stuck and isolated) with both boots' telemetry decoded and checked against the host, and the
-# flash / RAM report
+# stuck and isolated) with both boots' telemetry decoded and checked against the host, the same
+# board on QEMU's Cortex-M7 identifying a tumble without a reference (scripts/qemu-board-m7.sh),
+# and the flash / RAM report
 # (which fails if the STM32H743 build is over its budget).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -42,6 +43,8 @@ cargo build -q --bin ballisto
   --log out/qemu/log.txt
 BOARD_QEMU_TELEMETRY="$PWD/out/qemu/telemetry.bin" \
   cargo nextest run -p e2e-tests --test builtin_scenario --run-ignored only --no-capture
+step "the QEMU board's tumble on the Cortex-M7 (identification without a reference)"
+bash scripts/qemu-board-m7.sh
 step "flash and RAM"
 bash scripts/size-report.sh
 step "done"

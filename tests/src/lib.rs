@@ -2,6 +2,7 @@
 //! f64 multi-start maximum-likelihood reference, error statistics, scenarios' records, and
 //! scenarios drawn at random for the identification.
 
+pub mod board;
 pub mod cases;
 pub mod csv;
 pub mod drawn;

@@ -2,126 +2,19 @@
 //! synthetic samples and scripted uplink, decoded from the telemetry link; and, when CI hands
 //! it QEMU's telemetry.bin, the Cortex-M4F's stream checked against the host's.
 
-use std::cell::Cell;
-use std::rc::Rc;
 use std::sync::OnceLock;
 
 use ballisto::decode::{decode_stream, Stream};
-use ballisto_fw::app::{
-    app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
-};
 use ballisto_fw::boot::count_boot;
-use ballisto_fw::calstore::{CalibrationStore, Programming, RamFlash};
 use ballisto_fw::config::AppConfig;
-use ballisto_fw::identification::{Identification, Identifier};
-use ballisto_fw::sampler::{HealthBoard, SampleSet};
-use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
-use ballisto_fw::telemetry::Telemetry;
-use ballisto_fw::time::{Nanos, TimeBase};
 use ballisto_link::decode::Report;
 use ballisto_link::{
     BootEvent, BootInfo, CalibrationId, EventId, FailureCode, MotionReport, ResetCause,
 };
-use board_qemu::demo::{self, Script, ScriptedUplink, BOOT1_SETS, SETS};
-use board_qemu::synthetic::{motion, synthetic_task, Synthetic};
-use embassy_futures::join::join;
-use embassy_futures::select::select;
-use embassy_sync::blocking_mutex::raw::NoopRawMutex;
-use embassy_sync::channel::Channel;
-use embassy_sync::zerocopy_channel::Channel as ZeroCopyChannel;
+use board_qemu::demo::{self, BOOT1_SETS, SETS};
+use board_qemu::synthetic::{motion, Synthetic};
+use e2e_tests::board::{boot_on, identification, motions};
 use estimator_core::Flags;
-use hal_sim::firmware_host::Downlink;
-
-/// Time that jumps to each instant waited for.
-#[derive(Clone)]
-struct StepTime(Rc<Cell<Nanos>>);
-
-impl TimeBase for StepTime {
-    fn now(&self) -> Nanos {
-        self.0.get()
-    }
-
-    async fn wait_until(&mut self, at: Nanos) {
-        self.0.set(self.0.get().max(at));
-        embassy_futures::yield_now().await;
-    }
-}
-
-/// The QEMU board's calibration flash: two 4 KiB sectors, 32-octet words.
-type HostStore<'a> = CalibrationStore<RamFlash<'a, 4096, 32>>;
-
-/// One boot of the built-in scenario on the host, booting at 0 with the first instant one
-/// period later: `config` (its calibration `id`, the boot `info`) on `source`'s sets for
-/// `sets` instants, the uplink `script`, the storage task on `store`. Returns the telemetry.
-fn run_boot(
-    config: &AppConfig,
-    (id, info): (CalibrationId, BootInfo),
-    mut source: Synthetic,
-    (script, sets): (Script, u32),
-    store: &mut HostStore<'_>,
-) -> Vec<u8> {
-    let mut app = App::new(config, Mode::Operate).unwrap();
-    // The identification task's queues, as the board's static (one per boot: a few KB).
-    let identifier: &'static Identifier = Box::leak(Box::new(Identifier::new()));
-    app.attach_identifier(identifier);
-    let mut window = Box::new(Identification::new());
-    app.set_calibration(id);
-    app.set_boot_info(info);
-    let mut time = StepTime(Rc::new(Cell::new(0)));
-    let app_time = time.clone();
-    let period = source.period();
-    let t0 = period;
-    let samples = Channel::<NoopRawMutex, SampleSet, { ballisto_fw::QUEUE }>::new();
-    let mut slots: [Incoming; COMMAND_QUEUE] = Default::default();
-    let mut commands = ZeroCopyChannel::<NoopRawMutex, Incoming>::new(&mut slots);
-    let (tx, rx) = commands.split();
-    let health = HealthBoard::<NoopRawMutex>::new();
-    let requests = CommitRequests::<NoopRawMutex>::new();
-    let replies = CommitReplies::<NoopRawMutex>::new();
-    let mut bytes = Vec::new();
-    let mut tm = Telemetry::new(Downlink::new(&mut bytes));
-    let observations = Observations::<NoopRawMutex>::new();
-    let mut observer = observations.subscriber().unwrap();
-    {
-        let application = app_task(
-            &mut app,
-            &app_time,
-            Links {
-                samples: samples.receiver(),
-                commands: rx,
-                health: &health,
-                telemetry: &mut tm,
-                observations: &observations,
-                storage: Some(StorageLinks {
-                    requests: requests.sender(),
-                    replies: replies.receiver(),
-                }),
-            },
-        );
-        // As the QEMU board: the boot ends with the last set handled.
-        let last_set = async { while observer.next_message_pure().await.set.k + 1 < sets {} };
-        let sampling = synthetic_task(
-            &mut source,
-            &mut time,
-            samples.sender(),
-            &health,
-            t0,
-            Some(sets),
-        );
-        let uplink = uplink_task(ScriptedUplink::new(&app_time, t0, period, script), tx);
-        let storing = storage_task(store, requests.receiver(), replies.sender());
-        let identifying = identifier.run(&mut window);
-        embassy_futures::block_on(select(
-            last_set,
-            select(
-                application,
-                join(join(sampling, uplink), join(storing, identifying)),
-            ),
-        ));
-    }
-    drop(tm);
-    bytes
-}
 
 /// Both boots of the built-in scenario, as the QEMU board runs them.
 struct Boots {
@@ -144,22 +37,17 @@ fn boots() -> &'static Boots {
     static BOOTS: OnceLock<Boots> = OnceLock::new();
     BOOTS.get_or_init(|| {
         let mut mem = vec![0u8; 2 * 4096];
-        let mut erases = [0u32; 2];
-        let mut flash = RamFlash::<4096, 32>::new(&mut mem, &mut erases, Programming::WordOnce);
-        flash.erase_all();
         let mut retained = [0u32; 2];
-        let (config, first_id, mut store) =
-            embassy_futures::block_on(demo::boot(flash, 0..2 * 4096)).unwrap();
         let info = count_boot(&mut retained, ResetCause::PowerOn);
-        let first = run_boot(
-            &config,
-            (first_id, info),
+        let (first, first_id, _) = boot_on(
+            &mut mem,
+            true,
+            info,
+            None,
             Synthetic::new(&demo::truth(), None, None).in_free_flight(),
             (demo::identification, BOOT1_SETS),
-            &mut store,
         );
         // The reset: only the flash survives.
-        let _ = store.into_flash();
         let mut boots = second_boot(&mut mem);
         boots.first = first;
         boots.ids.0 = first_id;
@@ -170,20 +58,17 @@ fn boots() -> &'static Boots {
 /// Boot 2 on a store left in `mem` by boot 1 (the QEMU board's layout), after the board's own
 /// reset: the second boot since power-on.
 fn second_boot(mem: &mut [u8]) -> Boots {
-    let mut erases = [0u32; 2];
-    let flash = RamFlash::<4096, 32>::new(mem, &mut erases, Programming::WordOnce);
-    let (config, id, mut store) =
-        embassy_futures::block_on(demo::boot(flash, 0..2 * 4096)).unwrap();
     let info = BootInfo {
         count: 2,
         cause: ResetCause::Software,
     };
-    let second = run_boot(
-        &config,
-        (id, info),
+    let (second, id, config) = boot_on(
+        mem,
+        false,
+        info,
+        None,
         Synthetic::new(&demo::truth(), Some(demo::OUTAGE), Some(demo::STUCK)),
         (demo::script, SETS),
-        &mut store,
     );
     Boots {
         first: Vec::new(),
@@ -197,16 +82,6 @@ fn second_boot(mem: &mut [u8]) -> Boots {
 /// Boot 2's telemetry on the host.
 fn host_run() -> Vec<u8> {
     boots().second.clone()
-}
-
-fn motions(s: &Stream) -> Vec<(f64, MotionReport)> {
-    s.packets
-        .iter()
-        .filter_map(|p| match &p.report {
-            Report::Motion(m) => Some((p.t, *m)),
-            _ => None,
-        })
-        .collect()
 }
 
 /// The sets from the stuck fault's start until 0.2 s after its end ([`demo::STUCK`]): the part
@@ -644,22 +519,4 @@ fn identification_commit_reset_boot() {
         }
     }
     assert!(seen >= 10, "{seen} housekeeping reports");
-}
-
-/// A stream's identification summary and its `calibration-stored` event (id, CRC).
-fn identification(
-    s: &Stream,
-) -> (
-    Option<ballisto_link::identification::IdentificationSummary>,
-    Option<(u32, u32)>,
-) {
-    let summary = s.packets.iter().find_map(|p| match &p.report {
-        Report::IdentificationSummary(x) => Some(*x),
-        _ => None,
-    });
-    let stored = s.packets.iter().find_map(|p| match &p.report {
-        Report::Event(e) if e.id == EventId::CalibrationStored => Some((e.a, e.b)),
-        _ => None,
-    });
-    (summary, stored)
 }

@@ -5,9 +5,11 @@
 //! its parts.
 //!
 //! - [`synthetic`] — sample sets computed from a known motion (a part can be silenced or stuck);
-//! - [`demo`] — the scenario: its two boots, the parts as mounted, the scripted uplink.
+//! - [`demo`] — the scenario: its two boots, the parts as mounted, the scripted uplink;
+//! - [`tumble`] — the torque-free tumble: identification without a reference, its two boots.
 #![no_std]
 #![deny(missing_docs)]
 
 pub mod demo;
 pub mod synthetic;
+pub mod tumble;

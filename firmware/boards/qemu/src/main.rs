@@ -2,11 +2,12 @@
 //! crate on the embassy executor, with
 //! - a SysTick time base (1 ms periods of the 25 MHz core clock, counted in its exception,
 //!   which also wakes the tasks waiting for a time),
-//! - two priorities: sampling, the application and the observer on an interrupt executor (a
-//!   software-pended interrupt), and below them, in thread mode, the builder of the
-//!   estimator's configurations (issue 17: a part's exclusion is precomputed there, in soft
-//!   f64 on this Cortex-M4F, while the estimates go on), the identification task (the window's
-//!   sums and solve, soft f64 too), the calibration storage task and the scripted uplink,
+//! - three priorities: sampling, the application and the observer on an interrupt executor
+//!   (a software-pended interrupt); below them on a second the builder of the estimator's
+//!   configurations (issue 17: a part's exclusion is precomputed there, in soft f64 on this
+//!   Cortex-M4F, while the estimates go on) and the calibration storage task; in thread mode,
+//!   below everything, the identification task (the window's sums, solve and search, soft f64
+//!   too) and the scripted uplink,
 //! - the built-in scenario in place of the parts (QEMU has no accelerometers) and its
 //!   scripted uplink,
 //! - the telemetry link written through semihosting into QEMU's working directory:
@@ -16,6 +17,11 @@
 //!   scripted ground identifies the geometry and commits it (`demo::identification`), then
 //!   resets the machine; boot 2 runs the calibration read back (`demo::boot`) through the
 //!   built-in scenario's faults and commands.
+//!
+//! With `tumble` on the semihosting command line the scenario is `board_qemu::tumble` instead
+//! (identification without a reference: boot 1 searches a torque-free tumble for the geometry
+//! and commits it, boot 2 runs on it), which `scripts/qemu-board-m7.sh` runs on mps2-an500, the
+//! Cortex-M7 with the double-precision FPU the search needs.
 //!
 //! Boot 2 runs [`board_qemu::demo::SETS`] sets, prints a summary and exits with status 0, or
 //! 1 if telemetry was lost, a file could not be written or nothing was estimated.
@@ -42,6 +48,7 @@ mod board {
     use ballisto_fw::time::{Nanos, TimeBase};
     use board_qemu::demo::{self, Script, ScriptedUplink, BOOT1_SETS, SETS};
     use board_qemu::synthetic::{synthetic_task, Synthetic};
+    use board_qemu::tumble;
     use cortex_m::interrupt::InterruptNumber;
     use cortex_m::peripheral::scb::SystemHandler;
     use cortex_m::peripheral::syst::SystClkSource;
@@ -73,31 +80,38 @@ mod board {
         WAITING.lock(|w| w.borrow_mut().wake());
     }
 
-    /// The interrupt the upper executor runs in: one of the NVIC's lines that no device of
+    /// An interrupt line an executor runs in: one of the NVIC's lines that no device of
     /// mps2-an386 drives, pended only by the executor itself.
     #[derive(Clone, Copy)]
-    struct SoftwareInterrupt;
+    struct SoftwareLine(u16);
 
-    const EXECUTOR_IRQ: u16 = 31;
-
-    // SAFETY: 31 is a valid interrupt number of the machine's NVIC (32 lines).
-    unsafe impl InterruptNumber for SoftwareInterrupt {
+    // SAFETY: both lines used (`UPPER_LINE`, `MIDDLE_LINE`) are valid interrupt numbers of the
+    // machine's NVIC (32 lines).
+    unsafe impl InterruptNumber for SoftwareLine {
         fn number(self) -> u16 {
-            EXECUTOR_IRQ
+            self.0
         }
     }
 
-    /// Sampling, the application and the observer: above thread mode, where the builder of
-    /// configurations and the scripted uplink run.
+    /// Sampling, the application and the observer: above everything else.
     static UPPER: InterruptExecutor = InterruptExecutor::new();
+    const UPPER_LINE: SoftwareLine = SoftwareLine(31);
+
+    /// The builder of configurations and the storage task: below the upper executor, above
+    /// thread mode, where the identification task and the scripted uplink run.
+    static MIDDLE: InterruptExecutor = InterruptExecutor::new();
+    const MIDDLE_LINE: SoftwareLine = SoftwareLine(30);
 
     /// Without a device crate every external interrupt comes here (cortex-m-rt's default
-    /// vector table): the executor's line polls it; any other is not expected.
+    /// vector table): each executor's line polls it; any other is not expected.
     #[exception]
     unsafe fn DefaultHandler(irqn: i16) {
-        if irqn == EXECUTOR_IRQ as i16 {
+        if irqn == UPPER_LINE.0 as i16 {
             // SAFETY: called from the executor's interrupt only.
             unsafe { UPPER.on_interrupt() }
+        } else if irqn == MIDDLE_LINE.0 as i16 {
+            // SAFETY: called from the middle executor's interrupt only.
+            unsafe { MIDDLE.on_interrupt() }
         } else {
             hprintln!("board-qemu: unexpected interrupt {}", irqn);
             finish(false)
@@ -216,7 +230,7 @@ mod board {
         .await;
     }
 
-    /// Commits calibrations (thread mode: a flash erase must not hold up the estimate).
+    /// Commits calibrations (the middle executor: a flash erase must not hold up the estimate).
     #[embassy_executor::task]
     async fn storage(store: &'static mut Store) {
         storage_task(store, COMMIT_REQUESTS.receiver(), COMMIT_REPLIES.sender()).await
@@ -242,13 +256,14 @@ mod board {
         app_task(app, &SysTickTime, links).await;
     }
 
-    /// Builds the estimator's configurations (thread mode: below everything else).
+    /// Builds the estimator's configurations (the middle executor: below the estimate, above
+    /// the identification).
     #[embassy_executor::task]
     async fn builder(builds: &'static Builds) {
         builds.run().await
     }
 
-    /// The identification's window: sums and solve (thread mode: below the estimate).
+    /// The identification's window: sums, solve and search (thread mode: below everything).
     #[embassy_executor::task]
     async fn identification(identifier: &'static Identifier, window: &'static mut Identification) {
         identifier.run(window).await
@@ -292,6 +307,28 @@ mod board {
         }
     }
 
+    /// Whether the semihosting command line names the tumble (`board_qemu::tumble`) as the
+    /// built-in scenario to run; anything else, or no command line, runs `board_qemu::demo`.
+    /// The machine's own configuration, as a board file's: the image is the same.
+    fn runs_the_tumble() -> bool {
+        let mut line = [0u8; 128];
+        let mut block = [line.as_mut_ptr() as usize, line.len()];
+        // SAFETY: SYS_GET_CMDLINE writes at most `block[1]` octets at `block[0]` (`line`) and
+        // the length it wrote into `block[1]`; both outlive the call.
+        let status = unsafe {
+            cortex_m_semihosting::syscall1(
+                cortex_m_semihosting::nr::GET_CMDLINE,
+                block.as_mut_ptr() as usize,
+            )
+        };
+        // SAFETY: the host wrote `block` behind the compiler's back.
+        let len = unsafe { core::ptr::read_volatile(&block[1]) }.min(line.len());
+        status == 0
+            && line[..len]
+                .split(|b| *b == b' ')
+                .any(|word| word == b"tumble")
+    }
+
     fn finish(ok: bool) -> ! {
         debug::exit(if ok {
             debug::EXIT_SUCCESS
@@ -313,7 +350,8 @@ mod board {
         // section is in use.
         unsafe {
             p.SCB.set_priority(SystemHandler::SysTick, 0);
-            p.NVIC.set_priority(SoftwareInterrupt, 0x80);
+            p.NVIC.set_priority(UPPER_LINE, 0x80);
+            p.NVIC.set_priority(MIDDLE_LINE, 0xC0);
         }
         p.SYST.set_clock_source(SystClkSource::Core);
         p.SYST.set_reload(RELOAD);
@@ -370,9 +408,11 @@ mod board {
             hprintln!("board-qemu: the calibration store failed at boot");
             finish(false)
         };
+        let tumbling = runs_the_tumble();
         hprintln!(
-            "board-qemu: boot {} runs {:?}",
+            "board-qemu: boot {} of the {} runs {:?}",
             if first { 1 } else { 2 },
+            if tumbling { "tumble" } else { "demo" },
             calibration
         );
         let name = if first {
@@ -397,19 +437,29 @@ mod board {
         let app = APP.init(app);
         // The parts as mounted (`demo::truth`); boot 1 in free flight for the identification,
         // boot 2 with the scenario's faults.
-        let (source, sets, script): (Synthetic, u32, Script) = if first {
-            let source = Synthetic::new(&demo::truth(), None, None).in_free_flight();
-            (source, BOOT1_SETS, demo::identification)
-        } else {
-            let source = Synthetic::new(&demo::truth(), Some(demo::OUTAGE), Some(demo::STUCK));
-            (source, SETS, demo::script)
+        let (source, sets, script): (Synthetic, u32, Script) = match (tumbling, first) {
+            (false, true) => {
+                let source = Synthetic::new(&demo::truth(), None, None).in_free_flight();
+                (source, BOOT1_SETS, demo::identification)
+            }
+            (false, false) => {
+                let source = Synthetic::new(&demo::truth(), Some(demo::OUTAGE), Some(demo::STUCK));
+                (source, SETS, demo::script)
+            }
+            (true, true) => (
+                tumble::source(Some(tumble::OUTAGE)),
+                tumble::BOOT1_SETS,
+                tumble::identification,
+            ),
+            (true, false) => (tumble::source(None), tumble::SETS, tumble::quiet),
         };
         let source = SOURCE.init(source);
         let tm = TELEMETRY.init(Telemetry::new(file));
-        spawner.spawn(builder(builds).unwrap());
         spawner.spawn(identification(identifier, WINDOW.init_with(Identification::new)).unwrap());
-        spawner.spawn(storage(STORE.init(store)).unwrap());
-        let upper = UPPER.start(SoftwareInterrupt);
+        let middle = MIDDLE.start(MIDDLE_LINE);
+        middle.spawn(builder(builds).unwrap());
+        middle.spawn(storage(STORE.init(store)).unwrap());
+        let upper = UPPER.start(UPPER_LINE);
         let period = source.period();
         let t0 = SysTickTime.now() + period;
         upper.spawn(sampling(source, t0, sets).unwrap());

@@ -32,6 +32,66 @@ pub fn motion(t: f64) -> (Vec3<f64>, Vec3<f64>, Vec3<f64>) {
     (sigma0, domega, omega)
 }
 
+/// A torque-free rigid body (Euler's equations `J Ω′ = (J Ω) × Ω`, principal axes along the
+/// body frame's), integrated by classical fourth-order Runge–Kutta at a fixed step: the motion
+/// identification without a reference takes (TC[200,8] source 2), in place of [`motion`].
+/// Its own integrator, not the search's (estimator-core keeps that one private): the truth
+/// must not share a discretisation with what is checked against it.
+#[derive(Clone, Copy, Debug)]
+pub struct Tumble {
+    inertia: Vec3<f64>,
+    /// Ω at the first instant, and now.
+    omega0: Vec3<f64>,
+    omega: Vec3<f64>,
+    /// The step, s.
+    step: f64,
+    /// Steps taken.
+    k: u32,
+}
+
+impl Tumble {
+    /// Principal moments `inertia` (kg·m², any common scale), Ω = `omega0` (rad/s) at the first
+    /// instant, integrated in steps of `step` s.
+    pub const fn new(inertia: Vec3<f64>, omega0: Vec3<f64>, step: f64) -> Self {
+        Tumble {
+            inertia,
+            omega0,
+            omega: omega0,
+            step,
+            k: 0,
+        }
+    }
+
+    /// Ω′ at Ω (Euler's equations).
+    fn derivative(&self, w: &Vec3<f64>) -> Vec3<f64> {
+        let j = &self.inertia;
+        let c = cross(&[j[0] * w[0], j[1] * w[1], j[2] * w[2]], w);
+        [c[0] / j[0], c[1] / j[1], c[2] / j[2]]
+    }
+
+    /// The motion `k` steps after the first instant (σ0 = 0, Ω′, Ω): integrated forward from
+    /// where the last call left it (or from the start again, if `k` is earlier).
+    pub fn at(&mut self, k: u32) -> (Vec3<f64>, Vec3<f64>, Vec3<f64>) {
+        if k < self.k {
+            (self.omega, self.k) = (self.omega0, 0);
+        }
+        while self.k < k {
+            let h = self.step;
+            let w = self.omega;
+            let along = |d: &Vec3<f64>, f: f64| [w[0] + f * d[0], w[1] + f * d[1], w[2] + f * d[2]];
+            let k1 = self.derivative(&w);
+            let k2 = self.derivative(&along(&k1, h / 2.0));
+            let k3 = self.derivative(&along(&k2, h / 2.0));
+            let k4 = self.derivative(&along(&k3, h));
+            for (c, x) in self.omega.iter_mut().enumerate() {
+                *x += h / 6.0 * (k1[c] + 2.0 * k2[c] + 2.0 * k3[c] + k4[c]);
+            }
+            self.k += 1;
+        }
+        ([0.0; 3], self.derivative(&self.omega), self.omega)
+    }
+}
+
 /// A part silenced (or stuck) from `from` to `to` (s since the first instant).
 #[derive(Clone, Copy, Debug)]
 pub struct Outage {
@@ -57,6 +117,8 @@ pub struct Synthetic {
     stuck: Option<Outage>,
     /// Free flight: no specific force at the origin (the identification's field).
     free_flight: bool,
+    /// A torque-free tumble in place of [`motion`] (in free flight).
+    tumble: Option<Tumble>,
     /// Each part's last output (what a stuck part repeats).
     last: [[f32; 3]; MAX_PARTS],
     parts: [Option<PartHealth>; MAX_PARTS],
@@ -87,6 +149,7 @@ impl Synthetic {
             outage,
             stuck,
             free_flight: false,
+            tumble: None,
             last: [[0.0; 3]; MAX_PARTS],
             parts,
             silent: [0; MAX_PARTS],
@@ -101,6 +164,24 @@ impl Synthetic {
         self
     }
 
+    /// A torque-free tumble in free flight in place of [`motion`]: `inertia` (principal
+    /// moments) and Ω = `omega0` at the first instant, integrated at the sample period.
+    pub fn tumbling(mut self, inertia: Vec3<f64>, omega0: Vec3<f64>) -> Self {
+        self.free_flight = true;
+        self.tumble = Some(Tumble::new(inertia, omega0, seconds(self.period)));
+        self
+    }
+
+    /// The motion at set `k` (s since the first instant `s`): σ0, Ω′, Ω.
+    pub fn motion_at(&mut self, k: u32, s: f64) -> (Vec3<f64>, Vec3<f64>, Vec3<f64>) {
+        let (sigma0, domega, omega) = match self.tumble.as_mut() {
+            Some(tumble) => tumble.at(k),
+            None => motion(s),
+        };
+        let sigma0 = if self.free_flight { [0.0; 3] } else { sigma0 };
+        (sigma0, domega, omega)
+    }
+
     /// The sample period, ns.
     pub fn period(&self) -> Nanos {
         self.period
@@ -109,10 +190,7 @@ impl Synthetic {
     /// The set of index `k`, at instant `t` (time base), `k` periods after the first.
     pub fn set(&mut self, k: u32, t: Nanos) -> SampleSet {
         let s = seconds(u64::from(k) * self.period);
-        let (mut sigma0, domega, omega) = motion(s);
-        if self.free_flight {
-            sigma0 = [0.0; 3];
-        }
+        let (sigma0, domega, omega) = self.motion_at(k, s);
         let mut out = [None; MAX_PARTS];
         for (i, (chans, slot)) in self.channels.iter().zip(out.iter_mut()).enumerate() {
             let Some(h) = self.parts[i].as_mut() else {

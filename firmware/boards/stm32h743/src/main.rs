@@ -16,11 +16,13 @@
 //! Time base: embassy-time (TIM2, 1 MHz ticks). Log: defmt over RTT. Flash and run from this
 //! directory with `cargo run --profile flight` (probe-rs runner, see `.cargo/config.toml`).
 //!
-//! Two priorities, as on the QEMU board: sampling, the application and the uplink on an
-//! interrupt executor (UART4's vector, a peripheral this board does not use), and below them,
-//! in thread mode, the builder of the estimator's configurations (a part's exclusion is
-//! precomputed there while the estimates go on), the identification task (the window's sums
-//! and solve) and the calibration storage task (a sector erase blocks for up to seconds).
+//! Three priorities, as on the QEMU board: sampling, the application and the uplink on an
+//! interrupt executor (UART4's vector, a peripheral this board does not use); below them on a
+//! second (UART5's vector) the builder of the estimator's configurations (a part's exclusion
+//! is precomputed there while the estimates go on) and the calibration storage task (a sector
+//! erase blocks for up to seconds); and in thread mode, below everything, the identification
+//! task (the window's sums and solve, and without a reference the search, which holds the
+//! core for about a minute and must not hold up an exclusion).
 //!
 //! Calibration: the store in bank 2's first two sectors (`CAL_RANGE`), read at boot without
 //! writing; its newest whole record replaces the built-in arrangement if it is for the same
@@ -89,14 +91,22 @@ mod board {
     type Board = Sampler<Part, I2cPart, Output<'static>>;
     type Store = CalibrationStore<BlockingAsync<Flash<'static, Blocking>>>;
 
-    /// Sampling, the application and the uplink: above thread mode, where the builder and the
-    /// storage task run.
+    /// Sampling, the application and the uplink: above everything else.
     static UPPER: InterruptExecutor = InterruptExecutor::new();
+    /// The builder and the storage task: below the upper executor, above thread mode, where
+    /// the identification task runs.
+    static MIDDLE: InterruptExecutor = InterruptExecutor::new();
 
     #[interrupt]
     unsafe fn UART4() {
         // SAFETY: UART4's vector is the upper executor's alone (the peripheral is not used).
         unsafe { UPPER.on_interrupt() }
+    }
+
+    #[interrupt]
+    unsafe fn UART5() {
+        // SAFETY: UART5's vector is the middle executor's alone (the peripheral is not used).
+        unsafe { MIDDLE.on_interrupt() }
     }
 
     /// The time base: embassy-time's instant in nanoseconds.
@@ -218,19 +228,20 @@ mod board {
         sampling_task(sampler, &mut time, SAMPLES.sender(), &HEALTH, None).await;
     }
 
-    /// Builds the estimator's configurations (thread mode: below everything else).
+    /// Builds the estimator's configurations (the middle executor: below the estimate, above
+    /// the identification).
     #[embassy_executor::task]
     async fn builder(builds: &'static Builds) {
         builds.run().await
     }
 
-    /// The identification's window: sums and solve (thread mode: below the estimate).
+    /// The identification's window: sums, solve and search (thread mode: below everything).
     #[embassy_executor::task]
     async fn identification(identifier: &'static Identifier, window: &'static mut Identification) {
         identifier.run(window).await
     }
 
-    /// Commits calibrations (thread mode).
+    /// Commits calibrations (the middle executor: an erase must not hold up the estimate).
     #[embassy_executor::task]
     async fn storage(store: &'static mut Store) {
         storage_task(store, COMMIT_REQUESTS.receiver(), COMMIT_REPLIES.sender()).await
@@ -372,11 +383,13 @@ mod board {
         let slots = SLOTS.init_with(|| core::array::from_fn(|_| Incoming::new()));
         let (command_tx, command_rx) = COMMANDS.init(ZeroCopyChannel::new(slots)).split();
 
-        spawner.spawn(builder(builds).unwrap());
         spawner.spawn(identification(identifier, WINDOW.init_with(Identification::new)).unwrap());
+        interrupt::UART5.set_priority(Priority::P7);
+        let middle = MIDDLE.start(interrupt::UART5);
+        middle.spawn(builder(builds).unwrap());
         let writable = store.is_some();
         if let Some(store) = store {
-            spawner.spawn(storage(STORE.init(store)).unwrap());
+            middle.spawn(storage(STORE.init(store)).unwrap());
         }
         interrupt::UART4.set_priority(Priority::P6);
         let upper = UPPER.start(interrupt::UART4);
