@@ -3,7 +3,8 @@
 # instruction counts of the estimate under QEMU in the flashed profile (which fail if a mean
 # exceeds the per-sample budget), the STM32H743 build, the QEMU board running the built-in
 # scenario (boot 1: identification and commit; a reset; boot 2 on the stored calibration, a part
-# stuck and isolated) with both boots' telemetry decoded and checked against the host, the same
+# stuck and isolated, then its sets stop; the watchdog's reset; boot 3 on the stored calibration)
+# with the boots' telemetry decoded and checked against the host, the same
 # board on QEMU's Cortex-M7 identifying a tumble without a reference (scripts/qemu-board-m7.sh),
 # and the flash / RAM report
 # (which fails if the STM32H743 build is over its budget).
@@ -41,6 +42,8 @@ cargo build -q --bin ballisto
   --log out/qemu/log-boot1.txt
 ./target/debug/ballisto decode out/qemu/telemetry.bin --out out/qemu/estimates.csv \
   --log out/qemu/log.txt
+./target/debug/ballisto decode out/qemu/telemetry-boot3.bin --out out/qemu/estimates-boot3.csv \
+  --log out/qemu/log-boot3.txt
 BOARD_QEMU_TELEMETRY="$PWD/out/qemu/telemetry.bin" \
   cargo nextest run -p e2e-tests --test builtin_scenario --run-ignored only --no-capture
 step "the QEMU board's tumble on the Cortex-M7 (identification without a reference)"

@@ -480,6 +480,8 @@ pub fn run_firmware_boot(
                 yield_now().await;
             }
         };
+        // No watchdog on the host: the count goes unread.
+        let liveness = ballisto_fw::supervisor::Liveness::new();
         let application = app_task(
             &mut app,
             &app_time,
@@ -493,6 +495,7 @@ pub fn run_firmware_boot(
                     requests: requests.sender(),
                     replies: replies.receiver(),
                 }),
+                liveness: &liveness,
             },
         );
         let truth = rig.truth.clone();

@@ -78,6 +78,8 @@ pub fn run_boot(
     let observations = Observations::<NoopRawMutex>::new();
     let mut observer = observations.subscriber().unwrap();
     {
+        // No watchdog on the host: the count goes unread.
+        let liveness = ballisto_fw::supervisor::Liveness::new();
         let application = app_task(
             &mut app,
             &app_time,
@@ -91,6 +93,7 @@ pub fn run_boot(
                     requests: requests.sender(),
                     replies: replies.receiver(),
                 }),
+                liveness: &liveness,
             },
         );
         // As the QEMU board: the boot ends with the last set handled.

@@ -395,6 +395,7 @@ fn qemu_stream_matches_the_host_run() {
     let q = calibration(&qemu).expect("QEMU housekeeping");
     assert_eq!(q, calibration(&host).unwrap());
     println!("QEMU: calibration in use {q:?}");
+    let q_calibration = q.expect("boot 2 on the stored record");
     // And counted its boots as the host did: the second since power-on, by its own reset.
     let boot = |s: &Stream| {
         let event = s.packets.iter().find_map(|p| match &p.report {
@@ -417,6 +418,38 @@ fn qemu_stream_matches_the_host_run() {
     println!(
         "QEMU: telemetry format {}, boot {} since power-on, reset cause {}",
         event.format, event.count, event.cause as u8
+    );
+    // Boot 3: after boot 2's last set its sets stopped; the supervisor stopped feeding the
+    // watchdog, which reset the machine. The board says so (cause watchdog, the third boot
+    // since power-on) and estimates again on the record boot 1 stored.
+    let three = std::path::Path::new(&path).with_file_name("telemetry-boot3.bin");
+    let three = decode_stream(&std::fs::read(&three).unwrap());
+    assert!(three.problems.is_empty(), "{:?}", three.problems);
+    let (event, hk) = boot(&three);
+    let event = event.expect("boot 3's boot event");
+    assert_eq!(
+        (event.count, event.cause),
+        (3, ResetCause::Watchdog),
+        "{event:?}"
+    );
+    assert_eq!(
+        hk.map(|b| b.0).map(|b| (b.count, b.cause)),
+        Some((3, ResetCause::Watchdog))
+    );
+    assert_eq!(calibration(&three), Some(Some(q_calibration)));
+    let m3 = motions(&three);
+    assert_eq!(m3.len(), demo::BOOT3_SETS as usize);
+    let (rms, sd) = omega_rms(&m3, 100);
+    assert!(
+        rms < 2.0 * sd && rms < 5e-3,
+        "boot 3: Ω RMS {rms:.2e} rad/s, reported sd {sd:.2e}"
+    );
+    println!(
+        "QEMU boot 3: reset by the watchdog (boot {} since power-on), on the stored record {:?}; \
+         {} estimates, Ω RMS {rms:.3e} rad/s (reported sd {sd:.3e})",
+        event.count,
+        q_calibration,
+        m3.len()
     );
 }
 

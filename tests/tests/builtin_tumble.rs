@@ -40,7 +40,7 @@ fn second_part(
     info: BootInfo,
     config: Option<&AppConfig>,
 ) -> (Vec<u8>, CalibrationId, AppConfig) {
-    let sets = (tumble::quiet as Script, tumble::SETS);
+    let sets = (demo::quiet as Script, tumble::SETS);
     boot_on(mem, power_on, info, config, tumble::source(None), sets)
 }
 

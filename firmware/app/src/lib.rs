@@ -19,7 +19,8 @@
 //! - [`boot`] — the boot count the board keeps across resets (housekeeping, reset event).
 //! - [`config`] — what runs: parts, channels, rate, arrangement, model (built-in table or
 //!   command); [`time`] — the time base; [`calstore`] — calibration records in flash;
-//!   [`storage`] — the task that commits a calibration to them (app → storage).
+//!   [`storage`] — the task that commits a calibration to them (app → storage);
+//!   [`supervisor`] — feeds the board's watchdog while the data path makes progress.
 //!
 //! The tasks are async functions ([`sampler::sampling_task`], [`app::app_task`],
 //! [`app::uplink_task`]) joined by bounded queues; a board spawns them on the embassy
@@ -43,6 +44,7 @@ pub mod identification;
 pub mod isolation;
 pub mod sampler;
 pub mod storage;
+pub mod supervisor;
 pub mod telemetry;
 pub mod time;
 

@@ -14,6 +14,7 @@ use super::{App, Incoming};
 use crate::estimation::SetEstimate;
 use crate::sampler::{HealthBoard, LoopHealth, SampleSet};
 use crate::storage::StorageLinks;
+use crate::supervisor::Liveness;
 use crate::telemetry::Telemetry;
 use crate::time::TimeBase;
 
@@ -66,6 +67,8 @@ pub struct Links<'a, M: RawMutex, W, const Q: usize> {
     /// The calibration storage task, where the board has a writable store (else commits are
     /// refused).
     pub storage: Option<StorageLinks<'a, M>>,
+    /// Where each handled set is counted for the watchdog's supervisor.
+    pub liveness: &'a Liveness,
 }
 
 /// The application task: boots, then handles sample sets and telecommands as they come.
@@ -83,6 +86,7 @@ where
         telemetry: tm,
         observations,
         storage,
+        liveness,
     } = links;
     // One publisher per channel, taken here: `observations` is this task's alone.
     let publisher = observations.publisher();
@@ -110,6 +114,7 @@ where
         match event {
             Event::First(set) => {
                 let seen = app.on_set(&set, health, tm).await;
+                liveness.handled();
                 if let Ok(p) = &publisher {
                     p.publish(seen).await;
                 }

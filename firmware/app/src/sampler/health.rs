@@ -1,6 +1,7 @@
 //! The sampler's health, published after every sample set for the housekeeping reports.
 
 use core::cell::Cell;
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_sync::blocking_mutex::raw::RawMutex;
 use embassy_sync::blocking_mutex::Mutex;
@@ -18,9 +19,12 @@ pub struct Health {
     pub sampling: LoopHealth,
 }
 
-/// Where the sampling task leaves its latest [`Health`] for the application task.
+/// Where the sampling task leaves its latest [`Health`] for the application task, and how
+/// many times it has (the watchdog's supervisor watches that count: the snapshot's own set
+/// count saturates, this one wraps).
 pub struct HealthBoard<M: RawMutex> {
     latest: Mutex<M, Cell<Health>>,
+    published: AtomicU32,
 }
 
 impl<M: RawMutex> Default for HealthBoard<M> {
@@ -42,12 +46,19 @@ impl<M: RawMutex> HealthBoard<M> {
                     sync_errors: 0,
                 },
             })),
+            published: AtomicU32::new(0),
         }
     }
 
-    /// Publishes a snapshot.
+    /// Publishes a snapshot (the sampling task: once per set).
     pub fn publish(&self, health: Health) {
         self.latest.lock(|c| c.set(health));
+        self.published.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Snapshots published since the board was made (wrapping).
+    pub fn published(&self) -> u32 {
+        self.published.load(Ordering::Relaxed)
     }
 
     /// Copies the latest snapshot into `dst` (straight from the board: no intermediate copy

@@ -33,6 +33,9 @@ use crate::synthetic::{motion, Outage};
 /// Sample sets of the second boot (10 s at 100 Hz).
 pub const SETS: u32 = 1000;
 
+/// Sample sets of the third boot, after the watchdog's reset (3 s at 100 Hz).
+pub const BOOT3_SETS: u32 = 300;
+
 /// Sample sets of the first boot, the identification's (28 s at 100 Hz: the window, the solve
 /// — about 1.7 s of the QEMU board's M4F in soft f64, below the estimate — and the commit).
 pub const BOOT1_SETS: u32 = 2800;
@@ -178,6 +181,11 @@ pub fn identification(i: usize) -> Option<(f64, Step)> {
         )),
         _ => None,
     }
+}
+
+/// An uplink on which nothing arrives.
+pub fn quiet(_: usize) -> Option<(f64, Step)> {
+    None
 }
 
 /// The uplink script: (seconds after the first instant, what arrives). Times sit between

@@ -11,20 +11,23 @@
 //! - the built-in scenario in place of the parts (QEMU has no accelerometers) and its
 //!   scripted uplink,
 //! - the telemetry link written through semihosting into QEMU's working directory:
-//!   `telemetry-boot1.bin`, then `telemetry.bin`,
+//!   `telemetry-boot1.bin`, `telemetry.bin` (boot 2), `telemetry-boot3.bin`,
 //! - a RAM-backed flash for the calibration store in the SSRAM QEMU maps as flash, beyond the
 //!   image. At power-on (the store erased) boot 1 runs the nominal arrangement while the
 //!   scripted ground identifies the geometry and commits it (`demo::identification`), then
 //!   resets the machine; boot 2 runs the calibration read back (`demo::boot`) through the
-//!   built-in scenario's faults and commands.
+//!   built-in scenario's faults and commands, then its sets stop: the supervisor stops feeding
+//!   the CMSDK watchdog (armed at boot, 1 s), which resets the machine; boot 3 says so (reset
+//!   cause watchdog, from the mark its NMI leaves) and estimates on the stored calibration.
 //!
 //! With `tumble` on the semihosting command line the scenario is `board_qemu::tumble` instead
 //! (identification without a reference: boot 1 searches a torque-free tumble for the geometry
 //! and commits it, boot 2 runs on it), which `scripts/qemu-board-m7.sh` runs on mps2-an500, the
 //! Cortex-M7 with the double-precision FPU the search needs.
 //!
-//! Boot 2 runs [`board_qemu::demo::SETS`] sets, prints a summary and exits with status 0, or
-//! 1 if telemetry was lost, a file could not be written or nothing was estimated.
+//! Boot 3 (the tumble's boot 2) runs its sets, prints a summary and exits with status 0, or 1
+//! if telemetry was lost, a file could not be written, nothing was estimated or a reset came
+//! that the scenario does not have.
 //! `cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf` (the runner,
 //! `.cargo/qemu-runner.sh`, writes into `out/qemu/`).
 #![cfg_attr(target_os = "none", no_std, no_main)]
@@ -44,9 +47,10 @@ mod board {
     use ballisto_fw::identification::{Identification, Identifier};
     use ballisto_fw::sampler::{HealthBoard, SampleSet};
     use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
+    use ballisto_fw::supervisor::{supervisor_task, Liveness, Watchdog};
     use ballisto_fw::telemetry::Telemetry;
     use ballisto_fw::time::{Nanos, TimeBase};
-    use board_qemu::demo::{self, Script, ScriptedUplink, BOOT1_SETS, SETS};
+    use board_qemu::demo::{self, Script, ScriptedUplink, BOOT1_SETS, BOOT3_SETS, SETS};
     use board_qemu::synthetic::{synthetic_task, Synthetic};
     use board_qemu::tumble;
     use cortex_m::interrupt::InterruptNumber;
@@ -198,17 +202,80 @@ mod board {
     const CAL_SECTOR: usize = 4096;
     /// The calibration flash: two sectors of the SSRAM QEMU maps at 0 as flash, at 3 MiB.
     const CAL_ADDR: usize = 0x0030_0000;
-    /// The stage marker, just below it: the first boot is done (survives the reset).
+    /// The stage marker, just below it: which boot of the scenario is done (survives the
+    /// reset).
     const STAGE_ADDR: usize = CAL_ADDR - 16;
     const FIRST_BOOT_DONE: u32 = 0x5EED_CA11;
+    const SECOND_BOOT_DONE: u32 = 0x5EED_CA12;
     /// The boot count's two words (`ballisto_fw::boot`), after the stage marker.
     const BOOTS_ADDR: usize = STAGE_ADDR + 4;
+    /// The watchdog's mark, after the boot count: its interrupt fired (the reset follows).
+    const WATCHDOG_ADDR: usize = STAGE_ADDR + 12;
+    const WATCHDOG_FIRED: u32 = 0xD06_F1ED;
+
+    /// Which boot of the built-in scenario this is.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    enum Stage {
+        /// Power-on: the identification, then the board's own reset.
+        One,
+        /// On the record: the scenario's faults and commands; then the sets stop (the demo).
+        Two,
+        /// After the watchdog's reset: the estimate on the record again (the demo).
+        Three,
+    }
+
+    /// mps2-an386's CMSDK APB watchdog at 0x4000_8000, counting the 25 MHz system clock. QEMU
+    /// wires its interrupt to the NMI and resets the machine when it expires again with the
+    /// interrupt not cleared.
+    struct CmsdkWatchdog;
+
+    const WDOG: usize = 0x4000_8000;
+    const WDOG_LOAD: usize = WDOG;
+    const WDOG_CONTROL: usize = WDOG + 0x08;
+    const WDOG_INTCLR: usize = WDOG + 0x0C;
+    const WDOG_LOCK: usize = WDOG + 0xC00;
+    const WDOG_UNLOCK: u32 = 0x1ACC_E551;
+
+    impl CmsdkWatchdog {
+        /// Arms it: the interrupt after 0.5 s without a feed, the reset 0.5 s later.
+        fn arm() -> Self {
+            // SAFETY: the watchdog's registers, used by nothing else; unlocked, written, locked.
+            unsafe {
+                (WDOG_LOCK as *mut u32).write_volatile(WDOG_UNLOCK);
+                (WDOG_LOAD as *mut u32).write_volatile(12_500_000);
+                // INTEN | RESEN.
+                (WDOG_CONTROL as *mut u32).write_volatile(0b11);
+                (WDOG_LOCK as *mut u32).write_volatile(0);
+            }
+            CmsdkWatchdog
+        }
+    }
+
+    impl Watchdog for CmsdkWatchdog {
+        fn feed(&mut self) {
+            // SAFETY: as in `arm`; a write to INTCLR reloads the count.
+            unsafe {
+                (WDOG_LOCK as *mut u32).write_volatile(WDOG_UNLOCK);
+                (WDOG_INTCLR as *mut u32).write_volatile(1);
+                (WDOG_LOCK as *mut u32).write_volatile(0);
+            }
+        }
+    }
+
+    /// The watchdog's first expiry: marked for the next boot's reset cause (QEMU has no
+    /// reset-cause register); the reset follows at the second.
+    #[exception]
+    unsafe fn NonMaskableInt() {
+        // SAFETY: the mark's word lies with the stage marker, used by nothing else.
+        unsafe { (WATCHDOG_ADDR as *mut u32).write_volatile(WATCHDOG_FIRED) };
+    }
     static CAL_ERASES: StaticCell<[u32; 2]> = StaticCell::new();
     type Store = CalibrationStore<RamFlash<'static, CAL_SECTOR, 32>>;
     static STORE: StaticCell<Store> = StaticCell::new();
     static COMMIT_REQUESTS: CommitRequests<Cs> = CommitRequests::new();
     static COMMIT_REPLIES: CommitReplies<Cs> = CommitReplies::new();
     static OBSERVATIONS: Observations<Cs> = Observations::new();
+    static LIVENESS: Liveness = Liveness::new();
 
     #[embassy_executor::task]
     async fn sampling(source: &'static mut Synthetic, t0: Nanos, sets: u32) {
@@ -248,6 +315,7 @@ mod board {
             health: &HEALTH,
             telemetry: tm,
             observations: &OBSERVATIONS,
+            liveness: &LIVENESS,
             storage: Some(StorageLinks {
                 requests: COMMIT_REQUESTS.sender(),
                 replies: COMMIT_REPLIES.receiver(),
@@ -269,10 +337,29 @@ mod board {
         identifier.run(window).await
     }
 
-    /// Ends the boot once the application has handled its last set: boot 1 resets the
-    /// machine, boot 2 ends the run.
+    /// Feeds the watchdog while the sets come and are handled.
     #[embassy_executor::task]
-    async fn observer(sets: u32, first: bool) {
+    async fn supervisor(mut watchdog: CmsdkWatchdog) {
+        supervisor_task(
+            &HEALTH,
+            &LIVENESS,
+            &mut watchdog,
+            &mut SysTickTime,
+            |stall| {
+                hprintln!(
+                    "board-qemu: {:?} stalled: the watchdog is no longer fed",
+                    stall
+                )
+            },
+        )
+        .await
+    }
+
+    /// Ends the boot once the application has handled its last set: boot 1 resets the
+    /// machine; the demo's boot 2 lets its sets stop (the supervisor stops feeding the
+    /// watchdog, which resets the machine), the tumble's ends the run; boot 3 ends the run.
+    #[embassy_executor::task]
+    async fn observer(sets: u32, stage: Stage, tumbling: bool) {
         let Ok(mut seen) = OBSERVATIONS.subscriber() else {
             finish(false)
         };
@@ -284,7 +371,7 @@ mod board {
                 let s = o.status;
                 hprintln!(
                     "board-qemu: boot {}: {} sets, {} estimates, {} packets sent ({} lost), {} telecommands accepted, {} refused, {} garbage frames; {} s on board",
-                    if first { 1 } else { 2 },
+                    stage as u8 + 1,
                     s.sampling.sets,
                     s.estimates,
                     s.tm_sent,
@@ -294,15 +381,21 @@ mod board {
                     s.frames_garbage,
                     SysTickTime.now() / 1_000_000_000
                 );
-                if first {
-                    if s.tm_lost != 0 {
-                        finish(false);
+                let ok = s.tm_lost == 0 && s.estimates > 0;
+                match stage {
+                    Stage::One if ok => {
+                        // SAFETY: as in `main` (the stage marker's word, used by nothing else).
+                        unsafe { (STAGE_ADDR as *mut u32).write_volatile(FIRST_BOOT_DONE) };
+                        cortex_m::peripheral::SCB::sys_reset();
                     }
-                    // SAFETY: as in `main` (the stage marker's word, used by nothing else).
-                    unsafe { (STAGE_ADDR as *mut u32).write_volatile(FIRST_BOOT_DONE) };
-                    cortex_m::peripheral::SCB::sys_reset();
+                    Stage::Two if ok && !tumbling => {
+                        // SAFETY: as above.
+                        unsafe { (STAGE_ADDR as *mut u32).write_volatile(SECOND_BOOT_DONE) };
+                        hprintln!("board-qemu: boot 2: the sets stop");
+                        return;
+                    }
+                    _ => finish(ok),
                 }
-                finish(s.tm_lost == 0 && s.estimates > 0);
             }
         }
     }
@@ -363,23 +456,39 @@ mod board {
         // The store is a RAM-backed flash of the STM32H743's word size in the part of the
         // SSRAM QEMU maps as flash beyond the image (`CAL_ADDR`): QEMU reloads only the image's
         // segments on a reset, so it keeps its contents as a flash would.
-        // QEMU has no reset-cause register: the stage marker is zero after power-on (QEMU
-        // starts with that memory zeroed), set after the board's own SYSRESETREQ.
-        let stage = STAGE_ADDR as *mut u32;
-        // SAFETY: `STAGE_ADDR` lies in the 4 MiB flash region (memory.x) far beyond the image
-        // (≈ 220 KiB), below `CAL_ADDR`; nothing else refers to it.
-        let cause = if unsafe { stage.read_volatile() } == FIRST_BOOT_DONE {
-            ResetCause::Software
-        } else {
-            ResetCause::PowerOn
+        // QEMU has no reset-cause register: the stage marker and the watchdog's mark are zero
+        // after power-on (QEMU starts with that memory zeroed); the marker is set before the
+        // board's own SYSRESETREQ and before the sets stop, the mark by the watchdog's NMI.
+        let marker = STAGE_ADDR as *mut u32;
+        let mark = WATCHDOG_ADDR as *mut u32;
+        // SAFETY: `STAGE_ADDR .. + 16` lies in the 4 MiB flash region (memory.x) far beyond
+        // the image (≈ 320 KiB), below `CAL_ADDR`; nothing else refers to it.
+        let (stage, fired) = unsafe { (marker.read_volatile(), mark.read_volatile()) };
+        let stage = match stage {
+            FIRST_BOOT_DONE => Stage::Two,
+            SECOND_BOOT_DONE => Stage::Three,
+            _ => Stage::One,
         };
+        let cause = match (stage, fired == WATCHDOG_FIRED) {
+            (Stage::One, false) => ResetCause::PowerOn,
+            (Stage::Two, false) => ResetCause::Software,
+            (Stage::Three, true) => ResetCause::Watchdog,
+            (stage, fired) => {
+                hprintln!(
+                    "board-qemu: boot {:?} after a reset not in the scenario (watchdog: {})",
+                    stage,
+                    fired
+                );
+                finish(false)
+            }
+        };
+        // SAFETY: as above (a later power-on starts from an erased part again).
+        unsafe { (marker.write_volatile(0), mark.write_volatile(0)) };
         // SAFETY: `BOOTS_ADDR .. + 8` lies between the stage marker and `CAL_ADDR`, used by
         // nothing else; aligned.
         let boot_info = count_boot(unsafe { &mut *(BOOTS_ADDR as *mut [u32; 2]) }, cause);
-        let first = cause == ResetCause::PowerOn;
-        if !first {
-            // SAFETY: as above (a later power-on starts from an erased part again).
-            unsafe { stage.write_volatile(0) };
+        let first = stage == Stage::One;
+        if stage == Stage::Two {
             // The store as boot 1 left it, read out for the host's check (as a ground test
             // reads a flash through the debug port).
             // SAFETY: `CAL_ADDR .. + 2 sectors` lies in the flash region beyond the image;
@@ -411,14 +520,14 @@ mod board {
         let tumbling = runs_the_tumble();
         hprintln!(
             "board-qemu: boot {} of the {} runs {:?}",
-            if first { 1 } else { 2 },
+            stage as u8 + 1,
             if tumbling { "tumble" } else { "demo" },
             calibration
         );
-        let name = if first {
-            "telemetry-boot1.bin\0"
-        } else {
-            "telemetry.bin\0"
+        let name = match stage {
+            Stage::One => "telemetry-boot1.bin\0",
+            Stage::Two => "telemetry.bin\0",
+            Stage::Three => "telemetry-boot3.bin\0",
         };
         let Some(file) = HostFile::create(name) else {
             hprintln!("board-qemu: cannot create {}", name);
@@ -436,22 +545,26 @@ mod board {
         app.attach_identifier(identifier);
         let app = APP.init(app);
         // The parts as mounted (`demo::truth`); boot 1 in free flight for the identification,
-        // boot 2 with the scenario's faults.
-        let (source, sets, script): (Synthetic, u32, Script) = match (tumbling, first) {
-            (false, true) => {
+        // boot 2 with the scenario's faults, boot 3 without.
+        let (source, sets, script): (Synthetic, u32, Script) = match (tumbling, stage) {
+            (false, Stage::One) => {
                 let source = Synthetic::new(&demo::truth(), None, None).in_free_flight();
                 (source, BOOT1_SETS, demo::identification)
             }
-            (false, false) => {
+            (false, Stage::Two) => {
                 let source = Synthetic::new(&demo::truth(), Some(demo::OUTAGE), Some(demo::STUCK));
                 (source, SETS, demo::script)
             }
-            (true, true) => (
+            (_, Stage::Three) => {
+                let source = Synthetic::new(&demo::truth(), None, None);
+                (source, BOOT3_SETS, demo::quiet)
+            }
+            (true, Stage::One) => (
                 tumble::source(Some(tumble::OUTAGE)),
                 tumble::BOOT1_SETS,
                 tumble::identification,
             ),
-            (true, false) => (tumble::source(None), tumble::SETS, tumble::quiet),
+            (true, Stage::Two) => (tumble::source(None), tumble::SETS, demo::quiet),
         };
         let source = SOURCE.init(source);
         let tm = TELEMETRY.init(Telemetry::new(file));
@@ -468,7 +581,9 @@ mod board {
         // The scripted uplink looks at the time by yielding (on the host it must not drive the
         // simulated clock): in thread mode, beside the builder, it cannot starve it.
         spawner.spawn(uplink(t0, period, script, command_tx).unwrap());
-        upper.spawn(observer(sets, first).unwrap());
+        upper.spawn(observer(sets, stage, tumbling).unwrap());
+        // Armed last, once everything it watches is spawned.
+        upper.spawn(supervisor(CmsdkWatchdog::arm()).unwrap());
         upper.spawn(application(app, tm, command_rx).unwrap());
     }
 

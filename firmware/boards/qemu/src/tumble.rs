@@ -10,7 +10,7 @@
 //!    estimate and below the builder of configurations: u3 falls silent while it runs
 //!    ([`OUTAGE`]) and is excluded and re-admitted meanwhile. Then a reset.
 //! 2. The calibration read back from the store, the same tumble from its start, for [`SETS`]
-//!    sets, nothing on the uplink.
+//!    sets, nothing on the uplink (`demo::quiet`).
 //!
 //! The search is f64: on a core with double-precision hardware (the STM32H743's Cortex-M7,
 //! QEMU's mps2-an500) about 24 G instructions, a minute at 400 MHz; in the soft f64 of
@@ -94,9 +94,4 @@ pub fn identification(i: usize) -> Option<(f64, Step)> {
         )),
         _ => None,
     }
-}
-
-/// The second boot's uplink: nothing.
-pub fn quiet(_: usize) -> Option<(f64, Step)> {
-    None
 }

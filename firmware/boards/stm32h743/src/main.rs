@@ -46,6 +46,7 @@ mod board {
     use ballisto_fw::identification::{Identification, Identifier};
     use ballisto_fw::sampler::{sampling_task, HealthBoard, PartBus, SampleSet, Sampler};
     use ballisto_fw::storage::{storage_task, CommitReplies, CommitRequests, StorageLinks};
+    use ballisto_fw::supervisor::{supervisor_task, Liveness, Watchdog};
     use ballisto_fw::telemetry::Telemetry;
     use ballisto_fw::time::{Nanos, TimeBase};
     use defmt::{error, info};
@@ -63,6 +64,7 @@ mod board {
     use embassy_stm32::spi::{self, Spi};
     use embassy_stm32::time::Hertz;
     use embassy_stm32::usart::{self, RingBufferedUartRx, Uart, UartTx};
+    use embassy_stm32::wdg::IndependentWatchdog;
     use embassy_stm32::{bind_interrupts, dma, pac, rcc};
     use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex as Cs;
     use embassy_sync::channel::Channel;
@@ -220,6 +222,27 @@ mod board {
     }
     /// No observer on the flight board: nothing is queued there.
     static OBSERVATIONS: Observations<Cs> = Observations::new();
+    static LIVENESS: Liveness = Liveness::new();
+
+    /// IWDG1: 1 s without a feed resets the unit; the next boot reads the cause in RCC_RSR.
+    struct Iwdg(IndependentWatchdog<'static, peripherals::IWDG1>);
+
+    impl Watchdog for Iwdg {
+        fn feed(&mut self) {
+            self.0.pet()
+        }
+    }
+
+    /// Feeds the watchdog while the sets come and are handled (the upper executor: nothing
+    /// below can hold it up).
+    #[embassy_executor::task]
+    async fn supervisor(mut watchdog: Iwdg) {
+        let mut time = EmbassyTime;
+        supervisor_task(&HEALTH, &LIVENESS, &mut watchdog, &mut time, |stall| {
+            error!("{:?} stalled: the watchdog is no longer fed", stall)
+        })
+        .await
+    }
 
     #[embassy_executor::task]
     async fn sampling(sampler: &'static mut Board) {
@@ -269,6 +292,7 @@ mod board {
             health: &HEALTH,
             telemetry: tm,
             observations: &OBSERVATIONS,
+            liveness: &LIVENESS,
             storage: writable.then(|| StorageLinks {
                 requests: COMMIT_REQUESTS.sender(),
                 replies: COMMIT_REPLIES.receiver(),
@@ -396,6 +420,10 @@ mod board {
         upper.spawn(sampling(sampler).unwrap());
         upper.spawn(uplink(rx, command_tx).unwrap());
         upper.spawn(application(app, tm, command_rx, writable).unwrap());
+        // Armed last, once everything it watches is spawned; it cannot be stopped.
+        let mut watchdog = IndependentWatchdog::new(p.IWDG1, 1_000_000);
+        watchdog.unleash();
+        upper.spawn(supervisor(Iwdg(watchdog)).unwrap());
     }
 }
 
