@@ -558,9 +558,17 @@ fn run_typed<T: Real + Send + 'static>(
             sigma0.push(s as f32);
         }
     };
+    // Temperature compensation (`estimator_core::thermal`): each channel with coefficients, at
+    // the last temperature its column gave; uncorrected rows counted for a warning.
+    let mut temps = vec![f64::NAN; loaded.names.len()];
+    let mut uncorrected = vec![0u64; loaded.names.len()];
     let result = loop {
         match reader.next_row(&mut row) {
             Ok(Some(t)) => {
+                if let Err(e) = reader.temperatures(&mut temps) {
+                    break Err(e);
+                }
+                correct_for_temperature(loaded, &temps, &mut row, &mut uncorrected);
                 for (pi, ri) in p.iter_mut().zip(row.iter()) {
                     *pi = T::of(*ri);
                 }
@@ -598,6 +606,20 @@ fn run_typed<T: Real + Send + 'static>(
     summary
         .warnings
         .extend(reader.absurd_warnings(&loaded.names));
+    for (c, n) in uncorrected.iter().enumerate().filter(|(_, n)| **n > 0) {
+        let name = &loaded.names[c];
+        summary.warnings.push(if reader.has_temperature(c) {
+            format!(
+                "{}: channel \"{name}\" has temperature coefficients but no temperature before its first temp_{name} value: {n} rows not compensated",
+                job.samples.display()
+            )
+        } else {
+            format!(
+                "{}: channel \"{name}\" has temperature coefficients but no temp_{name} column: not compensated",
+                job.samples.display()
+            )
+        });
+    }
     if !sigma0.is_empty() {
         let mid = sigma0.len() / 2;
         let median = f64::from(*sigma0.select_nth_unstable_by(mid, f32::total_cmp).1);
@@ -606,6 +628,26 @@ fn run_typed<T: Real + Send + 'static>(
         );
     }
     Ok(summary)
+}
+
+/// Each channel of `row` with temperature coefficients and a temperature in `temps` corrected to
+/// its reading at `t_ref` (`estimator_core::thermal::Thermal::at_reference`); a channel with
+/// coefficients and no temperature yet is counted in `uncorrected`.
+fn correct_for_temperature(
+    loaded: &LoadedArrangement,
+    temps: &[f64],
+    row: &mut [f64],
+    uncorrected: &mut [u64],
+) {
+    let channels = loaded.arrangement.channels();
+    for (c, th) in loaded.thermal.iter().enumerate() {
+        let Some(th) = th else { continue };
+        if temps[c].is_nan() {
+            uncorrected[c] += 1;
+        } else {
+            row[c] = th.at_reference(row[c], temps[c], channels[c].bias);
+        }
+    }
 }
 
 /// Names of the flag bits, for summaries and `--help`.

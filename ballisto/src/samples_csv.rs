@@ -2,7 +2,8 @@
 //! channel order, one row per sample set. Memory does not grow with the file.
 //!
 //! An empty field means "channel not available at this sample": it is passed on as NaN and the
-//! estimator outputs its prediction for that row, flagged `INPUT_INVALID` (bit 5).
+//! estimator outputs its prediction for that row, flagged `INPUT_INVALID` (bit 5). Optional
+//! columns `temp_<channel>` carry a channel's temperature (°C; empty: not read at that row).
 
 use std::fmt;
 use std::fs::File;
@@ -50,6 +51,8 @@ pub struct SamplesReader<R: std::io::Read> {
     absurd: Vec<AbsurdCount>,
     /// Whether the last row read had one.
     row_absurd: bool,
+    /// For each channel, its temperature's column, if the file has one.
+    temp_column: Vec<Option<usize>>,
 }
 
 impl SamplesReader<Box<dyn std::io::BufRead + Send>> {
@@ -85,6 +88,7 @@ impl<R: std::io::Read> SamplesReader<R> {
             .clone();
         let mut t_column = None;
         let mut column = vec![usize::MAX; names.len()];
+        let mut temp_column = vec![None; names.len()];
         for (i, h) in header.iter().map(str::trim).enumerate() {
             if h == "t" {
                 if t_column.replace(i).is_some() {
@@ -92,12 +96,18 @@ impl<R: std::io::Read> SamplesReader<R> {
                 }
                 continue;
             }
-            match names.iter().position(|n| n == h) {
-                Some(c) if column[c] == usize::MAX => column[c] = i,
-                Some(_) => return Err(err(format!("column \"{h}\" appears twice"))),
-                None => {
+            let temperature_of = h
+                .strip_prefix("temp_")
+                .and_then(|n| names.iter().position(|m| m == n));
+            match (names.iter().position(|n| n == h), temperature_of) {
+                (Some(c), _) if column[c] == usize::MAX => column[c] = i,
+                (None, Some(c)) if temp_column[c].is_none() => temp_column[c] = Some(i),
+                (Some(_), _) | (None, Some(_)) => {
+                    return Err(err(format!("column \"{h}\" appears twice")))
+                }
+                (None, None) => {
                     return Err(err(format!(
-                        "column \"{h}\" is not a channel of the arrangement"
+                        "column \"{h}\" is not a channel of the arrangement, nor a channel's temperature (temp_<channel>)"
                     )))
                 }
             }
@@ -119,7 +129,40 @@ impl<R: std::io::Read> SamplesReader<R> {
             bounds: vec![f64::INFINITY; names.len()],
             absurd: vec![AbsurdCount::default(); names.len()],
             row_absurd: false,
+            temp_column,
         })
+    }
+
+    /// Whether the file has a temperature column for `channel`.
+    pub fn has_temperature(&self, channel: usize) -> bool {
+        self.temp_column.get(channel).is_some_and(Option::is_some)
+    }
+
+    /// The last row's temperatures into `last` (channel order, °C), where the row has one;
+    /// elsewhere `last` keeps what it held. Errors: a field that is not a number, or not a
+    /// temperature a part can report (`estimator_core::thermal::plausible`).
+    pub fn temperatures(&self, last: &mut [f64]) -> Result<(), SamplesError> {
+        let line = self.record.position().map(|p| p.line());
+        for (t, c) in last.iter_mut().zip(&self.temp_column) {
+            let Some(c) = *c else { continue };
+            let field = self.record.get(c).map_or("", str::trim);
+            if field.is_empty() {
+                continue;
+            }
+            let v: f64 = field.parse().unwrap_or(f64::NAN);
+            if !estimator_core::thermal::plausible(v) {
+                return Err(SamplesError {
+                    file: self.file.clone(),
+                    line,
+                    message: format!(
+                        "\"{field}\" in column {} is not a temperature (°C, −100 to 200)",
+                        c + 1
+                    ),
+                });
+            }
+            *t = v;
+        }
+        Ok(())
     }
 
     /// Reads a reading no part of full scale `ranges[channel]` can give

@@ -16,6 +16,8 @@
 //! - [`exclusion`]: when a part that stops answering leaves the solve and when it returns.
 //! - [`recent`]: the last sample sets, replayed into the estimator after a change of channels.
 //! - [`identify`]: each channel's geometry from a known field (paper §6), at sample rate.
+//! - [`thermal`]: a reading at one temperature turned into the one at the calibration's
+//!   temperature (issue 50).
 //! - [`integrity`]: the protection level of each output (the error a fault of one part could
 //!   cause).
 //! - [`frame_uncertainty`]: the common errors of a calibrated frame, added to the reported
@@ -50,6 +52,7 @@ pub mod linalg;
 pub mod parity;
 pub mod real;
 pub mod recent;
+pub mod thermal;
 
 #[doc(hidden)]
 pub mod internals;

@@ -4,6 +4,7 @@ use std::collections::HashSet;
 use std::fmt;
 use std::path::Path;
 
+use estimator_core::thermal::Thermal;
 use estimator_core::{Arrangement, Model};
 use serde::{Deserialize, Serialize};
 
@@ -80,6 +81,16 @@ pub struct ChannelSpec {
     /// (the own-signal check's range limit). Absent: no limit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub range: Option<f64>,
+    /// The temperature (°C) `bias` and `scale` refer to; required with `bias_tc` or
+    /// `scale_tc` (`estimator_core::thermal`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t_ref: Option<f64>,
+    /// The bias's change per °C (m/s² per °C); 0 if absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bias_tc: Option<f64>,
+    /// The scale's relative change per °C (1/°C); 0 if absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale_tc: Option<f64>,
 }
 
 /// A tri-axial part: expands to channels `<name>.x`, `<name>.y`, `<name>.z`.
@@ -178,6 +189,8 @@ pub struct LoadedArrangement {
     pub noise_given: bool,
     /// Each channel's full scale (m/s², infinite where the file gives none).
     pub ranges: Vec<f64>,
+    /// Each channel's temperature coefficients, where the file gives them.
+    pub thermal: Vec<Option<Thermal>>,
 }
 
 impl LoadedArrangement {
@@ -314,6 +327,7 @@ impl ArrangementFile {
         let mut arr = Arrangement::<HOST_CAP>::new();
         let mut names = Vec::new();
         let mut ranges = Vec::new();
+        let mut thermal = Vec::new();
         for c in &chans {
             if c.name.is_empty() || c.name == "t" || c.name.contains(',') {
                 return Err(err(format!(
@@ -369,6 +383,20 @@ impl ArrangementFile {
                     )));
                 }
             }
+            let coefficients = (c.t_ref, c.bias_tc, c.scale_tc);
+            thermal.push(match coefficients {
+                (None, None, None) => None,
+                (Some(t_ref), bias_tc, scale_tc) => Some(
+                    Thermal::new(t_ref, bias_tc.unwrap_or(0.0), scale_tc.unwrap_or(0.0))
+                        .map_err(|e| err(format!("channel \"{}\": {e}", c.name)))?,
+                ),
+                (None, _, _) => {
+                    return Err(err(format!(
+                        "channel \"{}\": bias_tc and scale_tc need t_ref, the temperature (°C) they refer to",
+                        c.name
+                    )))
+                }
+            });
             names.push(c.name.clone());
             ranges.push(c.range.unwrap_or(f64::INFINITY));
         }
@@ -391,6 +419,7 @@ impl ArrangementFile {
             model,
             noise_given,
             ranges,
+            thermal,
         })
     }
 }

@@ -74,6 +74,9 @@ fn every_arrangement_key_is_documented() {
             bias_sd: Some(0.0),
             scale_sd: Some(0.0),
             range: Some(20.0),
+            t_ref: Some(25.0),
+            bias_tc: Some(1e-3),
+            scale_tc: Some(1e-4),
         }],
         sensors: vec![SensorSpec {
             name: "s".into(),

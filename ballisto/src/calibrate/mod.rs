@@ -145,6 +145,11 @@ pub fn identified_channel(
         bias_sd: free(Param::Bias).then_some(sd[6]),
         scale_sd: free(Param::Scale).then_some(sd[0]),
         range,
+        // Temperature coefficients are not identified (yet): a bias and scale found at the
+        // record's temperature are not those of another file's `t_ref`.
+        t_ref: None,
+        bias_tc: None,
+        scale_tc: None,
     }
 }
 
@@ -659,6 +664,7 @@ pub fn estimator_run(
         noise_given: true,
         // Fault isolation is off here (below): no range limits.
         ranges: vec![f64::INFINITY; names.len()],
+        thermal: vec![None; names.len()],
     };
     // The geometry is what is being fitted: every sample is inconsistent with the nominal
     // geometry, so fault isolation would take parts out.
