@@ -121,6 +121,40 @@ fn writes_a_calibrated_arrangement_that_estimate_reads() {
         &dir.join("samples.csv"),
         &dir.join("estimates.csv"),
     ));
+    // A nominal file with temperature coefficients: calibrate does not identify them, so it
+    // does not write them, and says so.
+    let mut file =
+        hal_sim::arrangement_file::ArrangementFile::read(&dir.join("arrangement.toml")).unwrap();
+    let mut channels = file.expanded_channels("arrangement.toml").unwrap();
+    channels[0].t_ref = Some(25.0);
+    channels[0].bias_tc = Some(1e-3);
+    file.sensors.clear();
+    file.channels = channels;
+    let warm = dir.join("warm.toml");
+    std::fs::write(&warm, file.to_toml()).unwrap();
+    let out = ballisto()
+        .arg("calibrate")
+        .arg("--arrangement")
+        .arg(&warm)
+        .arg("--samples")
+        .arg(dir.join("samples.csv"))
+        .arg("--reference")
+        .arg(dir.join("reference.csv"))
+        .arg("--out")
+        .arg(dir.join("calibrated-warm.toml"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("temperature coefficients of u0.x are not written"),
+        "{err}"
+    );
+    let text = std::fs::read_to_string(dir.join("calibrated-warm.toml")).unwrap();
+    assert!(
+        !text.contains("t_ref") && !text.contains("bias_tc"),
+        "{text}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -511,6 +511,19 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     if let Some(note) = model_note {
         warnings.push(note);
     }
+    let with_coefficients: Vec<&str> = names
+        .iter()
+        .zip(&loaded.thermal)
+        .filter(|(_, th)| th.is_some())
+        .map(|(n, _)| n.as_str())
+        .collect();
+    if !with_coefficients.is_empty() {
+        warnings.push(format!(
+            "{}: the temperature coefficients of {} are not written: calibrate does not identify them, and the bias and scale it finds are the record's, at its temperatures",
+            job.arrangement.display(),
+            with_coefficients.join(", ")
+        ));
+    }
     let text = calibrated_file(
         &file,
         &loaded,
