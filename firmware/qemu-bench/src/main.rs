@@ -49,6 +49,10 @@ const fn parse_usize(s: &str) -> usize {
 trait Platform: Write {
     /// A free-running down-counter (24 bit) or `None` on the host.
     fn ticks(&mut self) -> Option<u32>;
+    /// Ticks since the start, the counter's wraps counted (`None` on the host): for spans
+    /// longer than the 24-bit counter's 2²⁴ ticks (671 M instructions), which [`Self::ticks`]
+    /// would report modulo that.
+    fn long_ticks(&mut self) -> Option<u64>;
     /// Instructions per tick, measured with a loop of known length.
     fn calibrate(&mut self) -> f64;
     /// Fills the free stack below the caller's frame with a pattern (none on the host).
@@ -76,6 +80,18 @@ fn measure<P: Platform, R>(p: &mut P, per_tick: f64, f: impl FnOnce() -> R) -> (
     let t1 = p.ticks();
     let n = match (t0, t1) {
         (Some(a), Some(b)) => (elapsed(a, b) as f64 * per_tick) as u64,
+        _ => 0,
+    };
+    (r, n)
+}
+
+/// As [`measure`], for spans longer than the SysTick counter's wrap ([`Platform::long_ticks`]).
+fn measure_long<P: Platform, R>(p: &mut P, per_tick: f64, f: impl FnOnce() -> R) -> (R, u64) {
+    let t0 = p.long_ticks();
+    let r = f();
+    let t1 = p.long_ticks();
+    let n = match (t0, t1) {
+        (Some(a), Some(b)) => (b.saturating_sub(a) as f64 * per_tick) as u64,
         _ => 0,
     };
     (r, n)
@@ -257,9 +273,9 @@ fn run_identification<P: Platform>(p: &mut P, per_tick: f64) {
 /// The identification task's solve without a reference (issue 49, TC[200,8] source 2): a
 /// torque-free tumble (inertia 1, 1.8, 2.5; Ω0 (0.3, 1.7, −0.6) rad/s, Euler's equations by
 /// RK4 at 10 ms) in free flight, 12 channels with their declared noise, a 60 s window kept as
-/// means of 4 sets (1 500) with a start rate 0.05 rad/s off; the search and the solve counted. On a
-/// double-precision FPU only: in the M4F's soft f64 it is tens of G instructions (about 20 ×
-/// the M7's), which this bench does not spend its time on.
+/// means of 4 sets (1 500) with a start rate 0.05 rad/s off; the search and the solve counted
+/// (tens of G instructions: [`measure_long`]). On a double-precision FPU only: QEMU did not
+/// finish it in the M4F's soft f64 in 20 minutes.
 fn run_tumble<P: Platform>(p: &mut P, per_tick: f64) {
     use ballisto_fw::identification::Identification;
     if !p.double_precision_fpu() {
@@ -308,7 +324,7 @@ fn run_tumble<P: Platform>(p: &mut P, per_tick: f64) {
             w[c] += dt / 6.0 * (k1[c] + 2.0 * k2[c] + 2.0 * k3[c] + k4[c]);
         }
     }
-    let (solved, n) = measure(p, per_tick, || id.solve(0).map(|(_, _, s)| s.sets));
+    let (solved, n) = measure_long(p, per_tick, || id.solve(0).map(|(_, _, s)| s.sets));
     let _ = writeln!(
         p,
         "identification without a reference (N = 12, 60 s of a torque-free tumble in 1 500 means): \
@@ -590,6 +606,8 @@ fn run<P: Platform>(p: &mut P) -> i32 {
 
 #[cfg(target_os = "none")]
 mod target {
+    use core::sync::atomic::{AtomicU32, Ordering};
+
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::SYST;
     use cortex_m_semihosting::{debug, hio};
@@ -613,6 +631,15 @@ mod target {
     impl super::Platform for Target {
         fn ticks(&mut self) -> Option<u32> {
             Some(SYST::get_current())
+        }
+        fn long_ticks(&mut self) -> Option<u64> {
+            loop {
+                let before = WRAPS.load(Ordering::Acquire);
+                let count = SYST::get_current();
+                if WRAPS.load(Ordering::Acquire) == before {
+                    return Some(u64::from(before) << 24 | u64::from(0x00ff_ffff - count));
+                }
+            }
         }
         fn calibrate(&mut self) -> f64 {
             const LOOPS: u32 = 200_000;
@@ -683,12 +710,23 @@ mod target {
         (core::ptr::addr_of!(__sheap) as usize + 3) & !3
     }
 
+    /// SysTick's wraps (every 2²⁴ ticks), for [`super::Platform::long_ticks`].
+    static WRAPS: AtomicU32 = AtomicU32::new(0);
+
+    #[cortex_m_rt::exception]
+    fn SysTick() {
+        WRAPS.fetch_add(1, Ordering::AcqRel);
+    }
+
     #[cortex_m_rt::entry]
     fn main() -> ! {
         let mut cp = cortex_m::Peripherals::take().unwrap();
         cp.SYST.set_clock_source(SystClkSource::Core);
         cp.SYST.set_reload(0x00ff_ffff);
         cp.SYST.clear_current();
+        // The wrap's exception: once per 671 M instructions, outside any per-set figure but
+        // by chance.
+        cp.SYST.enable_interrupt();
         cp.SYST.enable_counter();
         let mut t = Target {
             syst: cp.SYST,
@@ -735,6 +773,9 @@ impl Write for Host {
 #[cfg(not(target_os = "none"))]
 impl Platform for Host {
     fn ticks(&mut self) -> Option<u32> {
+        None
+    }
+    fn long_ticks(&mut self) -> Option<u64> {
         None
     }
     fn calibrate(&mut self) -> f64 {
