@@ -318,6 +318,25 @@ fn housekeeping_text(h: &Housekeeping) -> String {
     if let Some(test) = h.test {
         let _ = write!(s, " | consistency_test={}", test.name());
     }
+    if let Some(temps) = h.temperatures {
+        // Slots with a part: those that report one, or whose counters show a part.
+        let shown: Vec<String> = temps
+            .iter()
+            .zip(h.parts.iter())
+            .enumerate()
+            .filter(|(_, (t, p))| !t.is_nan() || p.state != ballisto_link::PartState::Absent)
+            .map(|(i, (t, _))| {
+                if t.is_nan() {
+                    format!("{i}:unread")
+                } else {
+                    format!("{i}:{t:.2}")
+                }
+            })
+            .collect();
+        if !shown.is_empty() {
+            let _ = write!(s, " | temperature_c {}", shown.join(" "));
+        }
+    }
     s
 }
 

@@ -640,8 +640,10 @@ fn correct_for_temperature(
     uncorrected: &mut [u64],
 ) {
     let channels = loaded.arrangement.channels();
-    for (c, th) in loaded.thermal.iter().enumerate() {
-        let Some(th) = th else { continue };
+    for c in 0..channels.len() {
+        let Some(th) = loaded.arrangement.thermal(c) else {
+            continue;
+        };
         if temps[c].is_nan() {
             uncorrected[c] += 1;
         } else {

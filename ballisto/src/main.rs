@@ -263,6 +263,17 @@ enum Command {
             conflicts_with = "identify"
         )]
         uplink: Vec<String>,
+        /// With --firmware: the unit's calibration store holds this calibrated arrangement
+        /// (`ballisto calibrate`'s output over the scenario's channels, its temperature
+        /// coefficients included), committed on the ground as calibration 1: the unit boots
+        /// on it.
+        #[arg(
+            long,
+            value_name = "FILE.toml",
+            requires = "firmware",
+            conflicts_with = "identify"
+        )]
+        calibration: Option<PathBuf>,
     },
     /// Decode a telemetry stream (COBS-framed PUS packets, as `sim --firmware` writes in
     /// telemetry.bin or the unit sends on its link): motion reports to an estimates file,
@@ -794,6 +805,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
             align,
             identify,
             uplink,
+            calibration,
         } => {
             let alignment = match align {
                 AlignArg::Interpolate => Alignment::Interpolate,
@@ -811,6 +823,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 .collect::<Result<Vec<_>, _>>()?;
             let inputs: Vec<&Path> = std::iter::once(Path::new(&scenario))
                 .chain(uplink.iter().map(|(_, file)| *file))
+                .chain(calibration.as_deref())
                 .collect();
             ballisto::output::check_distinct(&outputs, &inputs)?;
             let sc = hal_sim::scenario::Scenario::load(&scenario)?;
@@ -826,6 +839,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 firmware: firmware.then_some(alignment),
                 identify,
                 uplink,
+                calibration: calibration.as_deref(),
             })?;
             print_sim(say, &scenario, &sc, &r, started);
             Ok(ExitCode::SUCCESS)

@@ -39,6 +39,10 @@ pub struct SimJob<'a> {
     /// With `firmware` (not `identify`): telecommand frames sent on the unit's command link,
     /// each chunk at its scenario time (s), e.g. what `ballisto tc` wrote.
     pub uplink: Vec<(f64, Vec<u8>)>,
+    /// With `firmware` (not `identify`): a calibrated arrangement file over the scenario's
+    /// channels that the unit's calibration store holds (committed on the ground): the unit
+    /// boots on it.
+    pub calibration: Option<&'a Path>,
 }
 
 /// Reads and failures of one part.
@@ -113,9 +117,29 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
     };
     let (truth_out, truth_w) = crate::output::create(&path("truth.csv"))?;
     let mut truth = TruthFiles::new(truth_w, reference)?;
-    writeln!(samples, "t,{}", loaded.names.join(","))?;
+    // The firmware reads its parts' temperatures: with a scenario that models them, they are
+    // in the record (`temp_<channel>`, interfaces.md "Temperature").
+    let temperatures = job.firmware.is_some() && sc.temperature.is_some();
+    let temp_columns: Vec<String> = if temperatures {
+        loaded.names.iter().map(|n| format!(",temp_{n}")).collect()
+    } else {
+        Vec::new()
+    };
+    writeln!(
+        samples,
+        "t,{}{}",
+        loaded.names.join(","),
+        temp_columns.concat()
+    )?;
     let mut report = match job.firmware {
-        Some(alignment) => record_firmware(job, &loaded, alignment, &mut samples, &mut truth)?,
+        Some(alignment) => record_firmware(
+            job,
+            &loaded,
+            alignment,
+            temperatures,
+            &mut samples,
+            &mut truth,
+        )?,
         None => record_bench(job, &loaded, &mut samples, &mut truth)?,
     };
     samples.flush()?;
@@ -255,6 +279,7 @@ fn record_firmware(
     job: &SimJob,
     loaded: &LoadedArrangement,
     alignment: ballisto_fw::config::Alignment,
+    temperatures: bool,
     samples: &mut impl Write,
     truth: &mut TruthFiles<impl Write>,
 ) -> Result<SimReport, Box<dyn Error>> {
@@ -266,7 +291,9 @@ fn record_firmware(
     crate::estimates_csv::write_header(&mut estimates)?;
     let n = sc.samples();
     let bar = progress_bar(job.progress, n as u64);
-    let mut row: Vec<Option<f64>> = vec![None; loaded.names.len()];
+    let channels = loaded.names.len();
+    let mut row: Vec<Option<f64>> =
+        vec![None; if temperatures { 2 * channels } else { channels }];
     let mut flag_counts = [0u64; 16];
     let mut failure: Option<std::io::Error> = None;
     let mut emit = |set: &ballisto_fw::sampler::SampleSet,
@@ -275,6 +302,12 @@ fn record_firmware(
         let t = SimTime::seconds(set.t);
         row.iter_mut().for_each(|v| *v = None);
         for_each_channel(&config.sampling, set, |c, x| row[c] = Some(f64::from(x)));
+        if let (true, Some((part, celsius))) = (temperatures, set.temperature) {
+            let part = config.sampling.parts.get(usize::from(part)).copied().flatten();
+            for c in part.iter().flat_map(|p| p.channels.iter().flatten()) {
+                row[channels + usize::from(*c)] = Some(f64::from(celsius));
+            }
+        }
         crate::estimate::count_flags(&mut flag_counts, m.estimate.flags);
         let r = samples_csv::write_row(samples, t, row.iter().copied())
             .and_then(|_| truth.row(set.k as usize, tr))
@@ -333,6 +366,25 @@ fn record_firmware(
             id.source, id.id, id.crc
         ));
         second
+    } else if let Some(path) = job.calibration {
+        let calibration = stored_calibration(path, loaded)?;
+        let (report, id) = hal_sim::in_flight::boot_on_stored(
+            sc,
+            &config,
+            &calibration,
+            &job.uplink,
+            &mut downlink,
+            &mut emit,
+        )
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+        identification.push(format!(
+            "booted on the stored calibration {:?} id={} crc={:#010x} ({})",
+            id.source,
+            id.id,
+            id.crc,
+            path.display()
+        ));
+        report
     } else {
         run_firmware_with(sc, &config, n as u32, &job.uplink, &mut downlink, &mut emit)
             .map_err(|e| format!("{}: {e}", tm_path.display()))?
@@ -363,6 +415,26 @@ fn record_firmware(
         firmware: Some(fw),
         identification,
     })
+}
+
+/// The calibrated arrangement of `path` as the unit stores it; its channels must be the
+/// scenario's, in its order.
+fn stored_calibration(
+    path: &Path,
+    scenario: &LoadedArrangement,
+) -> Result<estimator_core::Arrangement<{ ballisto_fw::config::MAX_CHANNELS }>, Box<dyn Error>> {
+    let loaded = hal_sim::arrangement_file::load_arrangement(path)?;
+    if loaded.names != scenario.names {
+        return Err(format!(
+            "{}: its channels ({}) are not the scenario's ({})",
+            path.display(),
+            loaded.names.join(","),
+            scenario.names.join(",")
+        )
+        .into());
+    }
+    hal_sim::firmware_host::firmware_arrangement(&loaded)
+        .map_err(|e| format!("{}: {e}", path.display()).into())
 }
 
 fn progress_bar(show: bool, n: u64) -> indicatif::ProgressBar {

@@ -4,6 +4,7 @@ use crate::error::ConfigError;
 use crate::frame_uncertainty::FrameUncertainty;
 use crate::parity::NO_PART;
 use crate::real::Real;
+use crate::thermal::Thermal;
 
 /// One single-axis accelerometer (a tri-axial part is three channels).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -70,6 +71,9 @@ pub struct Arrangement<const CAP: usize> {
     /// Each channel's part ([`NO_PART`]: a part of its own): the channels one fault can
     /// reach together, for the protection levels ([`crate::integrity`]).
     part: [u8; CAP],
+    /// Each channel's temperature coefficients, where it has them ([`Thermal`]): applied to
+    /// its readings before the estimate by whoever reads the temperatures.
+    thermal: [Option<Thermal>; CAP],
 }
 
 impl<const CAP: usize> Default for Arrangement<CAP> {
@@ -97,6 +101,7 @@ impl<const CAP: usize> Arrangement<CAP> {
                 relative_rotation: 0.0,
             },
             part: [NO_PART; CAP],
+            thermal: [None; CAP],
         }
     }
 
@@ -160,6 +165,27 @@ impl<const CAP: usize> Arrangement<CAP> {
         c.bias = bias;
         c.scale = scale;
         Ok(())
+    }
+
+    /// Gives channel `channel` its temperature coefficients (`None`: it has none). `t_ref` is
+    /// the temperature its bias and scale ([`Arrangement::set_calibration`]) refer to.
+    ///
+    /// Errors: no such channel. On error nothing changes.
+    pub fn set_thermal(
+        &mut self,
+        channel: usize,
+        thermal: Option<Thermal>,
+    ) -> Result<(), ConfigError> {
+        if channel >= self.len {
+            return Err(ConfigError::NoSuchChannel { channel });
+        }
+        self.thermal[channel] = thermal;
+        Ok(())
+    }
+
+    /// Channel `channel`'s temperature coefficients, if it has them.
+    pub fn thermal(&self, channel: usize) -> Option<Thermal> {
+        self.thermal.get(..self.len)?.get(channel).copied().flatten()
     }
 
     /// How well the frame of a calibrated arrangement is tied to the body (its common

@@ -101,8 +101,16 @@ impl Thermal {
     /// `(result − bias) / scale` is `(p − bias(T)) / scale(T)`. A missing reading (NaN) stays
     /// missing.
     pub fn at_reference(&self, p: f64, t: f64, bias: f64) -> f64 {
+        let (gain, offset) = self.linear(t, bias);
+        gain * p + offset
+    }
+
+    /// [`Thermal::at_reference`] at temperature `t` as `gain·p + offset`: what the firmware
+    /// precomputes once per temperature read, so that a reading costs one multiply-add.
+    pub fn linear(&self, t: f64, bias: f64) -> (f64, f64) {
         let dt = t - self.t_ref;
-        bias + (p - bias - self.bias_tc * dt) / (1.0 + self.scale_tc * dt)
+        let gain = 1.0 / (1.0 + self.scale_tc * dt);
+        (gain, bias - (bias + self.bias_tc * dt) * gain)
     }
 }
 

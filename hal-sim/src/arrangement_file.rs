@@ -189,8 +189,6 @@ pub struct LoadedArrangement {
     pub noise_given: bool,
     /// Each channel's full scale (m/s², infinite where the file gives none).
     pub ranges: Vec<f64>,
-    /// Each channel's temperature coefficients, where the file gives them.
-    pub thermal: Vec<Option<Thermal>>,
 }
 
 impl LoadedArrangement {
@@ -327,7 +325,6 @@ impl ArrangementFile {
         let mut arr = Arrangement::<HOST_CAP>::new();
         let mut names = Vec::new();
         let mut ranges = Vec::new();
-        let mut thermal = Vec::new();
         for c in &chans {
             if c.name.is_empty() || c.name == "t" || c.name.contains(',') {
                 return Err(err(format!(
@@ -384,7 +381,7 @@ impl ArrangementFile {
                 }
             }
             let coefficients = (c.t_ref, c.bias_tc, c.scale_tc);
-            thermal.push(match coefficients {
+            let thermal = match coefficients {
                 (None, None, None) => None,
                 (Some(t_ref), bias_tc, scale_tc) => Some(
                     Thermal::new(t_ref, bias_tc.unwrap_or(0.0), scale_tc.unwrap_or(0.0))
@@ -396,7 +393,9 @@ impl ArrangementFile {
                         c.name
                     )))
                 }
-            });
+            };
+            arr.set_thermal(arr.len() - 1, thermal)
+                .map_err(|e| err(e.to_string()))?;
             names.push(c.name.clone());
             ranges.push(c.range.unwrap_or(f64::INFINITY));
         }
@@ -419,7 +418,6 @@ impl ArrangementFile {
             model,
             noise_given,
             ranges,
-            thermal,
         })
     }
 }

@@ -170,12 +170,8 @@ pub fn firmware_config(
             sc.parts.len()
         ));
     }
-    let mut arrangement = estimator_core::Arrangement::<MAX_CHANNELS>::new();
-    for c in loaded.arrangement.channels() {
-        arrangement
-            .push(c.position, c.axis, c.noise)
-            .map_err(|e| format!("the scenario's arrangement: {e}"))?;
-    }
+    let arrangement = firmware_arrangement(loaded)
+        .map_err(|e| format!("the scenario's arrangement: {e}"))?;
     let mut parts = [None; MAX_PARTS];
     for (slot, p) in parts.iter_mut().zip(sc.parts.iter()) {
         let g = sc.range_g(p);
@@ -219,6 +215,22 @@ pub fn firmware_config(
         .validate()
         .map_err(|e| format!("firmware configuration: {e}"))?;
     Ok(config)
+}
+
+/// An arrangement file's arrangement as the firmware holds it: every channel's geometry,
+/// noise, calibration and temperature coefficients, and the frame's uncertainty.
+pub fn firmware_arrangement(
+    loaded: &LoadedArrangement,
+) -> Result<estimator_core::Arrangement<MAX_CHANNELS>, estimator_core::ConfigError> {
+    let a = &loaded.arrangement;
+    let mut out = estimator_core::Arrangement::<MAX_CHANNELS>::new();
+    for (i, c) in a.channels().iter().enumerate() {
+        out.push(c.position, c.axis, c.noise)?;
+        out.set_calibration(i, c.bias, c.scale)?;
+        out.set_thermal(i, a.thermal(i))?;
+    }
+    out.set_frame_uncertainty(a.frame_uncertainty())?;
+    Ok(out)
 }
 
 /// Calls `f(channel, value)` for every channel a sample set carries: each part's x, y, z that

@@ -233,3 +233,49 @@ pub fn identify_and_reboot(
     )?;
     Ok((first, second, id))
 }
+
+/// One boot with `calibration` in the store (committed on the ground, id 1, as the unit leaves
+/// calibration): the firmware selects it at boot (`select_at_boot`: the record is encoded,
+/// stored, read back and checked as on the board) and runs the scenario on it, telemetry into
+/// `downlink`, every estimate through `emit`. Returns the report and the calibration used.
+pub fn boot_on_stored(
+    sc: &Scenario,
+    config: &AppConfig,
+    calibration: &estimator_core::Arrangement<{ ballisto_fw::config::MAX_CHANNELS }>,
+    uplink: &[(f64, Vec<u8>)],
+    downlink: &mut dyn std::io::Write,
+    emit: Emit,
+) -> Result<(FirmwareReport, CalibrationId), String> {
+    let mut mem = vec![0xFFu8; STORE_LEN];
+    let mut erases = [0u32; STORE_LEN / HOST_SECTOR];
+    let flash = RamFlash::new(&mut mem, &mut erases, Programming::WordOnce);
+    let mut store = CalibrationStore::new(flash, 0..STORE_LEN as u32).map_err(|e| format!("{e}"))?;
+    let record = ballisto_fw::calstore::record::CalibrationRecord {
+        id: 1,
+        arrangement: calibration.clone(),
+    };
+    embassy_futures::block_on(store.commit(&record))
+        .map_err(|e| format!("the calibration cannot be stored: {e:?}"))?;
+    let (arrangement, id, not_used) =
+        embassy_futures::block_on(select_at_boot(&mut store, &config.arrangement));
+    if let Some(why) = not_used {
+        return Err(format!("the stored calibration was not used ({why:?})"));
+    }
+    let mut stored_config = config.clone();
+    stored_config.arrangement = arrangement;
+    let mut retained = [0u32; 2];
+    let report = run_firmware_boot(
+        sc,
+        &stored_config,
+        sc.samples() as u32,
+        uplink,
+        downlink,
+        emit,
+        Boot {
+            store: Some(&mut store),
+            calibration: id,
+            info: count_boot(&mut retained, ResetCause::PowerOn),
+        },
+    )?;
+    Ok((report, id))
+}

@@ -9,7 +9,7 @@ use crate::cuc::{cuc_seconds, TIME_LEN};
 use crate::event::{Event, EventId, EVENT_LEN};
 use crate::housekeeping::{
     Housekeeping, HOUSEKEEPING_LEN, HOUSEKEEPING_LEN_NO_BOOT, HOUSEKEEPING_LEN_NO_CALIBRATION,
-    HOUSEKEEPING_LEN_NO_TEST,
+    HOUSEKEEPING_LEN_NO_TEMPERATURE, HOUSEKEEPING_LEN_NO_TEST,
 };
 use crate::identification::{IdentificationSummary, IdentifiedChannel};
 use crate::ids::{service, sid, subtype, APID};
@@ -114,6 +114,7 @@ pub fn decode(raw: &[u8]) -> Result<Decoded, DecodeError> {
             sid::HOUSEKEEPING
                 if [
                     HOUSEKEEPING_LEN,
+                    HOUSEKEEPING_LEN_NO_TEMPERATURE,
                     HOUSEKEEPING_LEN_NO_TEST,
                     HOUSEKEEPING_LEN_NO_BOOT,
                     HOUSEKEEPING_LEN_NO_CALIBRATION,

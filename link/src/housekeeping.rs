@@ -289,10 +289,16 @@ pub struct Housekeeping {
     pub boot: Option<(BootInfo, TimeCorrelation)>,
     /// The consistency test on the readings (`None` when decoded from the layout before it).
     pub test: Option<ConsistencyTest>,
+    /// Per part slot, the part's last temperature read (°C; NaN where none: no part, not
+    /// read yet); `None` when decoded from a layout before telemetry format 5.
+    pub temperatures: Option<[f32; PART_SLOTS]>,
 }
 
 /// Application data length of the housekeeping report.
-pub const HOUSEKEEPING_LEN: usize = HOUSEKEEPING_LEN_NO_TEST + 1;
+pub const HOUSEKEEPING_LEN: usize = HOUSEKEEPING_LEN_NO_TEMPERATURE + 4 * PART_SLOTS;
+/// Application data length of the layout before the temperatures (telemetry format 5, issue
+/// 50; still decoded).
+pub const HOUSEKEEPING_LEN_NO_TEMPERATURE: usize = HOUSEKEEPING_LEN_NO_TEST + 1;
 /// Application data length of the layout before the consistency test (issue 17; still decoded).
 pub const HOUSEKEEPING_LEN_NO_TEST: usize = HOUSEKEEPING_LEN_NO_BOOT + 4 + 1 + 1 + 7;
 /// Application data length of the layout before the boot and time fields (format 1, issue 16).
@@ -340,12 +346,14 @@ impl Housekeeping {
             .u8(boot.cause as u8)
             .u8(u8::from(time.set))
             .bytes(&time.epoch)
-            .u8(self.test.unwrap_or_default() as u8);
+            .u8(self.test.unwrap_or_default() as u8)
+            .f32s(&self.temperatures.unwrap_or([f32::NAN; PART_SLOTS]));
         p.finish()
     }
 
     /// Decodes the application data after the SID, of length `len`: [`HOUSEKEEPING_LEN`] or
-    /// one of the layouts before it ([`HOUSEKEEPING_LEN_NO_TEST`], [`HOUSEKEEPING_LEN_NO_BOOT`],
+    /// one of the layouts before it ([`HOUSEKEEPING_LEN_NO_TEMPERATURE`],
+    /// [`HOUSEKEEPING_LEN_NO_TEST`], [`HOUSEKEEPING_LEN_NO_BOOT`],
     /// [`HOUSEKEEPING_LEN_NO_CALIBRATION`]), which lack the fields added at their end.
     #[cfg_attr(not(feature = "ground"), allow(dead_code))]
     pub(crate) fn decode(g: &mut Get, len: usize) -> Option<Self> {
@@ -404,8 +412,11 @@ impl Housekeeping {
             let epoch = g.array::<7>()?;
             h.boot = Some((boot, TimeCorrelation { set, epoch }));
         }
-        if len == HOUSEKEEPING_LEN {
+        if len >= HOUSEKEEPING_LEN_NO_TEMPERATURE {
             h.test = Some(ConsistencyTest::try_from(g.u8()?).ok()?);
+        }
+        if len == HOUSEKEEPING_LEN {
+            h.temperatures = Some(g.f32s()?);
         }
         Some(h)
     }

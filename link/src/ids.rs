@@ -5,7 +5,7 @@
 pub const APID: u16 = 0x0BA;
 
 /// Longest telemetry packet the unit sends (the housekeeping report), octets.
-pub const TM_MAX: usize = 320;
+pub const TM_MAX: usize = 344;
 // The longest packet (housekeeping) fits the telemetry buffer.
 const _: () =
     assert!(6 + 7 + crate::cuc::TIME_LEN + crate::housekeeping::HOUSEKEEPING_LEN + 2 <= TM_MAX);
@@ -92,14 +92,15 @@ pub const PART_SLOTS: usize = 8;
 /// Most channels an arrangement on the link has (TC[200,6]; channel masks are 32 bits).
 pub const MAX_CHANNELS: usize = 24;
 
-/// The telemetry format, carried in the boot event: 4 since issue 49 (the identification
+/// The telemetry format, carried in the boot event: 5 since issue 50 (each part's temperature
+/// at the end of housekeeping); 4 since issue 49 (the identification
 /// summary's vector is ρ of paper eq. 12, the origin from the centre of mass, flagged in its
 /// octet 3; it was the centre of mass from the origin); 3 since issue 48 (the protection levels at
 /// the end of the motion report); 2 since the ground segment's list of issue 16 (the message
 /// type counter, the boot count and reset cause, the time correlation, the mode and model in
 /// the motion report, the commanded-exclusion event). Streams before 2 are format 1 (their
 /// boot event has 0 in that octet).
-pub const FORMAT_VERSION: u8 = 4;
+pub const FORMAT_VERSION: u8 = 5;
 
 /// Every telemetry message type the unit sends (service, subtype), in the order of its message
 /// type counters (PUS-C TM secondary header, octets 9–10: one counter per type, from 0 at

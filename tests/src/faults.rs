@@ -795,6 +795,7 @@ pub fn firmware_then_host(
         firmware: Some(ballisto_fw::config::Alignment::Interpolate),
         identify: false,
         uplink: Vec::new(),
+        calibration: None,
     })
     .unwrap();
     let host = dir.join("host.csv");

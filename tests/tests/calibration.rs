@@ -102,6 +102,7 @@ fn sim(sc: &Scenario, out: &Path) {
         firmware: Some(Alignment::Interpolate),
         identify: false,
         uplink: Vec::new(),
+        calibration: None,
     })
     .unwrap();
 }

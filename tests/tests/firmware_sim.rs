@@ -205,6 +205,7 @@ fn named_scenarios_through_the_firmware_match_estimator_core_on_the_same_samples
             firmware: Some(Alignment::Interpolate),
             identify: false,
             uplink: Vec::new(),
+            calibration: None,
         })
         .unwrap();
         assert_eq!(report.samples, sc.samples(), "{name}: every set estimated");

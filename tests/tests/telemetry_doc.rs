@@ -264,6 +264,7 @@ fn housekeeping_table_matches_the_encoder() {
             },
         )),
         test: Some(ConsistencyTest::OwnResidual),
+        temperatures: Some([21.5, -3.25, 40.0, 0.5, 1.5, 2.5, 3.5, 4.5]),
     };
     let mut data = [0u8; HOUSEKEEPING_LEN];
     assert_eq!(hk.encode(&mut data), Some(HOUSEKEEPING_LEN));
@@ -304,6 +305,10 @@ fn housekeeping_table_matches_the_encoder() {
             (1..=7).map(f64::from).collect(),
         ),
         ("consistency test", vec![3.0]),
+        (
+            "per part slot 0–7, its last temperature",
+            vec![21.5, -3.25, 40.0, 0.5, 1.5, 2.5, 3.5, 4.5],
+        ),
     ];
     check_rows(&data, &rows, &expected, "housekeeping");
     // Slot 1 octet by octet: the state, then six u32 counters.

@@ -59,6 +59,7 @@ fn warmed_record(d: &Path, seed: u64) {
         firmware: None,
         identify: false,
         uplink: Vec::new(),
+        calibration: None,
     })
     .unwrap();
     let mut file = ArrangementFile::read(&d.join("arrangement.toml")).unwrap();

@@ -513,9 +513,9 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     }
     let with_coefficients: Vec<&str> = names
         .iter()
-        .zip(&loaded.thermal)
-        .filter(|(_, th)| th.is_some())
-        .map(|(n, _)| n.as_str())
+        .enumerate()
+        .filter(|(c, _)| loaded.arrangement.thermal(*c).is_some())
+        .map(|(_, n)| n.as_str())
         .collect();
     if !with_coefficients.is_empty() {
         warnings.push(format!(
@@ -677,7 +677,6 @@ pub fn estimator_run(
         noise_given: true,
         // Fault isolation is off here (below): no range limits.
         ranges: vec![f64::INFINITY; names.len()],
-        thermal: vec![None; names.len()],
     };
     // The geometry is what is being fitted: every sample is inconsistent with the nominal
     // geometry, so fault isolation would take parts out.

@@ -11,23 +11,31 @@
 //! | 8 | 4 | calibration id (u32, > 0, increasing with every commit) |
 //! | 12 | 32 | frame uncertainty: rotation, translation, size, relative rotation (f64) |
 //! | 44 | 72 N | per channel: position (3 × f64, m), axis (3 × f64), noise, bias, scale (f64) |
-//! | 44 + 72 N | 4 | CRC-32 (ISO-HDLC, the zip/Ethernet one) of everything before it |
+//! | 44 + 72 N | 24 N | per channel: temperature coefficients t_ref (°C), bias_tc (m/s² per °C), scale_tc (1/°C) (f64; all three 0: none) |
+//! | 44 + 96 N | 4 | CRC-32 (ISO-HDLC, the zip/Ethernet one) of everything before it |
 //!
-//! f64 throughout, so a record holds exactly what `ballisto calibrate` wrote (1 776 octets at
-//! N = 24: the two 128 KiB sectors of the store hold 140 of them between erases).
+//! f64 throughout, so a record holds exactly what `ballisto calibrate` wrote (2 352 octets at
+//! N = 24: the two 128 KiB sectors of the store hold about 107 of them between erases). Version 1
+//! (72 octets per channel, no temperature coefficients) is still read: a calibration stored by
+//! an earlier firmware survives the update.
 
 use ballisto_link::ids::MAX_CHANNELS;
 use crc::{Crc, NoTable, CRC_32_ISO_HDLC};
+use estimator_core::thermal::Thermal;
 use estimator_core::{Arrangement, ConfigError, FrameUncertainty};
 
-/// The layout's version.
-pub const FORMAT_VERSION: u16 = 1;
+/// The layout's version (2: with temperature coefficients, issue 50).
+pub const FORMAT_VERSION: u16 = 2;
+/// The earlier version still read.
+const VERSION_1: u16 = 1;
 /// The magic number at offset 0.
 pub const MAGIC: [u8; 4] = *b"BCAL";
 /// Octets before the channels.
 const HEADER: usize = 44;
 /// Octets per channel.
-const PER_CHANNEL: usize = 72;
+const PER_CHANNEL: usize = 96;
+/// Octets per channel in version 1.
+const PER_CHANNEL_V1: usize = 72;
 /// The longest record (N = [`MAX_CHANNELS`]).
 pub const MAX_RECORD: usize = HEADER + PER_CHANNEL * MAX_CHANNELS + 4;
 
@@ -103,7 +111,7 @@ impl core::fmt::Display for RecordError {
             RecordError::Magic => write!(f, "not a calibration record (magic)"),
             RecordError::Version { found } => write!(
                 f,
-                "calibration record version {found}, this firmware reads {FORMAT_VERSION}"
+                "calibration record version {found}, this firmware reads {VERSION_1} and {FORMAT_VERSION}"
             ),
             RecordError::Channels { found } => write!(
                 f,
@@ -123,6 +131,15 @@ impl CalibrationRecord {
     /// Length of the encoding for N channels.
     pub fn encoded_len(channels: usize) -> usize {
         HEADER + PER_CHANNEL * channels + 4
+    }
+
+    /// Length of a record of layout `version` (one this firmware reads) with N channels.
+    fn len_of(version: u16, channels: usize) -> usize {
+        if version == VERSION_1 {
+            HEADER + PER_CHANNEL_V1 * channels + 4
+        } else {
+            Self::encoded_len(channels)
+        }
     }
 
     /// Writes the record into `out` and returns the octets used. `out` must hold
@@ -159,6 +176,13 @@ impl CalibrationRecord {
                 put(out, v);
             }
         }
+        for channel in 0..n {
+            let th = a.thermal(channel);
+            let v = th.map_or([0.0; 3], |t| [t.t_ref, t.bias_tc, t.scale_tc]);
+            for v in v {
+                put(out, v);
+            }
+        }
         let crc = CRC32.checksum(&out[..len - 4]);
         out[len - 4..].copy_from_slice(&crc.to_le_bytes());
         Some(len)
@@ -176,14 +200,14 @@ impl CalibrationRecord {
             return Err(RecordError::Magic);
         }
         let version = u16::from_le_bytes([v0, v1]);
-        if version != FORMAT_VERSION {
+        if version != FORMAT_VERSION && version != VERSION_1 {
             return Err(RecordError::Version { found: version });
         }
         let n = usize::from(count);
         if n == 0 || n > MAX_CHANNELS {
             return Err(RecordError::Channels { found: count });
         }
-        let len = Self::encoded_len(n);
+        let len = Self::len_of(version, n);
         let (body, crc) = match (bytes.get(..len - 4), bytes.get(len - 4..len)) {
             (Some(body), Some(crc)) => (body, crc),
             _ => return Err(truncated),
@@ -223,6 +247,22 @@ impl CalibrationRecord {
                 .set_calibration(channel, c[7], c[8])
                 .map_err(RecordError::Invalid)?;
         }
+        if version == FORMAT_VERSION {
+            for channel in 0..n {
+                let mut t = [0.0; 3];
+                read(&mut t)?;
+                let thermal = if t == [0.0; 3] {
+                    None
+                } else {
+                    Some(Thermal::new(t[0], t[1], t[2]).map_err(|_| {
+                        RecordError::Invalid(ConfigError::CalibrationInvalid { channel })
+                    })?)
+                };
+                arrangement
+                    .set_thermal(channel, thermal)
+                    .map_err(RecordError::Invalid)?;
+            }
+        }
         arrangement
             .set_frame_uncertainty(frame)
             .map_err(RecordError::Invalid)?;
@@ -234,8 +274,9 @@ impl CalibrationRecord {
     /// last bit: re-encoding a decoded record need not give the stored CRC, so the stored one
     /// is the identity.)
     pub fn stored_crc(bytes: &[u8]) -> Option<u32> {
+        let version = u16::from_le_bytes([*bytes.get(4)?, *bytes.get(5)?]);
         let n = usize::from(*bytes.get(6)?);
-        let len = Self::encoded_len(n);
+        let len = Self::len_of(version, n);
         let b = bytes.get(len - 4..len)?;
         Some(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
@@ -253,6 +294,10 @@ mod tests {
                 .unwrap();
             a.set_calibration(i, 0.02 - 0.001 * x, 1.0 + 0.001 * x)
                 .unwrap();
+            if i % 2 == 0 {
+                let th = Thermal::new(20.0 + x, 1e-3 * x - 5e-3, 2e-5 * x).unwrap();
+                a.set_thermal(i, Some(th)).unwrap();
+            }
         }
         a.set_frame_uncertainty(FrameUncertainty {
             rotation: 1e-4,
@@ -292,10 +337,33 @@ mod tests {
                     );
                 }
             }
+            for c in 0..n {
+                assert_eq!(a.thermal(c), b.thermal(c), "channel {c}");
+            }
             let crc = CalibrationRecord::stored_crc(&buf[..len]).unwrap();
             assert_eq!(crc, CRC32.checksum(&buf[..len - 4]));
         }
-        assert_eq!(CalibrationRecord::encoded_len(24), 1776);
+        assert_eq!(CalibrationRecord::encoded_len(24), 2352);
+    }
+
+    /// A version-1 record (an earlier firmware's: no temperature coefficients) is still read,
+    /// whole, with none.
+    #[test]
+    fn version_1_is_read() {
+        let r = record(5, 6);
+        let mut buf = [0u8; MAX_RECORD];
+        let len = r.encode(&mut buf).unwrap();
+        let v1_len = HEADER + PER_CHANNEL_V1 * 6 + 4;
+        let mut v1 = buf[..v1_len].to_vec();
+        v1[4..6].copy_from_slice(&VERSION_1.to_le_bytes());
+        let crc = CRC32.checksum(&v1[..v1_len - 4]);
+        v1[v1_len - 4..].copy_from_slice(&crc.to_le_bytes());
+        let d = CalibrationRecord::decode(&v1).unwrap();
+        assert!(len > v1_len);
+        assert_eq!(d.arrangement.len(), 6);
+        assert_eq!(d.arrangement.channels()[3], r.arrangement.channels()[3]);
+        assert!((0..6).all(|c| d.arrangement.thermal(c).is_none()));
+        assert_eq!(CalibrationRecord::stored_crc(&v1), Some(crc));
     }
 
     /// Every kind of damage is refused with its own error, and any flipped bit fails the CRC
@@ -316,8 +384,8 @@ mod tests {
         b[0] = b'X';
         assert_eq!(dec(&b[..len]), Err(RecordError::Magic));
         let mut b = good;
-        b[4] = 2;
-        assert_eq!(dec(&b[..len]), Err(RecordError::Version { found: 2 }));
+        b[4] = 3;
+        assert_eq!(dec(&b[..len]), Err(RecordError::Version { found: 3 }));
         let mut b = good;
         b[6] = 0;
         assert_eq!(dec(&b[..len]), Err(RecordError::Channels { found: 0 }));

@@ -18,6 +18,7 @@ use crate::faults::{Fault, FaultKind};
 use crate::motion::{Burn, Environment, Motion, Rotation, Segment, SegmentKind, Torque};
 use crate::sensors::errors::G0;
 use crate::sensors::SensorErrors;
+use crate::sensors::thermal::{PartThermal, Surroundings};
 
 /// An error in a scenario, naming the scenario and what is wrong.
 #[derive(Debug)]
@@ -73,6 +74,10 @@ pub struct Scenario {
     /// `reference.csv`.
     #[serde(default)]
     pub reference: Option<ReferenceSpec>,
+    /// The parts' surroundings' temperature (°C; default a constant 25 °C, where the
+    /// temperature coefficients do nothing).
+    #[serde(default)]
+    pub temperature: Option<Surroundings>,
 }
 
 /// A reference rate sensor: the true Ω (body frame) plus a constant bias and white noise.
@@ -359,6 +364,18 @@ pub struct PartSpec {
     /// nominal orientation.
     #[serde(default)]
     pub orientation_error: Option<[f64; 3]>,
+    /// Bias temperature coefficient per axis (m/s² per °C, from 25 °C).
+    #[serde(default)]
+    pub bias_tc: Option<[f64; 3]>,
+    /// Sensitivity temperature coefficient per axis (1/°C, from 25 °C).
+    #[serde(default)]
+    pub scale_tc: Option<[f64; 3]>,
+    /// Time constant (s) with which the part's die follows `[temperature]` (default 0).
+    #[serde(default)]
+    pub thermal_lag: Option<f64>,
+    /// What the part's temperature sensor reads above its die's temperature (°C, default 0).
+    #[serde(default)]
+    pub temp_offset: Option<f64>,
 }
 
 impl PartSpec {
@@ -592,6 +609,9 @@ impl Scenario {
         self.validate_body()?;
         self.validate_environment()?;
         self.validate_reference()?;
+        if let Some(t) = &self.temperature {
+            t.check()?;
+        }
         let mut buses = HashSet::new();
         for b in &self.buses {
             if b.kind != "spi" && b.kind != "i2c" {
@@ -869,6 +889,21 @@ impl Scenario {
         {
             return Err(err("clock_ppm: must be finite, |ppm| < 1e5".into()));
         }
+        use estimator_core::thermal::{BIAS_TC_MAX, SCALE_TC_MAX};
+        for (name, v, max) in [
+            ("bias_tc", p.bias_tc, BIAS_TC_MAX),
+            ("scale_tc", p.scale_tc, SCALE_TC_MAX),
+        ] {
+            if v.is_some_and(|v| !v.iter().all(|x| x.is_finite() && x.abs() <= max)) {
+                return Err(err(format!("{name}: must be finite and within ±{max}")));
+            }
+        }
+        if p.thermal_lag.is_some_and(|v| !(v.is_finite() && v >= 0.0)) {
+            return Err(err("thermal_lag: must be finite and >= 0 (s)".into()));
+        }
+        if p.temp_offset.is_some_and(|v| !(v.is_finite() && v.abs() <= 50.0)) {
+            return Err(err("temp_offset: must be finite, within ±50 °C".into()));
+        }
         Ok(slot)
     }
 
@@ -911,6 +946,13 @@ impl Scenario {
                 .seed
                 .wrapping_mul(0x9E37_79B9_7F4A_7C15)
                 .wrapping_add(index as u64 + 1),
+            thermal: PartThermal {
+                surroundings: self.temperature.unwrap_or_default(),
+                lag: p.thermal_lag.unwrap_or(0.0),
+                bias_tc: p.bias_tc.unwrap_or([0.0; 3]),
+                scale_tc: p.scale_tc.unwrap_or([0.0; 3]),
+                sensor_offset: p.temp_offset.unwrap_or(0.0),
+            },
         }
     }
 

@@ -17,6 +17,9 @@
 //! - `SYNC` bits 1:0 ≠ 0: external synchronisation, one sample per pulse on the SYNC pin
 //!   ([`Adxl355::connect_sync`] to a [`SyncLine`], or [`Adxl355::sync_pulse`]) instead of the
 //!   internal clock.
+//! - Temperature: 12 bits over `TEMP2` (bits 3:0 = 11:8) and `TEMP1`, 1 885 LSB at 25 °C and
+//!   −9.05 LSB/°C (nominal intercept and slope), converted while measuring unless `POWER_CTL`
+//!   bit 1 (TEMP_OFF) is set; the registers then keep the last conversion.
 //! - Writing 0x52 to `RESET` restores every register.
 
 use std::collections::VecDeque;
@@ -93,6 +96,17 @@ fn reset_registers() -> [u8; NREG] {
     r[reg::TEMP2 as usize] = (1885 >> 8) as u8;
     r[reg::TEMP1 as usize] = (1885 & 0xff) as u8;
     r
+}
+
+/// The temperature code at 25 °C (LSB).
+pub const TEMP_INTERCEPT: f64 = 1885.0;
+/// The temperature code's slope (LSB/°C).
+pub const TEMP_SLOPE: f64 = -9.05;
+
+/// The 12-bit temperature code of `celsius`.
+pub fn temperature_code(celsius: f64) -> u16 {
+    let c = TEMP_INTERCEPT + TEMP_SLOPE * (celsius - 25.0);
+    c.round().clamp(0.0, 4095.0) as u16
 }
 
 /// Sensitivity (LSB/g) for a `RANGE` register value.
@@ -184,6 +198,15 @@ impl Adxl355 {
 
     fn measuring(&self) -> bool {
         self.regs[reg::POWER_CTL as usize] & 0x01 == 0
+    }
+
+    /// Converts the temperature at `t` into `TEMP2`/`TEMP1` if the sensor is on.
+    fn convert_temperature(&mut self, t: f64) {
+        if self.measuring() && self.regs[reg::POWER_CTL as usize] & 0x02 == 0 {
+            let code = temperature_code(self.front.temperature(t));
+            self.regs[reg::TEMP2 as usize] = (code >> 8) as u8;
+            self.regs[reg::TEMP1 as usize] = (code & 0xff) as u8;
+        }
     }
 
     fn external_sync(&self) -> bool {
@@ -310,6 +333,7 @@ impl SpiTarget for Adxl355 {
     fn select(&mut self, now: f64) {
         self.now = now;
         self.catch_up(now);
+        self.convert_temperature(now);
         self.byte_index = 0;
         self.fifo_pos = 3;
     }

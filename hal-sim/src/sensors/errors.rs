@@ -1,8 +1,11 @@
 //! The error model every simulated part applies to the true specific force, and its own clock.
+//! Bias and scale move with the part's temperature ([`super::thermal`]).
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
+
+use super::thermal::PartThermal;
 
 /// Standard gravity, m/s² (estimator-core's).
 pub use estimator_core::G0;
@@ -25,6 +28,8 @@ pub struct SensorErrors {
     pub jitter: f64,
     /// Seed of this part's noise.
     pub seed: u64,
+    /// Its temperature and temperature coefficients (default: 25 °C, none).
+    pub thermal: PartThermal,
 }
 
 impl Default for SensorErrors {
@@ -38,13 +43,15 @@ impl Default for SensorErrors {
             clock_ppm: 0.0,
             jitter: 0.0,
             seed: 1,
+            thermal: PartThermal::default(),
         }
     }
 }
 
 impl SensorErrors {
-    /// The measured specific force for the true `f` with noise of standard deviation `sd`.
-    pub fn apply(&self, f: &[f64; 3], sd: f64, rng: &mut ChaCha8Rng) -> [f64; 3] {
+    /// The measured specific force for the true `f` at time `t` (the part's temperature then
+    /// moves its bias and scale) with noise of standard deviation `sd`.
+    pub fn apply(&self, f: &[f64; 3], t: f64, sd: f64, rng: &mut ChaCha8Rng) -> [f64; 3] {
         let mut out = [0.0; 3];
         for (i, o) in out.iter_mut().enumerate() {
             let mut c = f[i];
@@ -58,7 +65,8 @@ impl SensorErrors {
             } else {
                 0.0
             };
-            *o = self.scale[i] * c + self.bias[i] + n;
+            let (bias, scale) = self.thermal.at(t, i, self.bias[i], self.scale[i]);
+            *o = scale * c + bias + n;
         }
         out
     }

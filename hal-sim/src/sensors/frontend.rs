@@ -39,6 +39,11 @@ impl Frontend {
         self.faults = faults.into_iter().filter(|f| !f.kind.on_bus()).collect();
     }
 
+    /// What the part's temperature sensor sees at `t` (°C, before quantisation).
+    pub fn temperature(&self, t: f64) -> f64 {
+        self.errors.thermal.sensed(t)
+    }
+
     /// Stops the internal clock (standby, reconfiguration).
     pub fn stop_clock(&mut self) {
         self.clock.stop();
@@ -76,7 +81,7 @@ impl Frontend {
         }
         let mut a = self
             .errors
-            .apply(&f, (density2 * bandwidth).sqrt(), &mut self.rng);
+            .apply(&f, t, (density2 * bandwidth).sqrt(), &mut self.rng);
         for (o, b) in a.iter_mut().zip(bias.iter()) {
             *o += b;
         }

@@ -25,6 +25,11 @@
 //!   threshold in `FIFO_CTRL_REG` bits 4:0), OVRN bit 6 (cleared by reading this register),
 //!   EMPTY bit 5, FSS bits 4:0 (unread samples; 31 with OVRN when full).
 //! - Noise bandwidth ODR/2.
+//! - Temperature through the auxiliary ADC: with `TEMP_CFG_REG` (0x1F) ADC_EN (bit 7) and
+//!   TEMP_EN (bit 6) set and the part measuring, `OUT_ADC3_L`/`_H` (0x0C, 0x0D) hold a
+//!   left-justified two's complement value whose high byte changes by one digit per °C. The
+//!   datasheet gives no intercept (the reading is relative); this model reads 0 at 25 °C of
+//!   the part's sensor (its `sensor_offset` is the unknown intercept).
 
 use std::collections::VecDeque;
 
@@ -48,6 +53,12 @@ pub mod reg {
     pub const FIFO_CTRL_REG: u8 = 0x2E;
     /// FIFO status: WTM, OVRN, EMPTY, level.
     pub const FIFO_SRC_REG: u8 = 0x2F;
+    /// Auxiliary ADC channel 3 (the temperature), low byte.
+    pub const OUT_ADC3_L: u8 = 0x0C;
+    /// Its high byte.
+    pub const OUT_ADC3_H: u8 = 0x0D;
+    /// ADC_EN (bit 7), TEMP_EN (bit 6).
+    pub const TEMP_CFG_REG: u8 = 0x1F;
     /// Data status.
     pub const STATUS_REG: u8 = 0x27;
     /// X low byte (then X high, Y low/high, Z low/high).
@@ -229,6 +240,15 @@ impl Lis3dh {
         self.regs[base..base + 6].copy_from_slice(out);
     }
 
+    /// Converts the temperature at `t` into `OUT_ADC3` if the ADC and sensor are on.
+    fn convert_temperature(&mut self, t: f64) {
+        if self.odr() > 0.0 && self.regs[reg::TEMP_CFG_REG as usize] & 0xC0 == 0xC0 {
+            let digits = (self.front.temperature(t) - 25.0).round().clamp(-128.0, 127.0);
+            self.regs[reg::OUT_ADC3_L as usize] = 0;
+            self.regs[reg::OUT_ADC3_H as usize] = digits as i8 as u8;
+        }
+    }
+
     fn read_register(&mut self, a: u8) -> u8 {
         if a == reg::FIFO_SRC_REG {
             return self.fifo_source();
@@ -264,6 +284,7 @@ impl Lis3dh {
         match a {
             // Read-only: identity, status and outputs.
             reg::WHO_AM_I | reg::STATUS_REG | reg::FIFO_SRC_REG => {}
+            reg::OUT_ADC3_L | reg::OUT_ADC3_H => {}
             a if (reg::OUT_X_L..=reg::OUT_Z_H).contains(&a) => {}
             reg::CTRL_REG5 if v & 0x80 != 0 => {
                 // BOOT reloads the trimming; registers keep their contents.
@@ -301,6 +322,7 @@ impl I2cTarget for Lis3dh {
     fn start(&mut self, now: f64, read: bool) -> bool {
         self.now = now;
         self.catch_up(now);
+        self.convert_temperature(now);
         if !read {
             self.have_sub = false;
         }

@@ -11,6 +11,7 @@ pub mod frontend;
 pub mod lis3dh;
 pub mod sample_clock;
 pub mod sync_line;
+pub mod thermal;
 
 pub use errors::SensorErrors;
 

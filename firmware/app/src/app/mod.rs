@@ -206,6 +206,9 @@ impl App {
     ) -> Observation {
         health.latest_into(&mut self.health);
         self.part_events(set.t, tm).await;
+        if let Some((part, celsius)) = set.temperature {
+            self.estimation.observe_temperature(part, celsius);
+        }
         let mut motion = None;
         if self.mode == Mode::Operate {
             let excluded_before = self.estimation.excluded_parts();

@@ -52,6 +52,7 @@ impl App {
             calibration: Some(self.calibration),
             boot: Some((self.boot_info, self.time)),
             test: Some(self.estimation.consistency_test()),
+            temperatures: Some(*self.estimation.temperatures()),
         }
     }
 

@@ -31,6 +31,7 @@
 //! after it is built.
 
 pub mod background;
+pub mod temperature;
 pub use background::Builds;
 
 use ballisto_link::{ChannelSet, PartSet};
@@ -44,6 +45,7 @@ use estimator_core::{
 use crate::config::{AppConfig, MAX_CHANNELS, MAX_PARTS};
 use crate::isolation::Isolation;
 use crate::sampler::SampleSet;
+use temperature::Compensation;
 use crate::time::{seconds, Nanos};
 
 pub use estimator_core::exclusion::{EXCLUDE_AFTER, INCLUDE_AFTER};
@@ -137,6 +139,8 @@ pub struct Estimation {
     recent: Recent<f32, MAX_CHANNELS, REPLAY_SETS>,
     /// Such a change was put in force at this set: replay [`Self::recent`] before its estimate.
     replay_due: bool,
+    /// The readings' temperature compensation.
+    compensation: Compensation,
 }
 
 impl Estimation {
@@ -178,7 +182,10 @@ impl Estimation {
             suspicion: Suspicion::default(),
             recent: Recent::new(),
             replay_due: false,
+            compensation: Compensation::new(),
         };
+        e.compensation
+            .reconfigure(e.estimator.arrangement(), &e.channels);
         e.rebuild_monitor();
         Ok(e)
     }
@@ -286,6 +293,8 @@ impl Estimation {
             if let Some(builds) = self.builds {
                 builds.clear();
             }
+            self.compensation
+                .reconfigure(self.estimator.arrangement(), &self.channels);
         } else {
             self.note_model(before);
         }
@@ -492,6 +501,7 @@ impl Estimation {
         if let Some(b) = self.builds {
             b.clear();
         }
+        self.compensation.reconfigure(arrangement, &self.channels);
         self.rebuild_monitor();
         Ok(Applied::Now)
     }
@@ -524,6 +534,21 @@ impl Estimation {
             }
         }
         mask
+    }
+
+    /// A part's temperature read (°C): its channels' corrections from the next set on.
+    /// Called for every set that carries one, in standby too.
+    pub fn observe_temperature(&mut self, part: u8, celsius: f32) {
+        let part = usize::from(part);
+        if let Some(chans) = self.channels.get(part) {
+            self.compensation
+                .observe(self.estimator.arrangement(), part, chans, celsius);
+        }
+    }
+
+    /// Each part's last temperature read (°C; NaN where none yet).
+    pub fn temperatures(&self) -> &[f32; MAX_PARTS] {
+        self.compensation.temperatures()
     }
 
     /// The last set's channel vector as the estimator got it (NaN where a part had no value).
@@ -572,6 +597,7 @@ impl Estimation {
                 None => {}
             }
         }
+        self.compensation.apply(&mut self.p[..self.n]);
         let verdict = self.isolation.step(&self.p[..self.n], &set.variance);
         let isolated_before = self.isolated;
         let ordered = self.collect_order();

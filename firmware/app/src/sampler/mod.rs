@@ -45,6 +45,9 @@ pub struct SampleSet {
     /// `t`, `(1 − w)² + w²` for a value interpolated with weight `w` (0.5 midway), so that the
     /// fault monitor expects of it what it has.
     pub variance: [f32; MAX_PARTS],
+    /// A part's temperature read after this set's readings (part index, °C): one part per
+    /// [`Sampler::temperature_every`] sets, in turn.
+    pub temperature: Option<(u8, f32)>,
 }
 
 impl SampleSet {
@@ -55,6 +58,7 @@ impl SampleSet {
             t,
             parts,
             variance: [1.0; MAX_PARTS],
+            temperature: None,
         }
     }
 }
@@ -82,7 +86,15 @@ pub struct Sampler<SPI, I2C, SYNC> {
     t0: Nanos,
     k: u32,
     health: LoopHealth,
+    /// Sets between two temperature reads.
+    temperature_every: u32,
+    /// The part whose temperature is read next.
+    temperature_next: usize,
 }
+
+/// How often each part's temperature is read (Hz): a part's die follows its surroundings
+/// over minutes, and a read is one short transfer after a set's readings.
+pub const TEMPERATURE_HZ: f32 = 4.0;
 
 impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
     /// A sampler for `config`, with the bus handle of each configured part (same index); a
@@ -92,10 +104,13 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
         mut buses: [Option<PartBus<SPI, I2C>>; MAX_PARTS],
         sync: SYNC,
     ) -> Self {
-        let parts = core::array::from_fn(|i| match (config.parts[i], buses[i].take()) {
-            (Some(p), Some(bus)) => Part::new(p, config.alignment, bus),
-            _ => None,
-        });
+        let parts: [Option<Part<SPI, I2C>>; MAX_PARTS] =
+            core::array::from_fn(|i| match (config.parts[i], buses[i].take()) {
+                (Some(p), Some(bus)) => Part::new(p, config.alignment, bus),
+                _ => None,
+            });
+        let count = parts.iter().flatten().count().max(1) as f32;
+        let temperature_every = (config.rate_hz / (TEMPERATURE_HZ * count)).max(1.0) as u32;
         Sampler {
             parts,
             sync,
@@ -104,7 +119,27 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
             t0: 0,
             k: 0,
             health: LoopHealth::default(),
+            temperature_every,
+            temperature_next: 0,
         }
+    }
+
+    /// Sets between two temperature reads: each part's temperature is read at about
+    /// [`TEMPERATURE_HZ`] (or once per set where the rate is lower).
+    pub fn temperature_every(&self) -> u32 {
+        self.temperature_every
+    }
+
+    /// The next part's temperature (round robin over the configured parts).
+    async fn read_temperature(&mut self) -> Option<(u8, f32)> {
+        for _ in 0..MAX_PARTS {
+            let i = self.temperature_next;
+            self.temperature_next = (i + 1) % MAX_PARTS;
+            if let Some(p) = self.parts[i].as_mut() {
+                return p.read_temperature().await.map(|t| (i as u8, t));
+            }
+        }
+        None
     }
 
     /// Starts every part (failures are counted; such parts are retried while sampling) and
@@ -187,6 +222,9 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
             }
         }
         self.read_free_running(time, t, &mut set).await;
+        if k.is_multiple_of(self.temperature_every) {
+            set.temperature = self.read_temperature().await;
+        }
         self.k = self.k.saturating_add(1);
         self.health.sets = self.health.sets.saturating_add(1);
         set

@@ -254,6 +254,26 @@ impl<SPI: SpiDevice, I2C: I2c> Part<SPI, I2C> {
         self.or_missed(value)
     }
 
+    /// The part's temperature (°C), counted as a read: `None` if it is down, the read failed
+    /// or the value is not a temperature (`estimator_core::thermal::plausible`).
+    pub async fn read_temperature(&mut self) -> Option<f32> {
+        if !self.health.running {
+            return None;
+        }
+        let r = match &mut self.driver {
+            Driver::Adxl355(d) => d.read_temperature().await.map_err(Fault::from),
+            Driver::Lis3dh(d) => d.read_temperature().await.map_err(Fault::from),
+        };
+        let r = r.and_then(|t| {
+            if estimator_core::thermal::plausible(f64::from(t)) {
+                Ok(t)
+            } else {
+                Err(Fault::Implausible)
+            }
+        });
+        self.count(r)
+    }
+
     /// The latest output as if sampled now ([`Alignment::Latest`]).
     pub async fn read_latest(&mut self) -> Option<[f32; 3]> {
         if !self.health.running {

@@ -227,6 +227,20 @@ impl<SPI: SpiDevice> Adxl355<SPI> {
         Ok((Status(b[0]), self.convert(&b[4..13])?))
     }
 
+    /// The part's temperature (°C) with the datasheet's nominal intercept and slope: one
+    /// 3-byte transaction (`TEMP2`, `TEMP1`). The intercept varies from part to part; a
+    /// calibration's `t_ref` is on the same scale, so only its changes matter.
+    pub async fn read_temperature(&mut self) -> Result<f32, Error<SPI::Error>> {
+        let mut b = [0u8; 2];
+        self.read_burst(reg::TEMP2, &mut b).await?;
+        // TEMP2 bits 7:4 read as zero.
+        if b[0] & 0xF0 != 0 {
+            return Err(Error::Implausible);
+        }
+        let code = f32::from(u16::from(b[0]) << 8 | u16::from(b[1]));
+        Ok(25.0 + (code - reg::TEMP_INTERCEPT) / reg::TEMP_SLOPE)
+    }
+
     /// Entries (single-axis values) waiting in the FIFO.
     pub async fn fifo_entries(&mut self) -> Result<u8, Error<SPI::Error>> {
         let mut b = [0u8; 1];

@@ -10,6 +10,12 @@ pub const PARTID: u8 = 0x02;
 pub const STATUS: u8 = 0x04;
 /// Entries (axis values) in the FIFO.
 pub const FIFO_ENTRIES: u8 = 0x05;
+/// Temperature bits 11:8 (in bits 3:0); TEMP1, bits 7:0, follows.
+pub const TEMP2: u8 = 0x06;
+/// The temperature code at 25 °C (datasheet: nominal intercept, LSB).
+pub const TEMP_INTERCEPT: f32 = 1885.0;
+/// The temperature code's change per °C (datasheet: nominal slope, LSB/°C).
+pub const TEMP_SLOPE: f32 = -9.05;
 /// X data bits 19:12; XDATA2, XDATA1, then Y and Z follow (9 bytes).
 pub const XDATA3: u8 = 0x08;
 /// FIFO read port.

@@ -208,6 +208,10 @@ impl<I2C: I2c> Lis3dh<I2C> {
             .await
             .map_err(Error::Bus)?;
         self.i2c
+            .write(self.address, &[reg::TEMP_CFG_REG, reg::TEMP_ON])
+            .await
+            .map_err(Error::Bus)?;
+        self.i2c
             .write(
                 self.address,
                 &[reg::CTRL_REG1, (config.odr.code() << 4) | 0x07],
@@ -233,6 +237,19 @@ impl<I2C: I2c> Lis3dh<I2C> {
         let mut out = [[0.0; 3]];
         self.read_samples(&mut out).await?;
         Ok(out[0])
+    }
+
+    /// The part's temperature (°C): the auxiliary ADC's channel 3, one digit per °C (its high
+    /// byte), read as 25 °C + that. The datasheet gives no intercept: the reading is relative
+    /// to a temperature that differs from part to part, and a calibration's `t_ref` is on the
+    /// same scale, so only its changes matter. Its resolution is 1 °C.
+    pub async fn read_temperature(&mut self) -> Result<f32, Error<I2C::Error>> {
+        let mut b = [0u8; 2];
+        self.i2c
+            .write_read(self.address, &[reg::OUT_ADC3_L | reg::AUTO_INCREMENT], &mut b)
+            .await
+            .map_err(Error::Bus)?;
+        Ok(25.0 + f32::from(b[1] as i8))
     }
 
     /// `FIFO_SRC_REG`: the unread samples in the FIFO (configured with `fifo`).

@@ -14,6 +14,12 @@ pub const CTRL_REG5: u8 = 0x24;
 pub const FIFO_CTRL_REG: u8 = 0x2E;
 /// FIFO status: WTM (7), OVRN (6), EMPTY (5), level (4:0).
 pub const FIFO_SRC_REG: u8 = 0x2F;
+/// Auxiliary ADC channel 3 (the temperature) low byte; its high byte follows.
+pub const OUT_ADC3_L: u8 = 0x0C;
+/// ADC enable (7), temperature sensor enable (6).
+pub const TEMP_CFG_REG: u8 = 0x1F;
+/// `TEMP_CFG_REG`: the ADC and the temperature sensor on.
+pub const TEMP_ON: u8 = 0xC0;
 /// Status: ZYXOR (7), ZYXDA (3).
 pub const STATUS_REG: u8 = 0x27;
 /// X low byte; X high, Y low/high, Z low/high follow.

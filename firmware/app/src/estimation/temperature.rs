@@ -1,0 +1,157 @@
+//! Temperature compensation of the readings (issue 50; `estimator_core::thermal`): each
+//! channel with temperature coefficients is brought to its reading at `t_ref` before the
+//! fault monitor and the estimate see it. The correction `gain·p + offset` is computed once per
+//! temperature read of the channel's part (a few per second, in f64); a set costs one
+//! multiply-add per channel. A channel whose part's temperature has not been read yet is
+//! used as read (its correction is the identity), and housekeeping shows the temperature as
+//! not read.
+
+use estimator_core::Arrangement;
+
+use crate::config::{MAX_CHANNELS, MAX_PARTS};
+
+/// The corrections in force and the temperatures they were made for.
+#[derive(Clone, Debug)]
+pub struct Compensation {
+    gain: [f32; MAX_CHANNELS],
+    offset: [f32; MAX_CHANNELS],
+    /// Any channel has coefficients (otherwise [`Compensation::apply`] does nothing).
+    active: bool,
+    /// Each part's last temperature read (°C; NaN: not read).
+    temperature: [f32; MAX_PARTS],
+}
+
+impl Compensation {
+    /// No correction; no temperature read.
+    pub const fn new() -> Self {
+        Compensation {
+            gain: [1.0; MAX_CHANNELS],
+            offset: [0.0; MAX_CHANNELS],
+            active: false,
+            temperature: [f32::NAN; MAX_PARTS],
+        }
+    }
+
+    /// Part `part`, feeding `channels`, reads `celsius`: its channels' corrections for that
+    /// temperature from `arrangement`'s coefficients.
+    pub fn observe(
+        &mut self,
+        arrangement: &Arrangement<MAX_CHANNELS>,
+        part: usize,
+        channels: &[Option<u8>; 3],
+        celsius: f32,
+    ) {
+        if let Some(t) = self.temperature.get_mut(part) {
+            *t = celsius;
+        }
+        self.correct(arrangement, part, channels);
+    }
+
+    /// A new arrangement (its coefficients, or none): every part's corrections again at its
+    /// last temperature.
+    pub fn reconfigure(
+        &mut self,
+        arrangement: &Arrangement<MAX_CHANNELS>,
+        channels: &[[Option<u8>; 3]; MAX_PARTS],
+    ) {
+        self.gain = [1.0; MAX_CHANNELS];
+        self.offset = [0.0; MAX_CHANNELS];
+        self.active = (0..arrangement.len()).any(|c| arrangement.thermal(c).is_some());
+        for (part, chans) in channels.iter().enumerate() {
+            self.correct(arrangement, part, chans);
+        }
+    }
+
+    fn correct(
+        &mut self,
+        arrangement: &Arrangement<MAX_CHANNELS>,
+        part: usize,
+        channels: &[Option<u8>; 3],
+    ) {
+        let Some(&t) = self.temperature.get(part) else {
+            return;
+        };
+        if t.is_nan() {
+            return;
+        }
+        let biases = arrangement.channels();
+        for c in channels.iter().flatten() {
+            let c = usize::from(*c);
+            let (Some(th), Some(ch)) = (arrangement.thermal(c), biases.get(c)) else {
+                continue;
+            };
+            let (gain, offset) = th.linear(f64::from(t), ch.bias);
+            self.gain[c] = gain as f32;
+            self.offset[c] = offset as f32;
+        }
+    }
+
+    /// Corrects the channel vector `p` in place (NaN stays NaN).
+    #[inline]
+    pub fn apply(&self, p: &mut [f32]) {
+        if !self.active {
+            return;
+        }
+        for ((x, g), o) in p.iter_mut().zip(self.gain.iter()).zip(self.offset.iter()) {
+            *x = *x * g + o;
+        }
+    }
+
+    /// Each part's last temperature read (°C; NaN where none yet).
+    pub fn temperatures(&self) -> &[f32; MAX_PARTS] {
+        &self.temperature
+    }
+}
+
+impl Default for Compensation {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use estimator_core::thermal::Thermal;
+
+    /// A part warmed by 20 °C reads what it read at `t_ref` once its temperature is known, and
+    /// as read before; a channel without coefficients is untouched.
+    #[test]
+    fn readings_come_back_to_the_reference() {
+        let mut a = Arrangement::<MAX_CHANNELS>::new();
+        for k in 0..3 {
+            let mut axis = [0.0; 3];
+            axis[k] = 1.0;
+            a.push([0.1, 0.0, 0.0], axis, 1e-3).unwrap();
+        }
+        a.set_calibration(0, 0.05, 1.01).unwrap();
+        a.set_thermal(0, Some(Thermal::new(25.0, 1.5e-3, 1e-4).unwrap()))
+            .unwrap();
+        let chans = [[Some(0), Some(1), Some(2)]; 1];
+        let mut all = [[None; 3]; MAX_PARTS];
+        all[0] = chans[0];
+        let mut comp = Compensation::new();
+        comp.reconfigure(&a, &all);
+        let field = 3.0f64;
+        let at_ref = 1.01 * field + 0.05;
+        let warm = 1.01 * (1.0 + 1e-4 * 20.0) * field + 0.05 + 1.5e-3 * 20.0;
+        let mut p = [warm as f32, 2.0, 3.0];
+        comp.apply(&mut p);
+        assert_eq!(p[0], warm as f32, "no temperature read yet");
+        assert!(comp.temperatures()[0].is_nan());
+        comp.observe(&a, 0, &all[0], 45.0);
+        let mut p = [warm as f32, 2.0, f32::NAN];
+        comp.apply(&mut p);
+        assert!((f64::from(p[0]) - at_ref).abs() < 1e-5, "{}", p[0]);
+        assert_eq!(p[1], 2.0);
+        assert!(p[2].is_nan());
+        // An arrangement without coefficients: nothing corrected, the temperature kept.
+        let mut plain = a.clone();
+        plain.set_thermal(0, None).unwrap();
+        comp.reconfigure(&plain, &all);
+        let mut p = [warm as f32, 2.0, 3.0];
+        comp.apply(&mut p);
+        assert_eq!(p[0], warm as f32);
+        assert_eq!(comp.temperatures()[0], 45.0);
+    }
+}
