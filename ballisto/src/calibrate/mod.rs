@@ -24,6 +24,7 @@ pub mod reference_align;
 pub mod reference_rate;
 pub mod report;
 pub mod scatter;
+pub mod thermal;
 pub mod thinning;
 pub mod tumble;
 
@@ -97,6 +98,9 @@ pub struct CalibrationSummary {
     pub reference_found: Option<reference_align::Found>,
     /// The held-out part's figures, or why the calibration could not be validated.
     pub validation: Result<holdout::Validation, String>,
+    /// The temperature coefficients, where the record has temperatures
+    /// ([`thermal`]).
+    pub thermal: Option<thermal::Found>,
 }
 
 impl CalibrationSummary {
@@ -145,8 +149,9 @@ pub fn identified_channel(
         bias_sd: free(Param::Bias).then_some(sd[6]),
         scale_sd: free(Param::Scale).then_some(sd[0]),
         range,
-        // Temperature coefficients are not identified (yet): a bias and scale found at the
-        // record's temperature are not those of another file's `t_ref`.
+        // Temperature coefficients: written by `ballisto calibrate` where its record
+        // determines them (`thermal`); a bias and scale found at the record's temperature
+        // are not those of another file's `t_ref`.
         t_ref: None,
         bias_tc: None,
         scale_tc: None,
@@ -219,7 +224,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     let file = ArrangementFile::read(job.arrangement)?;
     let loaded = file.load(&job.arrangement.display().to_string())?;
     let names = loaded.names.clone();
-    let (times, rows) = read_record(job.samples, &names)?;
+    let (times, rows, temps) = read_record(job.samples, &names)?;
     if rows.len() < 200 {
         return Err(format!(
             "{}: {} sample sets are too few to calibrate from (at least 200: static poses of {POSE_MIN_S} s, or motion)",
@@ -270,6 +275,24 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     let window = ((POSE_WINDOW_S * rate_hz).round() as usize).max(5);
     let min_len = ((POSE_MIN_S * rate_hz).round() as usize).max(window);
     let poses = poses::find_poses(&rows, &noise, rate_ok.as_deref(), window, min_len);
+    // A record with temperatures: each channel's coefficients from its static poses, and the
+    // whole record brought to each channel's `t_ref` before everything else.
+    let tolerance = Tolerance::default();
+    let thermal_found = match &temps {
+        Some(temps) => Some(
+            thermal::identify(&nominal, &rows, temps, &poses, job.fit)
+                .map_err(|e| format!("{}: the temperature coefficients: {e}", job.samples.display()))?,
+        ),
+        None => None,
+    };
+    let (rows, poses) = match (&temps, &thermal_found) {
+        (Some(temps), Some(found)) => {
+            let rows = thermal::corrected(&rows, temps, &found.thermal(), &found.bias);
+            let poses = thermal::pose_means(&poses, &rows);
+            (rows, poses)
+        }
+        _ => (rows, poses),
+    };
     let in_pose = {
         let mut v = vec![false; rows.len()];
         for p in &poses {
@@ -283,7 +306,6 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             .filter(|&k| reference.is_none_or(|r| r.covered[k]))
             .collect()
     };
-    let tolerance = Tolerance::default();
     // Progress: the reference's alignment (its fits one after the other, in the first
     // stage), the whole-record fit, the fit without the held-out stretches (their
     // alternations, at most MAX_ALTERNATIONS each), then the scoring.
@@ -511,23 +533,44 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     if let Some(note) = model_note {
         warnings.push(note);
     }
-    let with_coefficients: Vec<&str> = names
-        .iter()
-        .enumerate()
-        .filter(|(c, _)| loaded.arrangement.thermal(*c).is_some())
-        .map(|(_, n)| n.as_str())
-        .collect();
-    if !with_coefficients.is_empty() {
-        warnings.push(format!(
-            "{}: the temperature coefficients of {} are not written: calibrate does not identify them, and the bias and scale it finds are the record's, at its temperatures",
-            job.arrangement.display(),
-            with_coefficients.join(", ")
-        ));
+    match &thermal_found {
+        None => {
+            let with_coefficients: Vec<&str> = names
+                .iter()
+                .enumerate()
+                .filter(|(c, _)| loaded.arrangement.thermal(*c).is_some())
+                .map(|(_, n)| n.as_str())
+                .collect();
+            if !with_coefficients.is_empty() {
+                warnings.push(format!(
+                    "{}: the temperature coefficients of {} are not written: the record has no temperatures (temp_<channel> columns), and the bias and scale found are the record's, at its temperatures",
+                    job.arrangement.display(),
+                    with_coefficients.join(", ")
+                ));
+            }
+        }
+        Some(found) => {
+            let not: Vec<String> = names
+                .iter()
+                .zip(&found.channels)
+                .filter_map(|(n, c)| match c {
+                    thermal::ChannelThermal::NotDetermined(why) => Some(format!("{n} ({why})")),
+                    thermal::ChannelThermal::Identified { .. } => None,
+                })
+                .collect();
+            if !not.is_empty() {
+                warnings.push(format!(
+                    "temperature coefficients not determined by the record, not written: {}; their bias and scale are the record's, at its temperatures",
+                    not.join(", ")
+                ));
+            }
+        }
     }
     let text = calibrated_file(
         &file,
         &loaded,
         &identification,
+        thermal_found.as_ref(),
         &noise,
         model,
         job,
@@ -549,6 +592,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         reference_dropped,
         reference_found,
         validation,
+        thermal: thermal_found,
     };
     if let Some(path) = job.report {
         // The PNG beside the Markdown, same name (`REPORT.png`).
@@ -588,20 +632,28 @@ fn held_counts(id: &Identification, fit: FitSet) -> Vec<(&'static str, usize, us
         .collect()
 }
 
-/// Sample times and rows.
-type Samples = (Vec<f64>, Vec<Vec<f64>>);
+/// Sample times and rows, and each row's temperatures (per channel, °C: the last read, NaN
+/// before the first; `None` if the record has no temperature column).
+type Samples = (Vec<f64>, Vec<Vec<f64>>, Option<Vec<Vec<f64>>>);
 
 /// The whole record in memory (a calibration record is minutes long, not hours).
 fn read_record(path: &Path, names: &[String]) -> Result<Samples, Box<dyn Error>> {
     let mut reader = SamplesReader::open(path, names)?;
+    let with_temps = (0..names.len()).any(|c| reader.has_temperature(c));
     let mut times = Vec::new();
     let mut rows = Vec::new();
+    let mut temps = Vec::new();
     let mut row = vec![0.0; names.len()];
+    let mut last = vec![f64::NAN; names.len()];
     while let Some(t) = reader.next_row(&mut row)? {
         times.push(t);
         rows.push(row.clone());
+        if with_temps {
+            reader.temperatures(&mut last)?;
+            temps.push(last.clone());
+        }
     }
-    Ok((times, rows))
+    Ok((times, rows, with_temps.then_some(temps)))
 }
 
 /// Each channel's noise: the file's if it gives one, else the quietest 10 % of half-second
@@ -727,21 +779,30 @@ fn calibrated_file(
     file: &ArrangementFile,
     loaded: &LoadedArrangement,
     id: &Identification,
+    thermal_found: Option<&thermal::Found>,
     noise: &[f64],
     model: Model,
     job: &CalibrateJob,
     notes: &[String],
 ) -> Result<String, Box<dyn Error>> {
     let specs = file.expanded_channels(&job.arrangement.display().to_string())?;
+    let coefficients = thermal_found.map_or(vec![None; specs.len()], thermal::Found::thermal);
     let channels: Vec<ChannelSpec> = specs
         .iter()
         .zip(id.channels.iter())
         .zip(noise.iter())
-        .map(|((spec, c), &noise)| {
+        .zip(&coefficients)
+        .map(|(((spec, c), &noise), th)| {
             let mut fit = c.channel_fit(&id.tolerance);
             fit.channel.noise = noise;
             // The parts' full scale is not identified: kept from the nominal file.
-            identified_channel(&spec.name, spec.range, &fit)
+            let mut out = identified_channel(&spec.name, spec.range, &fit);
+            if let Some(th) = th {
+                out.t_ref = Some(th.t_ref);
+                out.bias_tc = Some(th.bias_tc);
+                out.scale_tc = Some(th.scale_tc);
+            }
+            out
         })
         .collect();
     let out = ArrangementFile {
@@ -767,6 +828,20 @@ fn calibrated_file(
     }
     for c in &id.conventions {
         header.push_str(&format!("# Held by convention: {c}.\n"));
+    }
+    if let Some(found) = thermal_found {
+        header.push_str(&format!(
+            "# Temperature coefficients from {} static poses over {:.1} °C ({} alternations); bias and scale are at each channel's t_ref.\n",
+            found.poses.0, found.poses.1, found.alternations
+        ));
+        for (name, c) in loaded.names.iter().zip(&found.channels) {
+            if let thermal::ChannelThermal::Identified { thermal: th, sd } = c {
+                header.push_str(&format!(
+                    "# {name}: bias_tc {:.4e} ± {:.1e} m/s² per °C, scale_tc {:.3e} ± {:.1e} per °C about {:.2} °C.\n",
+                    th.bias_tc, sd.0, th.scale_tc, sd.1, th.t_ref
+                ));
+            }
+        }
     }
     if let Some(k) = &id.kinematic {
         header.push_str(&format!("# Self-calibration: {}.\n", k.describe()));
