@@ -295,6 +295,7 @@ fn record_firmware(
     let mut row: Vec<Option<f64>> =
         vec![None; if temperatures { 2 * channels } else { channels }];
     let mut flag_counts = [0u64; 16];
+    let mut last_temperature = [f32::NAN; ballisto_fw::config::MAX_PARTS];
     let mut failure: Option<std::io::Error> = None;
     let mut emit = |set: &ballisto_fw::sampler::SampleSet,
                     m: &ballisto_fw::estimation::SetEstimate,
@@ -302,10 +303,16 @@ fn record_firmware(
         let t = SimTime::seconds(set.t);
         row.iter_mut().for_each(|v| *v = None);
         for_each_channel(&config.sampling, set, |c, x| row[c] = Some(f64::from(x)));
-        if let (true, Some((part, celsius))) = (temperatures, set.temperature) {
-            let part = config.sampling.parts.get(usize::from(part)).copied().flatten();
-            for c in part.iter().flat_map(|p| p.channels.iter().flatten()) {
-                row[channels + usize::from(*c)] = Some(f64::from(celsius));
+        if temperatures {
+            // A part's temperature where it changed (the column holds the last one).
+            for (i, (&t, part)) in set.temperatures.iter().zip(&config.sampling.parts).enumerate() {
+                if t.is_nan() || t.to_bits() == last_temperature[i].to_bits() {
+                    continue;
+                }
+                last_temperature[i] = t;
+                for c in part.iter().flat_map(|p| p.channels.iter().flatten()) {
+                    row[channels + usize::from(*c)] = Some(f64::from(t));
+                }
             }
         }
         crate::estimate::count_flags(&mut flag_counts, m.estimate.flags);

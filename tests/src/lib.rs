@@ -7,6 +7,7 @@ pub mod cases;
 pub mod csv;
 pub mod drawn;
 pub mod faults;
+pub mod frame;
 pub mod ml;
 pub mod nine;
 pub mod recorded;

@@ -14,7 +14,8 @@ use ballisto::sim::{run_sim, SimJob};
 use ballisto_fw::config::Alignment;
 use hal_sim::arrangement_file::ArrangementFile;
 use hal_sim::scenario::{BodySpec, Scenario, TurntableSpec};
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::Vector3;
+use e2e_tests::frame::{errors_in, frame_of, Frame};
 
 /// The late reference's lag (s) and bias (rad/s).
 const LAG_S: f64 = 0.005;
@@ -119,121 +120,6 @@ fn estimate(arrangement: &Path, run: &Path, name: &str) -> Comparison {
     })
     .unwrap();
     compare(&run.join("truth.csv"), &out).unwrap()
-}
-
-/// Where the calibrated file's frame sits against the true one: the common rotation of the
-/// axes (`n_c = n_t + δ × n_t`, least squares), then the common translation and size of the
-/// positions (`R_c = R_t + δ × R_t + t + s R_t`). What calibration cannot see (the
-/// translation always, the rotation and size without a reference) is held by convention, so
-/// the estimate is that of a body seen in this frame.
-struct Frame {
-    rotation: Vector3<f64>,
-    translation: Vector3<f64>,
-    size: f64,
-    /// The axes' rotation against the lever arms': the axes' common rotation minus the one
-    /// the positions show when they are fitted with a rotation of their own.
-    relative_rotation: Vector3<f64>,
-}
-
-fn frame_of(calibrated: &Path, truth: &Path) -> Frame {
-    let read = |p: &Path| {
-        ArrangementFile::read(p)
-            .unwrap()
-            .expanded_channels("f")
-            .unwrap()
-    };
-    let (c, t) = (read(calibrated), read(truth));
-    let mut n = DMatrix::zeros(3 * c.len(), 3);
-    let mut rhs = DVector::zeros(3 * c.len());
-    for (i, (a, b)) in c.iter().zip(t.iter()).enumerate() {
-        assert_eq!(a.name, b.name);
-        let (na, nb) = (
-            Vector3::from(a.axis).normalize(),
-            Vector3::from(b.axis).normalize(),
-        );
-        // δ × n = −[n×] δ
-        n.view_mut((3 * i, 0), (3, 3))
-            .copy_from(&(-nb.cross_matrix()));
-        rhs.rows_mut(3 * i, 3).copy_from(&(na - nb));
-    }
-    let rotation: Vector3<f64> = n
-        .svd(true, true)
-        .solve(&rhs, 1e-12)
-        .unwrap()
-        .fixed_rows::<3>(0)
-        .into();
-    let mut m = DMatrix::zeros(3 * c.len(), 4);
-    let mut rhs = DVector::zeros(3 * c.len());
-    for (i, (a, b)) in c.iter().zip(t.iter()).enumerate() {
-        let (ra, rb) = (Vector3::from(a.position), Vector3::from(b.position));
-        m.view_mut((3 * i, 0), (3, 3))
-            .copy_from(&Matrix3::identity());
-        m.view_mut((3 * i, 3), (3, 1)).copy_from(&rb);
-        rhs.rows_mut(3 * i, 3)
-            .copy_from(&(ra - rb - rotation.cross(&rb)));
-    }
-    let x = m.svd(true, true).solve(&rhs, 1e-12).unwrap();
-    // The positions' own rotation δ_p (with translation and size): R_c − R_t = δ_p × R_t
-    // + t + s R_t.
-    let mut mp = DMatrix::zeros(3 * c.len(), 7);
-    let mut rhs = DVector::zeros(3 * c.len());
-    for (i, (a, b)) in c.iter().zip(t.iter()).enumerate() {
-        let (ra, rb) = (Vector3::from(a.position), Vector3::from(b.position));
-        mp.view_mut((3 * i, 0), (3, 3))
-            .copy_from(&(-rb.cross_matrix()));
-        mp.view_mut((3 * i, 3), (3, 3))
-            .copy_from(&Matrix3::identity());
-        mp.view_mut((3 * i, 6), (3, 1)).copy_from(&rb);
-        rhs.rows_mut(3 * i, 3).copy_from(&(ra - rb));
-    }
-    let xp = mp.svd(true, true).solve(&rhs, 1e-12).unwrap();
-    Frame {
-        rotation,
-        translation: Vector3::new(x[0], x[1], x[2]),
-        size: x[3],
-        relative_rotation: rotation - Vector3::new(xp[0], xp[1], xp[2]),
-    }
-}
-
-/// RMS errors of σ0, Ω′ and Ω against the truth seen in `frame`: σ0 at the point the frame
-/// calls the origin (the true point `−t`: `σ0 − Ω′ × t − Ω × (Ω × t)`), every vector turned
-/// by δ, Ω′ and Ω scaled as the size scales `{Ω′}` and `{Ω}²`.
-fn errors_in(run: &Path, estimates: &str, frame: &Frame) -> [f64; 3] {
-    let read = |p: &Path| -> (Vec<String>, Vec<Vec<f64>>) {
-        let text = std::fs::read_to_string(p).unwrap();
-        let mut lines = text.lines();
-        let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
-        let rows = lines
-            .map(|l| {
-                l.split(',')
-                    .map(|v| v.parse().unwrap_or(f64::NAN))
-                    .collect()
-            })
-            .collect();
-        (header, rows)
-    };
-    let (th, tr) = read(&run.join("truth.csv"));
-    let (eh, er) = read(&run.join(estimates));
-    let vector = |h: &[String], r: &[f64], name: &str| {
-        let col = |a: &str| r[h.iter().position(|x| *x == format!("{name}_{a}")).unwrap()];
-        Vector3::new(col("x"), col("y"), col("z"))
-    };
-    let turn = |v: Vector3<f64>| v + frame.rotation.cross(&v);
-    let t = frame.translation;
-    let mut sums = [0.0; 3];
-    for (a, b) in tr.iter().zip(er.iter()) {
-        let (w, dw) = (vector(&th, a, "omega"), vector(&th, a, "domega"));
-        let s0 = vector(&th, a, "sigma0") - dw.cross(&t) - w.cross(&w.cross(&t));
-        let truth = [
-            turn(s0),
-            turn(dw) / (1.0 + frame.size),
-            turn(w) / (1.0 + frame.size).sqrt(),
-        ];
-        for (k, name) in ["sigma0", "domega", "omega"].iter().enumerate() {
-            sums[k] += (vector(&eh, b, name) - truth[k]).norm_squared();
-        }
-    }
-    sums.map(|v| (v / tr.len() as f64).sqrt())
 }
 
 #[test]

@@ -206,9 +206,7 @@ impl App {
     ) -> Observation {
         health.latest_into(&mut self.health);
         self.part_events(set.t, tm).await;
-        if let Some((part, celsius)) = set.temperature {
-            self.estimation.observe_temperature(part, celsius);
-        }
+        self.estimation.observe_temperatures(&set.temperatures);
         let mut motion = None;
         if self.mode == Mode::Operate {
             let excluded_before = self.estimation.excluded_parts();

@@ -536,13 +536,16 @@ impl Estimation {
         mask
     }
 
-    /// A part's temperature read (°C): its channels' corrections from the next set on.
-    /// Called for every set that carries one, in standby too.
-    pub fn observe_temperature(&mut self, part: u8, celsius: f32) {
-        let part = usize::from(part);
-        if let Some(chans) = self.channels.get(part) {
-            self.compensation
-                .observe(self.estimator.arrangement(), part, chans, celsius);
+    /// The parts' temperatures a set carries (°C, NaN: not read): the channels of a part
+    /// whose temperature changed get their corrections for it. Called for every set, before
+    /// it is processed, in standby too.
+    pub fn observe_temperatures(&mut self, celsius: &[f32; MAX_PARTS]) {
+        for (part, (&t, chans)) in celsius.iter().zip(self.channels.iter()).enumerate() {
+            let known = self.compensation.temperatures()[part];
+            if !t.is_nan() && t.to_bits() != known.to_bits() {
+                self.compensation
+                    .observe(self.estimator.arrangement(), part, chans, t);
+            }
         }
     }
 

@@ -45,9 +45,9 @@ pub struct SampleSet {
     /// `t`, `(1 − w)² + w²` for a value interpolated with weight `w` (0.5 midway), so that the
     /// fault monitor expects of it what it has.
     pub variance: [f32; MAX_PARTS],
-    /// A part's temperature read after this set's readings (part index, °C): one part per
-    /// [`Sampler::temperature_every`] sets, in turn.
-    pub temperature: Option<(u8, f32)>,
+    /// Each part's last temperature read (°C; NaN where none): every part's at start, then
+    /// one part's after the readings of every [`Sampler::temperature_every`]-th set, in turn.
+    pub temperatures: [f32; MAX_PARTS],
 }
 
 impl SampleSet {
@@ -58,7 +58,7 @@ impl SampleSet {
             t,
             parts,
             variance: [1.0; MAX_PARTS],
-            temperature: None,
+            temperatures: [f32::NAN; MAX_PARTS],
         }
     }
 }
@@ -90,6 +90,8 @@ pub struct Sampler<SPI, I2C, SYNC> {
     temperature_every: u32,
     /// The part whose temperature is read next.
     temperature_next: usize,
+    /// Each part's last temperature read (°C; NaN where none).
+    temperatures: [f32; MAX_PARTS],
 }
 
 /// How often each part's temperature is read (Hz): a part's die follows its surroundings
@@ -121,6 +123,7 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
             health: LoopHealth::default(),
             temperature_every,
             temperature_next: 0,
+            temperatures: [f32::NAN; MAX_PARTS],
         }
     }
 
@@ -130,16 +133,19 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
         self.temperature_every
     }
 
-    /// The next part's temperature (round robin over the configured parts).
-    async fn read_temperature(&mut self) -> Option<(u8, f32)> {
+    /// The next part's temperature (round robin over the configured parts); a failed read
+    /// keeps the last one.
+    async fn read_temperature(&mut self) {
         for _ in 0..MAX_PARTS {
             let i = self.temperature_next;
             self.temperature_next = (i + 1) % MAX_PARTS;
             if let Some(p) = self.parts[i].as_mut() {
-                return p.read_temperature().await.map(|t| (i as u8, t));
+                if let Some(t) = p.read_temperature().await {
+                    self.temperatures[i] = t;
+                }
+                return;
             }
         }
-        None
     }
 
     /// Starts every part (failures are counted; such parts are retried while sampling) and
@@ -149,6 +155,11 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
         let _ = self.sync.set_low();
         for p in self.parts.iter_mut().flatten() {
             p.start().await;
+        }
+        // Every part's temperature before the first set: its readings are corrected from the
+        // first on.
+        for _ in 0..MAX_PARTS {
+            self.read_temperature().await;
         }
         let grid = first.unwrap_or(0);
         let now = time.now();
@@ -223,8 +234,9 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
         }
         self.read_free_running(time, t, &mut set).await;
         if k.is_multiple_of(self.temperature_every) {
-            set.temperature = self.read_temperature().await;
+            self.read_temperature().await;
         }
+        set.temperatures = self.temperatures;
         self.k = self.k.saturating_add(1);
         self.health.sets = self.health.sets.saturating_add(1);
         set
