@@ -203,3 +203,52 @@ fn lis3dh_fifo_counts_every_conversion_of_the_parts_own_clock() {
     let level = block_on(dev.fifo_level()).unwrap();
     assert!(level.overrun && level.samples == 31, "{level:?}");
 }
+
+/// Both drivers read their part's temperature through its registers: the ADXL355's within
+/// its 0.11 °C code (nominal intercept and slope), the LIS3DH's relative one within its 1 °C
+/// digit, following a chamber ramp with the part's own lag and sensor intercept; and a
+/// warming part's readings move by its coefficients.
+#[test]
+fn drivers_read_the_parts_temperature() {
+    use hal_sim::sensors::thermal::{PartThermal, Surroundings};
+    let thermal = PartThermal {
+        surroundings: Surroundings::Ramp {
+            from: -10.0,
+            to: 50.0,
+            start: 0.0,
+            duration: 60.0,
+        },
+        lag: 20.0,
+        bias_tc: [1e-3, 0.0, 0.0],
+        scale_tc: [0.0, 0.0, 1e-4],
+        sensor_offset: 1.5,
+    };
+    let errors = SensorErrors {
+        thermal,
+        ..SensorErrors::default()
+    };
+    // ADXL355 on SPI, internal clock.
+    let clock = SimClock::new();
+    let bus = SimSpiBus::new(clock.clone(), 10e6);
+    bus.attach(0, Box::new(Adxl355::new(errors.clone(), Box::new(|_| F))));
+    let mut adxl = adxl_start(&bus, 125.0, adxl355::Sync::Internal);
+    // LIS3DH on I²C.
+    let i2c = SimI2cBus::new(clock.clone(), 400e3);
+    i2c.attach(0x18, Box::new(Lis3dh::new(errors, Box::new(|_| F))));
+    let mut lis = block_on(lis3dh::Lis3dh::new(i2c.clone(), 0x18, LIS)).unwrap();
+    for t in [1.0, 20.0, 45.0, 90.0] {
+        clock.advance_to(t);
+        let sensed = thermal.sensed(clock.now());
+        let a = f64::from(block_on(adxl.read_temperature()).unwrap());
+        assert!((a - sensed).abs() < 0.06, "ADXL355 at {t} s: {a} vs {sensed}");
+        let l = f64::from(block_on(lis.read_temperature()).unwrap());
+        assert!((l - sensed).abs() <= 0.5, "LIS3DH at {t} s: {l} vs {sensed}");
+        // The die's temperature moves x's bias and z's scale from 25 °C.
+        let dt = thermal.die(clock.now()) - 25.0;
+        let f = block_on(adxl.read_acceleration()).unwrap();
+        let want = [F[0] + 1e-3 * dt, F[1], F[2] * (1.0 + 1e-4 * dt)];
+        for k in 0..3 {
+            assert!((f64::from(f[k]) - want[k]).abs() < 1e-4, "axis {k} at {t} s");
+        }
+    }
+}

@@ -292,12 +292,19 @@ impl App {
                 return refuse(not_ready::RESIDUAL_HIGH | c as u32);
             }
         }
-        let arrangement = id.arrangement(frame).map_err(|e| {
+        let mut arrangement = id.arrangement(frame).map_err(|e| {
             (
                 FailureCode::NotReady,
                 not_ready::INVALID | (config_error_code(&e) >> 16),
             )
         })?;
+        // The window saw the readings brought to each channel's `t_ref` (temperature
+        // compensation): the bias and scale found are at `t_ref`, and the coefficients in use
+        // go into the record with them.
+        let in_use = self.estimation.estimator().arrangement();
+        for c in 0..arrangement.len() {
+            let _ = arrangement.set_thermal(c, in_use.thermal(c));
+        }
         self.store = Store::Busy(request, ack_completion);
         // Sent by the task loop (`take_commit`) right after this command.
         self.outbox = Some(CommitRequest { arrangement });
