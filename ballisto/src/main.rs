@@ -33,6 +33,8 @@ const SIM_HELP: &str = "Named scenarios:
   tetra-orbit-faults  tetra-orbit with a stuck part, a bias jump, a dead part and corrupted bytes
   ground-calibration  6 parts with datasheet errors (4 x ADXL355, 2 x LIS3DH), ground calibration schedule, reference gyro
   orbit-identify      4 x ADXL355 with datasheet errors, tumble with attitude-control torque in orbit, reference gyro at 20 Hz
+  ground-thermal      4 x ADXL355 with datasheet errors and temperature coefficients, calibration schedule three times in a chamber ramping -10 to +50 degC, reference gyro
+  tetra-orbit-thermal the same parts tumbling in orbit for 3 h through a +-20 degC orbit thermal cycle (boot on ground-thermal's calibration with --calibration)
 The scenario file format: hal-sim/scenarios/README.md.";
 
 const DECODE_HELP: &str = "Packet layouts: docs/telemetry.md. Exit status: 0 all packets intact and
@@ -841,7 +843,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 uplink,
                 calibration: calibration.as_deref(),
             })?;
-            print_sim(say, &scenario, &sc, &r, started);
+            print_sim(say, &scenario, &sc, &r, calibration.is_some(), started);
             Ok(ExitCode::SUCCESS)
         }
         Command::Decode {
@@ -1142,6 +1144,7 @@ fn print_sim(
     scenario: &str,
     sc: &hal_sim::scenario::Scenario,
     r: &ballisto::sim::SimReport,
+    job_calibration: bool,
     started: std::time::Instant,
 ) {
     say.info(format!("ballisto sim: {scenario}: {}", sc.description));
@@ -1173,7 +1176,14 @@ fn print_sim(
         print_firmware(say, sc, fw);
     }
     for line in &r.identification {
-        say.info(format!("  identify: {line}"));
+        // The first boot's identification (`--identify`), or the stored calibration booted on
+        // (`--calibration`).
+        let what = if job_calibration {
+            "calibration"
+        } else {
+            "identify"
+        };
+        say.info(format!("  {what}: {line}"));
     }
     if let Some(c) = &r.errors {
         say.info(format!(

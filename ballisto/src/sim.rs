@@ -76,7 +76,8 @@ pub struct SimReport {
     /// With `--firmware`: what the firmware counted and measured.
     pub firmware: Option<hal_sim::firmware_host::FirmwareReport>,
     /// With `--identify`: the first boot's identification reports, events and verifications,
-    /// decoded from its telemetry (one line each).
+    /// decoded from its telemetry (one line each); with `--calibration`: the stored
+    /// calibration the unit booted on.
     pub identification: Vec<String>,
 }
 
@@ -292,8 +293,7 @@ fn record_firmware(
     let n = sc.samples();
     let bar = progress_bar(job.progress, n as u64);
     let channels = loaded.names.len();
-    let mut row: Vec<Option<f64>> =
-        vec![None; if temperatures { 2 * channels } else { channels }];
+    let mut row: Vec<Option<f64>> = vec![None; if temperatures { 2 * channels } else { channels }];
     let mut flag_counts = [0u64; 16];
     let mut last_temperature = [f32::NAN; ballisto_fw::config::MAX_PARTS];
     let mut failure: Option<std::io::Error> = None;
@@ -305,7 +305,12 @@ fn record_firmware(
         for_each_channel(&config.sampling, set, |c, x| row[c] = Some(f64::from(x)));
         if temperatures {
             // A part's temperature where it changed (the column holds the last one).
-            for (i, (&t, part)) in set.temperatures.iter().zip(&config.sampling.parts).enumerate() {
+            for (i, (&t, part)) in set
+                .temperatures
+                .iter()
+                .zip(&config.sampling.parts)
+                .enumerate()
+            {
                 if t.is_nan() || t.to_bits() == last_temperature[i].to_bits() {
                     continue;
                 }

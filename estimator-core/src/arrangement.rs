@@ -185,7 +185,11 @@ impl<const CAP: usize> Arrangement<CAP> {
 
     /// Channel `channel`'s temperature coefficients, if it has them.
     pub fn thermal(&self, channel: usize) -> Option<Thermal> {
-        self.thermal.get(..self.len)?.get(channel).copied().flatten()
+        self.thermal
+            .get(..self.len)?
+            .get(channel)
+            .copied()
+            .flatten()
     }
 
     /// How well the frame of a calibrated arrangement is tied to the body (its common

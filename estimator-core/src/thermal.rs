@@ -15,6 +15,8 @@
 
 use core::fmt;
 
+use crate::real::Real;
+
 /// Temperatures (°C) a part can report: the ADXL355's and LIS3DH's operating ranges are
 /// −40…+125 °C; a value outside −100…+200 °C is not a temperature.
 pub const PLAUSIBLE_C: (f64, f64) = (-100.0, 200.0);
@@ -106,11 +108,12 @@ impl Thermal {
     }
 
     /// [`Thermal::at_reference`] at temperature `t` as `gain·p + offset`: what the firmware
-    /// precomputes once per temperature read, so that a reading costs one multiply-add.
-    pub fn linear(&self, t: f64, bias: f64) -> (f64, f64) {
-        let dt = t - self.t_ref;
-        let gain = 1.0 / (1.0 + self.scale_tc * dt);
-        (gain, bias - (bias + self.bias_tc * dt) * gain)
+    /// precomputes once per temperature read, so that a reading costs one multiply-add. In
+    /// `R` = f32 on the target (the Cortex-M4F's FPU has no f64), f64 on the ground.
+    pub fn linear<R: Real>(&self, t: R, bias: R) -> (R, R) {
+        let dt = t - R::of(self.t_ref);
+        let gain = R::ONE / (R::ONE + R::of(self.scale_tc) * dt);
+        (gain, bias - (bias + R::of(self.bias_tc) * dt) * gain)
     }
 }
 

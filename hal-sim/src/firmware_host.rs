@@ -170,8 +170,8 @@ pub fn firmware_config(
             sc.parts.len()
         ));
     }
-    let arrangement = firmware_arrangement(loaded)
-        .map_err(|e| format!("the scenario's arrangement: {e}"))?;
+    let arrangement =
+        firmware_arrangement(loaded).map_err(|e| format!("the scenario's arrangement: {e}"))?;
     let mut parts = [None; MAX_PARTS];
     for (slot, p) in parts.iter_mut().zip(sc.parts.iter()) {
         let g = sc.range_g(p);

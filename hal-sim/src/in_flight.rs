@@ -249,7 +249,8 @@ pub fn boot_on_stored(
     let mut mem = vec![0xFFu8; STORE_LEN];
     let mut erases = [0u32; STORE_LEN / HOST_SECTOR];
     let flash = RamFlash::new(&mut mem, &mut erases, Programming::WordOnce);
-    let mut store = CalibrationStore::new(flash, 0..STORE_LEN as u32).map_err(|e| format!("{e}"))?;
+    let mut store =
+        CalibrationStore::new(flash, 0..STORE_LEN as u32).map_err(|e| format!("{e}"))?;
     let record = ballisto_fw::calstore::record::CalibrationRecord {
         id: 1,
         arrangement: calibration.clone(),

@@ -109,7 +109,10 @@ pub fn errors_in(run: &Path, estimates: &str, frame: &Frame) -> [f64; 3] {
         ["x", "y", "z"].map(|a| h.iter().position(|x| *x == format!("{name}_{a}")).unwrap())
     };
     let names = ["sigma0", "domega", "omega"];
-    let (tc, ec) = (names.map(|n| columns(&th, n)), names.map(|n| columns(&eh, n)));
+    let (tc, ec) = (
+        names.map(|n| columns(&th, n)),
+        names.map(|n| columns(&eh, n)),
+    );
     let vector = |r: &[f64], c: [usize; 3]| Vector3::new(r[c[0]], r[c[1]], r[c[2]]);
     let parse = |l: String| -> Vec<f64> {
         l.split(',')

@@ -12,10 +12,10 @@ use ballisto::compare::{compare, Comparison};
 use ballisto::estimate::{estimate_files, EstimateJob, Precision};
 use ballisto::sim::{run_sim, SimJob};
 use ballisto_fw::config::Alignment;
+use e2e_tests::frame::{errors_in, frame_of, Frame};
 use hal_sim::arrangement_file::ArrangementFile;
 use hal_sim::scenario::{BodySpec, Scenario, TurntableSpec};
 use nalgebra::Vector3;
-use e2e_tests::frame::{errors_in, frame_of, Frame};
 
 /// The late reference's lag (s) and bias (rad/s).
 const LAG_S: f64 = 0.005;

@@ -240,15 +240,24 @@ fn drivers_read_the_parts_temperature() {
         clock.advance_to(t);
         let sensed = thermal.sensed(clock.now());
         let a = f64::from(block_on(adxl.read_temperature()).unwrap());
-        assert!((a - sensed).abs() < 0.06, "ADXL355 at {t} s: {a} vs {sensed}");
+        assert!(
+            (a - sensed).abs() < 0.06,
+            "ADXL355 at {t} s: {a} vs {sensed}"
+        );
         let l = f64::from(block_on(lis.read_temperature()).unwrap());
-        assert!((l - sensed).abs() <= 0.5, "LIS3DH at {t} s: {l} vs {sensed}");
+        assert!(
+            (l - sensed).abs() <= 0.5,
+            "LIS3DH at {t} s: {l} vs {sensed}"
+        );
         // The die's temperature moves x's bias and z's scale from 25 °C.
         let dt = thermal.die(clock.now()) - 25.0;
         let f = block_on(adxl.read_acceleration()).unwrap();
         let want = [F[0] + 1e-3 * dt, F[1], F[2] * (1.0 + 1e-4 * dt)];
         for k in 0..3 {
-            assert!((f64::from(f[k]) - want[k]).abs() < 1e-4, "axis {k} at {t} s");
+            assert!(
+                (f64::from(f[k]) - want[k]).abs() < 1e-4,
+                "axis {k} at {t} s"
+            );
         }
     }
 }

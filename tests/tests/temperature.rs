@@ -62,7 +62,9 @@ fn firmware_run(sc: &Scenario, out: &Path, calibration: Option<&Path>) -> Compar
         calibration,
     })
     .unwrap();
-    report.errors.expect("a firmware run is compared with its truth")
+    report
+        .errors
+        .expect("a firmware run is compared with its truth")
 }
 
 /// The ground thermal record of `sc` in `d`, calibrated with its reference gyro.
@@ -87,7 +89,10 @@ fn calibrate(sc: &Scenario, d: &Path) -> CalibrationSummary {
 /// Every channel's coefficients against the scenario's (part order, x y z): within 5 of
 /// their deviations; the largest deviation in units of the sd is returned.
 fn check_coefficients(sc: &Scenario, summary: &CalibrationSummary, what: &str) -> f64 {
-    let found = summary.thermal.as_ref().expect("the record has temperatures");
+    let found = summary
+        .thermal
+        .as_ref()
+        .expect("the record has temperatures");
     let mut worst = 0.0f64;
     for (i, c) in found.channels.iter().enumerate() {
         let part = &sc.parts[i / 3];
@@ -166,7 +171,11 @@ fn without_coefficients(file: &Path, out: &Path) {
     let text = std::fs::read_to_string(file).unwrap();
     let kept: String = text
         .lines()
-        .filter(|l| !["t_ref", "bias_tc", "scale_tc"].iter().any(|k| l.starts_with(k)))
+        .filter(|l| {
+            !["t_ref", "bias_tc", "scale_tc"]
+                .iter()
+                .any(|k| l.starts_with(k))
+        })
         .map(|l| format!("{l}\n"))
         .collect();
     std::fs::write(out, kept).unwrap();
@@ -216,7 +225,10 @@ fn compensated_in_orbit_as_ideal_parts() {
     })
     .unwrap();
     assert!(
-        !ground.warnings.iter().any(|w| w.contains("not compensated")),
+        !ground
+            .warnings
+            .iter()
+            .any(|w| w.contains("not compensated")),
         "{:?}",
         ground.warnings
     );
@@ -248,7 +260,12 @@ fn compensated_in_orbit_as_ideal_parts() {
         frame.translation.norm() * 1e3,
         sigma0_moved / base.sigma0
     );
-    assert!(comp.omega <= 1.2 * base.omega, "Ω {} vs {}", comp.omega, base.omega);
+    assert!(
+        comp.omega <= 1.2 * base.omega,
+        "Ω {} vs {}",
+        comp.omega,
+        base.omega
+    );
     assert!(
         comp.domega <= 1.2 * base.domega,
         "Ω′ {} vs {}",
@@ -266,11 +283,20 @@ fn compensated_in_orbit_as_ideal_parts() {
         (on_ground.domega, comp.domega),
         (on_ground.omega, comp.omega),
     ] {
-        assert!((g / f - 1.0).abs() < 0.02, "ground {g:.4e} vs firmware {f:.4e}");
+        assert!(
+            (g / f - 1.0).abs() < 0.02,
+            "ground {g:.4e} vs firmware {f:.4e}"
+        );
     }
     // The coefficients matter, and their absence is not silent.
-    assert!(bare.omega > 3.0 * base.omega, "uncompensated Ω {}", bare.omega);
-    let silent = bare.silent.expect("firmware estimates carry deviations and flags");
+    assert!(
+        bare.omega > 3.0 * base.omega,
+        "uncompensated Ω {}",
+        bare.omega
+    );
+    let silent = bare
+        .silent
+        .expect("firmware estimates carry deviations and flags");
     assert!(
         silent.omega <= bare.rows / 1000,
         "uncompensated: {silent:?} of {} rows silently wrong",

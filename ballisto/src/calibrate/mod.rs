@@ -280,8 +280,12 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     let tolerance = Tolerance::default();
     let thermal_found = match &temps {
         Some(temps) => Some(
-            thermal::identify(&nominal, &rows, temps, &poses, job.fit)
-                .map_err(|e| format!("{}: the temperature coefficients: {e}", job.samples.display()))?,
+            thermal::identify(&nominal, &rows, temps, &poses, job.fit).map_err(|e| {
+                format!(
+                    "{}: the temperature coefficients: {e}",
+                    job.samples.display()
+                )
+            })?,
         ),
         None => None,
     };
@@ -568,7 +572,6 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     }
     let text = calibrated_file(
         &file,
-        &loaded,
         &identification,
         thermal_found.as_ref(),
         &noise,
@@ -777,7 +780,6 @@ fn written_noise(id: &Identification, declared: &[f64]) -> Vec<f64> {
 /// identified from what.
 fn calibrated_file(
     file: &ArrangementFile,
-    loaded: &LoadedArrangement,
     id: &Identification,
     thermal_found: Option<&thermal::Found>,
     noise: &[f64],
@@ -834,7 +836,7 @@ fn calibrated_file(
             "# Temperature coefficients from {} static poses over {:.1} °C ({} alternations); bias and scale are at each channel's t_ref.\n",
             found.poses.0, found.poses.1, found.alternations
         ));
-        for (name, c) in loaded.names.iter().zip(&found.channels) {
+        for (name, c) in specs.iter().map(|c| &c.name).zip(&found.channels) {
             if let thermal::ChannelThermal::Identified { thermal: th, sd } = c {
                 header.push_str(&format!(
                     "# {name}: bias_tc {:.4e} ± {:.1e} m/s² per °C, scale_tc {:.3e} ± {:.1e} per °C about {:.2} °C.\n",
@@ -846,7 +848,7 @@ fn calibrated_file(
     if let Some(k) = &id.kinematic {
         header.push_str(&format!("# Self-calibration: {}.\n", k.describe()));
     }
-    for (name, c) in loaded.names.iter().zip(id.channels.iter()) {
+    for (name, c) in specs.iter().map(|c| &c.name).zip(id.channels.iter()) {
         if !c.held.is_empty() {
             header.push_str(&format!(
                 "# {name}: not identified by this record (kept nominal): {}.\n",

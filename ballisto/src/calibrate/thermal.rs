@@ -159,7 +159,11 @@ pub fn identify(
     let mut t_ref = vec![f64::NAN; n];
     let mut undetermined: Vec<Option<String>> = vec![None; n];
     for c in 0..n {
-        let ts: Vec<f64> = at_pose.iter().map(|t| t[c]).filter(|t| t.is_finite()).collect();
+        let ts: Vec<f64> = at_pose
+            .iter()
+            .map(|t| t[c])
+            .filter(|t| t.is_finite())
+            .collect();
         if ts.len() < 4 {
             undetermined[c] = Some(format!(
                 "{} static poses with a temperature (at least 4)",
@@ -190,16 +194,11 @@ pub fn identify(
     }
     // Per channel: bias_tc, scale_tc, then the bias, scale and tilt (3) that `fit` frees;
     // per pose: a turn of its gravity (3).
-    let own: Vec<usize> = [
-        (true, 2),
-        (fit.bias, 1),
-        (fit.scale, 1),
-        (fit.axis, 3),
-    ]
-    .iter()
-    .filter(|(on, _)| *on)
-    .map(|(_, k)| *k)
-    .collect();
+    let own: Vec<usize> = [(true, 2), (fit.bias, 1), (fit.scale, 1), (fit.axis, 3)]
+        .iter()
+        .filter(|(on, _)| *on)
+        .map(|(_, k)| *k)
+        .collect();
     let per_channel: usize = own.iter().sum();
     let mut btc = vec![0.0; n];
     let mut stc = vec![0.0; n];
@@ -320,7 +319,12 @@ pub fn identify(
             break;
         }
     }
-    let finite: Vec<f64> = at_pose.iter().flatten().copied().filter(|t| t.is_finite()).collect();
+    let finite: Vec<f64> = at_pose
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|t| t.is_finite())
+        .collect();
     let span = finite.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
         - finite.iter().fold(f64::INFINITY, |a, &b| a.min(b));
     let channels = (0..n)

@@ -55,6 +55,9 @@ fn adxl355_start_up_and_burst_read() {
         &[0x11],
         Some(&[0x3E, 0x80, 0x00, 0xFF, 0xFF, 0xF0, 0x12, 0x34, 0x50]),
     ));
+    // TEMP2, TEMP1 = 1 885 − 181 = 1 704: 45 °C; then a TEMP2 with bits 7:4 set.
+    t.extend(spi(&[0x0D], Some(&[0x06, 0xA8])));
+    t.extend(spi(&[0x0D], Some(&[0x16, 0xA8])));
     let mut mock = SpiMock::new(&t);
     let mut dev = block_on(adxl355::Adxl355::new(mock.clone(), CONFIG)).unwrap();
     let a = block_on(dev.read_acceleration()).unwrap();
@@ -62,6 +65,12 @@ fn adxl355_start_up_and_burst_read() {
     assert!((a[0] - G0).abs() < 1e-5);
     assert!((a[1] + lsb).abs() < 1e-9);
     assert!((a[2] - 0x12345 as f32 * lsb).abs() < 1e-5);
+    let t = block_on(dev.read_temperature()).unwrap();
+    assert!((t - 45.0).abs() < 1e-4, "{t}");
+    assert_eq!(
+        block_on(dev.read_temperature()),
+        Err(adxl355::Error::Implausible)
+    );
     mock.done();
 }
 
@@ -134,10 +143,13 @@ fn lis3dh_start_up_and_burst_read() {
         I2cT::write(ADDR, vec![0x23, 0x88 | 0x10]), // BDU, ±4 g, HR
         I2cT::write(ADDR, vec![0x24, 0x00]),        // FIFO off
         I2cT::write(ADDR, vec![0x2E, 0x00]),        // bypass
+        I2cT::write(ADDR, vec![0x1F, 0xC0]),        // ADC and temperature sensor on
         I2cT::write(ADDR, vec![0x20, 0x77]),        // 400 Hz, XYZ on
         // X = +1000 digits, Y = −1, Z = 0 (12-bit, left-justified, little-endian).
         I2cT::write_read(ADDR, vec![0xA8], vec![0x80, 0x3E, 0xF0, 0xFF, 0x00, 0x00]),
         I2cT::write_read(ADDR, vec![0xA8], vec![0x81, 0x3E, 0, 0, 0, 0]),
+        // OUT_ADC3 with auto-increment: −5 digits, 20 °C.
+        I2cT::write_read(ADDR, vec![0x8C], vec![0x00, 0xFB]),
     ];
     let mut mock = I2cMock::new(&t);
     let config = lis3dh::Config {
@@ -154,6 +166,7 @@ fn lis3dh_start_up_and_burst_read() {
         block_on(dev.read_acceleration()),
         Err(lis3dh::Error::Implausible)
     );
+    assert_eq!(block_on(dev.read_temperature()), Ok(20.0));
     mock.done();
 }
 
@@ -178,6 +191,7 @@ fn lis3dh_fifo_stream_level_and_one_burst_of_samples() {
         I2cT::write(ADDR, vec![0x23, 0x88]), // BDU, ±2 g, HR
         I2cT::write(ADDR, vec![0x24, 0x40]), // FIFO_EN
         I2cT::write(ADDR, vec![0x2E, 0x80]), // stream mode
+        I2cT::write(ADDR, vec![0x1F, 0xC0]), // ADC and temperature sensor on
         I2cT::write(ADDR, vec![0x20, 0x57]), // 100 Hz, XYZ on
         I2cT::write_read(ADDR, vec![0x2F], vec![0x42]), // OVRN, 2 samples
         // Two samples in one 12-byte burst: X = 16, then X = −16 digits.

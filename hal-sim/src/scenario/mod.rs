@@ -17,8 +17,8 @@ use crate::arrangement_file::{
 use crate::faults::{Fault, FaultKind};
 use crate::motion::{Burn, Environment, Motion, Rotation, Segment, SegmentKind, Torque};
 use crate::sensors::errors::G0;
-use crate::sensors::SensorErrors;
 use crate::sensors::thermal::{PartThermal, Surroundings};
+use crate::sensors::SensorErrors;
 
 /// An error in a scenario, naming the scenario and what is wrong.
 #[derive(Debug)]
@@ -901,7 +901,9 @@ impl Scenario {
         if p.thermal_lag.is_some_and(|v| !(v.is_finite() && v >= 0.0)) {
             return Err(err("thermal_lag: must be finite and >= 0 (s)".into()));
         }
-        if p.temp_offset.is_some_and(|v| !(v.is_finite() && v.abs() <= 50.0)) {
+        if p.temp_offset
+            .is_some_and(|v| !(v.is_finite() && v.abs() <= 50.0))
+        {
             return Err(err("temp_offset: must be finite, within ±50 °C".into()));
         }
         Ok(slot)

@@ -243,7 +243,9 @@ impl Lis3dh {
     /// Converts the temperature at `t` into `OUT_ADC3` if the ADC and sensor are on.
     fn convert_temperature(&mut self, t: f64) {
         if self.odr() > 0.0 && self.regs[reg::TEMP_CFG_REG as usize] & 0xC0 == 0xC0 {
-            let digits = (self.front.temperature(t) - 25.0).round().clamp(-128.0, 127.0);
+            let digits = (self.front.temperature(t) - 25.0)
+                .round()
+                .clamp(-128.0, 127.0);
             self.regs[reg::OUT_ADC3_L as usize] = 0;
             self.regs[reg::OUT_ADC3_H as usize] = digits as i8 as u8;
         }

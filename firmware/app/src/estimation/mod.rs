@@ -45,8 +45,8 @@ use estimator_core::{
 use crate::config::{AppConfig, MAX_CHANNELS, MAX_PARTS};
 use crate::isolation::Isolation;
 use crate::sampler::SampleSet;
-use temperature::Compensation;
 use crate::time::{seconds, Nanos};
+use temperature::Compensation;
 
 pub use estimator_core::exclusion::{EXCLUDE_AFTER, INCLUDE_AFTER};
 
@@ -540,6 +540,10 @@ impl Estimation {
     /// whose temperature changed get their corrections for it. Called for every set, before
     /// it is processed, in standby too.
     pub fn observe_temperatures(&mut self, celsius: &[f32; MAX_PARTS]) {
+        // Most sets carry no new temperature: one comparison of the whole array.
+        if self.compensation.seen(celsius) {
+            return;
+        }
         for (part, (&t, chans)) in celsius.iter().zip(self.channels.iter()).enumerate() {
             let known = self.compensation.temperatures()[part];
             if !t.is_nan() && t.to_bits() != known.to_bits() {

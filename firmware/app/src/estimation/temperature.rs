@@ -1,8 +1,8 @@
 //! Temperature compensation of the readings (issue 50; `estimator_core::thermal`): each
 //! channel with temperature coefficients is brought to its reading at `t_ref` before the
 //! fault monitor and the estimate see it. The correction `gain·p + offset` is computed once per
-//! temperature read of the channel's part (a few per second, in f64); a set costs one
-//! multiply-add per channel. A channel whose part's temperature has not been read yet is
+//! temperature read of the channel's part (a few per second, in f32 as the readings); a set
+//! costs one multiply-add per channel. A channel whose part's temperature has not been read yet is
 //! used as read (its correction is the identity), and housekeeping shows the temperature as
 //! not read.
 
@@ -80,10 +80,20 @@ impl Compensation {
             let (Some(th), Some(ch)) = (arrangement.thermal(c), biases.get(c)) else {
                 continue;
             };
-            let (gain, offset) = th.linear(f64::from(t), ch.bias);
-            self.gain[c] = gain as f32;
-            self.offset[c] = offset as f32;
+            let (gain, offset) = th.linear(t, ch.bias as f32);
+            self.gain[c] = gain;
+            self.offset[c] = offset;
         }
+    }
+
+    /// Whether `celsius` (a set's temperatures) are those the corrections were made for (bit
+    /// for bit; a part not read yet is NaN in both).
+    #[inline]
+    pub fn seen(&self, celsius: &[f32; MAX_PARTS]) -> bool {
+        celsius
+            .iter()
+            .zip(self.temperature.iter())
+            .all(|(a, b)| a.to_bits() == b.to_bits())
     }
 
     /// Corrects the channel vector `p` in place (NaN stays NaN).
@@ -92,7 +102,7 @@ impl Compensation {
         if !self.active {
             return;
         }
-        for ((x, g), o) in p.iter_mut().zip(self.gain.iter()).zip(self.offset.iter()) {
+        for ((x, g), o) in p.iter_mut().zip(&self.gain).zip(&self.offset) {
             *x = *x * g + o;
         }
     }

@@ -158,7 +158,7 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
         }
         // Every part's temperature before the first set: its readings are corrected from the
         // first on.
-        for _ in 0..MAX_PARTS {
+        for _ in 0..self.parts.iter().flatten().count() {
             self.read_temperature().await;
         }
         let grid = first.unwrap_or(0);

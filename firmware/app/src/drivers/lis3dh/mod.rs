@@ -246,7 +246,11 @@ impl<I2C: I2c> Lis3dh<I2C> {
     pub async fn read_temperature(&mut self) -> Result<f32, Error<I2C::Error>> {
         let mut b = [0u8; 2];
         self.i2c
-            .write_read(self.address, &[reg::OUT_ADC3_L | reg::AUTO_INCREMENT], &mut b)
+            .write_read(
+                self.address,
+                &[reg::OUT_ADC3_L | reg::AUTO_INCREMENT],
+                &mut b,
+            )
             .await
             .map_err(Error::Bus)?;
         Ok(25.0 + f32::from(b[1] as i8))
