@@ -182,8 +182,9 @@ impl<const CAP: usize> Arrangement<CAP> {
         if channel >= self.len {
             return Err(ConfigError::NoSuchChannel { channel });
         }
-        self.thermal[channel] =
-            thermal.map_or([0.0; 3], |t| [t.t_ref, t.bias_tc, t.scale_tc].map(|v| v as f32));
+        self.thermal[channel] = thermal.map_or([0.0; 3], |t| {
+            [t.t_ref, t.bias_tc, t.scale_tc].map(|v| v as f32)
+        });
         Ok(())
     }
 

@@ -393,12 +393,13 @@ fn run_per_set<P: Platform>(p: &mut P, per_tick: f64, model: Model, identifying:
             let reads = (k / 6 + 4 - i) / 4;
             *temp = 20.0 + 0.01 * reads as f32;
         }
+        set.temperature_reads = (k / 6 + 1) as u32;
         let point = ReferencePoint {
             t: tn,
             omega: scenario::field(t).2.map(|v| v as f32),
         };
         let (_, n) = measure(p, per_tick, || {
-            estimation.observe_temperatures(&set.temperatures);
+            estimation.observe_temperatures(set.temperature_reads, &set.temperatures);
             let e = estimation.process(&set);
             if identifying {
                 identifier.post_set(set.t, estimation.readings(), e.estimate.omega);

@@ -206,7 +206,8 @@ impl App {
     ) -> Observation {
         health.latest_into(&mut self.health);
         self.part_events(set.t, tm).await;
-        self.estimation.observe_temperatures(&set.temperatures);
+        self.estimation
+            .observe_temperatures(set.temperature_reads, &set.temperatures);
         let mut motion = None;
         if self.mode == Mode::Operate {
             let excluded_before = self.estimation.excluded_parts();

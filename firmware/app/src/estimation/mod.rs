@@ -536,12 +536,12 @@ impl Estimation {
         mask
     }
 
-    /// The parts' temperatures a set carries (°C, NaN: not read): the channels of a part
-    /// whose temperature changed get their corrections for it. Called for every set, before
-    /// it is processed, in standby too.
-    pub fn observe_temperatures(&mut self, celsius: &[f32; MAX_PARTS]) {
-        // Most sets carry no new temperature: one comparison of the whole array.
-        if self.compensation.seen(celsius) {
+    /// The parts' temperatures a set carries (°C, NaN: not read) after the sampler's `reads`-th
+    /// temperature read: the channels of a part whose temperature changed get their
+    /// corrections for it. Called for every set, before it is processed, in standby too.
+    pub fn observe_temperatures(&mut self, reads: u32, celsius: &[f32; MAX_PARTS]) {
+        // Most sets carry no new temperature.
+        if !self.compensation.news(reads) {
             return;
         }
         for (part, (&t, chans)) in celsius.iter().zip(self.channels.iter()).enumerate() {
@@ -590,9 +590,12 @@ impl Estimation {
         for (i, (value, chans)) in set.parts.iter().zip(self.channels.iter()).enumerate() {
             match value {
                 Some(v) => {
+                    // Each reading brought to its channel's `t_ref` on the way in (the
+                    // identity where a channel has no coefficients).
                     for (x, c) in v.iter().zip(chans.iter()) {
                         if let Some(c) = c {
-                            self.p[usize::from(*c)] = *x;
+                            let c = usize::from(*c);
+                            self.p[c] = self.compensation.corrected(c, *x);
                         }
                     }
                     self.runs.observe(i, true);
@@ -604,7 +607,6 @@ impl Estimation {
                 None => {}
             }
         }
-        self.compensation.apply(&mut self.p[..self.n]);
         let verdict = self.isolation.step(&self.p[..self.n], &set.variance);
         let isolated_before = self.isolated;
         let ordered = self.collect_order();

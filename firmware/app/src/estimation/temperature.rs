@@ -15,10 +15,10 @@ use crate::config::{MAX_CHANNELS, MAX_PARTS};
 pub struct Compensation {
     gain: [f32; MAX_CHANNELS],
     offset: [f32; MAX_CHANNELS],
-    /// Any channel has coefficients (otherwise [`Compensation::apply`] does nothing).
-    active: bool,
     /// Each part's last temperature read (°C; NaN: not read).
     temperature: [f32; MAX_PARTS],
+    /// The sampler's count of temperature reads when they were last looked at.
+    reads: u32,
 }
 
 impl Compensation {
@@ -27,8 +27,8 @@ impl Compensation {
         Compensation {
             gain: [1.0; MAX_CHANNELS],
             offset: [0.0; MAX_CHANNELS],
-            active: false,
             temperature: [f32::NAN; MAX_PARTS],
+            reads: 0,
         }
     }
 
@@ -56,7 +56,6 @@ impl Compensation {
     ) {
         self.gain = [1.0; MAX_CHANNELS];
         self.offset = [0.0; MAX_CHANNELS];
-        self.active = (0..arrangement.len()).any(|c| arrangement.thermal(c).is_some());
         for (part, chans) in channels.iter().enumerate() {
             self.correct(arrangement, part, chans);
         }
@@ -86,24 +85,21 @@ impl Compensation {
         }
     }
 
-    /// Whether `celsius` (a set's temperatures) are those the corrections were made for (bit
-    /// for bit; a part not read yet is NaN in both).
+    /// Whether the sampler's count of temperature reads `reads` is new (and takes it).
     #[inline]
-    pub fn seen(&self, celsius: &[f32; MAX_PARTS]) -> bool {
-        celsius
-            .iter()
-            .zip(self.temperature.iter())
-            .all(|(a, b)| a.to_bits() == b.to_bits())
+    pub fn news(&mut self, reads: u32) -> bool {
+        let new = reads != self.reads;
+        self.reads = reads;
+        new
     }
 
-    /// Corrects the channel vector `p` in place (NaN stays NaN).
+    /// Reading `x` of channel `c` brought to its `t_ref` (the identity without coefficients or
+    /// a temperature; NaN stays NaN).
     #[inline]
-    pub fn apply(&self, p: &mut [f32]) {
-        if !self.active {
-            return;
-        }
-        for ((x, g), o) in p.iter_mut().zip(&self.gain).zip(&self.offset) {
-            *x = *x * g + o;
+    pub fn corrected(&self, c: usize, x: f32) -> f32 {
+        match (self.gain.get(c), self.offset.get(c)) {
+            (Some(g), Some(o)) => x * g + o,
+            _ => x,
         }
     }
 
@@ -145,13 +141,13 @@ mod tests {
         let field = 3.0f64;
         let at_ref = 1.01 * field + 0.05;
         let warm = 1.01 * (1.0 + 1e-4 * 20.0) * field + 0.05 + 1.5e-3 * 20.0;
-        let mut p = [warm as f32, 2.0, 3.0];
-        comp.apply(&mut p);
+        let apply = |comp: &Compensation, p: [f32; 3]| [0, 1, 2].map(|c| comp.corrected(c, p[c]));
+        let p = apply(&comp, [warm as f32, 2.0, 3.0]);
         assert_eq!(p[0], warm as f32, "no temperature read yet");
         assert!(comp.temperatures()[0].is_nan());
+        assert!(comp.news(1) && !comp.news(1));
         comp.observe(&a, 0, &all[0], 45.0);
-        let mut p = [warm as f32, 2.0, f32::NAN];
-        comp.apply(&mut p);
+        let p = apply(&comp, [warm as f32, 2.0, f32::NAN]);
         assert!((f64::from(p[0]) - at_ref).abs() < 1e-5, "{}", p[0]);
         assert_eq!(p[1], 2.0);
         assert!(p[2].is_nan());
@@ -159,8 +155,7 @@ mod tests {
         let mut plain = a.clone();
         plain.set_thermal(0, None).unwrap();
         comp.reconfigure(&plain, &all);
-        let mut p = [warm as f32, 2.0, 3.0];
-        comp.apply(&mut p);
+        let p = apply(&comp, [warm as f32, 2.0, 3.0]);
         assert_eq!(p[0], warm as f32);
         assert_eq!(comp.temperatures()[0], 45.0);
     }

@@ -48,6 +48,9 @@ pub struct SampleSet {
     /// Each part's last temperature read (°C; NaN where none): every part's at start, then
     /// one part's after the readings of every [`Sampler::temperature_every`]-th set, in turn.
     pub temperatures: [f32; MAX_PARTS],
+    /// Temperature reads since start (wrapping): a set whose count differs from the last
+    /// set's carries a new temperature.
+    pub temperature_reads: u32,
 }
 
 impl SampleSet {
@@ -59,6 +62,7 @@ impl SampleSet {
             parts,
             variance: [1.0; MAX_PARTS],
             temperatures: [f32::NAN; MAX_PARTS],
+            temperature_reads: 0,
         }
     }
 }
@@ -92,6 +96,8 @@ pub struct Sampler<SPI, I2C, SYNC> {
     temperature_next: usize,
     /// Each part's last temperature read (°C; NaN where none).
     temperatures: [f32; MAX_PARTS],
+    /// Temperature reads since start (wrapping).
+    temperature_reads: u32,
 }
 
 /// How often each part's temperature is read (Hz): a part's die follows its surroundings
@@ -124,6 +130,7 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
             temperature_every,
             temperature_next: 0,
             temperatures: [f32::NAN; MAX_PARTS],
+            temperature_reads: 0,
         }
     }
 
@@ -142,6 +149,7 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
             if let Some(p) = self.parts[i].as_mut() {
                 if let Some(t) = p.read_temperature().await {
                     self.temperatures[i] = t;
+                    self.temperature_reads = self.temperature_reads.wrapping_add(1);
                 }
                 return;
             }
@@ -237,6 +245,7 @@ impl<SPI: SpiDevice, I2C: I2c, SYNC: OutputPin> Sampler<SPI, I2C, SYNC> {
             self.read_temperature().await;
         }
         set.temperatures = self.temperatures;
+        set.temperature_reads = self.temperature_reads;
         self.k = self.k.saturating_add(1);
         self.health.sets = self.health.sets.saturating_add(1);
         set
