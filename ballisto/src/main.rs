@@ -754,6 +754,15 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 Ok(v) => say.info(format!("  validated: {}", v.describe())),
                 Err(why) => say.info(format!("  not validated: {why}")),
             }
+            if let Some(t) = &s.thermal {
+                let found = t.thermal().iter().filter(|c| c.is_some()).count();
+                say.info(format!(
+                    "  temperature coefficients: {found} of {} channels identified from {} static poses over {:.1} °C (each with its deviation in the file's header)",
+                    t.channels.len(),
+                    t.poses.0,
+                    t.poses.1
+                ));
+            }
             for w in &s.warnings {
                 eprintln!("  WARNING: {w}");
             }

@@ -32,16 +32,3 @@ pub fn record(sc: &Scenario) -> (Vec<(f64, Vec<f64>)>, Vec<Truth>) {
     }
     (sets, truth)
 }
-
-/// The scenario with ideal parts: every datasheet error removed.
-pub fn ideal(sc: &Scenario) -> Scenario {
-    let mut s = sc.clone();
-    for p in &mut s.parts {
-        p.bias = None;
-        p.scale = None;
-        p.cross = None;
-        p.position_error = None;
-        p.orientation_error = None;
-    }
-    s
-}

@@ -83,15 +83,10 @@ fn operating(ideal: bool) -> Scenario {
         schedule: None,
     };
     if ideal {
-        for p in sc.parts.iter_mut() {
-            p.bias = None;
-            p.scale = None;
-            p.cross = None;
-            p.position_error = None;
-            p.orientation_error = None;
-        }
+        sc.with_ideal_parts()
+    } else {
+        sc
     }
-    sc
 }
 
 fn sim(sc: &Scenario, out: &Path) {

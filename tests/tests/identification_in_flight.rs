@@ -13,7 +13,6 @@ use ballisto_link::framing::Deframer;
 use ballisto_link::identification::IdentificationSummary;
 use ballisto_link::{subtype, CalibrationSource, EventId, FailureCode};
 use e2e_tests::drawn::drawn_case;
-use e2e_tests::recorded::ideal;
 use hal_sim::firmware_host::{firmware_config, run_firmware_with};
 use hal_sim::in_flight::{identify_and_reboot, uplink, uplink_tumble, Plan};
 use hal_sim::motion::Propagator;
@@ -100,7 +99,7 @@ fn ideal_errors(
     loaded: &hal_sim::arrangement_file::LoadedArrangement,
     skip: f64,
 ) -> [f64; 3] {
-    let ideal_sc = ideal(sc);
+    let ideal_sc = sc.with_ideal_parts();
     let config = firmware_config(&ideal_sc, loaded, Alignment::Interpolate).unwrap();
     let mut stream = Vec::new();
     run_firmware_with(

@@ -144,7 +144,7 @@ fn a_torque_free_tumble_identifies_the_geometry_without_a_reference() {
         rms(&rates(&nominal, &rec), &rec.omega),
         rms(&rates(&identified, &rec), &rec.omega),
     );
-    let ideal_sc = recorded::ideal(&sc);
+    let ideal_sc = sc.with_ideal_parts();
     let ideal_rec = record(&ideal_sc);
     let reference = rms(&rates(&nominal, &ideal_rec), &ideal_rec.omega);
     let held: Vec<u8> = fit.identified.channels().iter().map(|f| f.held).collect();
@@ -337,7 +337,7 @@ fn drawn_torque_free_tumbles_are_identified_or_refused_by_name() {
     let mut failures = Vec::new();
     for (seed, parts) in (4911..=4934).map(|s: u64| (s, 4 + (s as usize + 1) % 2)) {
         let (sc, nominal, sets, truth, rates, body) = drawn_tumble(seed, parts);
-        let ideal_sc = recorded::ideal(&sc);
+        let ideal_sc = sc.with_ideal_parts();
         let (ideal_sets, ideal_truth) = recorded::record(&ideal_sc);
         let (reference, _) = errors(&nominal, &ideal_sets, &ideal_truth, [0.0; 3]);
         match identify_tumble(

@@ -150,22 +150,6 @@ fn the_ground_thermal_schedule_identifies_the_coefficients() {
     }
 }
 
-/// `tetra-orbit-thermal` with the parts' errors and coefficients taken out: what ideal parts
-/// give (the nominal arrangement, no calibration).
-fn ideal(sc: &Scenario) -> Scenario {
-    let mut sc = sc.clone();
-    for p in sc.parts.iter_mut() {
-        p.bias = None;
-        p.scale = None;
-        p.cross = None;
-        p.position_error = None;
-        p.orientation_error = None;
-        p.bias_tc = None;
-        p.scale_tc = None;
-    }
-    sc
-}
-
 /// The calibrated file without its temperature coefficients.
 fn without_coefficients(file: &Path, out: &Path) {
     let text = std::fs::read_to_string(file).unwrap();
@@ -201,7 +185,7 @@ fn compensated_in_orbit_as_ideal_parts() {
         Some(Surroundings::Orbit { amplitude, period, .. }) if amplitude == 20.0 && 2.0 * period == sc.duration
     ));
     let base_dir = dir("orbit-ideal");
-    let base = firmware_run(&ideal(&sc), &base_dir, None);
+    let base = firmware_run(&sc.with_ideal_parts(), &base_dir, None);
     let _ = std::fs::remove_dir_all(&base_dir);
     let run = dir("orbit-compensated");
     let comp = firmware_run(&sc, &run, Some(&file));

@@ -580,6 +580,23 @@ impl Scenario {
         }
     }
 
+    /// The scenario with ideal parts: every part's errors removed — bias, scale, cross-axis,
+    /// mounting, and temperature coefficients — its noise and clock kept (what the figures
+    /// call "ideal parts").
+    pub fn with_ideal_parts(&self) -> Scenario {
+        let mut s = self.clone();
+        for p in &mut s.parts {
+            p.bias = None;
+            p.scale = None;
+            p.cross = None;
+            p.position_error = None;
+            p.orientation_error = None;
+            p.bias_tc = None;
+            p.scale_tc = None;
+        }
+        s
+    }
+
     /// Samples in the record: `t_k = k / rate` for `0 ≤ t_k ≤ duration`.
     pub fn samples(&self) -> usize {
         (self.duration * self.rate + 1e-9).floor() as usize + 1
