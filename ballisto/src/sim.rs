@@ -118,9 +118,10 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
     };
     let (truth_out, truth_w) = crate::output::create(&path("truth.csv"))?;
     let mut truth = TruthFiles::new(truth_w, reference)?;
-    // The firmware reads its parts' temperatures: with a scenario that models them, they are
-    // in the record (`temp_<channel>`, interfaces.md "Temperature").
-    let temperatures = job.firmware.is_some() && sc.temperature.is_some();
+    // With a scenario that models temperature, the parts' temperatures as the firmware or the
+    // bench reader read them are in the record (`temp_<channel>`, interfaces.md
+    // "Temperature").
+    let temperatures = sc.temperature.is_some();
     let temp_columns: Vec<String> = if temperatures {
         loaded.names.iter().map(|n| format!(",temp_{n}")).collect()
     } else {
@@ -219,7 +220,16 @@ fn record_bench(
         .collect();
     let n = sc.samples();
     let bar = progress_bar(job.progress, n as u64);
-    let mut row: Vec<Option<f64>> = vec![None; loaded.names.len()];
+    let channels = loaded.names.len();
+    let with_temperatures = sc.temperature.is_some();
+    let mut row: Vec<Option<f64>> = vec![
+        None;
+        if with_temperatures {
+            2 * channels
+        } else {
+            channels
+        }
+    ];
     for k in 0..n {
         let (t, set) = rec.sample_set(k);
         row.iter_mut().for_each(|v| *v = None);
@@ -227,6 +237,13 @@ fn record_bench(
             if let Ok(a) = reading {
                 for &(j, c) in cols {
                     row[c] = Some(a[j]);
+                }
+            }
+        }
+        if let Some(temps) = rec.temperatures(k) {
+            for (temp, cols) in temps.iter().zip(columns.iter()) {
+                for &(_, c) in cols {
+                    row[channels + c] = *temp;
                 }
             }
         }

@@ -76,6 +76,17 @@ impl BenchReader {
         })
     }
 
+    /// Reads part `i`'s temperature (°C: the ADXL355's with its nominal intercept and slope,
+    /// the LIS3DH's as 25 °C + its relative digits), as the firmware's drivers do.
+    pub fn read_temperature(&mut self, i: usize) -> Result<f64, BenchError> {
+        self.reads[i] += 1;
+        let r = self.parts[i].read_temperature();
+        if r.is_err() {
+            self.errors[i] += 1;
+        }
+        r
+    }
+
     /// Reads part `i` (m/s², part axes).
     pub fn read(&mut self, i: usize) -> Result<[f64; 3], BenchError> {
         self.reads[i] += 1;
@@ -131,15 +142,41 @@ impl BenchPart {
                     8 => 2,
                     _ => 3,
                 };
-                // BDU, full scale, high resolution.
+                // BDU, full scale, high resolution; the ADC and its temperature sensor on.
                 b.write(*a, &[reg::CTRL_REG4, 0x80 | (fs << 4) | 0x08])
                     .map_err(bus)?;
+                b.write(*a, &[reg::TEMP_CFG_REG, 0xC0]).map_err(bus)?;
                 b.write(*a, &[reg::CTRL_REG1, (code << 4) | 0x07])
                     .map_err(bus)
             }
             _ => Err(BenchError::Bus(
                 "part type and bus kind do not match".into(),
             )),
+        }
+    }
+
+    fn read_temperature(&mut self) -> Result<f64, BenchError> {
+        let mut b = [0u8; 2];
+        match &mut self.port {
+            Port::Spi(dev) => {
+                dev.transaction(&mut [
+                    Operation::Write(&[(adxl355::reg::TEMP2 << 1) | 1]),
+                    Operation::Read(&mut b),
+                ])
+                .map_err(bus)?;
+                let code = f64::from(u16::from(b[0] & 0x0F) << 8 | u16::from(b[1]));
+                Ok(25.0 + (code - adxl355::TEMP_INTERCEPT) / adxl355::TEMP_SLOPE)
+            }
+            Port::I2c(bus_handle, a) => {
+                bus_handle
+                    .write_read(
+                        *a,
+                        &[lis3dh::reg::OUT_ADC3_L | lis3dh::AUTO_INCREMENT],
+                        &mut b,
+                    )
+                    .map_err(bus)?;
+                Ok(25.0 + f64::from(b[1] as i8))
+            }
         }
     }
 

@@ -15,7 +15,13 @@ pub struct Recorder {
     any_sync: bool,
     /// Bus usage of the start-up (identification and configuration).
     start_up: Vec<(String, u64, f64)>,
+    /// Sets between reads of every part's temperature, where the scenario models it.
+    temperature_every: Option<usize>,
 }
+
+/// How often the bench reader reads every part's temperature where the scenario models it
+/// (Hz): as often as the firmware reads each part's.
+pub const TEMPERATURE_HZ: f64 = 4.0;
 
 impl Recorder {
     /// Builds the rig and starts the reader (identification and configuration of every part
@@ -30,7 +36,25 @@ impl Recorder {
             reader,
             rate: sc.rate,
             any_sync: sc.parts.iter().any(|p| sc.sync(p)),
+            temperature_every: sc
+                .temperature
+                .map(|_| ((sc.rate / TEMPERATURE_HZ).floor() as usize).max(1)),
         })
+    }
+
+    /// After sample set `k`: every part's temperature (°C, `None` where the read failed) if
+    /// the scenario models temperature and this set is one it is read after.
+    pub fn temperatures(&mut self, k: usize) -> Option<Vec<Option<f64>>> {
+        let every = self.temperature_every?;
+        if !k.is_multiple_of(every) {
+            return None;
+        }
+        let n = self.rig.ports.len();
+        Some(
+            (0..n)
+                .map(|i| self.reader.read_temperature(i).ok())
+                .collect(),
+        )
     }
 
     /// Sample set `k` at `t = k / rate`: each part's reading (m/s², part axes) or its error.

@@ -67,9 +67,15 @@ fn firmware_run(sc: &Scenario, out: &Path, calibration: Option<&Path>) -> Compar
         .expect("a firmware run is compared with its truth")
 }
 
-/// The ground thermal record of `sc` in `d`, calibrated with its reference gyro.
+/// The ground thermal record of `sc` in `d` (the firmware's), calibrated with its reference
+/// gyro.
 fn calibrate(sc: &Scenario, d: &Path) -> CalibrationSummary {
     firmware_run(sc, d, None);
+    calibrate_record(d)
+}
+
+/// `d`'s record calibrated with its reference gyro into `calibrated.toml`.
+fn calibrate_record(d: &Path) -> CalibrationSummary {
     calibrate_files(&CalibrateJob {
         arrangement: &d.join("arrangement.toml"),
         samples: &d.join("samples.csv"),
@@ -131,6 +137,21 @@ fn the_ground_thermal_schedule_identifies_the_coefficients() {
         summary.thermal.as_ref().unwrap().poses.0,
         summary.thermal.as_ref().unwrap().poses.1
     );
+    // The bench reader's record of the same scenario (every part's temperature at 4 Hz).
+    let bench = dir("ground-bench");
+    run_sim(&SimJob {
+        scenario: &sc,
+        out: &bench,
+        estimate: false,
+        progress: false,
+        firmware: None,
+        identify: false,
+        uplink: Vec::new(),
+        calibration: None,
+    })
+    .unwrap();
+    let worst = check_coefficients(&sc, &calibrate_record(&bench), "bench record");
+    println!("ground-thermal, bench reader's record: within {worst:.2} sd of the truth");
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5053);
     for draw in 0..3 {
         let mut sc = sc.clone();
