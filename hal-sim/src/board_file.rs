@@ -102,6 +102,7 @@ pub fn board_config(
         arrangement
             .push(c.position, c.axis, c.noise)
             .and_then(|_| arrangement.set_calibration(i, c.bias, c.scale))
+            .and_then(|_| arrangement.set_thermal(i, source.arrangement.thermal(at)))
             .map_err(|e| err(format!("channel \"{name}\": {e}")))?;
     }
     arrangement
@@ -218,6 +219,13 @@ pub fn rust_source(config: &AppConfig) -> String {
                 s,
                 "    arrangement.set_calibration({i}, {:?}, {:?}).ok()?;",
                 c.bias, c.scale
+            );
+        }
+        if let Some(t) = config.arrangement.thermal(i) {
+            let _ = writeln!(
+                s,
+                "    arrangement.set_thermal({i}, estimator_core::thermal::Thermal::new({:?}, {:?}, {:?}).ok()).ok()?;",
+                t.t_ref, t.bias_tc, t.scale_tc
             );
         }
     }
@@ -401,7 +409,7 @@ noise = 0.002
                 _ => "[0.0, 0.0, 1.0]",
             };
             cal.push_str(&format!(
-                "[[channel]]\nname = \"{name}\"\nposition = {position}\naxis = {axis}\nnoise = 0.003\nbias = 0.01\nscale = 1.002\n"
+                "[[channel]]\nname = \"{name}\"\nposition = {position}\naxis = {axis}\nnoise = 0.003\nbias = 0.01\nscale = 1.002\nt_ref = 21.5\nbias_tc = 0.001\nscale_tc = -0.0001\n"
             ));
         }
         let calibrated = write("calibrated.toml", &cal);
@@ -412,6 +420,13 @@ noise = 0.002
         assert_eq!((a_x.bias, a_x.scale, a_x.noise), (0.01, 1.002, 0.003));
         assert_eq!(c.arrangement.frame_uncertainty().rotation, 1e-3);
         assert!(rust_source(&c).contains("set_calibration(0, 0.01, 1.002)"));
+        // The temperature coefficients go into the image too (to f32's precision).
+        let th = c.arrangement.thermal(0).unwrap();
+        assert_eq!(th.t_ref, 21.5);
+        assert!((th.bias_tc - 1e-3).abs() < 1e-10 && (th.scale_tc + 1e-4).abs() < 1e-11);
+        assert!(
+            rust_source(&c).contains("set_thermal(0, estimator_core::thermal::Thermal::new(21.5,")
+        );
         let short = write(
             "short-cal.toml",
             &cal.replace("name = \"c.z\"", "name = \"d.z\""),
