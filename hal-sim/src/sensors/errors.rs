@@ -53,6 +53,7 @@ impl SensorErrors {
     /// moves its bias and scale) with noise of standard deviation `sd`.
     pub fn apply(&self, f: &[f64; 3], t: f64, sd: f64, rng: &mut ChaCha8Rng) -> [f64; 3] {
         let mut out = [0.0; 3];
+        let die = self.thermal.die(t);
         for (i, o) in out.iter_mut().enumerate() {
             let mut c = f[i];
             for (j, fj) in f.iter().enumerate() {
@@ -65,7 +66,7 @@ impl SensorErrors {
             } else {
                 0.0
             };
-            let (bias, scale) = self.thermal.at(t, i, self.bias[i], self.scale[i]);
+            let (bias, scale) = self.thermal.at(die, i, self.bias[i], self.scale[i]);
             *o = scale * c + bias + n;
         }
         out

@@ -178,9 +178,10 @@ impl PartThermal {
         self.die(t) + self.sensor_offset
     }
 
-    /// Bias and scale factor of axis `k` at `t`, given those at 25 °C.
-    pub fn at(&self, t: f64, k: usize, bias: f64, scale: f64) -> (f64, f64) {
-        let dt = self.die(t) - DATASHEET_REFERENCE_C;
+    /// Bias and scale factor of axis `k` at die temperature `die` ([`Self::die`], computed
+    /// once for the three axes of a sample), given those at 25 °C.
+    pub fn at(&self, die: f64, k: usize, bias: f64, scale: f64) -> (f64, f64) {
+        let dt = die - DATASHEET_REFERENCE_C;
         (
             bias + self.bias_tc[k] * dt,
             scale * (1.0 + self.scale_tc[k] * dt),
@@ -235,9 +236,9 @@ mod tests {
             sensor_offset: -1.5,
             ..Default::default()
         };
-        let (b, s) = p.at(3.0, 0, 0.1, 1.0);
+        let (b, s) = p.at(p.die(3.0), 0, 0.1, 1.0);
         assert!((b - 0.12).abs() < 1e-12 && s == 1.0);
-        let (b, s) = p.at(3.0, 1, 0.1, 1.0);
+        let (b, s) = p.at(p.die(3.0), 1, 0.1, 1.0);
         assert!(b == 0.1 && (s - 1.002).abs() < 1e-12);
         assert_eq!(p.sensed(0.0), 43.5);
         assert!(Surroundings::Constant { value: 400.0 }.check().is_err());
