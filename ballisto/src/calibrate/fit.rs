@@ -764,7 +764,11 @@ fn measured_scatter(
 }
 
 /// The gravity direction of each pose (|g| = G0), by least squares over the channels.
-fn pose_gravity(geo: &[Geometry], poses: &[Pose], scatter: &Scatter) -> Vec<Vector3<f64>> {
+pub(super) fn pose_gravity(
+    geo: &[Geometry],
+    poses: &[Pose],
+    scatter: &Scatter,
+) -> Vec<Vector3<f64>> {
     poses
         .iter()
         .map(|pose| {

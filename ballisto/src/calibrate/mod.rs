@@ -292,7 +292,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     let (rows, poses) = match (&temps, &thermal_found) {
         (Some(temps), Some(found)) => {
             let rows = thermal::corrected(&rows, temps, &found.thermal(), &found.bias);
-            let poses = thermal::pose_means(&poses, &rows);
+            let poses = poses::remeasured(&poses, &rows);
             (rows, poses)
         }
         _ => (rows, poses),

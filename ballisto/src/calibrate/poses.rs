@@ -76,16 +76,32 @@ pub fn find_poses(
         // milliradians stay within the noise of one window.
         let (a, b) = (start + window, k.saturating_sub(window));
         if b > a && b - a >= min_len {
-            let mean = (0..channels)
-                .map(|c| rows[a..b].iter().map(|r| r[c]).sum::<f64>() / (b - a) as f64)
-                .collect();
             poses.push(Pose {
                 samples: a..b,
-                mean,
+                mean: column_means(&rows[a..b], channels),
             });
         }
     }
     poses
+}
+
+/// The mean of each of the `channels` columns of `rows`.
+fn column_means(rows: &[Vec<f64>], channels: usize) -> Vec<f64> {
+    (0..channels)
+        .map(|c| rows.iter().map(|r| r[c]).sum::<f64>() / rows.len() as f64)
+        .collect()
+}
+
+/// The same poses with their means taken over `rows` instead (the record corrected, or any
+/// per-sample quantity of the record's channels, e.g. their temperatures).
+pub fn remeasured(poses: &[Pose], rows: &[Vec<f64>]) -> Vec<Pose> {
+    poses
+        .iter()
+        .map(|p| Pose {
+            samples: p.samples.clone(),
+            mean: column_means(&rows[p.samples.clone()], p.mean.len()),
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -15,9 +15,11 @@
 //! repeated (the named scenario `ground-thermal`).
 
 use estimator_core::thermal::Thermal;
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 
-use super::fit::{FitSet, Geometry, Pose};
+use super::fit::{self, FitSet, Geometry, Pose};
+use super::poses::remeasured;
+use super::scatter::Scatter;
 
 /// The least temperature span (°C, over a channel's static poses) from which coefficients are
 /// identified: a datasheet-typical 0.15 mg/°C moves the bias by 15 µg over it, about the
@@ -72,21 +74,6 @@ impl Found {
     }
 }
 
-/// Each channel's mean temperature over each pose (NaN where the record has none).
-fn pose_temperatures(poses: &[Pose], temps: &[Vec<f64>], channels: usize) -> Vec<Vec<f64>> {
-    poses
-        .iter()
-        .map(|p| {
-            (0..channels)
-                .map(|c| {
-                    let r = &temps[p.samples.clone()];
-                    r.iter().map(|t| t[c]).sum::<f64>() / r.len() as f64
-                })
-                .collect()
-        })
-        .collect()
-}
-
 /// `rows` brought to each channel's `t_ref` with `thermal` (at the temperatures `temps`, with
 /// the channel biases `bias`); a row before a channel's first temperature is kept as read.
 pub fn corrected(
@@ -109,39 +96,6 @@ pub fn corrected(
         .collect()
 }
 
-/// The poses' mean readings over `rows`.
-pub fn pose_means(poses: &[Pose], rows: &[Vec<f64>]) -> Vec<Pose> {
-    poses
-        .iter()
-        .map(|p| {
-            let r = &rows[p.samples.clone()];
-            let n = r.len() as f64;
-            Pose {
-                samples: p.samples.clone(),
-                mean: (0..p.mean.len())
-                    .map(|c| r.iter().map(|x| x[c]).sum::<f64>() / n)
-                    .collect(),
-            }
-        })
-        .collect()
-}
-
-/// The gravity of a pose whose readings at `t_ref` are `mean`: its direction by least squares
-/// over the channels of `geo` (`(mean − bias)/scale = s·g`), its magnitude G0 as the fit's
-/// (free, it would take up every channel's common change of scale with temperature).
-fn pose_gravity(geo: &[Geometry], mean: &[f64]) -> Option<Vector3<f64>> {
-    let mut n = Matrix3::zeros();
-    let mut b = Vector3::zeros();
-    for (g, &m) in geo.iter().zip(mean) {
-        if m.is_finite() {
-            n += g.axis * g.axis.transpose();
-            b += g.axis * ((m - g.bias) / g.scale);
-        }
-    }
-    let g = n.try_inverse()? * b;
-    (g.norm() > 0.0).then(|| g * (estimator_core::G0 / g.norm()))
-}
-
 /// Identifies every channel's coefficients from the static `poses` of `rows` at the
 /// temperatures `temps` (per row and channel, °C, NaN before the first), starting from the
 /// `nominal` geometry; `fit` says which of bias, scale and axis the poses may change with
@@ -154,7 +108,11 @@ pub fn identify(
     fit: FitSet,
 ) -> Result<Found, String> {
     let n = nominal.len();
-    let at_pose = pose_temperatures(poses, temps, n);
+    // Each channel's mean temperature over each pose (NaN where the record has none).
+    let at_pose: Vec<Vec<f64>> = remeasured(poses, temps)
+        .into_iter()
+        .map(|p| p.mean)
+        .collect();
     // t_ref: the channel's mean over the poses; the span decides whether it is determined.
     let mut t_ref = vec![f64::NAN; n];
     let mut undetermined: Vec<Option<String>> = vec![None; n];
@@ -185,10 +143,15 @@ pub fn identify(
         }
         t_ref[c] = ((ts.iter().sum::<f64>() / ts.len() as f64) * 100.0).round() / 100.0;
     }
-    let raw = pose_means(poses, rows);
+    let raw = remeasured(poses, rows);
     let mut geo: Vec<Geometry> = nominal.to_vec();
+    // Each pose's gravity (|g| = G0: free, its magnitude would take up every channel's common
+    // change of scale with temperature), `None` where the channels do not give one.
     let mut gravity: Vec<Option<Vector3<f64>>> =
-        raw.iter().map(|p| pose_gravity(&geo, &p.mean)).collect();
+        fit::pose_gravity(&geo, &raw, &Scatter::white(&geo))
+            .into_iter()
+            .map(|g| (g.norm() > 0.0).then_some(g))
+            .collect();
     if gravity.iter().all(Option::is_none) {
         return Err("no static pose to identify temperature coefficients from".into());
     }
