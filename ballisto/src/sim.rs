@@ -142,7 +142,7 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
             &mut samples,
             &mut truth,
         )?,
-        None => record_bench(job, &loaded, &mut samples, &mut truth)?,
+        None => record_bench(job, &loaded, temperatures, &mut samples, &mut truth)?,
     };
     samples.flush()?;
     truth.flush()?;
@@ -198,10 +198,12 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
     Ok(report)
 }
 
-/// The bench reader's record.
+/// The bench reader's record (with `temperatures`, the `temp_<channel>` columns after the
+/// channels).
 fn record_bench(
     job: &SimJob,
     loaded: &LoadedArrangement,
+    temperatures: bool,
     samples: &mut impl Write,
     truth: &mut TruthFiles<impl Write>,
 ) -> Result<SimReport, Box<dyn Error>> {
@@ -221,15 +223,7 @@ fn record_bench(
     let n = sc.samples();
     let bar = progress_bar(job.progress, n as u64);
     let channels = loaded.names.len();
-    let with_temperatures = sc.temperature.is_some();
-    let mut row: Vec<Option<f64>> = vec![
-        None;
-        if with_temperatures {
-            2 * channels
-        } else {
-            channels
-        }
-    ];
+    let mut row: Vec<Option<f64>> = vec![None; if temperatures { 2 * channels } else { channels }];
     for k in 0..n {
         let (t, set) = rec.sample_set(k);
         row.iter_mut().for_each(|v| *v = None);
@@ -276,7 +270,6 @@ fn record_bench(
     })
 }
 
-/// The firmware's record: its sample sets, the truth at their instants, its estimates.
 /// The channels of the parts in `parts` (the simulator commands no exclusion).
 fn excluded_channels(
     config: &ballisto_fw::config::AppConfig,
@@ -293,6 +286,8 @@ fn excluded_channels(
     bits
 }
 
+/// The firmware's record: its sample sets (with `temperatures`, the parts' temperatures where
+/// they changed), the truth at their instants, its estimates.
 fn record_firmware(
     job: &SimJob,
     loaded: &LoadedArrangement,

@@ -12,7 +12,9 @@ use ballisto_link::ids::TC_MAX;
 use ballisto_link::telecommand::{build_command, Command, ACK_ACCEPTANCE, ACK_COMPLETION};
 use ballisto_link::{framing, CalibrationId, ResetCause};
 
-use crate::firmware_host::{run_firmware_boot, Boot, Emit, FirmwareReport, SimTime, HOST_SECTOR};
+use crate::firmware_host::{
+    run_firmware_boot, Boot, Emit, FirmwareReport, HostStore, SimTime, HOST_SECTOR,
+};
 use crate::motion::Propagator;
 use crate::reference::ReferenceSensor;
 use crate::rig::TRUTH_STEP;
@@ -209,15 +211,8 @@ pub fn identify_and_reboot(
     // The reset: only the flash survives.
     let flash = store.into_flash();
     let mut store = CalibrationStore::new(flash, range).map_err(|e| format!("{e}"))?;
-    let (arrangement, id, not_used) =
-        embassy_futures::block_on(select_at_boot(&mut store, &config.arrangement));
-    if let Some(why) = not_used {
-        return Err(format!(
-            "second boot: the stored calibration was not used ({why:?})"
-        ));
-    }
-    let mut second_config = config.clone();
-    second_config.arrangement = arrangement;
+    let (second_config, id) =
+        stored_config(&mut store, config).map_err(|e| format!("second boot: {e}"))?;
     let second = run_firmware_boot(
         sc,
         &second_config,
@@ -232,6 +227,22 @@ pub fn identify_and_reboot(
         },
     )?;
     Ok((first, second, id))
+}
+
+/// The configuration a boot runs with what `store` holds (`select_at_boot`, as the boards
+/// do); an error if the stored calibration is not used.
+fn stored_config(
+    store: &mut HostStore<'_>,
+    config: &AppConfig,
+) -> Result<(AppConfig, CalibrationId), String> {
+    let (arrangement, id, not_used) =
+        embassy_futures::block_on(select_at_boot(store, &config.arrangement));
+    if let Some(why) = not_used {
+        return Err(format!("the stored calibration was not used ({why:?})"));
+    }
+    let mut stored = config.clone();
+    stored.arrangement = arrangement;
+    Ok((stored, id))
 }
 
 /// One boot with `calibration` in the store (committed on the ground, id 1, as the unit leaves
@@ -257,13 +268,7 @@ pub fn boot_on_stored(
     };
     embassy_futures::block_on(store.commit(&record))
         .map_err(|e| format!("the calibration cannot be stored: {e:?}"))?;
-    let (arrangement, id, not_used) =
-        embassy_futures::block_on(select_at_boot(&mut store, &config.arrangement));
-    if let Some(why) = not_used {
-        return Err(format!("the stored calibration was not used ({why:?})"));
-    }
-    let mut stored_config = config.clone();
-    stored_config.arrangement = arrangement;
+    let (stored_config, id) = stored_config(&mut store, config)?;
     let mut retained = [0u32; 2];
     let report = run_firmware_boot(
         sc,

@@ -19,10 +19,6 @@ pub struct Recorder {
     temperature_every: Option<usize>,
 }
 
-/// How often the bench reader reads every part's temperature where the scenario models it
-/// (Hz): as often as the firmware reads each part's.
-pub const TEMPERATURE_HZ: f64 = 4.0;
-
 impl Recorder {
     /// Builds the rig and starts the reader (identification and configuration of every part
     /// before t = 0).
@@ -38,7 +34,11 @@ impl Recorder {
             any_sync: sc.parts.iter().any(|p| sc.sync(p)),
             temperature_every: sc
                 .temperature
-                .map(|_| ((sc.rate / TEMPERATURE_HZ).floor() as usize).max(1)),
+                // As often as the firmware reads each part's.
+                .map(|_| {
+                    let hz = f64::from(ballisto_fw::sampler::TEMPERATURE_HZ);
+                    ((sc.rate / hz).floor() as usize).max(1)
+                }),
         })
     }
 
