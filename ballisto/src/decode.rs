@@ -270,6 +270,16 @@ pub fn log_line(p: &Decoded, time_offset: f64) -> Option<String> {
                 c.residual_rms, c.noise, held.join(",")
             )
         }
+        Report::ThermalTrack(k) => {
+            use ballisto_link::identification::{TRACK_ADDED, TRACK_DETERMINED};
+            format!(
+                "THERMAL_TRACK solution={} channel={} window_temperature_c={:.2} added={} windows={} span_c={:.1} determined={} t_ref={:.2} bias={:.6} bias_sd={:.2e} bias_tc={:.4e} bias_tc_sd={:.2e} scatter={:.2}",
+                k.solution, k.channel, k.window_temperature,
+                u8::from(k.state & TRACK_ADDED != 0), k.windows, k.span,
+                u8::from(k.state & TRACK_DETERMINED != 0), k.t_ref,
+                k.bias, k.bias_sd, k.bias_tc, k.bias_tc_sd, k.scatter
+            )
+        }
     };
     Some(format!("{head} {body}"))
 }

@@ -251,8 +251,11 @@ enum Command {
         #[arg(long, value_enum, default_value = "interpolate")]
         align: AlignArg,
         /// With --firmware: identify in flight first (paper §6) with the scenario's reference
-        /// gyro sent by telecommand, commit, reset, and run the scenario again on the stored
-        /// calibration (the first boot's telemetry in telemetry-identify.bin).
+        /// gyro sent by telecommand (or, without one, in its torque-free tumble), commit,
+        /// reset, and run the scenario again on the stored calibration (the first boot's
+        /// telemetry in telemetry-identify.bin). Where the scenario's temperature changes,
+        /// windows spread over the run (one per 15 minutes): the unit tracks each channel's
+        /// bias against its temperature and the commit takes the coefficients it decides.
         #[arg(long, requires = "firmware")]
         identify: bool,
         /// With --firmware: send the telecommand frames of FILE (as `ballisto tc` writes them)
@@ -268,13 +271,8 @@ enum Command {
         /// With --firmware: the unit's calibration store holds this calibrated arrangement
         /// (`ballisto calibrate`'s output over the scenario's channels, its temperature
         /// coefficients included), committed on the ground as calibration 1: the unit boots
-        /// on it.
-        #[arg(
-            long,
-            value_name = "FILE.toml",
-            requires = "firmware",
-            conflicts_with = "identify"
-        )]
+        /// on it (with --identify, the first boot does).
+        #[arg(long, value_name = "FILE.toml", requires = "firmware")]
         calibration: Option<PathBuf>,
     },
     /// Decode a telemetry stream (COBS-framed PUS packets, as `sim --firmware` writes in
@@ -1185,9 +1183,9 @@ fn print_sim(
         print_firmware(say, sc, fw);
     }
     for line in &r.identification {
-        // The first boot's identification (`--identify`), or the stored calibration booted on
-        // (`--calibration`).
-        let what = if job_calibration {
+        // The stored calibration booted on (`--calibration`), or the first boot's
+        // identification (`--identify`).
+        let what = if job_calibration && line.starts_with("booted on") {
             "calibration"
         } else {
             "identify"

@@ -35,13 +35,16 @@ pub struct SimJob<'a> {
     /// `telemetry-identify.bin`), or, in a scenario without one, a torque-free tumble's
     /// inertia (TC[200,8] source 2, the same window); the unit is reset, boots with the stored
     /// calibration and runs the scenario again: that second boot is what the other files hold.
+    /// Where the scenario's temperature changes, windows spread over the run
+    /// (`in_flight::Plan::for_scenario`), the last one's solution committed with the
+    /// coefficients the unit's thermal track decides.
     pub identify: bool,
     /// With `firmware` (not `identify`): telecommand frames sent on the unit's command link,
     /// each chunk at its scenario time (s), e.g. what `ballisto tc` wrote.
     pub uplink: Vec<(f64, Vec<u8>)>,
-    /// With `firmware` (not `identify`): a calibrated arrangement file over the scenario's
-    /// channels that the unit's calibration store holds (committed on the ground): the unit
-    /// boots on it.
+    /// With `firmware`: a calibrated arrangement file over the scenario's channels that the
+    /// unit's calibration store holds (committed on the ground): the unit boots on it (with
+    /// `identify`, its first boot does).
     pub calibration: Option<&'a Path>,
 }
 
@@ -356,25 +359,45 @@ fn record_firmware(
     let mut identification = Vec::new();
     let fw = if job.identify {
         use hal_sim::in_flight::{identify_and_reboot, uplink, uplink_tumble, Plan};
-        let plan = Plan::for_scenario(sc);
+        let plans = Plan::for_scenario(sc);
         let up = if sc.reference.is_some() {
-            uplink(sc, &plan)?
+            uplink(sc, &plans)?
         } else {
-            // Without a reference: a torque-free tumble over the same window, means of 40 ms
+            // Without a reference: a torque-free tumble over the same windows, means of 40 ms
             // kept.
-            uplink_tumble(sc, &plan, 40)
+            uplink_tumble(sc, &plans, 40)
                 .map_err(|e| format!("{e}; and no [reference] sensor to identify with"))?
+        };
+        let calibration = match job.calibration {
+            Some(path) => {
+                let c = stored_calibration(path, loaded)?;
+                identification.push(format!(
+                    "booted on the stored calibration {} (first boot)",
+                    path.display()
+                ));
+                Some(c)
+            }
+            None => None,
         };
         let first_path = job.out.join("telemetry-identify.bin");
         let mut first = Vec::new();
-        let (_, second, id) =
-            identify_and_reboot(sc, &config, &up, &mut first, &mut downlink, &mut emit)?;
+        let (_, second, id) = identify_and_reboot(
+            sc,
+            &config,
+            calibration.as_ref(),
+            &up,
+            &mut first,
+            &mut downlink,
+            &mut emit,
+        )?;
         crate::output::write(&first_path, &first)?;
         let stream = crate::decode::decode_stream(&first);
         use ballisto_link::decode::Report;
         for p in &stream.packets {
             let wanted = match &p.report {
-                Report::IdentificationSummary(_) | Report::IdentifiedChannel(_) => true,
+                Report::IdentificationSummary(_)
+                | Report::IdentifiedChannel(_)
+                | Report::ThermalTrack(_) => true,
                 Report::Event(e) => e.id == ballisto_link::EventId::CalibrationStored,
                 Report::Verification(v) => v.failure.is_some(),
                 _ => false,

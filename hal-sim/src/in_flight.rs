@@ -35,14 +35,33 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// From 1 s to 1 s before the scenario's end, 4 points per telecommand, 50 ms late.
-    pub fn for_scenario(sc: &Scenario) -> Self {
-        Plan {
-            start: 1.0,
-            end: (sc.duration - 1.0).max(1.5),
+    /// The windows the ground identifies in for `sc`: from 1 s to 1 s before its end; or, where
+    /// the scenario's surroundings change temperature, windows of at most 60 s spread evenly
+    /// over the run (one per 15 minutes, 3 to 24 of them), so that the unit's thermal track
+    /// sees the parts at their temperatures across it. 4 points per telecommand, 50 ms late.
+    pub fn for_scenario(sc: &Scenario) -> Vec<Self> {
+        let one = |start: f64, end: f64| Plan {
+            start,
+            end,
             batch: 4,
             latency: 0.05,
+        };
+        let varies = sc
+            .temperature
+            .as_ref()
+            .is_some_and(|s| !matches!(s, crate::sensors::thermal::Surroundings::Constant { .. }));
+        if !varies {
+            return vec![one(1.0, (sc.duration - 1.0).max(1.5))];
         }
+        let n = (sc.duration / 900.0).floor().clamp(3.0, 24.0) as usize;
+        let spacing = sc.duration / n as f64;
+        let len = (spacing / 2.0).min(60.0);
+        (0..n)
+            .map(|k| {
+                let mid = (k as f64 + 0.5) * spacing;
+                one(mid - len / 2.0, mid + len / 2.0)
+            })
+            .collect()
     }
 }
 
@@ -66,21 +85,33 @@ impl Frames {
         Ok(())
     }
 
-    /// TC[200,10] at `at`, TC[200,11] committing solution 1 (the first one a boot reports)
-    /// 0.1 s after it; the frames.
-    fn report_and_commit(mut self, at: f64) -> Result<Vec<(f64, Vec<u8>)>, String> {
-        let acks = ACK_ACCEPTANCE | ACK_COMPLETION;
-        self.push(at, acks, Command::ReportIdentification)?;
-        self.push(at + 0.1, acks, Command::CommitCalibration { solution: 1 })?;
+    /// TC[200,10] at `at`.
+    fn report(&mut self, at: f64) -> Result<(), String> {
+        self.push(
+            at,
+            ACK_ACCEPTANCE | ACK_COMPLETION,
+            Command::ReportIdentification,
+        )
+    }
+
+    /// TC[200,11] at `at` committing solution `solution` (a boot numbers its solutions from
+    /// 1); the frames, in time order.
+    fn commit(mut self, at: f64, solution: u16) -> Result<Vec<(f64, Vec<u8>)>, String> {
+        self.push(
+            at,
+            ACK_ACCEPTANCE | ACK_COMPLETION,
+            Command::CommitCalibration { solution },
+        )?;
+        self.out.sort_by(|a, b| a.0.total_cmp(&b.0));
         Ok(self.out)
     }
 }
 
-/// The uplink of an identification: TC[200,8] at the start, the reference (the scenario's
-/// `[reference]` sensor, on the unit's time) in batches, TC[200,10] after the last batch and
-/// TC[200,11] committing solution 1 (the first one a boot reports) after it. Frames are COBS,
-/// as on the line; times are scenario seconds.
-pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String> {
+/// The uplink of identifications in `plans`' windows: for each, TC[200,8] at its start, the
+/// reference (the scenario's `[reference]` sensor, on the unit's time) in batches and TC[200,10]
+/// after the last batch; then TC[200,11] committing the last window's solution. Frames are
+/// COBS, as on the line; times are scenario seconds.
+pub fn uplink(sc: &Scenario, plans: &[Plan]) -> Result<Vec<(f64, Vec<u8>)>, String> {
     let mut sensor = ReferenceSensor::of(sc).ok_or_else(|| {
         format!(
             "scenario {}: no [reference] sensor to identify with",
@@ -92,59 +123,64 @@ pub fn uplink(sc: &Scenario, plan: &Plan) -> Result<Vec<(f64, Vec<u8>)>, String>
         .as_ref()
         .and_then(|r| r.rate)
         .unwrap_or(sc.rate);
-    let batch = plan.batch.clamp(1, MAX_POINTS);
+    let period_ms = (1000.0 / reference_rate).round().clamp(1.0, 1000.0) as u16;
     let mut truth = Propagator::new(sc.motion(), TRUTH_STEP);
     let mut frames = Frames::default();
-    let acks = ACK_ACCEPTANCE | ACK_COMPLETION;
-    let period_ms = (1000.0 / reference_rate).round().clamp(1.0, 1000.0) as u16;
-    let window_ms = ((plan.end - plan.start) * 1000.0).round() as u32;
-    frames.push(
-        plan.start - 0.002,
-        acks,
-        Command::StartIdentification {
-            period_ms,
-            window_ms,
-            inertia: None,
-        },
-    )?;
-    // The reference's points in the window, with their scenario times.
-    let mut points: Vec<(f64, ReferencePoint)> = Vec::new();
+    // The reference's points in each window, with their scenario times (the sensor sampled
+    // once, in order, over the whole run).
+    let mut points: Vec<Vec<(f64, ReferencePoint)>> = vec![Vec::new(); plans.len()];
+    let last_end = plans.iter().map(|p| p.end).fold(0.0, f64::max);
     for k in 0..sc.samples() {
         let t = k as f64 / sc.rate;
-        if t > plan.end {
+        if t > last_end {
             break;
         }
         let tr = truth.truth_at(t);
         let Some(w) = sensor.sample(k, &tr) else {
             continue;
         };
-        if t < plan.start {
-            continue;
+        if let Some(i) = plans.iter().position(|p| t >= p.start && t <= p.end) {
+            let point = ReferencePoint {
+                t: SimTime::nanos(t),
+                omega: w.map(|v| v as f32),
+            };
+            points[i].push((t, point));
         }
-        let point = ReferencePoint {
-            t: SimTime::nanos(t),
-            omega: w.map(|v| v as f32),
-        };
-        points.push((t, point));
     }
-    for chunk in points.chunks(batch) {
-        let batch: Vec<ReferencePoint> = chunk.iter().map(|(_, p)| *p).collect();
-        let mut data = vec![0u8; 1 + POINT_LEN * batch.len()];
-        let n = points_data(&batch, &mut data).ok_or("reference batch")?;
-        let at = chunk.last().map_or(plan.start, |p| p.0) + plan.latency;
-        frames.push(at, 0, Command::ReferenceRate(&data[..n]))?;
+    let mut at = 0.0;
+    for (plan, points) in plans.iter().zip(&points) {
+        let window_ms = ((plan.end - plan.start) * 1000.0).round() as u32;
+        frames.push(
+            plan.start - 0.002,
+            ACK_ACCEPTANCE | ACK_COMPLETION,
+            Command::StartIdentification {
+                period_ms,
+                window_ms,
+                inertia: None,
+            },
+        )?;
+        for chunk in points.chunks(plan.batch.clamp(1, MAX_POINTS)) {
+            let batch: Vec<ReferencePoint> = chunk.iter().map(|(_, p)| *p).collect();
+            let mut data = vec![0u8; 1 + POINT_LEN * batch.len()];
+            let n = points_data(&batch, &mut data).ok_or("reference batch")?;
+            let at = chunk.last().map_or(plan.start, |p| p.0) + plan.latency;
+            frames.push(at, 0, Command::ReferenceRate(&data[..n]))?;
+        }
+        let last = points.last().map_or(plan.start, |p| p.0);
+        at = last + plan.latency + 0.1;
+        frames.report(at)?;
     }
-    let last = points.last().map_or(plan.start, |p| p.0);
-    frames.report_and_commit(last + plan.latency + 0.1)
+    frames.commit(at + 0.1, plans.len() as u16)
 }
 
-/// The uplink of an identification without a reference (TC[200,8] source 2): the window from
-/// `plan.start` to `plan.end` with the body's inertia (the scenario's principal moments), the
-/// unit keeping means of `mean_ms` of sets; TC[200,10] 0.1 s after the window, TC[200,11] after it. Errors: a
-/// scenario whose body has no inertia or a torque (not a torque-free tumble).
+/// The uplink of identifications without a reference (TC[200,8] source 2) in `plans`'
+/// windows, with the body's inertia (the scenario's principal moments), the unit keeping
+/// means of `mean_ms` of sets; TC[200,10] 0.1 s after each window, then TC[200,11] committing
+/// the last window's solution. Errors: a scenario whose body has no inertia or a torque (not
+/// a torque-free tumble).
 pub fn uplink_tumble(
     sc: &Scenario,
-    plan: &Plan,
+    plans: &[Plan],
     mean_ms: u16,
 ) -> Result<Vec<(f64, Vec<u8>)>, String> {
     let j = match (sc.body.inertia, &sc.body.torque) {
@@ -157,30 +193,37 @@ pub fn uplink_tumble(
         }
     };
     let mut frames = Frames::default();
-    let window_ms = ((plan.end - plan.start) * 1000.0).round() as u32;
-    frames.push(
-        plan.start - 0.002,
-        ACK_ACCEPTANCE | ACK_COMPLETION,
-        Command::StartIdentification {
-            period_ms: mean_ms,
-            window_ms,
-            inertia: Some([j[0] as f32, j[1] as f32, j[2] as f32, 0.0, 0.0, 0.0]),
-        },
-    )?;
-    frames.report_and_commit(plan.end + 0.1)
+    let mut at = 0.0;
+    for plan in plans {
+        let window_ms = ((plan.end - plan.start) * 1000.0).round() as u32;
+        frames.push(
+            plan.start - 0.002,
+            ACK_ACCEPTANCE | ACK_COMPLETION,
+            Command::StartIdentification {
+                period_ms: mean_ms,
+                window_ms,
+                inertia: Some([j[0] as f32, j[1] as f32, j[2] as f32, 0.0, 0.0, 0.0]),
+            },
+        )?;
+        at = plan.end + 0.1;
+        frames.report(at)?;
+    }
+    frames.commit(at + 0.1, plans.len() as u16)
 }
 
 /// Flash of the host's calibration store: four sectors.
 pub const STORE_LEN: usize = 4 * HOST_SECTOR;
 
-/// Two boots: the first on an erased store runs `config` (the nominal arrangement) with
-/// `uplink` (an identification ending in a commit) and its telemetry into `downlink1`; the
-/// second, after the reset, boots with what the store gives (`select_at_boot`) and runs the
-/// scenario again, telemetry into `downlink2`, every estimate through `emit`. Returns both
-/// reports and the calibration the second boot used.
+/// Two boots: the first runs `config` (the nominal arrangement) on an erased store, or on
+/// `calibration` committed to it on the ground ([`boot_on_stored`]), with `uplink`
+/// (identifications ending in a commit) and its telemetry into `downlink1`; the second, after
+/// the reset, boots with what the store gives (`select_at_boot`) and runs the scenario again,
+/// telemetry into `downlink2`, every estimate through `emit`. Returns both reports and the
+/// calibration the second boot used.
 pub fn identify_and_reboot(
     sc: &Scenario,
     config: &AppConfig,
+    calibration: Option<&estimator_core::Arrangement<{ ballisto_fw::config::MAX_CHANNELS }>>,
     uplink: &[(f64, Vec<u8>)],
     downlink1: &mut dyn std::io::Write,
     downlink2: &mut dyn std::io::Write,
@@ -191,20 +234,24 @@ pub fn identify_and_reboot(
     let flash = RamFlash::new(&mut mem, &mut erases, Programming::WordOnce);
     let range = 0..STORE_LEN as u32;
     let mut store = CalibrationStore::new(flash, range.clone()).map_err(|e| format!("{e}"))?;
+    let (first_config, first_id) = match calibration {
+        Some(c) => commit_on_ground(&mut store, config, c)?,
+        None => (config.clone(), CalibrationId::default()),
+    };
     let instants = sc.samples() as u32;
     // The boot count in RAM that survives the reset (not a power loss), as on the boards.
     let mut retained = [0u32; 2];
     let info = count_boot(&mut retained, ResetCause::PowerOn);
     let first = run_firmware_boot(
         sc,
-        config,
+        &first_config,
         instants,
         uplink,
         downlink1,
         &mut |_, _, _| {},
         Boot {
             store: Some(&mut store),
-            calibration: CalibrationId::default(),
+            calibration: first_id,
             info,
         },
     )?;
@@ -245,6 +292,22 @@ fn stored_config(
     Ok((stored, id))
 }
 
+/// `calibration` committed to `store` on the ground (id 1, as the unit leaves calibration) and
+/// selected at boot: the configuration a boot runs with it.
+fn commit_on_ground(
+    store: &mut HostStore<'_>,
+    config: &AppConfig,
+    calibration: &estimator_core::Arrangement<{ ballisto_fw::config::MAX_CHANNELS }>,
+) -> Result<(AppConfig, CalibrationId), String> {
+    let record = ballisto_fw::calstore::record::CalibrationRecord {
+        id: 1,
+        arrangement: calibration.clone(),
+    };
+    embassy_futures::block_on(store.commit(&record))
+        .map_err(|e| format!("the calibration cannot be stored: {e:?}"))?;
+    stored_config(store, config)
+}
+
 /// One boot with `calibration` in the store (committed on the ground, id 1, as the unit leaves
 /// calibration): the firmware selects it at boot (`select_at_boot`: the record is encoded,
 /// stored, read back and checked as on the board) and runs the scenario on it, telemetry into
@@ -262,13 +325,7 @@ pub fn boot_on_stored(
     let flash = RamFlash::new(&mut mem, &mut erases, Programming::WordOnce);
     let mut store =
         CalibrationStore::new(flash, 0..STORE_LEN as u32).map_err(|e| format!("{e}"))?;
-    let record = ballisto_fw::calstore::record::CalibrationRecord {
-        id: 1,
-        arrangement: calibration.clone(),
-    };
-    embassy_futures::block_on(store.commit(&record))
-        .map_err(|e| format!("the calibration cannot be stored: {e:?}"))?;
-    let (stored_config, id) = stored_config(&mut store, config)?;
+    let (stored_config, id) = commit_on_ground(&mut store, config, calibration)?;
     let mut retained = [0u32; 2];
     let report = run_firmware_boot(
         sc,

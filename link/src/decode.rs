@@ -11,7 +11,7 @@ use crate::housekeeping::{
     Housekeeping, HOUSEKEEPING_LEN, HOUSEKEEPING_LEN_NO_BOOT, HOUSEKEEPING_LEN_NO_CALIBRATION,
     HOUSEKEEPING_LEN_NO_TEMPERATURE, HOUSEKEEPING_LEN_NO_TEST,
 };
-use crate::identification::{IdentificationSummary, IdentifiedChannel};
+use crate::identification::{IdentificationSummary, IdentifiedChannel, ThermalTrack};
 use crate::ids::{service, sid, subtype, APID};
 use crate::motion::{
     MotionReport, MOTION_LEN, MOTION_LEN_NO_CONTEXT, MOTION_LEN_NO_MARGIN, MOTION_LEN_NO_PROTECTION,
@@ -35,6 +35,8 @@ pub enum Report {
     IdentificationSummary(IdentificationSummary),
     /// TM[200,129].
     IdentifiedChannel(IdentifiedChannel),
+    /// TM[200,130].
+    ThermalTrack(ThermalTrack),
 }
 
 /// A decoded packet: header fields and content.
@@ -162,6 +164,9 @@ pub fn decode(raw: &[u8]) -> Result<Decoded, DecodeError> {
         }
         (service::BALLISTOMETER, subtype::IDENTIFIED_CHANNEL) => {
             Report::IdentifiedChannel(IdentifiedChannel::decode(data).ok_or(bad)?)
+        }
+        (service::BALLISTOMETER, subtype::THERMAL_TRACK) => {
+            Report::ThermalTrack(ThermalTrack::decode(data).ok_or(bad)?)
         }
         (service::TEST, subtype::ALIVE) if data.is_empty() => Report::Alive,
         (service::TEST, subtype::ALIVE) => return Err(bad),

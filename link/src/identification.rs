@@ -213,6 +213,91 @@ impl IdentifiedChannel {
     }
 }
 
+/// [`ThermalTrack::state`]: this solution's bias of the channel joined the track (its window's
+/// parts had a temperature, the bias was determined and the residual within its limit).
+pub const TRACK_ADDED: u8 = 1;
+/// [`ThermalTrack::state`]: the track decides the channel (at least three windows over at
+/// least 10 °C): a commit (TC[200,11]) stores its `t_ref`, `bias` and `bias_tc`.
+pub const TRACK_DETERMINED: u8 = 2;
+
+/// Application data of TM[200,130]: one channel's bias against temperature across the windows
+/// solved since boot (issue 50), sent after a solution's channels. Reals NaN where there is no
+/// line yet (fewer than two windows, or all at one temperature).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ThermalTrack {
+    /// The solution after which it is sent.
+    pub solution: u16,
+    /// The channel.
+    pub channel: u8,
+    /// [`TRACK_ADDED`] | [`TRACK_DETERMINED`].
+    pub state: u8,
+    /// Windows in the track.
+    pub windows: u16,
+    /// This solution's window: the channel's part's mean temperature, °C (NaN: not read).
+    pub window_temperature: f32,
+    /// The span of the windows' temperatures, °C.
+    pub span: f32,
+    /// The temperature `bias` refers to, °C: the coefficients' in use, or the windows' mean.
+    pub t_ref: f32,
+    /// The bias at `t_ref`, m/s², and its standard deviation.
+    pub bias: f32,
+    /// Standard deviation of `bias`.
+    pub bias_sd: f32,
+    /// The bias's temperature coefficient, m/s² per °C (the one in use corrected by the
+    /// track's slope).
+    pub bias_tc: f32,
+    /// Standard deviation of `bias_tc`.
+    pub bias_tc_sd: f32,
+    /// The windows' scatter about the line over their stated deviations (χ² per degree of
+    /// freedom; the deviations above are scaled by its root where it exceeds 1).
+    pub scatter: f32,
+}
+
+/// Application data length of TM[200,130].
+pub const TRACK_LEN: usize = 38;
+
+impl ThermalTrack {
+    /// Encodes the application data.
+    pub fn encode(&self, out: &mut [u8]) -> Option<usize> {
+        let mut p = Put::new(out);
+        p.u16(self.solution)
+            .u8(self.channel)
+            .u8(self.state)
+            .u16(self.windows)
+            .f32(self.window_temperature)
+            .f32(self.span)
+            .f32(self.t_ref)
+            .f32(self.bias)
+            .f32(self.bias_sd)
+            .f32(self.bias_tc)
+            .f32(self.bias_tc_sd)
+            .f32(self.scatter);
+        p.finish()
+    }
+
+    /// Decodes the application data (exactly [`TRACK_LEN`] octets).
+    pub fn decode(data: &[u8]) -> Option<Self> {
+        if data.len() != TRACK_LEN {
+            return None;
+        }
+        let mut g = Get::new(data);
+        Some(ThermalTrack {
+            solution: g.u16()?,
+            channel: g.u8()?,
+            state: g.u8()?,
+            windows: g.u16()?,
+            window_temperature: g.f32()?,
+            span: g.f32()?,
+            t_ref: g.f32()?,
+            bias: g.f32()?,
+            bias_sd: g.f32()?,
+            bias_tc: g.f32()?,
+            bias_tc_sd: g.f32()?,
+            scatter: g.f32()?,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -257,6 +342,31 @@ mod tests {
         assert_eq!(c.encode(&mut b), Some(CHANNEL_LEN));
         assert_eq!(IdentifiedChannel::decode(&b[..CHANNEL_LEN]), Some(c));
         assert_eq!(IdentifiedChannel::decode(&b[..CHANNEL_LEN - 1]), None);
+        let k = ThermalTrack {
+            solution: 3,
+            channel: 2,
+            state: TRACK_ADDED | TRACK_DETERMINED,
+            windows: 9,
+            window_temperature: 31.5,
+            span: 38.0,
+            t_ref: 22.4,
+            bias: 0.081,
+            bias_sd: 1e-5,
+            bias_tc: 1.2e-3,
+            bias_tc_sd: 2e-6,
+            scatter: f32::NAN,
+        };
+        assert_eq!(k.encode(&mut b), Some(TRACK_LEN));
+        let back = ThermalTrack::decode(&b[..TRACK_LEN]).unwrap();
+        assert!(back.scatter.is_nan());
+        assert_eq!(
+            ThermalTrack {
+                scatter: 0.0,
+                ..back
+            },
+            ThermalTrack { scatter: 0.0, ..k }
+        );
+        assert_eq!(ThermalTrack::decode(&b[..TRACK_LEN + 1]), None);
     }
 
     #[test]

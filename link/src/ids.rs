@@ -76,6 +76,8 @@ pub mod subtype {
     pub const IDENTIFICATION_SUMMARY: u8 = 128;
     /// TM[200,129] one identified channel.
     pub const IDENTIFIED_CHANNEL: u8 = 129;
+    /// TM[200,130] one channel's bias against temperature across the solved windows.
+    pub const THERMAL_TRACK: u8 = 130;
 }
 
 /// Housekeeping structure identifiers (TM[3,25]).
@@ -92,20 +94,21 @@ pub const PART_SLOTS: usize = 8;
 /// Most channels an arrangement on the link has (TC[200,6]; channel masks are 32 bits).
 pub const MAX_CHANNELS: usize = 24;
 
-/// The telemetry format, carried in the boot event: 5 since issue 50 (each part's temperature
-/// at the end of housekeeping); 4 since issue 49 (the identification
+/// The telemetry format, carried in the boot event: 6 since issue 50's in-flight tracking (a
+/// thermal track report TM[200,130] per channel after each solution); 5 since issue 50 (each
+/// part's temperature at the end of housekeeping); 4 since issue 49 (the identification
 /// summary's vector is ρ of paper eq. 12, the origin from the centre of mass, flagged in its
 /// octet 3; it was the centre of mass from the origin); 3 since issue 48 (the protection levels at
 /// the end of the motion report); 2 since the ground segment's list of issue 16 (the message
 /// type counter, the boot count and reset cause, the time correlation, the mode and model in
 /// the motion report, the commanded-exclusion event). Streams before 2 are format 1 (their
 /// boot event has 0 in that octet).
-pub const FORMAT_VERSION: u8 = 5;
+pub const FORMAT_VERSION: u8 = 6;
 
 /// Every telemetry message type the unit sends (service, subtype), in the order of its message
 /// type counters (PUS-C TM secondary header, octets 9–10: one counter per type, from 0 at
 /// boot, so the ground sees the loss of each kind of report).
-pub const TM_TYPES: [(u8, u8); 12] = [
+pub const TM_TYPES: [(u8, u8); 13] = [
     (service::VERIFICATION, subtype::ACCEPTED),
     (service::VERIFICATION, subtype::NOT_ACCEPTED),
     (service::VERIFICATION, subtype::COMPLETED),
@@ -118,6 +121,7 @@ pub const TM_TYPES: [(u8, u8); 12] = [
     (service::TEST, subtype::ALIVE),
     (service::BALLISTOMETER, subtype::IDENTIFICATION_SUMMARY),
     (service::BALLISTOMETER, subtype::IDENTIFIED_CHANNEL),
+    (service::BALLISTOMETER, subtype::THERMAL_TRACK),
 ];
 
 /// The index of a telemetry message type in [`TM_TYPES`] (its message type counter), or

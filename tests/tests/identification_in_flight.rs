@@ -141,7 +141,15 @@ fn tumble_on_board(sc: &Scenario) -> (Booted, Vec<u8>, Vec<u8>) {
     let config = firmware_config(sc, &loaded, Alignment::Interpolate).unwrap();
     let up = uplink_tumble(sc, &Plan::for_scenario(sc), 40).unwrap();
     let (mut first, mut second) = (Vec::new(), Vec::new());
-    let booted = identify_and_reboot(sc, &config, &up, &mut first, &mut second, &mut |_, _, _| {});
+    let booted = identify_and_reboot(
+        sc,
+        &config,
+        None,
+        &up,
+        &mut first,
+        &mut second,
+        &mut |_, _, _| {},
+    );
     (booted, first, second)
 }
 
@@ -186,6 +194,7 @@ fn identify_commit_reset_and_the_errors_return_to_ideal_parts() {
     let r = identify_and_reboot(
         &sc,
         &config,
+        None,
         &up,
         &mut first,
         &mut second,
@@ -294,8 +303,16 @@ fn identify_against_ideal(sc: &Scenario) -> ([f64; 4], (usize, usize)) {
     let config = firmware_config(sc, &loaded, Alignment::Interpolate).unwrap();
     let up = uplink(sc, &Plan::for_scenario(sc)).unwrap();
     let (mut first, mut second) = (Vec::new(), Vec::new());
-    identify_and_reboot(sc, &config, &up, &mut first, &mut second, &mut |_, _, _| {})
-        .expect("identified, committed and booted on it");
+    identify_and_reboot(
+        sc,
+        &config,
+        None,
+        &up,
+        &mut first,
+        &mut second,
+        &mut |_, _, _| {},
+    )
+    .expect("identified, committed and booted on it");
     let summary = summary(&packets(&first));
     let rho = sc.body.origin_offset.unwrap_or([0.0; 3]);
     let origin: [f64; 3] = core::array::from_fn(|k| f64::from(summary.rho[k]) - rho[k]);

@@ -444,4 +444,43 @@ fn identification_tables_match_the_encoders() {
         "### Identified channel — TM[200,129] (packet {} octets)",
         21 + CHANNEL_LEN + 2
     )));
+
+    use ballisto_link::identification::{ThermalTrack, TRACK_LEN};
+    let rows = table(&doc, "### Thermal track");
+    check_tiling(&rows, TRACK_LEN, "thermal track");
+    let k = ThermalTrack {
+        solution: 4,
+        channel: 9,
+        state: 3,
+        windows: 11,
+        window_temperature: 12.5,
+        span: 38.5,
+        t_ref: 21.25,
+        bias: 0.125,
+        bias_sd: 0.25,
+        bias_tc: 0.375,
+        bias_tc_sd: 0.5,
+        scatter: 1.75,
+    };
+    let mut data = [0u8; TRACK_LEN];
+    assert_eq!(k.encode(&mut data), Some(TRACK_LEN));
+    let expected = [
+        ("solution number", vec![4.0]),
+        ("channel", vec![9.0]),
+        ("state", vec![3.0]),
+        ("windows in the track", vec![11.0]),
+        ("this window's mean temperature", vec![12.5]),
+        ("span of the windows' mean temperatures", vec![38.5]),
+        ("`t_ref`", vec![21.25]),
+        ("bias at `t_ref`", vec![0.125]),
+        ("its standard deviation", vec![0.25]),
+        ("`bias_tc`", vec![0.375]),
+        ("its standard deviation", vec![0.5]),
+        ("the windows' scatter", vec![1.75]),
+    ];
+    check_rows(&data, &rows, &expected, "thermal track");
+    assert!(doc.contains(&format!(
+        "### Thermal track — TM[200,130] (packet {} octets)",
+        21 + TRACK_LEN + 2
+    )));
 }

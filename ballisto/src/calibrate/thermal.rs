@@ -21,10 +21,7 @@ use super::fit::{self, FitSet, Geometry, Pose};
 use super::poses::remeasured;
 use super::scatter::Scatter;
 
-/// The least temperature span (°C, over a channel's static poses) from which coefficients are
-/// identified: a datasheet-typical 0.15 mg/°C moves the bias by 15 µg over it, about the
-/// noise of one 3 s pose of an ADXL355.
-pub const MIN_SPAN_C: f64 = 10.0;
+use estimator_core::thermal::MIN_SPAN_C;
 
 /// Alternations of geometry and coefficients at most.
 const MAX_ALTERNATIONS: usize = 10;

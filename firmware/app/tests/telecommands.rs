@@ -123,6 +123,9 @@ struct Unit {
     identifier: &'static Identifier,
     window: Box<Identification>,
     identifying: bool,
+    /// Every part's temperature (°C, NaN: none read) and the bias it adds to every reading
+    /// per °C from 25 °C.
+    thermal: (f32, f32),
 }
 
 impl Unit {
@@ -143,6 +146,7 @@ impl Unit {
             identifier,
             window: Box::new(Identification::new()),
             identifying: true,
+            thermal: (f32::NAN, 0.0),
         };
         block_on(unit.app.boot(0, &mut tm));
         unit.tm = tm;
@@ -151,7 +155,17 @@ impl Unit {
 
     fn sets(&mut self, n: u32) {
         for _ in 0..n {
-            let s = set(&self.cfg, self.k);
+            let mut s = set(&self.cfg, self.k);
+            let (celsius, bias_tc) = self.thermal;
+            if celsius.is_finite() {
+                for (part, v) in s.parts.iter_mut().enumerate() {
+                    if let Some(v) = v {
+                        v.iter_mut().for_each(|x| *x += bias_tc * (celsius - 25.0));
+                        s.temperatures[part] = celsius;
+                    }
+                }
+                s.temperature_reads = self.k + 1;
+            }
             let board = HealthBoard::<NoopRawMutex>::new();
             board.publish(health(&self.cfg));
             block_on(self.app.on_set(&s, &board, &mut self.tm));
@@ -1089,6 +1103,162 @@ fn a_window_is_reported_and_committed_through_the_store() {
     );
     // The calibration in use is still the boot's: a commit is used from the next boot.
     assert_eq!(u.app.calibration(), ballisto_link::CalibrationId::default());
+}
+
+/// A 4 s window from the unit's time `start` ns (reference every 50 ms, four points a
+/// telecommand), solved: the solve's packets.
+fn solved_window(u: &mut Unit, start: u64, seq: &mut u16) -> Vec<Decoded> {
+    let b = service::BALLISTOMETER;
+    let r = u.command_at(
+        &tc(
+            b,
+            subtype::START_IDENTIFICATION,
+            &start_data(1, 50, 4_000),
+            *seq,
+        ),
+        start,
+    );
+    assert_eq!(verification(r.last().unwrap()).0, subtype::COMPLETED);
+    *seq += 1;
+    for batch in 0..20u64 {
+        u.sets(20);
+        let pts: Vec<_> = (0..4)
+            .map(|i| {
+                (
+                    start + 100_000_000 + (batch * 4 + i) * 50_000_000,
+                    [0.0f32, 0.0, 0.5],
+                )
+            })
+            .collect();
+        u.command(&tc(b, subtype::REFERENCE_RATE, &reference_data(&pts), *seq));
+        *seq += 1;
+    }
+    let r = u.command(&tc(b, subtype::REPORT_IDENTIFICATION, &[], *seq));
+    *seq += 1;
+    r
+}
+
+/// The thermal track reports (TM[200,130]) among `packets`.
+fn tracks(packets: &[Decoded]) -> Vec<ballisto_link::identification::ThermalTrack> {
+    packets
+        .iter()
+        .filter_map(|p| match p.report {
+            Report::ThermalTrack(k) => Some(k),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Windows at 10, 25 and 40 °C with every bias moving by 1 mg per °C: each solution is followed
+/// by every channel's track (TM[200,130]); a window solved twice joins once; the third window
+/// decides the line, and the commit stores its coefficient (the scale's none) with the
+/// solution; a new arrangement starts the track again.
+#[test]
+fn windows_at_different_temperatures_track_each_bias_and_the_commit_stores_it() {
+    use ballisto_link::identification::{TRACK_ADDED, TRACK_DETERMINED};
+    let bias_tc = 9.81e-3f32;
+    let mut u = Unit::new();
+    u.app.set_store_writable(true);
+    u.sets(10);
+    let mut seq = 90;
+    let mut number = 0;
+    for (w, celsius) in [10.0f32, 25.0, 40.0].into_iter().enumerate() {
+        u.thermal = (celsius, bias_tc);
+        let start = u64::from(u.k) * 10_000_000;
+        let r = solved_window(&mut u, start, &mut seq);
+        let summary = r
+            .iter()
+            .find_map(|p| match p.report {
+                Report::IdentificationSummary(s) => Some(s),
+                _ => None,
+            })
+            .expect("a summary");
+        number = summary.solution;
+        let k = tracks(&r);
+        assert_eq!(k.len(), 12, "window {w}");
+        for t in &k {
+            assert_eq!(t.solution, number);
+            assert_eq!(t.state & TRACK_ADDED, TRACK_ADDED, "{t:?}");
+            assert_eq!(usize::from(t.windows), w + 1);
+            assert_eq!(t.window_temperature, celsius);
+            assert_eq!(t.state & TRACK_DETERMINED != 0, w == 2, "{t:?}");
+            if w == 0 {
+                assert!(
+                    t.bias_tc.is_nan() && t.span.is_nan(),
+                    "no line from one window"
+                );
+            } else {
+                assert!((t.bias_tc - bias_tc).abs() < 1e-5, "{t:?}");
+                assert_eq!(t.span, 15.0 * w as f32);
+            }
+        }
+    }
+    // Solving the same window again reports the track, adds nothing.
+    let again = u.command(&tc(
+        service::BALLISTOMETER,
+        subtype::REPORT_IDENTIFICATION,
+        &[],
+        seq,
+    ));
+    seq += 1;
+    let k = tracks(&again);
+    assert!(
+        k.iter()
+            .all(|t| t.state == TRACK_DETERMINED && t.windows == 3),
+        "{k:?}"
+    );
+    number += 1;
+    // The commit: the solution's geometry with the track's bias at t_ref and coefficient.
+    u.command(&tc(
+        service::BALLISTOMETER,
+        subtype::COMMIT_CALIBRATION,
+        &number.to_be_bytes(),
+        seq,
+    ));
+    seq += 1;
+    let request = u.app.take_commit().expect("a commit");
+    for c in 0..12 {
+        let th = request
+            .arrangement
+            .thermal(c)
+            .expect("coefficients committed");
+        assert!(
+            (th.bias_tc - f64::from(bias_tc)).abs() < 1e-5,
+            "{c}: {th:?}"
+        );
+        assert_eq!(th.scale_tc, 0.0);
+        assert!((th.t_ref - 25.0).abs() < 1e-3, "{c}: {th:?}");
+        // The bias at 25 °C is the one without temperature (the spin's σ0 along the axis).
+        let at_ref = request.arrangement.channels()[c].bias;
+        let axis_z = u.cfg.arrangement.channels()[c].axis[2];
+        assert!(
+            (at_ref - 0.1 * axis_z).abs() < 1e-4,
+            "{c}: {at_ref} vs {}",
+            0.1 * axis_z
+        );
+    }
+    block_on(u.app.on_commit_reply(
+        ballisto_fw::storage::CommitReply::Stored { id: 2, crc: 1 },
+        0,
+        &mut u.tm,
+    ));
+    // A new arrangement: the windows' biases were for the old one.
+    let r = u.command(&tc(
+        service::BALLISTOMETER,
+        subtype::LOAD_ARRANGEMENT,
+        &shifted_arrangement(&u.cfg.clone(), 0.0),
+        seq,
+    ));
+    seq += 1;
+    assert!(
+        r.iter()
+            .filter(|p| matches!(p.report, Report::Verification(_)))
+            .all(|p| verification(p).1.is_none()),
+        "{r:?}"
+    );
+    let start = u64::from(u.k) * 10_000_000;
+    let k = tracks(&solved_window(&mut u, start, &mut seq));
+    assert!(k.iter().all(|t| t.windows == 1), "{k:?}");
 }
 
 /// The window's work is the identification task's, below the estimate: with the task stalled

@@ -345,7 +345,8 @@ fn run_tumble<P: Platform>(p: &mut P, per_tick: f64) {
 /// moved into the sums) runs outside the count, as it does below the estimate on the board.
 /// Every channel has temperature coefficients (issue 50) and the sets carry the parts'
 /// temperatures as the sampler reads them — one part's new one every sixth set at 100 Hz — so
-/// the count holds the corrections' update and their application.
+/// the count holds the corrections' update and their application, and, with the window open,
+/// the window's temperature sums at each new read (`identification::ThermalTracking`).
 /// Readings: the benchmark's motion with the configuration's declared noise (Gaussian).
 /// Returns the mean.
 fn run_per_set<P: Platform>(p: &mut P, per_tick: f64, model: Model, identifying: bool) -> u64 {
@@ -366,6 +367,7 @@ fn run_per_set<P: Platform>(p: &mut P, per_tick: f64, model: Model, identifying:
     use ballisto_fw::identification::{Identifier, Order};
     let identifier = Identifier::new();
     let mut id = Identification::new();
+    let mut thermal = ballisto_fw::identification::ThermalTracking::new();
     if identifying {
         id.start(0, 50, 3_600_000, &cfg.arrangement, 100.0, None);
     }
@@ -399,7 +401,11 @@ fn run_per_set<P: Platform>(p: &mut P, per_tick: f64, model: Model, identifying:
             omega: scenario::field(t).2.map(|v| v as f32),
         };
         let (_, n) = measure(p, per_tick, || {
-            estimation.observe_temperatures(set.temperature_reads, &set.temperatures);
+            let new_read =
+                estimation.observe_temperatures(set.temperature_reads, &set.temperatures);
+            if identifying && new_read {
+                thermal.observe(estimation.temperatures());
+            }
             let e = estimation.process(&set);
             if identifying {
                 identifier.post_set(set.t, estimation.readings(), e.estimate.omega);

@@ -80,6 +80,8 @@ impl App {
             Command::LoadArrangement(data) => {
                 self.configuration_free()?;
                 let (applied, calibration) = self.load_arrangement(data)?;
+                // The windows' biases were found with the arrangement replaced.
+                self.identification.thermal.forget();
                 if applied == Applied::WhenBuilt {
                     return Ok(self.defer_reconfigured(Some(calibration)));
                 }

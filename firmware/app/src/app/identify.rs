@@ -13,7 +13,9 @@ use estimator_core::FrameUncertainty;
 
 use super::App;
 use crate::config::MAX_CHANNELS;
-use crate::identification::{longest_window_ms, Identifier, Order, Solved, Unsolved};
+use crate::identification::{
+    longest_window_ms, Identifier, Order, Solved, ThermalTracking, Unsolved,
+};
 use crate::storage::{CommitReply, CommitRequest};
 use crate::telemetry::Telemetry;
 use crate::time::Nanos;
@@ -47,6 +49,8 @@ pub(super) struct IdentificationLink {
     solving: Option<(RequestId, bool)>,
     /// The last solution reported, under its number.
     solution: Option<(u16, Identified<MAX_CHANNELS>, FrameUncertainty<f64>)>,
+    /// The window's temperatures and every channel's bias against them across windows.
+    pub(super) thermal: ThermalTracking,
 }
 
 impl IdentificationLink {
@@ -134,6 +138,7 @@ impl App {
                 let end = t + u64::from(window_ms) * 1_000_000;
                 self.identification.window = Some((t, end));
                 self.identification.lost = 0;
+                self.identification.thermal.start();
                 info!("identification window of {} ms started", window_ms);
             }
             Command::ReferenceRate(data) => {
@@ -161,6 +166,17 @@ impl App {
         };
         if t >= start && t <= end && !task.post_set(t, self.estimation.readings(), omega) {
             link.lost = link.lost.wrapping_add(1);
+        }
+    }
+
+    /// The parts' temperatures after a new read at `t`: into the window's, if one is open.
+    pub(super) fn identification_temperatures(&mut self, t: Nanos) {
+        let link = &mut self.identification;
+        if link
+            .window
+            .is_some_and(|(start, end)| t >= start && t <= end)
+        {
+            link.thermal.observe(self.estimation.temperatures());
         }
     }
 
@@ -262,6 +278,24 @@ impl App {
             );
             tm.transmit(framed).await;
         }
+        // Each channel's bias against temperature across the windows (TM[200,130]).
+        let estimation = &self.estimation;
+        let thermal = &mut self.identification.thermal;
+        let added = thermal.add_solution(id, |c| estimation.part_of(c), RESIDUAL_LIMIT);
+        for c in 0..id.channels().len() {
+            let in_use = self.estimation.estimator().arrangement();
+            let r = self.identification.thermal.report(
+                summary.solution,
+                c,
+                self.estimation.part_of(c),
+                added,
+                in_use,
+            );
+            let framed = tm.stage(t, service::BALLISTOMETER, subtype::THERMAL_TRACK, |buf| {
+                r.encode(buf)
+            });
+            tm.transmit(framed).await;
+        }
         Ok(())
     }
 
@@ -304,6 +338,15 @@ impl App {
         let in_use = self.estimation.estimator().arrangement();
         for c in 0..arrangement.len() {
             let _ = arrangement.set_thermal(c, in_use.thermal(c));
+        }
+        // Where the windows at different temperatures decide a channel's line, its bias at
+        // `t_ref` and its coefficient are the line's.
+        let tracked = self.identification.thermal.apply(&mut arrangement, in_use);
+        if tracked > 0 {
+            info!(
+                "commit: {} channels' bias coefficients from the thermal track",
+                tracked
+            );
         }
         self.store = Store::Busy(request, ack_completion);
         // Sent by the task loop (`take_commit`) right after this command.

@@ -206,8 +206,12 @@ impl App {
     ) -> Observation {
         health.latest_into(&mut self.health);
         self.part_events(set.t, tm).await;
-        self.estimation
-            .observe_temperatures(set.temperature_reads, &set.temperatures);
+        if self
+            .estimation
+            .observe_temperatures(set.temperature_reads, &set.temperatures)
+        {
+            self.identification_temperatures(set.t);
+        }
         let mut motion = None;
         if self.mode == Mode::Operate {
             let excluded_before = self.estimation.excluded_parts();

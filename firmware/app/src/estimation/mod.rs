@@ -539,10 +539,11 @@ impl Estimation {
     /// The parts' temperatures a set carries (°C, NaN: not read) after the sampler's `reads`-th
     /// temperature read: the channels of a part whose temperature changed get their
     /// corrections for it. Called for every set, before it is processed, in standby too.
-    pub fn observe_temperatures(&mut self, reads: u32, celsius: &[f32; MAX_PARTS]) {
+    /// Returns whether the set carried a new read.
+    pub fn observe_temperatures(&mut self, reads: u32, celsius: &[f32; MAX_PARTS]) -> bool {
         // Most sets carry no new temperature.
         if !self.compensation.news(reads) {
-            return;
+            return false;
         }
         for (part, (&t, chans)) in celsius.iter().zip(self.channels.iter()).enumerate() {
             let known = self.compensation.temperatures()[part];
@@ -551,6 +552,14 @@ impl Estimation {
                     .observe(self.estimator.arrangement(), part, chans, t);
             }
         }
+        true
+    }
+
+    /// The part channel `channel` is read from.
+    pub fn part_of(&self, channel: usize) -> Option<usize> {
+        self.channels
+            .iter()
+            .position(|chans| chans.iter().flatten().any(|&c| usize::from(c) == channel))
     }
 
     /// Each part's last temperature read (°C; NaN where none yet).

@@ -9,15 +9,19 @@
 //! solution under a number and TC[200,11] names that number to commit it. All of it but the
 //! copy of each set runs in the identification task, below the estimate ([`task`]). The
 //! field: `σ(0) = 0` at the centre of mass (free flight) and the reference's Ω and Ω′; the
-//! gravity gradient (≈ 4e-6 s⁻² in low orbit, 4e-7 m/s² on a 0.1 m arm) is left out.
+//! gravity gradient (≈ 4e-6 s⁻² in low orbit, 4e-7 m/s² on a 0.1 m arm) is left out. Across
+//! windows at different temperatures each channel's bias is tracked against its part's
+//! temperature ([`thermal`]), and a commit takes the temperature coefficient it decides.
 
 mod reference;
 mod task;
+mod thermal;
 mod tumble;
 mod window;
 
 pub use reference::{Push, ReferenceTrack};
 pub use task::{Identifier, Order, Solved, ORDERS, SET_QUEUE};
+pub use thermal::ThermalTracking;
 pub use tumble::{longest_window_ms, TUMBLE_FLOATS};
 pub use window::Identification;
 

@@ -17,6 +17,16 @@ use core::fmt;
 
 use crate::real::Real;
 
+pub mod track;
+
+pub use track::{Line, Track, MIN_WINDOWS};
+
+/// The least temperature span (°C) from which coefficients are identified, on the ground over a
+/// channel's static poses and in flight over the identification windows' mean temperatures
+/// ([`track`]): a datasheet-typical 0.15 mg/°C moves the bias by 15 µg over it, about the noise
+/// of one 3 s pose of an ADXL355.
+pub const MIN_SPAN_C: f64 = 10.0;
+
 /// Temperatures (°C) a part can report: the ADXL355's and LIS3DH's operating ranges are
 /// −40…+125 °C; a value outside −100…+200 °C is not a temperature.
 pub const PLAUSIBLE_C: (f64, f64) = (-100.0, 200.0);
