@@ -116,6 +116,17 @@ EOF
   cat <<EOF
 ![Residuals per sample and channel before and after calibration, ground-calibration](validation/ground-calibration-residuals.png)
 
+## Temperature (datasheet-realistic parts with datasheet temperature coefficients)
+
+\`ballisto calibrate\` on \`ground-thermal\` (and three fresh draws); \`tetra-orbit-thermal\` (3 h, ±20 °C)
+through the firmware booted on that calibration, without its coefficients, and without them but
+tracked in flight (identification windows across the orbit in its tumble, commit, reset);
+coefficients changed since the ground, tracked over one orbit (two fresh draws).
+\`tests/tests/temperature.rs\`.
+EOF
+  e2e temperature
+  cat <<EOF
+
 ## Real recordings (real parts)
 
 The MIMU4444 board (8 MPU9150, 62.5 Hz, 19 mm × 19 mm × 2 mm), Ω against the mean of its
