@@ -271,13 +271,18 @@ pub fn log_line(p: &Decoded, time_offset: f64) -> Option<String> {
             )
         }
         Report::ThermalTrack(k) => {
-            use ballisto_link::identification::{TRACK_ADDED, TRACK_DETERMINED};
+            use ballisto_link::identification::{TRACK_ADDED, TRACK_DETERMINED, TRACK_SCALE_DRIFT};
             format!(
-                "THERMAL_TRACK solution={} channel={} window_temperature_c={:.2} added={} windows={} span_c={:.1} determined={} t_ref={:.2} bias={:.6} bias_sd={:.2e} bias_tc={:.4e} bias_tc_sd={:.2e} scatter={:.2}",
+                "THERMAL_TRACK solution={} channel={} window_temperature_c={:.2} added={} windows={} span_c={:.1} determined={} t_ref={:.2} bias={:.6} bias_sd={:.2e} bias_tc={:.4e} bias_tc_sd={:.2e} scatter={:.2}{}",
                 k.solution, k.channel, k.window_temperature,
                 u8::from(k.state & TRACK_ADDED != 0), k.windows, k.span,
                 u8::from(k.state & TRACK_DETERMINED != 0), k.t_ref,
-                k.bias, k.bias_sd, k.bias_tc, k.bias_tc_sd, k.scatter
+                k.bias, k.bias_sd, k.bias_tc, k.bias_tc_sd, k.scatter,
+                if k.state & TRACK_SCALE_DRIFT != 0 {
+                    " SCALE_DRIFT (a position held, no scale coefficient in use: the slope may carry the scale's drift)"
+                } else {
+                    ""
+                }
             )
         }
     };

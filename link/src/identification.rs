@@ -220,6 +220,12 @@ pub const TRACK_ADDED: u8 = 1;
 /// least 10 °C): a commit (TC[200,11]) stores its `t_ref`, `bias` and `bias_tc`.
 pub const TRACK_DETERMINED: u8 = 2;
 
+/// [`ThermalTrack::state`]: a window behind the line held a position component of the channel
+/// while no scale coefficient is in use: the lever arm could not take up the scale's drift with
+/// temperature, and the slope may carry part of it (up to the scale's coefficient × the
+/// channel's mean specific force along its axis) beyond the deviation stated.
+pub const TRACK_SCALE_DRIFT: u8 = 4;
+
 /// Application data of TM[200,130]: one channel's bias against temperature across the windows
 /// solved since boot (issue 50), sent after a solution's channels. Reals NaN where there is no
 /// line yet (fewer than two windows, or all at one temperature).
@@ -229,7 +235,7 @@ pub struct ThermalTrack {
     pub solution: u16,
     /// The channel.
     pub channel: u8,
-    /// [`TRACK_ADDED`] | [`TRACK_DETERMINED`].
+    /// [`TRACK_ADDED`] | [`TRACK_DETERMINED`] | [`TRACK_SCALE_DRIFT`].
     pub state: u8,
     /// Windows in the track.
     pub windows: u16,

@@ -1152,10 +1152,11 @@ fn tracks(packets: &[Decoded]) -> Vec<ballisto_link::identification::ThermalTrac
 /// Windows at 10, 25 and 40 °C with every bias moving by 1 mg per °C: each solution is followed
 /// by every channel's track (TM[200,130]); a window solved twice joins once; the third window
 /// decides the line, and the commit stores its coefficient (the scale's none) with the
-/// solution; a new arrangement starts the track again.
+/// solution; the held lever arms without a scale coefficient are said; a new arrangement starts
+/// the track again.
 #[test]
 fn windows_at_different_temperatures_track_each_bias_and_the_commit_stores_it() {
-    use ballisto_link::identification::{TRACK_ADDED, TRACK_DETERMINED};
+    use ballisto_link::identification::{TRACK_ADDED, TRACK_DETERMINED, TRACK_SCALE_DRIFT};
     let bias_tc = 9.81e-3f32;
     let mut u = Unit::new();
     u.app.set_store_writable(true);
@@ -1182,6 +1183,8 @@ fn windows_at_different_temperatures_track_each_bias_and_the_commit_stores_it() 
             assert_eq!(usize::from(t.windows), w + 1);
             assert_eq!(t.window_temperature, celsius);
             assert_eq!(t.state & TRACK_DETERMINED != 0, w == 2, "{t:?}");
+            // The spin about z holds every z lever arm, and no scale coefficient is in use.
+            assert_ne!(t.state & TRACK_SCALE_DRIFT, 0, "{t:?}");
             if w == 0 {
                 assert!(
                     t.bias_tc.is_nan() && t.span.is_nan(),
@@ -1204,7 +1207,7 @@ fn windows_at_different_temperatures_track_each_bias_and_the_commit_stores_it() 
     let k = tracks(&again);
     assert!(
         k.iter()
-            .all(|t| t.state == TRACK_DETERMINED && t.windows == 3),
+            .all(|t| t.state == TRACK_DETERMINED | TRACK_SCALE_DRIFT && t.windows == 3),
         "{k:?}"
     );
     number += 1;

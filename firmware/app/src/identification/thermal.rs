@@ -14,7 +14,9 @@
 //! outside the sets' path): the mean over the window's time, which is the mean over its sets
 //! to the change of one read interval (≈ 0.006 °C on a ±20 °C orbit).
 
-use ballisto_link::identification::{ThermalTrack, TRACK_ADDED, TRACK_DETERMINED};
+use ballisto_link::identification::{
+    ThermalTrack, TRACK_ADDED, TRACK_DETERMINED, TRACK_SCALE_DRIFT,
+};
 use estimator_core::identify::{Identified, Param};
 use estimator_core::thermal::{Line, Thermal, Track};
 use estimator_core::Arrangement;
@@ -30,6 +32,8 @@ pub struct ThermalTracking {
     /// Whether a solution of the open window joined the track (solving it again adds nothing).
     added: bool,
     track: Track<MAX_CHANNELS>,
+    /// Channels (bit per channel) that joined from a window holding a position component.
+    held_position: u32,
 }
 
 impl Default for ThermalTracking {
@@ -46,6 +50,7 @@ impl ThermalTracking {
             count: [0; MAX_PARTS],
             added: false,
             track: Track::new(),
+            held_position: 0,
         }
     }
 
@@ -70,6 +75,7 @@ impl ThermalTracking {
     pub fn forget(&mut self) {
         self.track.clear();
         self.added = false;
+        self.held_position = 0;
     }
 
     /// Part `part`'s mean temperature over the window (°C; NaN if never read).
@@ -102,6 +108,10 @@ impl ThermalTracking {
             let bias_sd = f.sd[Param::Bias as usize];
             if usable && self.track.add(c, f64::from(t), f.channel.bias, bias_sd) {
                 added |= 1 << c;
+                let position = [Param::PositionX, Param::PositionY, Param::PositionZ];
+                if position.into_iter().any(|p| f.is_held(p)) {
+                    self.held_position |= 1 << c;
+                }
             }
         }
         added
@@ -133,6 +143,10 @@ impl ThermalTracking {
             bias_tc_sd: f32::NAN,
             scatter: f32::NAN,
         };
+        let scale_tc = in_use.thermal(c).map_or(0.0, |th| th.scale_tc);
+        if self.held_position & (1 << c) != 0 && scale_tc == 0.0 {
+            r.state |= TRACK_SCALE_DRIFT;
+        }
         if let Some((line, bias_tc, thermal)) = self.line(c, in_use) {
             if line.determined() && thermal.is_some() {
                 r.state |= TRACK_DETERMINED;
