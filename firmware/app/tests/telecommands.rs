@@ -976,30 +976,10 @@ fn a_window_is_reported_and_committed_through_the_store() {
     u.app.set_store_writable(true);
     let b = service::BALLISTOMETER;
     u.sets(10);
-    // 10 ms sets; reference every 50 ms, sent four points at a time.
-    let r = u.command(&tc(
-        b,
-        subtype::START_IDENTIFICATION,
-        &start_data(1, 50, 4_000),
-        90,
-    ));
-    assert_eq!(verification(r.last().unwrap()).0, subtype::COMPLETED);
-    let mut seq = 91;
-    for batch in 0..20u64 {
-        u.sets(20);
-        let pts: Vec<_> = (0..4)
-            .map(|i| {
-                (
-                    100_000_000 + (batch * 4 + i) * 50_000_000,
-                    [0.0f32, 0.0, 0.5],
-                )
-            })
-            .collect();
-        u.command(&tc(b, subtype::REFERENCE_RATE, &reference_data(&pts), seq));
-        seq += 1;
-    }
-    // Solved by the identification task; reported and completed as it hands the solution over.
-    let r = u.command(&tc(b, subtype::REPORT_IDENTIFICATION, &[], seq));
+    // 10 ms sets; reference every 50 ms, sent four points at a time. Solved by the
+    // identification task; reported and completed as it hands the solution over.
+    let mut seq = 90;
+    let r = solved_window(&mut u, 0, &mut seq);
     let summary = r
         .iter()
         .find_map(|p| match p.report {

@@ -282,15 +282,9 @@ impl App {
         let estimation = &self.estimation;
         let thermal = &mut self.identification.thermal;
         let added = thermal.add_solution(id, |c| estimation.part_of(c), RESIDUAL_LIMIT);
+        let in_use = estimation.estimator().arrangement();
         for c in 0..id.channels().len() {
-            let in_use = self.estimation.estimator().arrangement();
-            let r = self.identification.thermal.report(
-                summary.solution,
-                c,
-                self.estimation.part_of(c),
-                added,
-                in_use,
-            );
+            let r = thermal.report(summary.solution, c, estimation.part_of(c), added, in_use);
             let framed = tm.stage(t, service::BALLISTOMETER, subtype::THERMAL_TRACK, |buf| {
                 r.encode(buf)
             });

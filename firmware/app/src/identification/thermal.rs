@@ -23,6 +23,9 @@ use estimator_core::Arrangement;
 
 use crate::config::{MAX_CHANNELS, MAX_PARTS};
 
+// Channels are bits of a `u32` here.
+const _: () = assert!(MAX_CHANNELS <= 32);
+
 /// The window's temperatures and the track.
 #[derive(Clone, Debug)]
 pub struct ThermalTracking {
