@@ -34,7 +34,7 @@ const SIM_HELP: &str = "Named scenarios:
   ground-calibration  6 parts with datasheet errors (4 x ADXL355, 2 x LIS3DH), ground calibration schedule, reference gyro
   orbit-identify      4 x ADXL355 with datasheet errors, tumble with attitude-control torque in orbit, reference gyro at 20 Hz
   ground-thermal      4 x ADXL355 with datasheet errors and temperature coefficients, calibration schedule three times in a chamber ramping -10 to +50 degC, reference gyro
-  tetra-orbit-thermal the same parts tumbling in orbit for 3 h through a +-20 degC orbit thermal cycle (boot on ground-thermal's calibration with --calibration)
+  tetra-orbit-thermal the same parts tumbling in orbit for 3 h through a +-20 degC orbit thermal cycle (boot on ground-thermal's calibration with --calibration; --identify tracks the coefficients in flight)
 The scenario file format: hal-sim/scenarios/README.md.";
 
 const DECODE_HELP: &str = "Packet layouts: docs/telemetry.md. Exit status: 0 all packets intact and
