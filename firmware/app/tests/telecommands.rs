@@ -980,13 +980,7 @@ fn a_window_is_reported_and_committed_through_the_store() {
     // identification task; reported and completed as it hands the solution over.
     let mut seq = 90;
     let r = solved_window(&mut u, 0, &mut seq);
-    let summary = r
-        .iter()
-        .find_map(|p| match p.report {
-            Report::IdentificationSummary(s) => Some(s),
-            _ => None,
-        })
-        .expect("a summary");
+    let summary = summary_in(&r).expect("a summary");
     assert_eq!(summary.channels, 12);
     assert!(summary.sets > 300, "{summary:?}");
     assert_eq!(summary.points, 80);
@@ -1118,6 +1112,14 @@ fn solved_window(u: &mut Unit, start: u64, seq: &mut u16) -> Vec<Decoded> {
     r
 }
 
+/// The identification summary (TM[200,128]) among `packets`.
+fn summary_in(packets: &[Decoded]) -> Option<ballisto_link::identification::IdentificationSummary> {
+    packets.iter().find_map(|p| match p.report {
+        Report::IdentificationSummary(s) => Some(s),
+        _ => None,
+    })
+}
+
 /// The thermal track reports (TM[200,130]) among `packets`.
 fn tracks(packets: &[Decoded]) -> Vec<ballisto_link::identification::ThermalTrack> {
     packets
@@ -1147,13 +1149,7 @@ fn windows_at_different_temperatures_track_each_bias_and_the_commit_stores_it() 
         u.thermal = (celsius, bias_tc);
         let start = u64::from(u.k) * 10_000_000;
         let r = solved_window(&mut u, start, &mut seq);
-        let summary = r
-            .iter()
-            .find_map(|p| match p.report {
-                Report::IdentificationSummary(s) => Some(s),
-                _ => None,
-            })
-            .expect("a summary");
+        let summary = summary_in(&r).expect("a summary");
         number = summary.solution;
         let k = tracks(&r);
         assert_eq!(k.len(), 12, "window {w}");
@@ -1310,13 +1306,7 @@ fn the_estimate_never_waits_for_the_identification_task() {
     u.identifying = true;
     u.identification_task();
     let r = u.all()[before..].to_vec();
-    let summary = r
-        .iter()
-        .find_map(|p| match p.report {
-            Report::IdentificationSummary(s) => Some(s),
-            _ => None,
-        })
-        .expect("the summary once the task has solved");
+    let summary = summary_in(&r).expect("the summary once the task has solved");
     assert!(
         summary.not_covered >= (40 - SET_QUEUE) as u32,
         "the sets lost on the way are counted: {summary:?}"
