@@ -850,7 +850,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 uplink,
                 calibration: calibration.as_deref(),
             })?;
-            print_sim(say, &scenario, &sc, &r, calibration.is_some(), started);
+            print_sim(say, &scenario, &sc, &r, identify, started);
             Ok(ExitCode::SUCCESS)
         }
         Command::Decode {
@@ -1151,7 +1151,7 @@ fn print_sim(
     scenario: &str,
     sc: &hal_sim::scenario::Scenario,
     r: &ballisto::sim::SimReport,
-    job_calibration: bool,
+    identify: bool,
     started: std::time::Instant,
 ) {
     say.info(format!("ballisto sim: {scenario}: {}", sc.description));
@@ -1183,13 +1183,9 @@ fn print_sim(
         print_firmware(say, sc, fw);
     }
     for line in &r.identification {
-        // The stored calibration booted on (`--calibration`), or the first boot's
-        // identification (`--identify`).
-        let what = if job_calibration && line.starts_with("booted on") {
-            "calibration"
-        } else {
-            "identify"
-        };
+        // The first boot's identification (`--identify`, the calibration it booted on first),
+        // or the stored calibration booted on (`--calibration`).
+        let what = if identify { "identify" } else { "calibration" };
         say.info(format!("  {what}: {line}"));
     }
     if let Some(c) = &r.errors {

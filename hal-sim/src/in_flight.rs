@@ -85,6 +85,26 @@ impl Frames {
         Ok(())
     }
 
+    /// TC[200,8] just before `plan`'s window: `period_ms` and, without a reference, the body's
+    /// `inertia`.
+    fn start(
+        &mut self,
+        plan: &Plan,
+        period_ms: u16,
+        inertia: Option<[f32; 6]>,
+    ) -> Result<(), String> {
+        let window_ms = ((plan.end - plan.start) * 1000.0).round() as u32;
+        self.push(
+            plan.start - 0.002,
+            ACK_ACCEPTANCE | ACK_COMPLETION,
+            Command::StartIdentification {
+                period_ms,
+                window_ms,
+                inertia,
+            },
+        )
+    }
+
     /// TC[200,10] at `at`.
     fn report(&mut self, at: f64) -> Result<(), String> {
         self.push(
@@ -149,16 +169,7 @@ pub fn uplink(sc: &Scenario, plans: &[Plan]) -> Result<Vec<(f64, Vec<u8>)>, Stri
     }
     let mut at = 0.0;
     for (plan, points) in plans.iter().zip(&points) {
-        let window_ms = ((plan.end - plan.start) * 1000.0).round() as u32;
-        frames.push(
-            plan.start - 0.002,
-            ACK_ACCEPTANCE | ACK_COMPLETION,
-            Command::StartIdentification {
-                period_ms,
-                window_ms,
-                inertia: None,
-            },
-        )?;
+        frames.start(plan, period_ms, None)?;
         for chunk in points.chunks(plan.batch.clamp(1, MAX_POINTS)) {
             let batch: Vec<ReferencePoint> = chunk.iter().map(|(_, p)| *p).collect();
             let mut data = vec![0u8; 1 + POINT_LEN * batch.len()];
@@ -195,16 +206,8 @@ pub fn uplink_tumble(
     let mut frames = Frames::default();
     let mut at = 0.0;
     for plan in plans {
-        let window_ms = ((plan.end - plan.start) * 1000.0).round() as u32;
-        frames.push(
-            plan.start - 0.002,
-            ACK_ACCEPTANCE | ACK_COMPLETION,
-            Command::StartIdentification {
-                period_ms: mean_ms,
-                window_ms,
-                inertia: Some([j[0] as f32, j[1] as f32, j[2] as f32, 0.0, 0.0, 0.0]),
-            },
-        )?;
+        let inertia = [j[0] as f32, j[1] as f32, j[2] as f32, 0.0, 0.0, 0.0];
+        frames.start(plan, mean_ms, Some(inertia))?;
         at = plan.end + 0.1;
         frames.report(at)?;
     }

@@ -140,12 +140,23 @@ fn tumble_on_board(sc: &Scenario) -> (Booted, Vec<u8>, Vec<u8>) {
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     let config = firmware_config(sc, &loaded, Alignment::Interpolate).unwrap();
     let up = uplink_tumble(sc, &Plan::for_scenario(sc), 40).unwrap();
+    boot_twice(sc, &config, &up)
+}
+
+/// `sc` run by the unit on `config` from an erased store with `up` (an identification ending in
+/// a commit), then again after the reset ([`identify_and_reboot`]): the outcome and both
+/// boots' telemetry.
+fn boot_twice(
+    sc: &Scenario,
+    config: &ballisto_fw::config::AppConfig,
+    up: &[(f64, Vec<u8>)],
+) -> (Booted, Vec<u8>, Vec<u8>) {
     let (mut first, mut second) = (Vec::new(), Vec::new());
     let booted = identify_and_reboot(
         sc,
-        &config,
+        config,
         None,
-        &up,
+        up,
         &mut first,
         &mut second,
         &mut |_, _, _| {},
@@ -188,18 +199,8 @@ fn identify_commit_reset_and_the_errors_return_to_ideal_parts() {
     let sc = Scenario::load("orbit-identify").unwrap();
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     let config = firmware_config(&sc, &loaded, Alignment::Interpolate).unwrap();
-    let plan = Plan::for_scenario(&sc);
-    let up = uplink(&sc, &plan).unwrap();
-    let (mut first, mut second) = (Vec::new(), Vec::new());
-    let r = identify_and_reboot(
-        &sc,
-        &config,
-        None,
-        &up,
-        &mut first,
-        &mut second,
-        &mut |_, _, _| {},
-    );
+    let up = uplink(&sc, &Plan::for_scenario(&sc)).unwrap();
+    let (r, first, second) = boot_twice(&sc, &config, &up);
     if r.is_err() {
         for p in packets(&first) {
             if !matches!(p.report, Report::Motion(_)) {
@@ -302,17 +303,8 @@ fn identify_against_ideal(sc: &Scenario) -> ([f64; 4], (usize, usize)) {
     let loaded = sc.arrangement().load("arrangement.toml").unwrap();
     let config = firmware_config(sc, &loaded, Alignment::Interpolate).unwrap();
     let up = uplink(sc, &Plan::for_scenario(sc)).unwrap();
-    let (mut first, mut second) = (Vec::new(), Vec::new());
-    identify_and_reboot(
-        sc,
-        &config,
-        None,
-        &up,
-        &mut first,
-        &mut second,
-        &mut |_, _, _| {},
-    )
-    .expect("identified, committed and booted on it");
+    let (booted, first, second) = boot_twice(sc, &config, &up);
+    booted.expect("identified, committed and booted on it");
     let summary = summary(&packets(&first));
     let rho = sc.body.origin_offset.unwrap_or([0.0; 3]);
     let origin: [f64; 3] = core::array::from_fn(|k| f64::from(summary.rho[k]) - rho[k]);

@@ -833,8 +833,8 @@ fn calibrated_file(
     }
     if let Some(found) = thermal_found {
         header.push_str(&format!(
-            "# Temperature coefficients from {} static poses over {:.1} °C ({} alternations); bias and scale are at each channel's t_ref.\n",
-            found.poses.0, found.poses.1, found.alternations
+            "# Temperature coefficients from {} static poses over {:.1} °C ({} Gauss–Newton steps); bias and scale are at each channel's t_ref.\n",
+            found.poses.0, found.poses.1, found.steps
         ));
         for (name, c) in specs.iter().map(|c| &c.name).zip(&found.channels) {
             if let thermal::ChannelThermal::Identified { thermal: th, sd } = c {

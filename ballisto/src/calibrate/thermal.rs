@@ -23,8 +23,8 @@ use super::scatter::Scatter;
 
 use estimator_core::thermal::MIN_SPAN_C;
 
-/// Alternations of geometry and coefficients at most.
-const MAX_ALTERNATIONS: usize = 10;
+/// Gauss–Newton steps of the joint fit at most.
+const MAX_STEPS: usize = 10;
 
 /// One channel's outcome.
 #[derive(Clone, Debug, PartialEq)]
@@ -60,8 +60,8 @@ pub struct Found {
     /// Static poses with temperatures, and the span of their temperatures (°C, over every
     /// channel).
     pub poses: (usize, f64),
-    /// Alternations run.
-    pub alternations: usize,
+    /// Gauss–Newton steps run.
+    pub steps: usize,
 }
 
 impl Found {
@@ -163,9 +163,9 @@ pub fn identify(
     let mut btc = vec![0.0; n];
     let mut stc = vec![0.0; n];
     let mut sds = vec![(0.0, 0.0); n];
-    let mut alternations = 0;
-    for _ in 0..MAX_ALTERNATIONS {
-        alternations += 1;
+    let mut steps = 0;
+    for _ in 0..MAX_STEPS {
+        steps += 1;
         let free: Vec<usize> = (0..n).filter(|&c| undetermined[c].is_none()).collect();
         let cols = per_channel * n + 3 * poses.len();
         let mut ata = DMatrix::<f64>::zeros(cols, cols);
@@ -305,6 +305,6 @@ pub fn identify(
         channels,
         bias: geo.iter().map(|g| g.bias).collect(),
         poses: (poses.len(), if finite.is_empty() { 0.0 } else { span }),
-        alternations,
+        steps,
     })
 }
