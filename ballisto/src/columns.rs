@@ -2,12 +2,11 @@
 //! time, so memory does not grow with the record.
 
 use std::collections::HashMap;
-use std::fs::File;
 use std::path::Path;
 
 /// Reads the columns `names` (in that order) of every row.
 pub(crate) struct Columns {
-    rdr: csv::Reader<File>,
+    rdr: csv::Reader<Box<dyn std::io::BufRead + Send>>,
     record: csv::StringRecord,
     index: Vec<usize>,
     name: String,
@@ -17,10 +16,11 @@ impl Columns {
     /// Opens `path` and finds the columns; an error names the file and the missing column.
     pub(crate) fn open(path: &Path, names: &[&str]) -> Result<Self, String> {
         let name = path.display().to_string();
+        let input =
+            crate::output::open_input(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
         let mut rdr = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
-            .from_path(path)
-            .map_err(|e| format!("{name}: cannot open: {e}"))?;
+            .from_reader(input);
         let header: HashMap<String, usize> = rdr
             .headers()
             .map_err(|e| format!("{name}: cannot read the header: {e}"))?

@@ -1,7 +1,7 @@
 //! `ballisto com`: the centre of mass relative to the instrument origin (paper §7–8).
 //!
 //! Paper eq. (12) for a rigid mount: `σ0 = (Γ + {Ω′} + {Ω}²) ρ + f = (A + {Ω′}) ρ + f`. The
-//! numbers written are the ρ of this equation (interfaces.md): the instrument origin's
+//! numbers written are the ρ of this equation (docs/formats.md): the instrument origin's
 //! position relative to the centre of mass — hal-sim's `origin_offset` — so the centre of
 //! mass lies at −ρ from the origin. Over a window in which the non-gravitational specific
 //! force `f` is constant in the body frame, the estimator's σ0, Ω′ and A give a linear least
@@ -27,7 +27,7 @@ use crate::samples_csv::SamplesReader;
 pub const RHO_MEANING: &str =
     "rho (paper eq. 12) is the instrument origin seen from the centre of mass, which is at -rho from the origin";
 
-/// The columns of the output (interfaces.md).
+/// The columns of the output (docs/formats.md).
 pub const COLUMNS: &str = "t,rho_x,rho_y,rho_z,f_x,f_y,f_z,sd_rho_x,sd_rho_y,sd_rho_z";
 
 /// A window's normal equations whose reciprocal condition (smallest over largest

@@ -1,5 +1,5 @@
 //! `ballisto compare`: RMS errors of an estimates file against a truth file, matched by column
-//! name and by `t` (interfaces.md: both files share the column names); or its Ω against a rate
+//! name and by `t` (docs/formats.md: both files share the column names); or its Ω against a rate
 //! reference (a gyro), on the reference's valid rows.
 
 use std::error::Error;
@@ -136,7 +136,7 @@ pub struct RateComparison {
 }
 
 /// Compares the Ω of `estimates` with the reference rate file `reference` (its valid rows by
-/// `validity`, interpolated to the estimates' times; interfaces.md's reference format).
+/// `validity`, interpolated to the estimates' times; the reference format of docs/formats.md).
 pub fn compare_reference(
     reference: &Path,
     validity: &Validity,

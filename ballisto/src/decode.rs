@@ -103,7 +103,7 @@ impl TypeCounters {
     }
 }
 
-/// Writes the motion reports as an estimates file (interfaces.md columns, then
+/// Writes the motion reports as an estimates file (docs/formats.md columns, then
 /// [`LINK_COLUMNS`]; the gravity gradient where the stream says the model is G); `t` is the
 /// packet time (s since boot) plus `time_offset`, rounded to 0.1 µs (the CUC fine time has
 /// 2⁻²⁴ s ≈ 60 ns steps, so a time on a 0.1 µs grid on board comes back exactly).
@@ -412,7 +412,7 @@ pub fn decode_file(
 }
 
 /// The last identification solution in a decoded stream (TM\[200,128\] and its N × TM\[200,129\])
-/// as an arrangement file (interfaces.md) over the channel names of the nominal `arrangement`
+/// as an arrangement file (docs/formats.md) over the channel names of the nominal `arrangement`
 /// file: positions, axes, bias and scale with the deviations of what the window determined
 /// (a held parameter gets no `*_sd` key: not identified, kept at the value in use), the frame's
 /// uncertainty, and a header saying where it came from. Errors: no solution in the stream, a

@@ -1,4 +1,4 @@
-//! The estimates file (interfaces.md) and the truth file share these column names.
+//! The estimates file (docs/formats.md) and the truth file share these column names.
 
 use std::io::Write;
 
@@ -6,7 +6,7 @@ use estimator_core::{Estimate, Real};
 
 use crate::decimal::{push_f64, push_int};
 
-/// The contract columns, in order (interfaces.md).
+/// The contract columns, in order (docs/formats.md).
 pub const COLUMNS: [&str; 17] = [
     "t", "sigma0_x", "sigma0_y", "sigma0_z", "domega_x", "domega_y", "domega_z", "omega_x",
     "omega_y", "omega_z", "A_xx", "A_yy", "A_zz", "A_xy", "A_xz", "A_yz", "flags",
@@ -36,7 +36,7 @@ pub const EXTRA_COLUMNS: [&str; 20] = [
     "sd_A_yz",
 ];
 
-/// The gravity gradient of model G (interfaces.md: `Γ = A − {Ω}²`, empty under model F) and
+/// The gravity gradient of model G (docs/formats.md: `Γ = A − {Ω}²`, empty under model F) and
 /// its standard deviations, after [`EXTRA_COLUMNS`].
 pub const GAMMA_COLUMNS: [&str; 12] = [
     "gamma_xx",
@@ -58,12 +58,12 @@ pub const GAMMA_COLUMNS: [&str; 12] = [
 /// 142-octet layout).
 pub const MARGIN_COLUMNS: [&str; 1] = ["branch_margin"];
 
-/// interfaces.md: bit i set when the i-th channel of the arrangement file is out of the
+/// docs/formats.md: bit i set when the i-th channel of the arrangement file is out of the
 /// estimate at that row (by fault isolation, a part missing, or by command); after
 /// [`MARGIN_COLUMNS`].
 pub const EXCLUDED_COLUMNS: [&str; 1] = ["excluded"];
 
-/// interfaces.md, "Estimates: integrity": the protection levels of σ0 (m/s²), Ω′ (rad/s²) and
+/// docs/formats.md (the `pl_*` columns) and docs/integrity.md: the protection levels of σ0 (m/s²), Ω′ (rad/s²) and
 /// Ω (rad/s), after [`EXCLUDED_COLUMNS`]; empty where there is no bound.
 pub const PROTECTION_COLUMNS: [&str; 3] = ["pl_sigma0", "pl_domega", "pl_omega"];
 

@@ -1,6 +1,6 @@
 //! # ballisto
 //!
-//! The ground tool of the ballistometer (interfaces.md): the `ballisto` command line and its
+//! The ground tool of the ballistometer (docs/formats.md): the `ballisto` command line and its
 //! jobs — `estimate` (estimator-core over a samples file), `sim` (a hal-sim scenario recorded by
 //! the simulator's reader or by the firmware's tasks), `decode` (the spacecraft link's telemetry
 //! stream back into an estimates file), `compare` — with the file formats they read and write

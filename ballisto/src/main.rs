@@ -1,4 +1,4 @@
-//! `ballisto`: the host binary (interfaces.md).
+//! `ballisto`: the host binary (docs/formats.md).
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -136,7 +136,7 @@ impl ReferenceValidity {
     }
 }
 
-/// `--model` (interfaces.md).
+/// `--model` (docs/formats.md).
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum ModelArg {
     /// Model G: 9 linear unknowns, N >= 12.
@@ -201,7 +201,7 @@ enum Command {
         /// Samples file (CSV: t and one column per channel); `-` reads stdin.
         #[arg(long, value_name = "FILE.csv")]
         samples: PathBuf,
-        /// Estimates file to write, `-` for stdout (CSV: the interfaces.md columns, then chi2, dof, branches,
+        /// Estimates file to write, `-` for stdout (CSV: the docs/formats.md columns, then chi2, dof, branches,
         /// frame, the standard deviations — with the arrangement's frame uncertainty when it
         /// has one — epsilon, and the gravity gradient gamma_* with sd_gamma_*, model G only).
         #[arg(long, value_name = "FILE.csv")]
@@ -367,7 +367,7 @@ enum Command {
     },
     /// Where the centre of mass is (paper eq. 12's ρ: the instrument origin seen from the
     /// centre of mass, which is at −ρ) over sliding windows: t, rho_x.., f_x.., sd_rho_x..
-    /// (interfaces.md); empty fields where a window's rotation cannot separate ρ from f.
+    /// (docs/formats.md); empty fields where a window's rotation cannot separate ρ from f.
     Com {
         /// Arrangement file (TOML).
         #[arg(long, value_name = "FILE.toml")]
@@ -1275,7 +1275,7 @@ fn main() -> ExitCode {
             return ExitCode::from(ballisto::exit::USAGE);
         }
         Err(e) => {
-            // interfaces.md: an error is one sentence on stderr (clap's own spans lines).
+            // docs/formats.md: an error is one sentence on stderr (clap's own spans lines).
             eprintln!("ballisto: {}", one_line(&e.to_string()));
             return ExitCode::from(ballisto::exit::USAGE);
         }

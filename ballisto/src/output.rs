@@ -16,18 +16,23 @@ pub fn is_std(path: &Path) -> bool {
     path.as_os_str() == "-"
 }
 
-/// Opens an input for buffered reading: the file, or stdin for `-`.
+/// The first octets of a gzip stream (RFC 1952).
+const GZIP_MAGIC: [u8; 2] = [0x1f, 0x8b];
+
+/// Opens an input for buffered reading: the file, or stdin for `-`. A gzip-compressed input
+/// (recognised by its first octets, whatever its name) is decompressed as it is read, so a
+/// recording can be kept as `samples.csv.gz` and read without unpacking it first.
 pub fn open_input(path: &Path) -> std::io::Result<Box<dyn BufRead + Send>> {
-    if is_std(path) {
-        return Ok(Box::new(BufReader::with_capacity(
-            1 << 16,
-            std::io::stdin(),
-        )));
+    let mut reader: Box<dyn BufRead + Send> = if is_std(path) {
+        Box::new(BufReader::with_capacity(1 << 16, std::io::stdin()))
+    } else {
+        Box::new(BufReader::with_capacity(1 << 16, File::open(path)?))
+    };
+    if reader.fill_buf()?.starts_with(&GZIP_MAGIC) {
+        let decoder = flate2::bufread::MultiGzDecoder::new(reader);
+        return Ok(Box::new(BufReader::with_capacity(1 << 16, decoder)));
     }
-    Ok(Box::new(BufReader::with_capacity(
-        1 << 16,
-        File::open(path)?,
-    )))
+    Ok(reader)
 }
 
 /// Reads a whole input: the file, or stdin for `-`.

@@ -1,4 +1,4 @@
-//! Whether inputs look like what the file formats say (interfaces.md: positions in metres,
+//! Whether inputs look like what the file formats say (docs/formats.md: positions in metres,
 //! readings in m/s²), so that a wrong unit does not pass silently. Each check returns a
 //! warning that names the likely cause; a reading no accelerometer can give is treated as
 //! missing and flagged ([`Flags::INPUT_ABSURD`]).

@@ -1,4 +1,4 @@
-//! Streaming reader of the samples file (interfaces.md): header `t,<channel names...>` in any
+//! Streaming reader of the samples file (docs/formats.md): header `t,<channel names...>` in any
 //! channel order, one row per sample set. Memory does not grow with the file.
 //!
 //! An empty field means "channel not available at this sample": it is passed on as NaN and the

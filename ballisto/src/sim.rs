@@ -1,6 +1,6 @@
 //! `ballisto sim`: runs a scenario — the parts read through their buses by the bench reader at
 //! the scenario's rate — and writes `arrangement.toml`, `samples.csv` and `truth.csv`
-//! (interfaces.md); with `--estimate` also `estimates.csv`, the errors against the truth and a
+//! (docs/formats.md); with `--estimate` also `estimates.csv`, the errors against the truth and a
 //! plot.
 
 use std::error::Error;
@@ -122,7 +122,7 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
     let (truth_out, truth_w) = crate::output::create(&path("truth.csv"))?;
     let mut truth = TruthFiles::new(truth_w, reference)?;
     // With a scenario that models temperature, the parts' temperatures as the firmware or the
-    // bench reader read them are in the record (`temp_<channel>`, interfaces.md
+    // bench reader read them are in the record (`temp_<channel>`, docs/formats.md
     // "Temperature").
     let temperatures = sc.temperature.is_some();
     let temp_columns: Vec<String> = if temperatures {

@@ -1,4 +1,4 @@
-//! The truth file of a simulated record (interfaces.md): the estimate columns up to `A_yz`,
+//! The truth file of a simulated record (docs/formats.md): the estimate columns up to `A_yz`,
 //! then the attitude and the gravity gradient.
 
 use std::fs::File;

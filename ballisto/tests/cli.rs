@@ -1,4 +1,4 @@
-//! `ballisto estimate`: the interfaces.md contract, bad input, streaming.
+//! `ballisto estimate`: the docs/formats.md contract, bad input, streaming.
 
 mod common;
 

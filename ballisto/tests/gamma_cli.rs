@@ -1,4 +1,4 @@
-//! `ballisto estimate`'s gravity-gradient columns (interfaces.md: `gamma_*` = `A − {Ω}²` under
+//! `ballisto estimate`'s gravity-gradient columns (docs/formats.md: `gamma_*` = `A − {Ω}²` under
 //! model G, empty under model F) against the truth file's, on `tetra-orbit`: the errors are
 //! within the reported deviations, and model F leaves the columns empty.
 

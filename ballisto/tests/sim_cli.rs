@@ -1,4 +1,4 @@
-//! `ballisto sim`: the named scenarios, the files it writes (interfaces.md formats), the
+//! `ballisto sim`: the named scenarios, the files it writes (docs/formats.md formats), the
 //! estimate and plot, and scenario files with errors.
 
 mod common;

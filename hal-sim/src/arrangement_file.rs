@@ -1,4 +1,4 @@
-//! The arrangement file (TOML) of interfaces.md: `[[channel]]` and `[[sensor]]` tables.
+//! The arrangement file (TOML) of docs/formats.md: `[[channel]]` and `[[sensor]]` tables.
 
 use std::collections::HashSet;
 use std::fmt;

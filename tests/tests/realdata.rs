@@ -1,4 +1,4 @@
-//! The real recording `../shared/data/realdata/mimu4444_exp6` (8 MPU9150 IMUs on a 19 mm
+//! The real recording `data/realdata/mimu4444_exp6` (8 MPU9150 IMUs on a 19 mm
 //! board, hand-held rotation, gyro reference): Ω error against the mean of the 8 gyros on the
 //! rows where no gyro saturates. Prints the figures of `docs/validation.md`.
 
@@ -18,7 +18,7 @@ fn data_dir() -> PathBuf {
 
 fn recording(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/realdata")
+        .join("../data/realdata")
         .join(name)
 }
 
@@ -72,7 +72,7 @@ fn omega_rows(
     raw: bool,
 ) -> (Vec<[f64; 3]>, Vec<[f64; 3]>, Vec<bool>) {
     let loaded = load_arrangement(arrangement).unwrap();
-    let mut reader = SamplesReader::open(&dir.join("samples.csv"), &loaded.names).unwrap();
+    let mut reader = SamplesReader::open(&dir.join("samples.csv.gz"), &loaded.names).unwrap();
     let mut est = HostEstimator::<f64>::new(
         &loaded,
         model,
@@ -93,13 +93,13 @@ fn omega_rows(
     }
     est.finish(&mut emit);
     let reference: Vec<[f64; 3]> = read_columns(
-        &dir.join("reference.csv"),
+        &dir.join("reference.csv.gz"),
         &["omega_x", "omega_y", "omega_z"],
     )
     .iter()
     .map(|r| [r[0], r[1], r[2]])
     .collect();
-    let flags = read_columns(&dir.join("reference_flags.csv"), &["gyro_saturated"]);
+    let flags = read_columns(&dir.join("reference_flags.csv.gz"), &["gyro_saturated"]);
     assert_eq!(out.len(), reference.len());
     let valid = flags.iter().map(|f| f[0] == 0.0).collect();
     (out, reference, valid)
@@ -145,7 +145,7 @@ fn mimu4444_rate_error_against_gyros() {
 fn mimu4444_protection_levels_are_never_silently_exceeded() {
     let dir = data_dir();
     let loaded = load_arrangement(&dir.join("arrangement.toml")).unwrap();
-    let mut reader = SamplesReader::open(&dir.join("samples.csv"), &loaded.names).unwrap();
+    let mut reader = SamplesReader::open(&dir.join("samples.csv.gz"), &loaded.names).unwrap();
     let mut est = HostEstimator::<f64>::new(&loaded, Model::General, Options::default()).unwrap();
     let mut out = Vec::new();
     let mut row = vec![0.0; loaded.names.len()];
@@ -155,10 +155,10 @@ fn mimu4444_protection_levels_are_never_silently_exceeded() {
     }
     est.finish(&mut emit);
     let reference = read_columns(
-        &dir.join("reference.csv"),
+        &dir.join("reference.csv.gz"),
         &["omega_x", "omega_y", "omega_z"],
     );
-    let flags = read_columns(&dir.join("reference_flags.csv"), &["gyro_saturated"]);
+    let flags = read_columns(&dir.join("reference_flags.csv.gz"), &["gyro_saturated"]);
     assert_eq!(out.len(), reference.len());
     let (mut rows, mut above, mut silent, mut clean, mut clean_above) = (0, 0, 0, 0, 0);
     for ((e, r), f) in out.iter().zip(&reference).zip(&flags) {
@@ -204,10 +204,13 @@ fn calibrate_in(
 ) -> Result<ballisto::calibrate::CalibrationSummary, String> {
     use ballisto::calibrate::reference_rate::Validity;
     use ballisto::calibrate::{calibrate_files, fit::FitSet, CalibrateJob};
-    let (reference, flags) = (dir.join("reference.csv"), dir.join("reference_flags.csv"));
+    let (reference, flags) = (
+        dir.join("reference.csv.gz"),
+        dir.join("reference_flags.csv.gz"),
+    );
     calibrate_files(&CalibrateJob {
         arrangement,
-        samples: &dir.join("samples.csv"),
+        samples: &dir.join("samples.csv.gz"),
         out,
         reference: gyro.then_some(reference.as_path()),
         reference_validity: Validity {
@@ -605,11 +608,14 @@ fn one_hour_record_calibrates_in_about_a_minute_full() {
     let mut offset = 0.0;
     let mut texts = [String::new(), String::new(), String::new()];
     let names = ["samples.csv", "reference.csv", "reference_flags.csv"];
+    let stored = |name: &str| format!("{name}.gz");
     for k in 1..=6 {
         let rec = recording(&format!("mimu4444_exp{k}_raw"));
         let mut last = 0.0;
         for (text, name) in texts.iter_mut().zip(names) {
-            let file = std::fs::read_to_string(rec.join(name)).unwrap();
+            let file =
+                String::from_utf8(ballisto::output::read_input(&rec.join(stored(name))).unwrap())
+                    .unwrap();
             let mut lines = file.lines();
             let header = lines.next().unwrap();
             if text.is_empty() {

@@ -1,6 +1,6 @@
 //! `ballisto calibrate`: each channel's position, axis, scale and bias identified from a
 //! record (static poses and motion; paper §6), written as an arrangement file
-//! (interfaces.md) with standard deviations; what the record does not determine keeps its
+//! (docs/formats.md) with standard deviations; what the record does not determine keeps its
 //! nominal value and is named.
 //!
 //! - [`poses`] finds the static poses;

@@ -1,4 +1,4 @@
-//! The reference rate file (interfaces.md): `t, omega_x, omega_y, omega_z` (rad/s, body; more
+//! The reference rate file (docs/formats.md): `t, omega_x, omega_y, omega_z` (rad/s, body; more
 //! columns may follow), with the rows a real reference cannot vouch for left out (a gyro that
 //! saturated, a reading at its range: [`Validity`]), brought to the samples' instants by linear
 //! interpolation.
@@ -198,12 +198,14 @@ fn invalid_by<'a>(
     Ok(None)
 }
 
-fn open(path: &Path) -> Result<(csv::Reader<std::fs::File>, csv::StringRecord), String> {
+type Input = Box<dyn std::io::BufRead + Send>;
+
+fn open(path: &Path) -> Result<(csv::Reader<Input>, csv::StringRecord), String> {
     let name = path.display().to_string();
+    let input = crate::output::open_input(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
     let mut rdr = csv::ReaderBuilder::new()
         .comment(Some(b'#'))
-        .from_path(path)
-        .map_err(|e| format!("{name}: cannot open: {e}"))?;
+        .from_reader(input);
     let header = rdr
         .headers()
         .map_err(|e| format!("{name} line 1: cannot read the header: {e}"))?

@@ -1,5 +1,5 @@
 //! Temperature coefficients from a record that spans a temperature range (issue 50,
-//! `estimator_core::thermal`, interfaces.md "Temperature"): each channel's `bias_tc` and
+//! `estimator_core::thermal`, docs/formats.md "Temperature"): each channel's `bias_tc` and
 //! `scale_tc` about `t_ref`, its mean temperature over the record's static poses.
 //!
 //! At a pose of gravity `g` a channel at temperature `T` reads

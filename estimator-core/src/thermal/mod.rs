@@ -1,4 +1,4 @@
-//! Temperature compensation of a channel's reading (issue 50; `interfaces.md`, "Temperature").
+//! Temperature compensation of a channel's reading (`docs/formats.md`, "Temperature").
 //! A MEMS part's bias and sensitivity move with its temperature: at temperature `T` a channel
 //! calibrated at `t_ref` reads
 //!
