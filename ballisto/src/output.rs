@@ -246,6 +246,24 @@ mod tests {
     }
 
     #[test]
+    fn a_gzip_input_reads_as_its_text_and_a_plain_one_as_itself() {
+        let d = dir();
+        let text = "t,a\n0,1\n".repeat(5000);
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        gz.write_all(text.as_bytes()).unwrap();
+        let packed = d.join("gz-input.csv.gz");
+        std::fs::write(&packed, gz.finish().unwrap()).unwrap();
+        assert_eq!(read_input(&packed).unwrap(), text.as_bytes());
+        let plain = d.join("plain-input.csv");
+        std::fs::write(&plain, &text).unwrap();
+        assert_eq!(read_input(&plain).unwrap(), text.as_bytes());
+        // A truncated stream is an error, not a short text.
+        let bytes = std::fs::read(&packed).unwrap();
+        std::fs::write(&packed, &bytes[..bytes.len() / 2]).unwrap();
+        assert!(read_input(&packed).is_err());
+    }
+
+    #[test]
     fn an_output_that_is_an_input_is_refused_by_identity() {
         let d = dir();
         let input = d.join("samples.csv");
