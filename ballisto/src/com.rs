@@ -14,8 +14,8 @@ use std::error::Error;
 use std::io::Write;
 use std::path::Path;
 
+use ballisto_config::arrangement_file::load_arrangement;
 use estimator_core::{Estimate, Flags, Model, Options};
-use hal_sim::arrangement_file::load_arrangement;
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
 use crate::estimate::HostEstimator;
@@ -76,7 +76,8 @@ pub fn com_files(
     }
     crate::output::check_distinct(&[out], &[arrangement, samples])?;
     let loaded = load_arrangement(arrangement)?;
-    let (model, model_note) = crate::model_choice::recommend(model, &loaded, arrangement)?;
+    let (model, model_note) =
+        ballisto_config::model_choice::recommend(model, &loaded, arrangement)?;
     let mut est = HostEstimator::<f64>::new(&loaded, model, Options::default())
         .map_err(|e| format!("{}: {e}", arrangement.display()))?;
     let mut reader = SamplesReader::open(samples, &loaded.names)?.with_ranges(&loaded.ranges);

@@ -422,8 +422,8 @@ pub fn identified_arrangement(
     source: &Path,
     arrangement: &Path,
 ) -> Result<String, String> {
+    use ballisto_config::arrangement_file::ArrangementFile;
     use ballisto_link::identification::IdentifiedChannel;
-    use hal_sim::arrangement_file::ArrangementFile;
     let summary = stream
         .packets
         .iter()

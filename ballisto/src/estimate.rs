@@ -4,6 +4,7 @@
 use std::error::Error;
 use std::path::Path;
 
+use ballisto_config::arrangement_file::{load_arrangement, LoadedArrangement, HOST_CAP};
 use estimator_core::exclusion::MissingRuns;
 use estimator_core::fault_monitor::{
     FaultMonitor, NoParityTest, Settings, StuckCheck, Suspicion, TrustedRate, Verdict,
@@ -11,7 +12,6 @@ use estimator_core::fault_monitor::{
 use estimator_core::parity::Parity;
 use estimator_core::recent::{replays, Recent, REPLAY_SETS};
 use estimator_core::{ChannelMask, Estimate, Estimator, Flags, Model, Options, Real};
-use hal_sim::arrangement_file::{load_arrangement, LoadedArrangement, HOST_CAP};
 
 use crate::estimates_csv::ThreadedWriter;
 use crate::plausibility;
@@ -65,7 +65,8 @@ pub struct Summary {
 pub fn estimate_files(job: &EstimateJob) -> Result<Summary, Box<dyn Error>> {
     crate::output::check_distinct(&[job.out], &[job.arrangement, job.samples])?;
     let loaded = load_arrangement(job.arrangement)?;
-    let (model, model_note) = crate::model_choice::recommend(job.model, &loaded, job.arrangement)?;
+    let (model, model_note) =
+        ballisto_config::model_choice::recommend(job.model, &loaded, job.arrangement)?;
     let summary = match job.precision {
         Precision::F64 => run_typed::<f64>(job, &loaded, model),
         Precision::F32 => run_typed::<f32>(job, &loaded, model),

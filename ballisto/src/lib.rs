@@ -17,7 +17,6 @@ pub mod decode;
 pub mod estimate;
 pub mod estimates_csv;
 pub mod exit;
-pub mod model_choice;
 pub mod output;
 pub mod plausibility;
 pub mod plot;

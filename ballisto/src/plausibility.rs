@@ -3,8 +3,8 @@
 //! warning that names the likely cause; a reading no accelerometer can give is treated as
 //! missing and flagged ([`Flags::INPUT_ABSURD`]).
 
+use ballisto_config::arrangement_file::LoadedArrangement;
 use estimator_core::Flags;
-use hal_sim::arrangement_file::LoadedArrangement;
 
 /// Smallest extent of an array that can see rotation, m: below it the positions are likely
 /// in kilometres, or all the same.
@@ -65,7 +65,7 @@ pub fn arrangement(loaded: &LoadedArrangement, file: &str) -> Option<String> {
 /// a few g the readings are likely raw counts or mg; close to 1 in a record that sits near
 /// one value, likely g. `None` when it looks like m/s².
 pub fn specific_force(median: f64) -> Option<String> {
-    const G: f64 = 9.80665;
+    const G: f64 = estimator_core::G0;
     if median > 5.0 * G {
         Some(format!(
             "the median |sigma0| is {median:.4} m/s^2 ({:.1} g): readings look like raw counts or mg, not m/s^2",
@@ -110,7 +110,7 @@ pub fn absurd(counts: &[AbsurdCount], names: &[String], bounds: &[f64]) -> Vec<S
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hal_sim::arrangement_file::ArrangementFile;
+    use ballisto_config::arrangement_file::ArrangementFile;
 
     fn board(a: f64) -> LoadedArrangement {
         let mut text = String::new();

@@ -7,7 +7,7 @@ use std::error::Error;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use hal_sim::arrangement_file::LoadedArrangement;
+use ballisto_config::arrangement_file::LoadedArrangement;
 use hal_sim::recorder::Recorder;
 use hal_sim::scenario::Scenario;
 
@@ -470,7 +470,7 @@ fn stored_calibration(
     path: &Path,
     scenario: &LoadedArrangement,
 ) -> Result<estimator_core::Arrangement<{ ballisto_fw::config::MAX_CHANNELS }>, Box<dyn Error>> {
-    let loaded = hal_sim::arrangement_file::load_arrangement(path)?;
+    let loaded = ballisto_config::arrangement_file::load_arrangement(path)?;
     if loaded.names != scenario.names {
         return Err(format!(
             "{}: its channels ({}) are not the scenario's ({})",
@@ -480,7 +480,7 @@ fn stored_calibration(
         )
         .into());
     }
-    hal_sim::firmware_host::firmware_arrangement(&loaded)
+    ballisto_config::firmware_config::firmware_arrangement(&loaded)
         .map_err(|e| format!("{}: {e}", path.display()).into())
 }
 

@@ -156,7 +156,8 @@ pub fn time_ticks(seconds: f64) -> Result<u64, String> {
 /// axis, noise), and the warnings: what the command does not carry (bias, scale), and an
 /// implausible extent ([`crate::plausibility::arrangement`]).
 pub fn arrangement_data(path: &Path) -> Result<(Vec<u8>, Vec<String>), String> {
-    let loaded = hal_sim::arrangement_file::load_arrangement(path).map_err(|e| e.to_string())?;
+    let loaded =
+        ballisto_config::arrangement_file::load_arrangement(path).map_err(|e| e.to_string())?;
     let channels = loaded.arrangement.channels();
     let mut data = vec![0u8; 1 + ballisto_link::telecommand::CHANNEL_LEN * channels.len()];
     let n = ballisto_link::telecommand::arrangement_data(
@@ -198,7 +199,7 @@ pub fn channel_index(
     arrangement: Option<&Path>,
 ) -> Result<(u8, Option<usize>), String> {
     let loaded = arrangement
-        .map(|p| hal_sim::arrangement_file::load_arrangement(p).map_err(|e| e.to_string()))
+        .map(|p| ballisto_config::arrangement_file::load_arrangement(p).map_err(|e| e.to_string()))
         .transpose()?;
     let count = loaded.as_ref().map(|l| l.names.len());
     if let Ok(i) = channel.parse::<u8>() {

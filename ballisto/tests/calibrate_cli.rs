@@ -124,7 +124,8 @@ fn writes_a_calibrated_arrangement_that_estimate_reads() {
     // A nominal file with temperature coefficients: calibrate does not identify them, so it
     // does not write them, and says so.
     let mut file =
-        hal_sim::arrangement_file::ArrangementFile::read(&dir.join("arrangement.toml")).unwrap();
+        ballisto_config::arrangement_file::ArrangementFile::read(&dir.join("arrangement.toml"))
+            .unwrap();
     let mut channels = file.expanded_channels("arrangement.toml").unwrap();
     channels[0].t_ref = Some(25.0);
     channels[0].bias_tc = Some(1e-3);

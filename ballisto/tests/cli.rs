@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use ballisto::samples_csv::write_samples;
 use ballisto::truth_csv::write_truth;
-use hal_sim::arrangement_file::ArrangementFile;
+use ballisto_config::arrangement_file::ArrangementFile;
 use hal_sim::ideal::simulate_outputs;
 use rand::SeedableRng;
 use test_fixtures::{families, motions};

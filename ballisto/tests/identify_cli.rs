@@ -5,7 +5,7 @@ mod common;
 
 use std::process::Command;
 
-use hal_sim::arrangement_file::load_arrangement;
+use ballisto_config::arrangement_file::load_arrangement;
 
 fn ballisto(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_ballisto"))

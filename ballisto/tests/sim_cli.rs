@@ -6,7 +6,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use hal_sim::arrangement_file::load_arrangement;
+use ballisto_config::arrangement_file::load_arrangement;
 use hal_sim::scenario::{named, Scenario};
 
 fn tmpdir(name: &str) -> PathBuf {

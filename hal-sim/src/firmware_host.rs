@@ -10,16 +10,17 @@
 //! allow. The tasks are the same functions either way.
 
 use std::convert::Infallible;
+use std::path::Path;
 
+use ballisto_config::arrangement_file::LoadedArrangement;
+use ballisto_config::firmware_config::{firmware_arrangement, Part, PartSpec, Sampling};
+use ballisto_config::model_choice::recommend;
 use ballisto_fw::app::{
     app_task, uplink_task, App, Incoming, Links, Mode, Observations, COMMAND_QUEUE,
 };
 use ballisto_fw::calstore::ram_flash::RamFlash;
 use ballisto_fw::calstore::store::CalibrationStore;
-use ballisto_fw::config::{
-    Alignment, AppConfig, PartConfig, PartKind, SamplingConfig, MAX_CHANNELS, MAX_PARTS,
-};
-use ballisto_fw::drivers::{adxl355, lis3dh};
+use ballisto_fw::config::{Alignment, AppConfig, SamplingConfig, MAX_PARTS};
 use ballisto_fw::estimation::{Builds, SetEstimate};
 use ballisto_fw::identification::{Identification, Identifier};
 use ballisto_fw::sampler::{
@@ -36,7 +37,6 @@ use embassy_sync::channel::Channel;
 use embassy_sync::zerocopy_channel::Channel as ZeroCopyChannel;
 use embedded_hal::digital::{ErrorType, OutputPin};
 
-use crate::arrangement_file::LoadedArrangement;
 use crate::bus::i2c::SimI2cBus;
 use crate::bus::spi::SimSpiDevice;
 use crate::clock::SimClock;
@@ -157,80 +157,44 @@ impl<T: Pooled> Drop for Loan<T> {
     }
 }
 
-/// The firmware configuration of a scenario (the command the host gives at start-up): parts,
-/// channels in the order of the scenario's arrangement, rate, model and hint.
+/// The firmware configuration of a scenario (the command the host gives at start-up): its
+/// parts with their ranges, rates and sync, channels in the order of the scenario's
+/// arrangement, the model `ballisto` chooses for that arrangement, and the scenario's rate hint
+/// — built by the same code as a board's ([`ballisto_config::firmware_config`]).
 pub fn firmware_config(
     sc: &Scenario,
     loaded: &LoadedArrangement,
     alignment: Alignment,
 ) -> Result<AppConfig, String> {
-    if sc.parts.len() > MAX_PARTS {
-        return Err(format!(
-            "{} parts: the firmware takes at most {MAX_PARTS}",
-            sc.parts.len()
-        ));
-    }
     let arrangement =
         firmware_arrangement(loaded).map_err(|e| format!("the scenario's arrangement: {e}"))?;
-    let mut parts = [None; MAX_PARTS];
-    for (slot, p) in parts.iter_mut().zip(sc.parts.iter()) {
-        let g = sc.range_g(p);
-        let odr = sc.odr(p) as f32;
-        let kind = match p.part {
-            PartType::Adxl355 => PartKind::Adxl355 {
-                range: match g {
-                    2 => adxl355::Range::G2,
-                    4 => adxl355::Range::G4,
-                    _ => adxl355::Range::G8,
-                },
-                odr: adxl355::Odr::at_least(odr),
-                sync: sc.sync(p),
+    let parts: Vec<PartSpec> = sc
+        .parts
+        .iter()
+        .map(|p| PartSpec {
+            name: p.name.clone(),
+            part: match p.part {
+                PartType::Adxl355 => Part::Adxl355,
+                PartType::Lis3dh => Part::Lis3dh,
             },
-            PartType::Lis3dh => PartKind::Lis3dh {
-                range: match g {
-                    2 => lis3dh::Range::G2,
-                    4 => lis3dh::Range::G4,
-                    8 => lis3dh::Range::G8,
-                    _ => lis3dh::Range::G16,
-                },
-                odr: lis3dh::Odr::at_least(odr),
-            },
-        };
-        let channels = [0, 1, 2].map(|k| loaded.channel(&p.name, k).map(|c| c as u8));
-        *slot = Some(PartConfig { kind, channels });
-    }
-    // The model `ballisto sim --estimate` uses for the same record.
-    let model = crate::arrangement_file::choose_model(None, loaded);
-    let config = AppConfig {
-        sampling: SamplingConfig {
-            rate_hz: sc.rate as f32,
-            alignment,
-            parts,
-        },
-        arrangement,
-        model,
-        hint: sc.initial_omega,
+            range: Some(p.part.full_scale(sc.range_g(p))),
+            odr_hz: sc.odr(p) as f32,
+            sync: sc.sync(p),
+        })
+        .collect();
+    let (model, _) = recommend(None, loaded, Path::new("the scenario's arrangement"))?;
+    let sampling = Sampling {
+        rate_hz: sc.rate as f32,
+        alignment,
     };
-    config
-        .validate()
-        .map_err(|e| format!("firmware configuration: {e}"))?;
-    Ok(config)
-}
-
-/// An arrangement file's arrangement as the firmware holds it: every channel's geometry,
-/// noise, calibration and temperature coefficients, and the frame's uncertainty.
-pub fn firmware_arrangement(
-    loaded: &LoadedArrangement,
-) -> Result<estimator_core::Arrangement<MAX_CHANNELS>, estimator_core::ConfigError> {
-    let a = &loaded.arrangement;
-    let mut out = estimator_core::Arrangement::<MAX_CHANNELS>::new();
-    for (i, c) in a.channels().iter().enumerate() {
-        out.push(c.position, c.axis, c.noise)?;
-        out.set_calibration(i, c.bias, c.scale)?;
-        out.set_thermal(i, a.thermal(i))?;
-    }
-    out.set_frame_uncertainty(a.frame_uncertainty())?;
-    Ok(out)
+    ballisto_config::firmware_config::firmware_config(
+        loaded,
+        arrangement,
+        &parts,
+        sampling,
+        model,
+        sc.initial_omega,
+    )
 }
 
 /// Calls `f(channel, value)` for every channel a sample set carries: each part's x, y, z that

@@ -6,8 +6,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-use crate::arrangement_file::LoadedArrangement;
 use crate::motion::Truth;
+use ballisto_config::arrangement_file::LoadedArrangement;
 
 /// Simulated channel outputs: truth through paper eq. (4) plus white noise of each channel's
 /// `noise` (seeded).

@@ -4,14 +4,11 @@
 //! sensor models ([`sensors`]) on simulated buses ([`bus`]) in simulated time ([`clock`]) with
 //! injected [`faults`], the hardware of a [`scenario`] ([`rig`]), the simulator's own reader
 //! ([`bench`], [`recorder`]), ideal channel outputs ([`ideal`]), and the firmware's tasks run on
-//! the simulated buses ([`firmware_host`]). The arrangement file format ([`arrangement_file`])
-//! lives here because a scenario describes its parts with it. The ground tool `ballisto` is its
-//! own crate.
+//! the simulated buses ([`firmware_host`]). A scenario's parts are described in the
+//! arrangement file format of `ballisto-config`. The ground tool `ballisto` is its own crate.
 #![deny(missing_docs)]
 
-pub mod arrangement_file;
 pub mod bench;
-pub mod board_file;
 pub mod bus;
 pub mod clock;
 pub mod faults;

@@ -3,8 +3,8 @@
 //! single-axis ballistometer, mixed-noise parts; torque-free tumbling of an asymmetric body,
 //! torque manoeuvres, 1 g on the ground with spin").
 
+use ballisto_config::arrangement_file::{ArrangementFile, LoadedArrangement};
 use estimator_core::Model;
-use hal_sim::arrangement_file::{ArrangementFile, LoadedArrangement};
 use hal_sim::ideal::simulate_outputs;
 use hal_sim::motion::{Environment, Motion, Rotation, Torque, Truth};
 use rand::{Rng, SeedableRng};

@@ -386,13 +386,13 @@ pub fn attributable(
 ) -> Option<bool> {
     let loaded = sc.arrangement().load("arrangement.toml").ok()?;
     let arr = &loaded.arrangement;
-    let parts = hal_sim::arrangement_file::parts_of(&loaded.names);
+    let parts = ballisto_config::arrangement_file::parts_of(&loaded.names);
     let mask = estimator_core::ChannelMask::all(arr.len());
-    let parity =
-        estimator_core::parity::Parity::<f64, { hal_sim::arrangement_file::HOST_CAP }>::build(
-            arr, mask, &parts,
-        )
-        .ok()?;
+    let parity = estimator_core::parity::Parity::<
+        f64,
+        { ballisto_config::arrangement_file::HOST_CAP },
+    >::build(arr, mask, &parts)
+    .ok()?;
     let name = &sc.parts.get(part)?.name;
     let channels: Vec<Option<usize>> = (0..3).map(|k| loaded.channel(name, k)).collect();
     let number = usize::from(parts[channels.iter().flatten().next().copied()?]);

@@ -7,7 +7,7 @@ use std::fs::File;
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 
-use hal_sim::arrangement_file::ArrangementFile;
+use ballisto_config::arrangement_file::ArrangementFile;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 /// Where the calibrated file's frame sits against the true one: the common rotation of the

@@ -11,8 +11,8 @@
 //!   estimator has — and the sign of Ω (unobservable in one sample) is always taken nearest
 //!   the truth.
 
+use ballisto_config::arrangement_file::LoadedArrangement;
 use estimator_core::Model;
-use hal_sim::arrangement_file::LoadedArrangement;
 use nalgebra::{DMatrix, DVector, Matrix3, SymmetricEigen, Vector3};
 
 /// One reference estimate.

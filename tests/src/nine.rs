@@ -6,8 +6,8 @@
 //! and the truth-started maximum likelihood of [`crate::ml`].
 
 use ballisto::estimate::HostEstimator;
+use ballisto_config::arrangement_file::{LoadedArrangement, HOST_CAP};
 use estimator_core::{Estimate, Estimator, Flags, Model, Options};
-use hal_sim::arrangement_file::{LoadedArrangement, HOST_CAP};
 use hal_sim::ideal::simulate_outputs;
 use hal_sim::motion::{Environment, Motion, Rotation, Torque, Truth};
 use rand::{Rng, SeedableRng};
@@ -172,7 +172,7 @@ fn manoeuvre_torque(manoeuvre: bool, scale: f64) -> Torque {
 /// The case of `file` (jittered by `p.seed`) in a motion starting at |Ω| = `rate` under
 /// `torque`.
 fn make_on(
-    mut file: hal_sim::arrangement_file::ArrangementFile,
+    mut file: ballisto_config::arrangement_file::ArrangementFile,
     p: Params,
     rate: f64,
     torque: Torque,

@@ -3,11 +3,11 @@
 //! the issue, both models, raw and filtered output.
 
 use ballisto::estimate::HostEstimator;
+use ballisto_config::arrangement_file::HOST_CAP;
 use e2e_tests::cases::{make, Case, Family, MotionKind};
 use e2e_tests::ml::MlReference;
 use e2e_tests::stats::{rms3, rms_sym};
 use estimator_core::{Estimator, Model, Options};
-use hal_sim::arrangement_file::HOST_CAP;
 
 const SAMPLES: usize = 1500;
 const LIMIT: f64 = 1.10;

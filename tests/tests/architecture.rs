@@ -1,6 +1,8 @@
 //! `docs/architecture.md` agrees with the workspace: its crate table lists every member of the
-//! workspace, at its path, with exactly the workspace crates it depends on (normal and
-//! target-specific dependencies; dev-dependencies are not part of the architecture).
+//! workspace, at its path, with exactly the workspace crates it depends on (normal,
+//! target-specific and build dependencies: what the crate, or a build script that shapes it,
+//! is made from; dev-dependencies are not part of the architecture). No board depends on the
+//! simulator in any way.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -68,7 +70,7 @@ fn members() -> BTreeSet<String> {
         .collect()
 }
 
-/// A manifest's package name and the names of its normal and target dependencies.
+/// A manifest's package name and the names of its normal, target and build dependencies.
 fn manifest(path: &str) -> (String, BTreeSet<String>) {
     let toml = read(&root().join(path).join("Cargo.toml"));
     let mut name = None;
@@ -83,7 +85,10 @@ fn manifest(path: &str) -> (String, BTreeSet<String>) {
             name = line.split('"').nth(1).map(str::to_string);
         }
         let normal = section == "[dependencies]"
-            || (section.starts_with("[target.") && section.ends_with(".dependencies]"));
+            || section == "[build-dependencies]"
+            || (section.starts_with("[target.")
+                && (section.ends_with(".dependencies]")
+                    || section.ends_with(".build-dependencies]")));
         if normal {
             if let Some((dep, _)) = line.split_once('=') {
                 deps.insert(dep.trim().to_string());
@@ -108,6 +113,47 @@ fn the_crate_table_matches_the_workspace() {
         assert_eq!(&package, name, "{path}: package name");
         let workspace: BTreeSet<String> = all.intersection(&names).cloned().collect();
         assert_eq!(&workspace, deps, "{name}: workspace dependencies");
+    }
+}
+
+/// Every crate named in a manifest's dependency tables of any kind (normal, build, dev, and
+/// their target-specific forms).
+fn all_dependencies(path: &str) -> BTreeSet<String> {
+    let m = manifest_toml(path);
+    let mut tables: Vec<&toml::Table> = Vec::new();
+    let kinds = ["dependencies", "build-dependencies", "dev-dependencies"];
+    for kind in kinds {
+        tables.extend(m.get(kind).and_then(toml::Value::as_table));
+    }
+    if let Some(targets) = m.get("target").and_then(toml::Value::as_table) {
+        for t in targets.values() {
+            for kind in kinds {
+                tables.extend(t.get(kind).and_then(toml::Value::as_table));
+            }
+        }
+    }
+    tables.iter().flat_map(|t| t.keys().cloned()).collect()
+}
+
+/// A board is the flashed product's wiring: it takes its configuration from `ballisto-config`
+/// and never builds, links or tests against the simulator (or the ground tool, which pulls it
+/// in). Checked for every dependency kind, build scripts included.
+#[test]
+fn no_board_depends_on_the_simulator() {
+    let boards: Vec<String> = members()
+        .into_iter()
+        .filter(|p| p.starts_with("firmware/boards/"))
+        .collect();
+    assert!(boards.len() >= 2, "boards: {boards:?}");
+    for board in boards {
+        let deps = all_dependencies(&board);
+        for forbidden in ["hal-sim", "ballisto", "e2e-tests", "test-fixtures"] {
+            assert!(
+                !deps.contains(forbidden),
+                "{board} depends on {forbidden}: a board takes its configuration from \
+                 ballisto-config"
+            );
+        }
     }
 }
 

@@ -11,9 +11,9 @@ use ballisto::calibrate::{calibrate_files, CalibrateJob};
 use ballisto::compare::{compare, Comparison};
 use ballisto::estimate::{estimate_files, EstimateJob, Precision};
 use ballisto::sim::{run_sim, SimJob};
+use ballisto_config::arrangement_file::ArrangementFile;
 use ballisto_fw::config::Alignment;
 use e2e_tests::frame::{errors_in, frame_of, Frame};
-use hal_sim::arrangement_file::ArrangementFile;
 use hal_sim::scenario::{BodySpec, Scenario, TurntableSpec};
 use nalgebra::Vector3;
 

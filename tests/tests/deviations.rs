@@ -2,9 +2,9 @@
 //! component, raw output) is close to 1 on the families of the accuracy tests, for σ0, Ω′, Ω
 //! and the components of A.
 
+use ballisto_config::arrangement_file::HOST_CAP;
 use e2e_tests::cases::{make, Family, MotionKind};
 use estimator_core::{Estimator, Model, Options};
-use hal_sim::arrangement_file::HOST_CAP;
 
 /// RMS of the normalised errors of σ0, Ω′, Ω (raw output).
 fn z_rms(f: Family, m: MotionKind, model: Model, seed: u64) -> [f64; 4] {

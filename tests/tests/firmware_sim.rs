@@ -152,10 +152,11 @@ fn reference_estimates<T: estimator_core::Real>(
     name: &str,
 ) -> std::path::PathBuf {
     use ballisto::samples_csv::SamplesReader;
-    use hal_sim::arrangement_file::load_arrangement;
+    use ballisto_config::arrangement_file::load_arrangement;
     use std::io::Write;
     let loaded = load_arrangement(&dir.join("arrangement.toml")).unwrap();
-    let model = hal_sim::arrangement_file::choose_model(None, &loaded);
+    let (model, _) =
+        ballisto_config::model_choice::recommend(None, &loaded, std::path::Path::new("")).unwrap();
     let options = estimator_core::Options {
         initial_omega: sc.initial_omega,
         ..Default::default()

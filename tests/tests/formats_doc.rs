@@ -6,7 +6,7 @@ use ballisto::estimate::FLAG_NAMES;
 use ballisto::estimates_csv::{
     COLUMNS, EXCLUDED_COLUMNS, EXTRA_COLUMNS, GAMMA_COLUMNS, MARGIN_COLUMNS, PROTECTION_COLUMNS,
 };
-use hal_sim::arrangement_file::{ArrangementFile, ChannelSpec, Noise, SensorSpec};
+use ballisto_config::arrangement_file::{ArrangementFile, ChannelSpec, Noise, SensorSpec};
 
 fn page() -> String {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/formats.md");

@@ -96,7 +96,7 @@ fn silent_rows(sc: &Scenario, stream: &[u8], skip: f64) -> (usize, usize) {
 /// datasheet error removed) and its nominal geometry, after `skip` s.
 fn ideal_errors(
     sc: &Scenario,
-    loaded: &hal_sim::arrangement_file::LoadedArrangement,
+    loaded: &ballisto_config::arrangement_file::LoadedArrangement,
     skip: f64,
 ) -> [f64; 3] {
     let ideal_sc = sc.with_ideal_parts();

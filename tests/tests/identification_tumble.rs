@@ -6,10 +6,10 @@
 //! 1.2 × that of ideal parts (every datasheet error removed) over the whole record. A body that
 //! does not move as the given inertia says is refused, not returned.
 
+use ballisto_config::arrangement_file::HOST_CAP;
 use e2e_tests::recorded;
 use estimator_core::identify::{identify_tumble, Body, Sets, Tolerance, TumbleError};
 use estimator_core::{Arrangement, Estimator, Model, Options, Sym3};
-use hal_sim::arrangement_file::HOST_CAP;
 use hal_sim::scenario::Scenario;
 
 /// A recorded scenario: readings per set and the true rate.

@@ -7,10 +7,10 @@ use std::path::PathBuf;
 use ballisto::calibrate::holdout::paired;
 use ballisto::estimate::HostEstimator;
 use ballisto::samples_csv::SamplesReader;
+use ballisto_config::arrangement_file::load_arrangement;
 use e2e_tests::csv::read_columns;
 use e2e_tests::stats::rms3;
 use estimator_core::{Model, Options};
-use hal_sim::arrangement_file::load_arrangement;
 
 fn data_dir() -> PathBuf {
     recording("mimu4444_exp6")
@@ -511,7 +511,7 @@ fn table_cells(rms: &[f64]) -> String {
 /// `out`: channel `j` of an IMU reads `(T⁻¹)_j · f − (T⁻¹ b)_j`, so its axis is that row of
 /// `T⁻¹` normalised, its scale the row's norm and its bias `−(T⁻¹ b)_j`; positions nominal.
 fn published_arrangement(k: usize, out: &std::path::Path) {
-    use hal_sim::arrangement_file::ArrangementFile;
+    use ballisto_config::arrangement_file::ArrangementFile;
     use nalgebra::{Matrix3, Vector3};
     let dir = recording(&format!("mimu4444_exp{k}_raw"));
     let nominal = dir.join("arrangement.toml");
@@ -547,7 +547,7 @@ fn published_arrangement(k: usize, out: &std::path::Path) {
 /// The calibrated arrangement `file` of raw recording `k` with every channel's noise set to
 /// the one its nominal arrangement declares, written to `out`.
 fn with_nominal_noise(k: usize, file: &std::path::Path, out: &std::path::Path) {
-    use hal_sim::arrangement_file::ArrangementFile;
+    use ballisto_config::arrangement_file::ArrangementFile;
     let nominal = recording(&format!("mimu4444_exp{k}_raw")).join("arrangement.toml");
     let drawn = ArrangementFile::read(&nominal)
         .unwrap()
@@ -568,7 +568,7 @@ fn with_nominal_noise(k: usize, file: &std::path::Path, out: &std::path::Path) {
 /// The 28 pairwise distances (m) between the eight IMUs of a calibrated MIMU4444 file, each
 /// IMU at the mean position of its three channels (`imuK_x`, `_y`, `_z`).
 fn imu_distances(file: &std::path::Path) -> Vec<f64> {
-    let f = hal_sim::arrangement_file::ArrangementFile::read(file).unwrap();
+    let f = ballisto_config::arrangement_file::ArrangementFile::read(file).unwrap();
     let imu: Vec<[f64; 3]> = (1..=8)
         .map(|k| {
             let ch: Vec<_> = f

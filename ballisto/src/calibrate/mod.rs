@@ -31,8 +31,10 @@ pub mod tumble;
 use std::error::Error;
 use std::path::Path;
 
+use ballisto_config::arrangement_file::{
+    ArrangementFile, ChannelSpec, LoadedArrangement, HOST_CAP,
+};
 use estimator_core::{Arrangement, Flags, Model, Options};
-use hal_sim::arrangement_file::{ArrangementFile, ChannelSpec, LoadedArrangement, HOST_CAP};
 use nalgebra::{Matrix3, Vector3};
 
 use crate::estimate::HostEstimator;
@@ -370,7 +372,8 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     let motion_total = motion.len();
     let (motion, thinned) = thinning::thin(&motion, &times);
     let (fit_motion, held_out) = holdout::split(&motion, &times);
-    let (model, model_note) = crate::model_choice::recommend(job.model, &loaded, job.arrangement)?;
+    let (model, model_note) =
+        ballisto_config::model_choice::recommend(job.model, &loaded, job.arrangement)?;
     bar.set_message("fit on the whole record");
     let whole_progress = |it: usize| bar.set_position(it as u64);
     let check_progress = |it: usize| bar.set_position(stage_len + it as u64);

@@ -16,11 +16,11 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::Path;
 
+use ballisto_config::arrangement_file::{load_arrangement, ArrangementFile, HOST_CAP};
 use estimator_core::identify::{
     identify_tumble, Body, ChannelFit, Param, Sets, Tolerance, TumbleError, TumbleFit,
 };
 use estimator_core::{Options, Sym3};
-use hal_sim::arrangement_file::{load_arrangement, ArrangementFile, HOST_CAP};
 
 use crate::estimate::HostEstimator;
 use crate::exit::Refused;
@@ -77,7 +77,7 @@ impl Sets for Record {
 pub fn calibrate_tumble(job: &TumbleJob) -> Result<TumbleSummary, Box<dyn Error>> {
     crate::output::check_distinct(&[job.out], &[job.arrangement, job.samples])?;
     let loaded = load_arrangement(job.arrangement)?;
-    let (model, _) = crate::model_choice::recommend(None, &loaded, job.arrangement)?;
+    let (model, _) = ballisto_config::model_choice::recommend(None, &loaded, job.arrangement)?;
     let mut reader = SamplesReader::open(job.samples, &loaded.names)?.with_ranges(&loaded.ranges);
     let mut est = HostEstimator::<f64>::new(&loaded, model, Options::default())
         .map_err(|e| format!("{}: {e}", job.arrangement.display()))?;

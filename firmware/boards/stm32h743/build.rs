@@ -4,7 +4,7 @@
 //! `BALLISTO_ARRANGEMENT` names an arrangement file (a path from this directory, or absolute),
 //! its parts and arrangement — with `BALLISTO_CALIBRATION` the calibrated geometry `ballisto
 //! calibrate` wrote for it, and `BALLISTO_RATE_HZ` the sample rate (100 Hz if unset). The
-//! files are read and validated as `ballisto estimate` reads them (`hal_sim::board_file`);
+//! files are read and validated as `ballisto estimate` reads them (`ballisto_config::board_file`);
 //! this board's wiring is checked here. A file it cannot run stops the build, naming the file
 //! and what is wrong.
 use std::path::PathBuf;
@@ -31,7 +31,7 @@ fn main() {
     }
     let source = match board_config() {
         Ok(None) => "/// The built-in `tetra` board.\nfn board_config() -> Option<ballisto_fw::config::AppConfig> {\n    ballisto_fw::config::builtin(\"tetra\")\n}\n".to_string(),
-        Ok(Some(config)) => hal_sim::board_file::rust_source(&config),
+        Ok(Some(config)) => ballisto_config::board_file::rust_source(&config),
         Err(e) => {
             eprintln!("error: {e}");
             std::process::exit(1);
@@ -56,7 +56,11 @@ fn board_config() -> Result<Option<AppConfig>, String> {
             .parse::<f32>()
             .map_err(|_| format!("BALLISTO_RATE_HZ = {r:?} is not a number (Hz)"))?,
     };
-    let config = hal_sim::board_file::board_config(&path, calibration.as_deref(), rate)?;
+    let (config, model_note) =
+        ballisto_config::board_file::board_config(&path, calibration.as_deref(), rate)?;
+    if let Some(note) = model_note {
+        println!("cargo:warning={note}");
+    }
     wiring(&config).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(Some(config))
 }

@@ -11,14 +11,14 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use crate::arrangement_file::{
-    body_axis, rotation_defect, ArrangementFile, ChannelSpec, Noise, SensorSpec, IDENTITY,
-};
 use crate::faults::{Fault, FaultKind};
 use crate::motion::{Burn, Environment, Motion, Rotation, Segment, SegmentKind, Torque};
 use crate::sensors::errors::G0;
 use crate::sensors::thermal::{PartThermal, Surroundings};
 use crate::sensors::SensorErrors;
+use ballisto_config::arrangement_file::{
+    body_axis, rotation_defect, ArrangementFile, ChannelSpec, Noise, SensorSpec, IDENTITY,
+};
 
 /// An error in a scenario, naming the scenario and what is wrong.
 #[derive(Debug)]
@@ -616,7 +616,7 @@ impl Scenario {
             ));
         }
         if let Some(m) = &self.model {
-            if crate::arrangement_file::parse_model(m).is_none() {
+            if ballisto_config::arrangement_file::parse_model(m).is_none() {
                 return Err(format!("model = \"{m}\": expected general or free-float"));
             }
         }

@@ -1,12 +1,13 @@
-//! Which model `ballisto estimate` and `ballisto calibrate` use when none is asked for: the
+//! Which model an arrangement is estimated with when none is asked for — by `ballisto`, by the
+//! host simulator's firmware and by a board built from the file: the
 //! file's, unless model G cannot resolve the field on this arrangement. Model G estimates
 //! the field's diagonal `d` from the channels' lever arms; on a nearly flat board (the
 //! real MIMU4444 array is 2 mm thick) `d_z` is barely observable and model G's Ω is an
 //! order worse than model F's (Γ known: 0 on the ground, negligible against the noise in
 //! orbit).
 
+use crate::arrangement_file::LoadedArrangement;
 use estimator_core::Model;
-use hal_sim::arrangement_file::LoadedArrangement;
 use nalgebra::{DMatrix, DVector};
 
 /// Model G is used only if it resolves every component of the field's diagonal to this
@@ -90,7 +91,7 @@ pub fn recommend(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hal_sim::arrangement_file::ArrangementFile;
+    use crate::arrangement_file::ArrangementFile;
 
     /// Four tri-axial parts at (±a, ±a, ±h) (two on top, two underneath), noise 0.035.
     fn board(a: f64, h: f64) -> LoadedArrangement {
@@ -140,7 +141,7 @@ mod tests {
 #[cfg(test)]
 mod explicit {
     use super::*;
-    use hal_sim::arrangement_file::ArrangementFile;
+    use crate::arrangement_file::ArrangementFile;
 
     /// Nine channels from three tri-axial parts.
     fn nine(model: &str) -> LoadedArrangement {

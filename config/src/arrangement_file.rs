@@ -218,11 +218,6 @@ pub fn parts_of(names: &[String]) -> Vec<u8> {
         .collect()
 }
 
-/// Picks the model: command line, else file, else general.
-pub fn choose_model(cli: Option<Model>, loaded: &LoadedArrangement) -> Model {
-    cli.or(loaded.model).unwrap_or(Model::General)
-}
-
 /// Parses a model name.
 pub fn parse_model(s: &str) -> Option<Model> {
     match s {

@@ -1,4 +1,4 @@
-//! A board's parts and arrangement from an arrangement file, at build time (issue 43): what a
+//! A board's parts and arrangement from an arrangement file, at build time: what a
 //! board's `build.rs` reads when `BALLISTO_ARRANGEMENT` names a file, so that an engineer
 //! flashes their own geometry — or the calibrated arrangement `ballisto calibrate` wrote —
 //! without editing Rust.
@@ -16,26 +16,23 @@
 use std::fmt::Write;
 use std::path::Path;
 
-use ballisto_fw::config::{
-    Alignment, AppConfig, PartConfig, PartKind, SamplingConfig, MAX_CHANNELS, MAX_PARTS,
-};
-use ballisto_fw::drivers::{adxl355, lis3dh};
+use ballisto_fw::config::{Alignment, AppConfig, PartKind, MAX_CHANNELS, MAX_PARTS};
 use estimator_core::{Arrangement, Model};
 
-use crate::arrangement_file::{choose_model, load_arrangement, ArrangementFile};
-
-/// Standard gravity, m/s² (a part's range in g).
-const G: f64 = 9.806_65;
+use crate::arrangement_file::{load_arrangement, ArrangementFile};
+use crate::firmware_config::{firmware_config, Part, PartSpec, Sampling};
+use crate::model_choice::recommend;
 
 /// The firmware configuration of the arrangement file at `path`, sampled at `rate_hz`: its
 /// `[[sensor]]` tables in file order as the parts, its channels, calibration, frame
-/// uncertainty and model — or, with `calibration`, that file's for the same channels. Errors
-/// name the file and what is wrong.
+/// uncertainty and model — or, with `calibration`, that file's for the same channels — and,
+/// where the model is not the file's, the note saying why ([`recommend`]). Errors name the file
+/// and what is wrong.
 pub fn board_config(
     path: &Path,
     calibration: Option<&Path>,
     rate_hz: f32,
-) -> Result<AppConfig, String> {
+) -> Result<(AppConfig, Option<String>), String> {
     let file = path.display().to_string();
     let loaded = load_arrangement(path).map_err(|e| e.to_string())?;
     let err = |message: String| format!("{file}: {message}");
@@ -108,81 +105,32 @@ pub fn board_config(
     arrangement
         .set_frame_uncertainty(source.arrangement.frame_uncertainty())
         .map_err(|e| err(e.to_string()))?;
-    let mut parts = [None; MAX_PARTS];
-    for (slot, s) in parts.iter_mut().zip(spec.sensors.iter()) {
-        let kind = part_kind(s.part.as_deref(), s.range, rate_hz)
-            .map_err(|m| err(format!("sensor \"{}\": {m}", s.name)))?;
-        let channels = [0, 1, 2].map(|k| loaded.channel(&s.name, k).map(|c| c as u8));
-        *slot = Some(PartConfig { kind, channels });
-    }
-    let config = AppConfig {
-        sampling: SamplingConfig {
-            rate_hz,
-            alignment: Alignment::Interpolate,
-            parts,
-        },
-        arrangement,
-        model: choose_model(source.model, &loaded),
-        hint: None,
-    };
-    config.validate().map_err(|e| err(e.to_string()))?;
-    // What the board does with it at boot: a configuration the estimator refuses (model G on
-    // fewer than 12 channels, a degenerate geometry) stops the build, not the board.
-    ballisto_fw::estimation::Estimation::new(&config)
-        .map_err(|e| err(format!("the estimator refuses it: {e}")))?;
-    Ok(config)
-}
-
-/// The part a `[[sensor]]` table's `type` names, at the smallest range that holds its
-/// `range` (full scale, m/s²; the part's smallest without one), sampled at `rate_hz`.
-fn part_kind(part: Option<&str>, range: Option<f64>, rate_hz: f32) -> Result<PartKind, String> {
-    match part.map(str::to_ascii_uppercase).as_deref() {
-        Some("ADXL355") => Ok(PartKind::Adxl355 {
-            range: smallest_range(
-                range,
-                &[
-                    (2.0, adxl355::Range::G2),
-                    (4.0, adxl355::Range::G4),
-                    (8.0, adxl355::Range::G8),
-                ],
-            )?,
-            odr: adxl355::Odr::at_least(rate_hz),
-            sync: true,
-        }),
-        Some("LIS3DH") => Ok(PartKind::Lis3dh {
-            range: smallest_range(
-                range,
-                &[
-                    (2.0, lis3dh::Range::G2),
-                    (4.0, lis3dh::Range::G4),
-                    (8.0, lis3dh::Range::G8),
-                    (16.0, lis3dh::Range::G16),
-                ],
-            )?,
-            odr: lis3dh::Odr::at_least(rate_hz),
-        }),
-        Some(other) => Err(format!(
-            "type = \"{other}\" is not a part the firmware drives (\"ADXL355\", \"LIS3DH\")"
-        )),
-        None => Err("no type: the board needs the part (type = \"ADXL355\" or \"LIS3DH\")".into()),
-    }
-}
-
-/// The first of a part's ranges (full scale in g, widest last) that holds `range` (m/s²; the
-/// smallest without one).
-fn smallest_range<R: Copy>(range: Option<f64>, ranges: &[(f64, R)]) -> Result<R, String> {
-    let g = range.map_or(0.0, |r| r / G);
-    ranges
+    let parts = spec
+        .sensors
         .iter()
-        .find(|(full, _)| g <= *full)
-        .map(|(_, r)| *r)
-        .ok_or_else(|| {
-            format!(
-                "range = {} m/s² is more than the part's widest ({} g)",
-                range.unwrap_or(0.0),
-                ranges.last().map_or(0.0, |(full, _)| *full)
-            )
+        .map(|s| {
+            Ok(PartSpec {
+                name: s.name.clone(),
+                part: Part::from_type(s.part.as_deref())
+                    .map_err(|m| err(format!("sensor \"{}\": {m}", s.name)))?,
+                range: s.range,
+                odr_hz: rate_hz,
+                sync: true,
+            })
         })
+        .collect::<Result<Vec<_>, String>>()?;
+    let source_file = calibration.unwrap_or(path);
+    let (model, note) = recommend(None, source, source_file)?;
+    let sampling = Sampling {
+        rate_hz,
+        alignment: Alignment::Interpolate,
+    };
+    let config =
+        firmware_config(&loaded, arrangement, &parts, sampling, model, None).map_err(err)?;
+    Ok((
+        config,
+        note.map(|n| format!("{}: {n}", source_file.display())),
+    ))
 }
 
 /// Rust source of `fn board_config() -> Option<AppConfig>` that builds `config` on the board
@@ -271,6 +219,7 @@ pub fn rust_source(config: &AppConfig) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use ballisto_fw::drivers::{adxl355, lis3dh};
 
     fn write(name: &str, text: &str) -> std::path::PathBuf {
         let dir = std::env::temp_dir().join(format!("board-file-{}", std::process::id()));
@@ -303,7 +252,9 @@ noise = 0.002
 
     #[test]
     fn sensors_become_the_boards_parts_in_file_order() {
-        let c = board_config(&write("three.toml", TWO_PARTS), None, 200.0).unwrap();
+        let c = board_config(&write("three.toml", TWO_PARTS), None, 200.0)
+            .unwrap()
+            .0;
         assert_eq!(c.arrangement.len(), 9);
         assert_eq!(c.model, Model::FreeFloat);
         let parts: Vec<_> = c.sampling.parts().collect();
@@ -338,8 +289,9 @@ noise = 0.002
                 "type = \"BMI088\" is not a part",
             ),
             (
-                TWO_PARTS.replace("range = 60.0", "range = 200.0"),
-                "more than the part's widest (16 g)",
+                // The LIS3DH's widest range carries up to 2047 × 12 mg (240.89 m/s²).
+                TWO_PARTS.replace("range = 60.0", "range = 250.0"),
+                "more than the part's widest (16 g, full scale 240.89 m/s²)",
             ),
             (
                 TWO_PARTS.replace("noise = 0.02\n", ""),
@@ -352,7 +304,7 @@ noise = 0.002
             // Nine channels cannot carry model G: the request is refused, not changed.
             (
                 TWO_PARTS.replace("free-float", "general"),
-                "the estimator refuses it",
+                "model = \"general\" needs at least 12 channels",
             ),
         ];
         for (i, (text, says)) in cases.iter().enumerate() {
@@ -375,7 +327,9 @@ noise = 0.002
 
     #[test]
     fn the_source_writes_every_value_so_that_it_reads_back() {
-        let c = board_config(&write("src.toml", TWO_PARTS), None, 200.0).unwrap();
+        let c = board_config(&write("src.toml", TWO_PARTS), None, 200.0)
+            .unwrap()
+            .0;
         let src = rust_source(&c);
         assert!(src.contains("fn board_config() -> Option<ballisto_fw::config::AppConfig>"));
         for ch in c.arrangement.channels() {
@@ -413,7 +367,7 @@ noise = 0.002
             ));
         }
         let calibrated = write("calibrated.toml", &cal);
-        let c = board_config(&nominal, Some(&calibrated), 100.0).unwrap();
+        let c = board_config(&nominal, Some(&calibrated), 100.0).unwrap().0;
         // Channel 0 is a.x: the calibration's seventh table.
         let a_x = &c.arrangement.channels()[0];
         assert_eq!(a_x.position, [0.101, 0.0, 0.0]);
