@@ -225,6 +225,8 @@ fn no_feature_changes_what_the_firmware_does() {
         ("estimator-core", set(&["defmt", "double-fpu"])),
         ("link", set(&["defmt", "ground"])),
         ("firmware/calstore", set(&["defmt"])),
+        ("drivers/adxl355", set(&["defmt"])),
+        ("drivers/lis3dh", set(&["defmt"])),
     ] {
         let declared = declared_features(path);
         assert!(

@@ -1,12 +1,59 @@
-//! Analog Devices ADXL355 over SPI: 20-bit, ±2/4/8 g, ODR 4 kHz/2ⁿ, external sync, 96-entry
-//! FIFO.
+//! An `embedded-hal-async` driver for the Analog Devices ADXL355: a 20-bit tri-axial MEMS
+//! accelerometer on SPI (±2/4/8 g, output data rate 4 kHz/2ⁿ, external sync, a 96-entry FIFO).
+//!
+//! The driver resets the part, checks its identity registers, configures range, rate and
+//! sync, and reads acceleration in m/s² (part axes) with the datasheet's exact sensitivity, the
+//! temperature, the status and the FIFO. Every data byte is checked against the bits the part
+//! always reads as zero, so a stuck MISO line is an error, not a reading. `no_std`, no
+//! allocation; generic over any [`SpiDevice`].
+//!
+//! Why its own driver: the `adxl355` crate on crates.io (0.2) is blocking, on embedded-hal 0.2,
+//! and exposes neither the external sync nor the FIFO's axis markers that synchronised
+//! sampling needs.
+//!
+//! ```
+//! # use embedded_hal_mock::eh1::spi::{Mock, Transaction as T};
+//! # fn tx(w: &[u8], r: Option<&[u8]>) -> Vec<T<u8>> {
+//! #     let mut t = vec![T::transaction_start(), T::write_vec(w.to_vec())];
+//! #     t.extend(r.map(|r| T::read_vec(r.to_vec())));
+//! #     t.push(T::transaction_end());
+//! #     t
+//! # }
+//! # let mut script = tx(&[0x5E, 0x52], None);
+//! # script.extend(tx(&[0x01], Some(&[0xAD, 0x1D, 0xED])));
+//! # for w in [[0x5A, 0x01], [0x50, 0x05], [0x58, 0x81], [0x56, 0x00], [0x5A, 0x00]] {
+//! #     script.extend(tx(&w, None));
+//! # }
+//! # script.extend(tx(&[0x11], Some(&[0x3E, 0x80, 0x00, 0, 0, 0, 0, 0, 0])));
+//! # let mut spi = Mock::new(&script);
+//! use adxl355::{Adxl355, Config, Odr, Range, Sync};
+//!
+//! # futures::executor::block_on(async {
+//! let config = Config {
+//!     range: Range::G2,
+//!     odr: Odr::at_least(100.0), // 125 Hz, the lowest rate at or above 100 Hz
+//!     sync: Sync::Internal,
+//! };
+//! let mut part = Adxl355::new(spi.clone(), config).await?;
+//! let [x, y, z] = part.read_acceleration().await?; // m/s², part axes
+//! assert!((x - adxl355::STANDARD_GRAVITY).abs() < 1e-4 && y == 0.0 && z == 0.0);
+//! # Ok::<(), adxl355::Error<embedded_hal::spi::ErrorKind>>(())
+//! # }).unwrap();
+//! # spi.done();
+//! ```
+#![no_std]
+#![deny(missing_docs)]
 
 pub mod registers;
 
 use embedded_hal_async::spi::{Operation, SpiDevice};
 
-use super::G0;
 use registers as reg;
+
+/// Standard gravity (m/s² per g, the conventional value of the CGPM): the datasheet gives
+/// sensitivities per g. The estimator's `G0` is the same number; the application checks that
+/// they agree at compile time.
+pub const STANDARD_GRAVITY: f32 = 9.806_65;
 
 /// Full-scale range.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -36,7 +83,7 @@ impl Range {
             Range::G4 => 128_000.0,
             Range::G8 => 64_000.0,
         };
-        G0 / lsb_per_g
+        STANDARD_GRAVITY / lsb_per_g
     }
 
     /// The largest magnitude a reading takes (m/s²): 524 287 LSB, the 20-bit output's positive

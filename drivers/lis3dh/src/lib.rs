@@ -1,11 +1,56 @@
-//! STMicroelectronics LIS3DH over I²C, in high-resolution (12-bit) mode with block data update.
+//! An `embedded-hal-async` driver for the STMicroelectronics LIS3DH: a tri-axial MEMS
+//! accelerometer on I²C, used in high-resolution (12-bit) mode with block data update (±2/4/8/16
+//! g, 1 Hz to 1.344 kHz, a 32-entry FIFO in stream mode, the temperature through its ADC).
+//!
+//! The driver checks the identity register, configures range, rate and FIFO, and reads
+//! acceleration in m/s² (part axes) with the datasheet's sensitivity, the FIFO's level and a
+//! burst of its samples, and the temperature. A data byte with bits set that the 12-bit output
+//! always reads as zero is an error, not a reading. `no_std`, no allocation; generic over any
+//! [`I2c`] bus.
+//!
+//! Why its own driver: `lis3dh-async` (0.9) returns the `accelerometer` crate's types in g with
+//! its own configuration set and no check of the data bytes.
+//!
+//! ```
+//! # use embedded_hal_mock::eh1::i2c::{Mock, Transaction as T};
+//! # const ADDRESS: u8 = 0x19;
+//! # let mut bus = Mock::new(&[
+//! #     T::write_read(ADDRESS, vec![0x0F], vec![0x33]),
+//! #     T::write(ADDRESS, vec![0x23, 0x88 | 0x10]),
+//! #     T::write(ADDRESS, vec![0x24, 0x00]),
+//! #     T::write(ADDRESS, vec![0x2E, 0x00]),
+//! #     T::write(ADDRESS, vec![0x1F, 0xC0]),
+//! #     T::write(ADDRESS, vec![0x20, 0x57]),
+//! #     T::write_read(ADDRESS, vec![0xA8], vec![0x00, 0x3E, 0, 0, 0, 0]),
+//! # ]);
+//! use lis3dh::{Config, Lis3dh, Odr, Range};
+//!
+//! # futures::executor::block_on(async {
+//! let config = Config {
+//!     range: Range::G4,
+//!     odr: Odr::at_least(100.0),
+//!     fifo: false,
+//! };
+//! let mut part = Lis3dh::new(bus.clone(), ADDRESS, config).await?;
+//! let [x, y, z] = part.read_acceleration().await?; // m/s², part axes: here 992 digits of 2 mg
+//! assert!((x - 1.984 * lis3dh::STANDARD_GRAVITY).abs() < 1e-4 && y == 0.0 && z == 0.0);
+//! # Ok::<(), lis3dh::Error<embedded_hal::i2c::ErrorKind>>(())
+//! # }).unwrap();
+//! # bus.done();
+//! ```
+#![no_std]
+#![deny(missing_docs)]
 
 pub mod registers;
 
 use embedded_hal_async::i2c::I2c;
 
-use super::G0;
 use registers as reg;
+
+/// Standard gravity (m/s² per g, the conventional value of the CGPM): the datasheet gives
+/// sensitivities per g. The estimator's `G0` is the same number; the application checks that
+/// they agree at compile time.
+pub const STANDARD_GRAVITY: f32 = 9.806_65;
 
 /// Full-scale range (sensitivity in high-resolution mode).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,7 +84,7 @@ impl Range {
             Range::G8 => 4.0,
             Range::G16 => 12.0,
         };
-        mg * 1e-3 * G0
+        mg * 1e-3 * STANDARD_GRAVITY
     }
 
     /// The largest magnitude a reading takes (m/s²): 2047 digits, the 12-bit output's positive
