@@ -3,7 +3,7 @@
 # double-precision FPU the STM32H743 has (FPv5-D16: `target-cpu=cortex-m7`, as the board builds), in its
 # own target directory (the flags differ from the M4F build). Figures only, no verdict: the
 # budget is counted on the M4F (`cargo qemu-bench`); this shows what the f64 parts — the
-# precomputation and the identification's sums and solve (issue 16) — cost where they are
+# precomputation and the identification's sums and solve — cost where they are
 # hardware instructions.
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -1,6 +1,6 @@
 //! `ballisto estimate` end to end on a large record: rows per second of reading the samples
 //! file, estimating (f64, smoothed) and writing the estimates file; the reader alone; and, as
-//! the I/O yardstick (issue 44), a Python loop that only counts the samples file's lines, with
+//! the I/O yardstick, a Python loop that only counts the samples file's lines, with
 //! the ratio. Prints figures, asserts nothing (speed is checked by reading them, not by a
 //! timed test).
 //!

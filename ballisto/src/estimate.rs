@@ -85,7 +85,7 @@ pub fn estimate_files(job: &EstimateJob) -> Result<Summary, Box<dyn Error>> {
 /// until a later row settles it, then take the sign that continues that row's Ω backwards.
 pub struct HostEstimator<T: Real> {
     est: Estimator<T, HOST_CAP>,
-    /// Fault isolation from the measurements (issue 17), run as the firmware runs it; `None`
+    /// Fault isolation from the measurements, run as the firmware runs it; `None`
     /// when off.
     faults: Option<Faults<T>>,
     /// Rows held for their sign, oldest first.

@@ -300,7 +300,7 @@ enum Command {
             allow_hyphen_values = true
         )]
         time_offset: f64,
-        /// Also write the stream's last identification solution (TM[200,128–129], issue 16)
+        /// Also write the stream's last identification solution (TM[200,128–129])
         /// as an arrangement file over the channel names of --arrangement.
         #[arg(long, value_name = "FILE.toml", requires = "arrangement")]
         calibration: Option<PathBuf>,

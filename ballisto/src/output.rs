@@ -1,4 +1,4 @@
-//! Outputs written without losing data (issue 44). An output that is one of the command's
+//! Outputs written without losing data. An output that is one of the command's
 //! inputs — the same file, by identity (device and inode), not by name, so a second path or a
 //! hard link to it counts — is refused before anything is written. Every output is written to
 //! a temporary file beside its final path and renamed into place only when it is complete: a

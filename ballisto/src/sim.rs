@@ -29,7 +29,7 @@ pub struct SimJob<'a> {
     /// Run the firmware's tasks instead of the bench reader: its samples and its estimates
     /// (implies the comparison and the plot), with this alignment of free-running parts.
     pub firmware: Option<ballisto_fw::config::Alignment>,
-    /// With `firmware`: identify in flight first (issue 16, paper §6). A first boot on an
+    /// With `firmware`: identify in flight first (paper §6). A first boot on an
     /// erased calibration store gets the scenario's reference gyro by telecommand
     /// (TC[200,8–11]: window, reference points, report, commit; its telemetry in
     /// `telemetry-identify.bin`), or, in a scenario without one, a torque-free tumble's

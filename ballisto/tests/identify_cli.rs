@@ -1,5 +1,5 @@
 //! `ballisto sim --firmware --identify` and `ballisto decode --calibration`: identification in
-//! flight (issue 16) from the command line, and the ground's arrangement file of the solution.
+//! flight from the command line, and the ground's arrangement file of the solution.
 
 mod common;
 

@@ -1,4 +1,4 @@
-//! Issue 44, "never lose data": every command refuses an output that is one of its inputs —
+//! Every command refuses an output that is one of its inputs —
 //! the same file by identity (another path to it, a hard link), not only by name — before it
 //! writes anything, and leaves the input as it was; a finished run leaves no temporary file.
 

@@ -98,7 +98,7 @@ pub fn chi2_999(dof: usize) -> f64 {
 
 /// 99.99 % points of χ² for 1..=30 degrees of freedom (beyond: Wilson–Hilferty): the
 /// per-sample point of [`Flags::RESIDUAL_HIGH`]. At 99.9 % that test alone would spend the
-/// whole false-alarm budget of 0.1 % of rows (issue 48), and the readings' systematic misfit
+/// whole false-alarm budget of 0.1 % of rows, and the readings' systematic misfit
 /// (interpolation, quantisation) takes it above: 0.118 % of the fault-free rows of the N = 18
 /// fault matrix were flagged by it. (Computed by the regularised incomplete gamma function;
 /// the same routine reproduces [`chi2_999`]'s table to the digit.)

@@ -1,4 +1,4 @@
-//! Parts that stop answering (issue 17): when a part is taken out of the solve and when it is
+//! Parts that stop answering: when a part is taken out of the solve and when it is
 //! put back — the bookkeeping the firmware and `ballisto estimate` share, so that both leave
 //! the same parts out at the same samples.
 //!

@@ -1,4 +1,4 @@
-//! Fault detection, isolation and re-admission over a window (issue 17), on the parity space of
+//! Fault detection, isolation and re-admission over a window, on the parity space of
 //! [`crate::parity`].
 //!
 //! Per sample set the parity space gives `χ²` (`ν = N − 12` degrees of freedom) and, per part,
@@ -653,7 +653,7 @@ pub fn window_limit(dof: usize, tau: f64, alpha: f64) -> f64 {
     g * chi2_quantile(h, upper_normal_quantile(alpha))
 }
 
-/// Model G's consistency with a known gravity gradient (issue 17, "redundancy is found where it
+/// Model G's consistency with a known gravity gradient ("redundancy is found where it
 /// exists"): in orbit or on the ground Γ is known to far below the noise, so `A − Γ` must be
 /// `{Ω}² = Ω Ωᵀ − |Ω|² I` — six components, three unknowns. With twelve channels model G has
 /// no parity space, but this test has three degrees of freedom: the weighted least-squares fit
@@ -803,7 +803,7 @@ impl<T: Real> ResidualCheck<T> {
     }
 }
 
-/// The test where the fault monitor has no parity space (N ≤ 12; issue 17): model G's
+/// The test where the fault monitor has no parity space (N ≤ 12): model G's
 /// known-field test ([`FieldCheck`]), else model F's own residual windowed ([`ResidualCheck`],
 /// 10–12 channels), else none (nine channels in model F: no degree of freedom). Chosen once
 /// per channel set, as the monitor's parity space is rebuilt; the firmware's `Isolation` and
@@ -1011,7 +1011,7 @@ impl<T: Real, const CAP: usize> StuckCheck<T, CAP> {
 }
 
 /// A suspicion outlives a spell without a test. Where exclusions leave no redundancy (model G
-/// switched to model F on the nine channels left, issue 17) the monitor has no test and says
+/// switched to model F on the nine channels left) the monitor has no test and says
 /// [`Verdict::NoTest`]; a fault it suspected and could not isolate may still be in the
 /// channels in use, and nothing can tell. So a suspicion stands until a test clears it, or
 /// until a part is taken out that explains it (isolated by the monitor, or by its own signal:

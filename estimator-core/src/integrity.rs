@@ -1,4 +1,4 @@
-//! Protection levels (issue 48; the aviation RAIM idea): for σ0, Ω′ and Ω, a bound on the
+//! Protection levels (the aviation RAIM idea): for σ0, Ω′ and Ω, a bound on the
 //! error (vector norm) that holds, at a chosen probability, whatever fault one part has.
 //!
 //! Model G is linear in twelve unknowns (σ0, Ω′, `A`: [`crate::parity`]). With whitened

@@ -17,7 +17,7 @@
 //! - [`recent`]: the last sample sets, replayed into the estimator after a change of channels.
 //! - [`identify`]: each channel's geometry from a known field (paper §6), at sample rate.
 //! - [`thermal`]: a reading at one temperature turned into the one at the calibration's
-//!   temperature (issue 50).
+//!   temperature.
 //! - [`integrity`]: the protection level of each output (the error a fault of one part could
 //!   cause).
 //! - [`frame_uncertainty`]: the common errors of a calibrated frame, added to the reported

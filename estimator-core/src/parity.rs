@@ -1,4 +1,4 @@
-//! The parity space of model G (issue 17): what the readings say about a fault, whatever the
+//! The parity space of model G: what the readings say about a fault, whatever the
 //! motion.
 //!
 //! Model G is linear in twelve unknowns — σ0, Ω′ and the six components of `A` (paper eq. 11:

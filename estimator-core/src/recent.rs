@@ -1,5 +1,5 @@
 //! The last sample sets, kept so that a change of the channels in use starts from a warm rate
-//! filter (issue 17).
+//! filter.
 //!
 //! A change of channel mask (a part isolated by the fault monitor and taken out, or re-admitted,
 //! or gone missing) restarts the estimator's history: branch and sign tracking and the rate

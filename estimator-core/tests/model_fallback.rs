@@ -1,4 +1,4 @@
-//! Issue 17: where exclusions leave model G unobservable the estimator takes the channels in
+//! Where exclusions leave model G unobservable the estimator takes the channels in
 //! model F (`Estimator::set_mask_in`), reports it, and returns to model G when it can.
 
 mod common;

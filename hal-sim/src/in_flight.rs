@@ -1,4 +1,4 @@
-//! Identification in flight on the firmware host (issue 16, paper §6): the ground's side — the
+//! Identification in flight on the firmware host (paper §6): the ground's side — the
 //! scenario's reference gyro sent up in TC[200,9] batches, the window started, reported and
 //! committed by telecommand — and two boots of the firmware with the calibration store's flash
 //! handed from the first to the second (a reset: everything else is dropped).

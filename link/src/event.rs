@@ -38,14 +38,14 @@ pub enum EventId {
     /// Channels were excluded or included by command (TC[200,4/5]; format 2): `a` = the
     /// commanded exclusions before, `b` = after (bit per channel).
     ChannelsCommanded = 11,
-    /// The fault monitor isolated a part from the measurements (issue 17; it is taken out of
+    /// The fault monitor isolated a part from the measurements (it is taken out of
     /// the solve: a `parts-excluded` event follows): `a` = part slot, `b` = its channels (bits).
     PartIsolated = 12,
     /// The readings are inconsistent and no part is isolated (flag 64 on the estimates from
     /// here): `a` = 1 when it starts, 0 when it ends; `b` = the window's χ² over its limit, in
     /// thousandths.
     FaultSuspected = 13,
-    /// The model in force changed without a command (issue 17): exclusions left the configured
+    /// The model in force changed without a command: exclusions left the configured
     /// model G unobservable and the estimate is made in model F, or the channels carry model G
     /// again. `a` = the model before, `b` = after (0 general, 1 free float; the motion reports
     /// and housekeeping carry the model in force).

@@ -1,5 +1,5 @@
 //! The housekeeping report, TM[3,25] SID 2: mode, model, rates, the loop's and every part's
-//! counters, the link's counters, the identity of the calibration in use (issue 16), and the
+//! counters, the link's counters, the identity of the calibration in use, and the
 //! boot count, the reset cause and the time correlation (telemetry format 2). Each addition is
 //! at the end; the decoder still reads the layouts before it.
 
@@ -138,7 +138,7 @@ pub enum ConsistencyTest {
     KnownField = 2,
     /// Model F's own residual, windowed (10–12 channels): tests.
     OwnResidual = 3,
-    /// The image carries no fault monitor (images before issue 43's one build; kept so that
+    /// The image carries no fault monitor (images before the one build; kept so that
     /// their telemetry still decodes).
     NotBuilt = 255,
 }
@@ -299,9 +299,9 @@ pub const HOUSEKEEPING_LEN: usize = HOUSEKEEPING_LEN_NO_TEMPERATURE + 4 * PART_S
 /// Application data length of the layout before the temperatures (telemetry format 5, issue
 /// 50; still decoded).
 pub const HOUSEKEEPING_LEN_NO_TEMPERATURE: usize = HOUSEKEEPING_LEN_NO_TEST + 1;
-/// Application data length of the layout before the consistency test (issue 17; still decoded).
+/// Application data length of the layout before the consistency test (still decoded).
 pub const HOUSEKEEPING_LEN_NO_TEST: usize = HOUSEKEEPING_LEN_NO_BOOT + 4 + 1 + 1 + 7;
-/// Application data length of the layout before the boot and time fields (format 1, issue 16).
+/// Application data length of the layout before the boot and time fields (format 1).
 pub const HOUSEKEEPING_LEN_NO_BOOT: usize = HOUSEKEEPING_LEN_NO_CALIBRATION + 9;
 /// Application data length of the layout before the calibration identity (still decoded).
 pub const HOUSEKEEPING_LEN_NO_CALIBRATION: usize = 2 + 6 + 4 + 4 + 20 + 1 + 8 + 16 + 8 * 25;

@@ -1,4 +1,4 @@
-//! Identification in flight (issue 16, paper §6): the reference-rate points of TC[200,9], the
+//! Identification in flight (paper §6): the reference-rate points of TC[200,9], the
 //! summary TM[200,128] and one TM[200,129] per channel of a solution.
 
 use crate::codec::{Get, Put};
@@ -227,7 +227,7 @@ pub const TRACK_DETERMINED: u8 = 2;
 pub const TRACK_SCALE_DRIFT: u8 = 4;
 
 /// Application data of TM[200,130]: one channel's bias against temperature across the windows
-/// solved since boot (issue 50), sent after a solution's channels. Reals NaN where there is no
+/// solved since boot, sent after a solution's channels. Reals NaN where there is no
 /// line yet (fewer than two windows, or all at one temperature).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ThermalTrack {

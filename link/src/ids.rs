@@ -94,7 +94,7 @@ pub const PART_SLOTS: usize = 8;
 /// Most channels an arrangement on the link has (TC[200,6]; channel masks are 32 bits).
 pub const MAX_CHANNELS: usize = 24;
 
-/// The telemetry format, carried in the boot event: 6 since issue 50's in-flight tracking (a
+/// The telemetry format, carried in the boot event: 6 since the in-flight tracking (a
 /// thermal track report TM[200,130] per channel after each solution); 5 since issue 50 (each
 /// part's temperature at the end of housekeeping); 4 since issue 49 (the identification
 /// summary's vector is ρ of paper eq. 12, the origin from the centre of mass, flagged in its

@@ -30,7 +30,7 @@ pub struct MotionReport {
 pub const MOTION_LEN: usize = 160;
 
 /// Application data length of the motion report before the protection levels were added
-/// (telemetry format 2, issue 16): decoded with the levels absent.
+/// (telemetry format 2): decoded with the levels absent.
 pub const MOTION_LEN_NO_PROTECTION: usize = 148;
 
 /// Application data length of the motion report before the mode and model were added

@@ -1,4 +1,4 @@
-//! Faults through the firmware on a layout with redundancy (issue 17): the layout, one run
+//! Faults through the firmware on a layout with redundancy: the layout, one run
 //! with at most one fault in one part, and what the run showed against the truth.
 
 use ballisto_fw::config::{Alignment, AppConfig, MAX_CHANNELS};
@@ -363,7 +363,7 @@ pub const DURATION: f64 = 12.0;
 /// Each fault lasts this long (s), starting uniformly in 3–7 s.
 pub const FAULT_S: f64 = 3.0;
 
-/// Within this time of its onset a fault must be isolated (issue 48's goal for a drift).
+/// Within this time of its onset a fault must be isolated (the goal for a drift).
 pub const ISOLATE_WITHIN_S: f64 = 2.0;
 
 /// Whether the layout itself can attribute a fault of `bias + rate · t` (m/s², per axis x, y, z

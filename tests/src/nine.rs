@@ -51,7 +51,7 @@ fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
 }
 
-/// The cases of issue 15's accuracy requirement: one factor at a time around the issue's case
+/// The cases of the accuracy requirement: one factor at a time around the issue's case
 /// (1 kHz, 2e-3 m/s², 0.12 m) — rate (Hz), noise (m/s²) and arm (m).
 pub fn accuracy_cases() -> Vec<(f64, f64, f64)> {
     let centre = (1000.0, 2e-3, 0.12);
@@ -74,7 +74,7 @@ pub fn make(p: Params) -> Case {
     make_on(file, p, RATE, manoeuvre_torque(p.manoeuvre, 1.0))
 }
 
-/// A nine-channel layout drawn at random (issue 46): channels at random directions within
+/// A nine-channel layout drawn at random: channels at random directions within
 /// `arm` (0.3–1 × it from the origin), any unit axes, redrawn until model F accepts the
 /// arrangement (its rank check) and the 9-column design's condition number (σ0, Ω′ and the
 /// field's diagonal, each column scaled to unit norm) is at most [`CONDITION_MAX`] — a layout

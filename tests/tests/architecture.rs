@@ -214,7 +214,7 @@ fn set(names: &[&str]) -> BTreeSet<String> {
     names.iter().map(|s| s.to_string()).collect()
 }
 
-/// Issue 43: no cargo feature changes what the firmware does. The crates the flashed image is
+/// No cargo feature changes what the firmware does. The crates the flashed image is
 /// made of declare only features that add without changing behaviour — `defmt` (the log's
 /// transport), `ground` (the link's decoder), `double-fpu` (the same square roots by the M7's
 /// instruction) — and no default features.
@@ -238,7 +238,7 @@ fn no_feature_changes_what_the_firmware_does() {
     }
 }
 
-/// Issue 43: the STM32H743 flight image runs the application the QEMU board, the host
+/// The STM32H743 flight image runs the application the QEMU board, the host
 /// simulator and the ground tool run: each depends on `ballisto-fw` with its default features
 /// and nothing but `defmt`, which only routes the log.
 #[test]

@@ -1,4 +1,4 @@
-//! Issue 15: the nine-channel ballistometer (model F, m = 3) across the family — sample rates
+//! The nine-channel ballistometer (model F, m = 3) across the family — sample rates
 //! 50 Hz–4 kHz, noise 1e-4–1e-2 m/s², arms 0.05–0.2 m, torque-free tumble and manoeuvre,
 //! 20 s records, four seeds — is never silently wrong: at most 0.1 % of the rows of a family
 //! have Ω more than 5 reported deviations off with no flag. Asserted on every family for the
@@ -16,7 +16,7 @@
 
 use e2e_tests::nine::{self, Params, Score};
 
-/// Share of silently wrong rows allowed per family (issue 15).
+/// Share of silently wrong rows allowed per family.
 const SILENT_MAX: f64 = 0.001;
 
 /// Seeds of every family.
@@ -131,7 +131,7 @@ fn never_silently_wrong(rates: &[f64], noises: &[f64], arms: &[f64], seeds: &[u6
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-/// Issue 15's accuracy requirement on the issue's motion, the torque-free tumble: the raw σ0,
+/// The accuracy requirement on the issue's motion, the torque-free tumble: the raw σ0,
 /// Ω′ and Ω RMS within 1.10 × the truth-started maximum likelihood, 20 s, for `ballisto
 /// estimate --raw` (the host's) on every seed and for the forward
 /// path alone (the firmware's, which cannot look ahead) on seed 1 (seed 4's tumbles, which
@@ -331,8 +331,8 @@ fn firmware_path_at_1_khz() -> FirmwarePath {
 }
 
 /// The firmware path on the `nine-channel` scenario at 1 kHz, 20 s (one run, its maximum
-/// likelihood computed once): never silently wrong, in Ω (issue 15) and in σ0, the margin
-/// agreeing with the flag on every set; and issue 15's accuracy requirement, σ0, Ω′ and Ω RMS
+/// likelihood computed once): never silently wrong, in Ω and in σ0, the margin
+/// agreeing with the flag on every set; and the accuracy requirement, σ0, Ω′ and Ω RMS
 /// within 1.10 × the truth-started maximum likelihood of the readings it got, for the firmware
 /// and for `ballisto estimate --raw` on them.
 #[test]

@@ -178,7 +178,7 @@ fn the_builtin_scenario_exercises_every_path_and_estimates_the_motion() {
             FrameRejected,
             FrameRejected,
             // u3 silent from 4.0 s: out after 5 sets; nine channels do not carry model G, so
-            // model F meanwhile (issue 17); back 100 good sets after the part is up again.
+            // model F meanwhile; back 100 good sets after the part is up again.
             PartsExcluded,
             ModelSwitched,
             PartDown,
@@ -312,7 +312,7 @@ fn qemu_stream_matches_the_host_run() {
     // The first reconfiguration: u3's exclusion (its silence from `OUTAGE.from`, excluded at
     // its EXCLUDE_AFTER-th missing set) and the switch to model F, at set 404. The host builds
     // its configuration in the sample path (simulated time does not pass); the QEMU board in
-    // thread mode below the sample loop (issue 17), so from there the two streams differ.
+    // thread mode below the sample loop, so from there the two streams differ.
     let first_reconfiguration = (demo::OUTAGE.from * 100.0).round() as u32
         + u32::from(ballisto_fw::estimation::EXCLUDE_AFTER)
         - 1;
@@ -340,7 +340,7 @@ fn qemu_stream_matches_the_host_run() {
         same >= before,
         "{same} identical, {before} before the first reconfiguration"
     );
-    // Issue 17: no set is lost on the QEMU board from the first reconfiguration on — the
+    // No set is lost on the QEMU board from the first reconfiguration on — the
     // exclusion and the return (the G → F switch and back), the commanded model change and
     // the commanded exclusion are all built in thread mode below the sample loop — and until
     // the board's own exclusion the sets with u3 silent are its flagged predictions.

@@ -1,4 +1,4 @@
-//! The built-in tumble (`board_qemu::tumble`, issue 49): identification without a reference
+//! The built-in tumble (`board_qemu::tumble`): identification without a reference
 //! → commit → reset → boot, on the host, and, when CI hands it the QEMU board's telemetry of
 //! the same scenario (`scripts/qemu-board-m7.sh`: the STM32H743's core), the board's checked
 //! against the host's. Accuracy is judged against the same boot with the parts' true geometry

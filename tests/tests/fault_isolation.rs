@@ -1,4 +1,4 @@
-//! Issue 17's fault matrix as a test: every fault kind of hal-sim in one part of a layout with
+//! The fault matrix as a test: every fault kind of hal-sim in one part of a layout with
 //! redundancy (N = 18, model G, ideal parts), 20 runs each, through the firmware on the
 //! simulated buses with its fault monitor (`tests/examples/fault_matrix.rs` prints the table).
 
@@ -66,7 +66,7 @@ fn the_matrix_holds(layout: fn(u64) -> hal_sim::scenario::Scenario) {
         assert_eq!(t.wrong_excluded, 0, "{name}: a healthy part out");
         assert_eq!(t.wrong_references, 0, "{name}: a reference wrong");
         assert_eq!((t.nan, t.lost), (0, 0), "{name}");
-        // After the fault: at most issue 15's bar of 0.1 % silently wrong rows (a 3 σ bias that
+        // After the fault: at most the bar of 0.1 % silently wrong rows (a 3 σ bias that
         // was seen but not isolated can leave a handful), none after an isolated kind.
         assert!(
             t.silent_after * 1000 <= t.after,
@@ -80,12 +80,12 @@ fn the_matrix_holds(layout: fn(u64) -> hal_sim::scenario::Scenario) {
                 "{name}: isolated {}",
                 t.isolated.len()
             );
-            // At most 0.2 % while active (issue 15's bar is 0.1 %): between a 10 σ bias
+            // At most 0.2 % while active (the bar is 0.1 %): between a 10 σ bias
             // jump's onset and its isolation the per-sample solve follows the fault at 8–10 of
             // its deviations while the monitor's window has not concluded and the estimator's
             // own residual gate flickers (10 of 6 000 rows, 0.17 %, with the branch and sign
             // filter of issue 46; the lock monitor it replaced flagged all but 3 of them). The
-            // bound on such rows is issue 48's integrity bound; until then this is the figure.
+            // bound on such rows is the integrity bound; until then this is the figure.
             assert!(
                 t.silent_active * 500 <= t.active,
                 "{name}: silent while active {} of {}",
@@ -113,7 +113,7 @@ fn the_matrix_holds(layout: fn(u64) -> hal_sim::scenario::Scenario) {
     }
 }
 
-/// Issue 48's goal: flag 64 on at most 0.1 % of the fault-free rows (the per-sample point
+/// The goal: flag 64 on at most 0.1 % of the fault-free rows (the per-sample point
 /// at 99.99 % leaves the budget to the readings' systematic misfit and the monitor's window;
 /// at 99.9 % the per-sample test alone flagged 0.118 % of the N = 18 layout's rows).
 fn false_alarms_within_the_goal(clean: &e2e_tests::faults::Tally) {
@@ -125,7 +125,7 @@ fn false_alarms_within_the_goal(clean: &e2e_tests::faults::Tally) {
     );
 }
 
-/// Issue 48's goal for a bias or a drift: isolated within 2 s in every run whose fault the
+/// The goal for a bias or a drift: isolated within 2 s in every run whose fault the
 /// layout can attribute to its part by then with 99 % probability (`e2e_tests::faults::
 /// attributable`: what a test over the whole 2 s would see). At even odds, the boundary of
 /// what any test can do, the share is reported (`docs/validation.md`).
@@ -138,7 +138,7 @@ fn isolated_in_time_where_the_layout_surely_can(name: &str, t: &e2e_tests::fault
     }
 }
 
-/// Issue 48's goal for an intermittent fault: its part out on at least 99 % of the rows from
+/// The goal for an intermittent fault: its part out on at least 99 % of the rows from
 /// its second exclusion on, across the gaps between its bursts (a regular pattern and one whose
 /// period is drawn per run, each gap within ±20 % of it). The first gap is not asserted: no
 /// test can tell it from the end of a fault, and the part is re-admitted in it
@@ -156,7 +156,7 @@ fn held_across_its_gaps(name: &str, t: &e2e_tests::faults::Tally) {
     );
 }
 
-/// Issue 48's goal for the protection levels: each output's error above its level on at most
+/// The goal for the protection levels: each output's error above its level on at most
 /// 0.1 % of the rows that have one (the missed probability is 10⁻³), faults included; model G
 /// (the N = 18 and mixed layouts) has them on every row with all parts in; model F none
 /// (`estimator_core::integrity`).
@@ -179,7 +179,7 @@ fn protection_holds(name: &str, p: &e2e_tests::faults::Protection) {
     }
 }
 
-/// One estimator (issue 17): `ballisto estimate` on the samples the firmware read runs the
+/// One estimator: `ballisto estimate` on the samples the firmware read runs the
 /// same monitor and takes the same parts out at the same rows (the `excluded` column of both
 /// estimates files), writes the same protection levels (issue 48: empty on the same rows, else
 /// equal to f32's precision), and writes no silently wrong row.
@@ -463,7 +463,7 @@ fn the_mixed_layout_is_not_silently_wrong_after_a_fault() {
         assert_eq!((t.nan, t.lost), (0, 0), "{name}");
         assert_eq!(t.wrong_excluded, 0, "{name}: a healthy part out");
         // A slow drift is seen late in this layout, or within a 1 s of its onset in none of
-        // the runs (issue 48's open goal: a test on the residual's mean): reported, not
+        // the runs (the open goal: a test on the residual's mean): reported, not
         // asserted.
         if !name.starts_with("drift") {
             assert!(!t.detected.is_empty(), "{name}: never seen");

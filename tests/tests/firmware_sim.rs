@@ -365,7 +365,7 @@ fn the_built_in_tetra_board_is_the_board_tetra_orbit_simulates() {
     }
 }
 
-/// Issue 17: a stuck part in a layout with redundancy (N = 18, model G, ideal parts) is seen by
+/// A stuck part in a layout with redundancy (N = 18, model G, ideal parts) is seen by
 /// the residual within 0.3 s, and once it has ended the estimate is never silently wrong (model
 /// G's path check: before it, 38.5 % of the rows after a stuck part were, `fault_matrix`).
 #[test]

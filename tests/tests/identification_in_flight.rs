@@ -1,4 +1,4 @@
-//! Identification in flight (issue 16, paper §6) through the firmware on hal-sim's buses:
+//! Identification in flight (paper §6) through the firmware on hal-sim's buses:
 //! `orbit-identify` (4 × ADXL355 with datasheet errors, a tumble under attitude-control torque,
 //! a reference gyro on the bus) — identify with the reference by telecommand, commit, reset,
 //! boot from the store — and the estimates after the reset, decoded from the telemetry

@@ -1,4 +1,4 @@
-//! Issue 46's property test: branch and sign on nine-channel layouts the estimator was not
+//! The property test: branch and sign on nine-channel layouts the estimator was not
 //! tuned on. Layouts drawn at random (nine channels anywhere within the arm, any axes, kept when model F
 //! accepts them and the design is conditioned within `nine::CONDITION_MAX`), ideal parts,
 //! Gaussian noise as declared; a torque-free tumble (|Ω| ≈ 2.2 rad/s) and a slow manoeuvre

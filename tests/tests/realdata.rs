@@ -136,7 +136,7 @@ fn mimu4444_rate_error_against_gyros() {
     }
 }
 
-/// The protection levels on real parts (issue 48): the board's 24 channels in model G (the
+/// The protection levels on real parts: the board's 24 channels in model G (the
 /// levels need 13 or more), Ω against its gyros on the unsaturated rows. The levels assume one
 /// faulty part at most; the hand-held motion misfits every part at once (its residual is
 /// 15–25 × the static noise), so Ω's error is above its level on many rows — and each such row

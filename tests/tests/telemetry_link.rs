@@ -45,7 +45,7 @@ fn commands_on_the_uplink_take_effect_and_are_verified_on_the_downlink() {
             8.0,
             frame(service::HOUSEKEEPING, subtype::HK_ONE_SHOT, &[1, 0, 2], 5),
         ),
-        // Model G needs all 12 channels: excluded all the same, in model F (issue 17).
+        // Model G needs all 12 channels: excluded all the same, in model F.
         (9.0, frame(b, subtype::EXCLUDE, &[0], 6)),
     ];
     let mut truth = Vec::new();
@@ -189,7 +189,7 @@ fn a_dead_part_is_reported_down_and_up_again() {
         })
         .collect();
     // The stuck part (5–6 s) and the bias jump (from 10 s) are seen by model G's known-field
-    // test (issue 17): a suspicion opens within 0.1 s of each. The first closes when the stuck
+    // test: a suspicion opens within 0.1 s of each. The first closes when the stuck
     // part is taken out; the second stands to the end, also through the dead part's outage,
     // when model F on the nine channels left has no test (`Suspicion`).
     let suspicions: Vec<(f64, u32)> = events
@@ -220,7 +220,7 @@ fn a_dead_part_is_reported_down_and_up_again() {
         .collect();
     // Twelve channels less a part do not carry model G: each part out (u1 while stuck, u3
     // while dead from 14 s to 15 s and for 100 good sets after) puts the estimate in model F
-    // on the nine left, and its return back in model G, each reported (issue 17). u3 is marked
+    // on the nine left, and its return back in model G, each reported. u3 is marked
     // down after 10 failed reads and up when it answers.
     use EventId::*;
     let expected: [(EventId, u32, f64); 10] = [

@@ -1,4 +1,4 @@
-//! Temperature (issue 50): parts whose bias and sensitivity move with their temperature, read
+//! Temperature: parts whose bias and sensitivity move with their temperature, read
 //! through their temperature registers by the firmware.
 //!
 //! - `ground-thermal` (four ADXL355 with datasheet errors and coefficients, the calibration

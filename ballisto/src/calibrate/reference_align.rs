@@ -1,4 +1,4 @@
-//! What a real reference brings with it (issue 47): a gyro's bias, its time offset against the
+//! What a real reference brings with it: a gyro's bias, its time offset against the
 //! accelerometers, and its frame's rotation against the array.
 //!
 //! - **Bias**: in the static poses the reference reads its bias (and the Earth's rate, below

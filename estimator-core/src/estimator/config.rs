@@ -53,7 +53,7 @@ impl Default for Options {
 
 impl<T: Real, const CAP: usize> Config<T, CAP> {
     /// [`Config::configure`] in the `preferred` model, or in model F where the channels of
-    /// `mask` do not carry model G (issue 17); returns the model built. On error `self` is
+    /// `mask` do not carry model G; returns the model built. On error `self` is
     /// unchanged and the error is the preferred model's.
     pub(super) fn configure_preferring(
         &mut self,

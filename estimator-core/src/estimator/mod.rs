@@ -172,7 +172,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
     }
 }
 
-/// A second configuration, set aside (issue 17, double buffering): when exclusions switch the
+/// A second configuration, set aside (double buffering): when exclusions switch the
 /// estimator from model G to model F ([`Estimator::set_mask_keeping`]), model G's
 /// configuration is kept here, and the return to it is a swap instead of a precomputation
 /// (model G's four frames: 7.4 million instructions on the M4F, `cargo qemu-bench`; on the

@@ -1,4 +1,4 @@
-//! Identification without a reference (issue 16, source 2): in a torque-free tumble with the
+//! Identification without a reference (source 2): in a torque-free tumble with the
 //! inertia given, the motion is fitted with the geometry.
 //!
 //! Euler's equations, `J Ω′ = −Ω × J Ω` (no torque), carry the rate at the window's start,

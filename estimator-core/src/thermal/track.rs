@@ -1,4 +1,4 @@
-//! A channel's bias against its temperature across identification windows (issue 50): how
+//! A channel's bias against its temperature across identification windows: how
 //! identification in flight tracks the bias coefficient through an orbit's thermal cycle.
 //!
 //! Every window solved in flight (paper §6, [`crate::identify`]) gives each channel's bias `b̂`

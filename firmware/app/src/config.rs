@@ -42,7 +42,7 @@ impl PartKind {
     }
 
     /// The largest magnitude a reading takes at the configured range (m/s²): an axis reading
-    /// it is clipped (the own-signal check's range limit, issue 17).
+    /// it is clipped (the own-signal check's range limit).
     pub fn full_scale(self) -> f32 {
         match self {
             PartKind::Adxl355 { range, .. } => range.full_scale(),

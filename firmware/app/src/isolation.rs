@@ -1,4 +1,4 @@
-//! Fault isolation from the measurements (issue 17): estimator-core's
+//! Fault isolation from the measurements: estimator-core's
 //! [`FaultMonitor`](estimator_core::fault_monitor::FaultMonitor) over the parts that answer,
 //! with redundancy (N ≥ 13; isolating a tri-axial part needs N ≥ 16) in either model: its
 //! parity space is model G's, and model F's readings lie in it too.

@@ -1,4 +1,4 @@
-//! The watchdog's supervisor (issue 50): the board arms its watchdog at boot and only this task
+//! The watchdog's supervisor: the board arms its watchdog at boot and only this task
 //! feeds it, and only while the data path makes progress. Two counts say so: the sets the
 //! sampling task has produced (the snapshots it published on its health board) and the sets the
 //! application task has handled ([`Liveness`]: estimated, reported and their telemetry written — the downlink is

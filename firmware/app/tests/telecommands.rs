@@ -1395,7 +1395,7 @@ fn the_spacecraft_time_sets_the_time_correlation() {
     );
 }
 
-/// Issue 17: with the builder task (a board without a double-precision FPU) a commanded
+/// With the builder task (a board without a double-precision FPU) a commanded
 /// change is accepted at once and completed at the first set after its configuration is built
 /// — the event with it — while the estimates go on (the channel on its way out read as
 /// missing: flagged predictions, finite); another configuration command meanwhile is refused

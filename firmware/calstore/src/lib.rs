@@ -1,6 +1,6 @@
 //! # ballisto-calstore
 //!
-//! Calibration records in flash that survive resets and power loss (issue 16, "Stored"). Its
+//! Calibration records in flash that survive resets and power loss ("Stored"). Its
 //! own crate so that the flight profile builds it for size (the application crate is built for
 //! speed for the per-sample path; this runs at boot and on a commit).
 //!

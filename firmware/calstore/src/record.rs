@@ -24,7 +24,7 @@ use crc::{Crc, NoTable, CRC_32_ISO_HDLC};
 use estimator_core::thermal::Thermal;
 use estimator_core::{Arrangement, ConfigError, FrameUncertainty};
 
-/// The layout's version (2: with temperature coefficients, issue 50).
+/// The layout's version (2: with temperature coefficients).
 pub const FORMAT_VERSION: u16 = 2;
 /// The earlier version still read.
 const VERSION_1: u16 = 1;

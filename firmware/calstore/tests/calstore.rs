@@ -1,4 +1,4 @@
-//! Issue 16, "Stored": calibration records in flash that survive power loss.
+//! Calibration records in flash that survive power loss.
 //!
 //! - A commit cut by power loss at every octet it programs or erases (including the sector
 //!   erases and moves of `sequential-storage`'s garbage collection) leaves the old or the new

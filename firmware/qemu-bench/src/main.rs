@@ -25,7 +25,7 @@ use estimator_core::{ChannelMask, Estimator, FrameUncertainty, Model, Options};
 /// 10 518 / 26 600), and the capability is kept over that budget: this is the bound the flashed
 /// profile is held to until the filter is made cheaper.
 const BUDGET: u64 = 6_500;
-/// The whole per-set path's budget, N = 12, mean (issue 43).
+/// The whole per-set path's budget, N = 12, mean.
 const PATH_BUDGET: u64 = 10_000;
 /// Samples per model in the per-sample measurement.
 const SAMPLES: usize = match option_env!("QEMU_BENCH_SAMPLES") {
@@ -137,7 +137,7 @@ fn run_model<P: Platform, const CAP: usize>(
     let (mut total, mut worst, mut count) = (0u64, 0u64, 0u64);
     let mut over = 0u64;
     let mut max_err = 0.0f64;
-    // The last sets, as the firmware keeps them to replay after an exclusion (issue 17).
+    // The last sets, as the firmware keeps them to replay after an exclusion.
     let mut recent = Recent::<f32, CAP, REPLAY_SETS>::new();
     let (gain, offset) = if calibrated {
         (CAL_SCALE, CAL_BIAS)
@@ -211,7 +211,7 @@ fn run_model<P: Platform, const CAP: usize>(
     mean
 }
 
-/// The identification task's work (issue 16, below the estimate since issue 49) on the same
+/// The identification task's work (below the estimate since issue 49) on the same
 /// motion: a set into the window's queue (every set), a reference point (every fifth set: 20
 /// Hz at 100 Hz) with the sets it covers moved into the sums, and the solve on command.
 /// Counted, not budgeted: it runs in a task of lower priority than the estimate's (the sums
@@ -270,7 +270,7 @@ fn run_identification<P: Platform>(p: &mut P, per_tick: f64) {
     );
 }
 
-/// The identification task's solve without a reference (issue 49, TC[200,8] source 2): a
+/// The identification task's solve without a reference (TC[200,8] source 2): a
 /// torque-free tumble (inertia 1, 1.8, 2.5; Ω0 (0.3, 1.7, −0.6) rad/s, Euler's equations by
 /// RK4 at 10 ms) in free flight, 12 channels with their declared noise, a 60 s window kept as
 /// means of 4 sets (1 500) with a start rate 0.05 rad/s off; the search and the solve counted
@@ -336,14 +336,14 @@ fn run_tumble<P: Platform>(p: &mut P, per_tick: f64) {
     );
 }
 
-/// The whole per-set path of the flashed application (issue 43), N = 12 (the built-in `tetra`
+/// The whole per-set path of the flashed application, N = 12 (the built-in `tetra`
 /// board) in `model`: `Estimation::process` (the channel vector, the fault monitor's tests,
 /// the exclusion bookkeeping, the last sets kept for a replay, the estimate) and, while an
 /// identification window is open, the set's copy into the identification task's queue — the
 /// code the application task runs per set before its reports, compiled where the application
 /// is. The task's own work (every fifth set a reference point, 20 Hz, with the sets it covers
 /// moved into the sums) runs outside the count, as it does below the estimate on the board.
-/// Every channel has temperature coefficients (issue 50) and the sets carry the parts'
+/// Every channel has temperature coefficients and the sets carry the parts'
 /// temperatures as the sampler reads them — one part's new one every sixth set at 100 Hz — so
 /// the count holds the corrections' update and their application, and, with the window open,
 /// the window's temperature sums at each new read (`identification::ThermalTracking`).
@@ -447,7 +447,7 @@ fn model_name(model: Model) -> &'static str {
     }
 }
 
-/// Issue 17's fault monitor alone (the whole per-set path with it: [`run_per_set`]): the parity space's
+/// The fault monitor alone (the whole per-set path with it: [`run_per_set`]): the parity space's
 /// detection and isolation per set at the 24-channel capacity (8 tri-axial parts, 12 degrees
 /// of freedom), and model G's known-field test where 12 channels have no parity space, on the
 /// same motion with the declared (Gaussian) noise.
@@ -566,11 +566,11 @@ fn run<P: Platform>(p: &mut P) -> i32 {
     let mut path = [0u64; 2];
     if only.is_none() {
         // The paper's layout, nine channels in model F (m = 3): where mirror roots cross, the
-        // closed-form roots, the path check and the follower run on every sample (issue 15).
+        // closed-form roots, the path check and the follower run on every sample.
         // Reported, not budgeted: the budget is N = 12's.
         run_model::<P, 12>(p, per_tick, Model::FreeFloat, 9, false);
         // With redundancy (24 channels, 8 tri-axial parts, model G): the protection levels
-        // (issue 48) run on every set. Reported, not budgeted.
+        // run on every set. Reported, not budgeted.
         run_model::<P, 24>(p, per_tick, Model::General, 24, false);
         run_identification(p, per_tick);
         run_tumble(p, per_tick);

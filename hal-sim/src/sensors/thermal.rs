@@ -1,4 +1,4 @@
-//! A part's temperature (issue 50): the temperature of its surroundings (a scenario's
+//! A part's temperature: the temperature of its surroundings (a scenario's
 //! `[temperature]`: constant, a ramp of a ground thermal test, or an orbit's cycle), followed
 //! by the die with the part's own first-order lag, and what that temperature does to the
 //! part's bias and sensitivity (its temperature coefficients, referred to 25 °C as datasheets

@@ -1,4 +1,4 @@
-//! The precomputation of a channel-mask change outside the sample loop (issue 17): the second
+//! The precomputation of a channel-mask change outside the sample loop: the second
 //! configuration buffer and the task that builds into it.
 //!
 //! ```text

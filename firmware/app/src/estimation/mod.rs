@@ -14,11 +14,11 @@
 //!
 //! The model is the configured one where the channels in use carry it. Where exclusions leave
 //! model G unobservable (fewer than 12 channels), the estimate is made in model F (Γ known) on
-//! the channels left, and in model G again once they carry it (issue 17); each switch is
+//! the channels left, and in model G again once they carry it; each switch is
 //! reported ([`Estimation::take_model_switch`], the `model-switched` event).
 //!
 //! The measurements themselves are tested as well
-//! ([`crate::isolation`], issue 17): a part that the parity space isolates, or whose own
+//! ([`crate::isolation`]): a part that the parity space isolates, or whose own
 //! signal is stuck, is kept out of the solve until the readings are consistent again, where
 //! the model can spare it; while a fault is seen but not isolated, or isolated and not left
 //! out, the estimate carries [`Flags::RESIDUAL_HIGH`].
@@ -761,7 +761,7 @@ mod tests {
         assert_eq!(e.estimator().mask(), ChannelMask::all(12));
     }
 
-    /// Issue 17: with a part dead, twelve channels leave model G unobservable: the part is
+    /// With a part dead, twelve channels leave model G unobservable: the part is
     /// excluded all the same and the estimate made in model F on the nine left (instead of the
     /// flagged prediction held for as long as the part is dead); back in model G once the part
     /// has answered for [`INCLUDE_AFTER`] sets. Each switch is reported once.
@@ -808,7 +808,7 @@ mod tests {
         (e, builds)
     }
 
-    /// Issue 17: with a builder task the exclusion's configuration is built beside the one in
+    /// With a builder task the exclusion's configuration is built beside the one in
     /// force. Until it is built the estimates go on every set — the configured model, the
     /// leaving part read as missing: flagged predictions, finite — and none uses a half-built
     /// configuration; the first set after the build is made in model F without the part. The

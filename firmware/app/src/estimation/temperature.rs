@@ -1,4 +1,4 @@
-//! Temperature compensation of the readings (issue 50; `estimator_core::thermal`): each
+//! Temperature compensation of the readings (`estimator_core::thermal`): each
 //! channel with temperature coefficients is brought to its reading at `t_ref` before the
 //! fault monitor and the estimate see it. The correction `gain·p + offset` is computed once per
 //! temperature read of the channel's part (a few per second, in f32 as the readings); a set

@@ -1,4 +1,4 @@
-//! Identification in flight (issue 16, paper §6): each channel's geometry from the field a
+//! Identification in flight (paper §6): each channel's geometry from the field a
 //! reference rate gives (estimation → identification).
 //!
 //! A window is started by TC[200,8]. Every sample set of the window (its channel vector, as the

@@ -1,4 +1,4 @@
-//! Identification in flight across the orbit's thermal cycle (issue 50): each window's parts'
+//! Identification in flight across the orbit's thermal cycle: each window's parts'
 //! mean temperatures, and every channel's bias against them across the windows solved since
 //! boot (`estimator_core::thermal::Track`), in the application task.
 //!

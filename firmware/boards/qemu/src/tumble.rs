@@ -1,4 +1,4 @@
-//! The built-in tumble: identification without a reference (issue 49, TC[200,8] source 2), what
+//! The built-in tumble: identification without a reference (TC[200,8] source 2), what
 //! the QEMU board runs when its semihosting command line says `tumble`, and what the host
 //! recomputes to check it. The `tetra` board with its parts as mounted ([`demo::truth`]: u2 3 mm
 //! off) tumbles torque-free in free flight ([`Synthetic::tumbling`]), in two boots:
