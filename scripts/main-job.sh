@@ -5,4 +5,4 @@
 # against it, the firmware's counters and a plot (out/tetra-orbit/estimates.png).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo run -q --bin ballisto -- sim --firmware --scenario tetra-orbit --out out/tetra-orbit
+cargo run --bin ballisto -- sim --firmware --scenario tetra-orbit --out out/tetra-orbit

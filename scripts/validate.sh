@@ -72,7 +72,7 @@ EOF
   cat <<EOF
 ### On layouts the estimator was not tuned on (ideal parts)
 
-Issue 46's property test: nine channels drawn at random (rate, noise, arm and motion drawn too; fresh seeds). \`tests/tests/random_layouts.rs\`.
+The property test of branch and sign: nine channels drawn at random (rate, noise, arm and motion drawn too; fresh seeds). \`tests/tests/random_layouts.rs\`.
 EOF
   # The property test's bars are printed with the draws that miss them; a miss is reported
   # here, not an end to the report.
