@@ -25,6 +25,35 @@
 //! - [`error`], [`linalg`] (the small fixed-size vectors and matrices of the interface),
 //!   [`real`] (the scalar).
 //!
+//! A tetrahedron of four tri-axial parts (12 channels) spinning at 1 rad/s about z, on the
+//! ground (σ0 = 1 g up), estimated in model G:
+//!
+//! ```
+//! use estimator_core::{Arrangement, Estimator, Model, Options};
+//!
+//! let places = [[0.1, 0.1, 0.1], [-0.1, -0.1, 0.1], [-0.1, 0.1, -0.1], [0.1, -0.1, -0.1]];
+//! let mut array = Arrangement::<12>::new();
+//! for r in places {
+//!     for axis in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] {
+//!         array.push(r, axis, 1e-3)?; // position (m), sensitive axis, noise (m/s² RMS)
+//!     }
+//! }
+//! let options = Options { initial_omega: Some([0.0, 0.0, 1.0]), ..Options::default() };
+//! let mut estimator = Estimator::<f64, 12>::new(&array, Model::General, options)?;
+//! // What each channel reads (paper eq. 4): s·σ0 + s·{Ω}²R, with Ω′ = 0 and Γ = 0.
+//! let (w, sigma0) = (1.0, [0.0, 0.0, estimator_core::G0]);
+//! let mut readings = [0.0; 12];
+//! for (k, c) in array.channels().iter().enumerate() {
+//!     let centripetal = [-w * w * c.position[0], -w * w * c.position[1], 0.0];
+//!     readings[k] = (0..3).map(|i| c.axis[i] * (sigma0[i] + centripetal[i])).sum();
+//! }
+//! for n in 0..100 {
+//!     let estimate = estimator.update(f64::from(n) * 0.01, &readings);
+//!     assert!((estimate.omega[2] - w).abs() < 1e-6 && (estimate.sigma0[2] - sigma0[2]).abs() < 1e-9);
+//! }
+//! # Ok::<(), estimator_core::ConfigError>(())
+//! ```
+//!
 //! Inside (crate-private; reachable by tests and benches through the hidden `internals`):
 //! `svd` (configuration-time SVD), `design` (the precomputed matrices of paper eq. (10)–(11)
 //! per mask and frame), `quadratic` (the quadratic forms for `a`: closed form for m = 3,

@@ -18,6 +18,25 @@
 //! - `decode` (feature `ground`): a telemetry packet → its report.
 //!
 //! All multi-byte fields are big-endian (network order, as CCSDS); reals are IEEE-754 `f32`.
+//!
+//! A packet framed for the line and received again, byte by byte, with garbage before it (the
+//! receiver resynchronises at the next delimiter):
+//!
+//! ```
+//! use ballisto_link::framing::{encode, max_encoded_len, Deframed, Deframer};
+//!
+//! let packet = [0x08, 0x01, 0x00, 0x00, 0x12, 0x34]; // any octets, zeros included
+//! let mut line = [0u8; max_encoded_len(6)];
+//! let n = encode(&packet, &mut line).expect("room for the frame");
+//! let mut receiver = Deframer::<64>::new();
+//! let mut received = None;
+//! for byte in [0x41, 0x42].iter().chain(&line[..n]) {
+//!     if let Deframed::Packet(len) = receiver.push(*byte) {
+//!         received = Some(receiver.packet(len).to_vec());
+//!     }
+//! }
+//! assert_eq!(received.as_deref(), Some(&packet[..]));
+//! ```
 #![no_std]
 #![deny(missing_docs)]
 // `!(x >= y)` rejects NaN along with the out-of-range values: intentional.
