@@ -102,8 +102,8 @@ Cortex-M7 (\`scripts/qemu-board-m7.sh\`).
 \`builtin_tumble.rs\`.
 EOF
   e2e calibration
-  e2e identification_in_flight
-  e2e identification_tumble
+  e2e identification_in_flight all
+  e2e identification_tumble all
   e2e builtin_tumble
   step "the QEMU board's tumble on the Cortex-M7"
   bash scripts/qemu-board-m7.sh 2>/dev/null | grep -E '^(board-qemu|QEMU tumble)' | sed 's/^/- /' || true
@@ -124,7 +124,7 @@ tracked in flight (identification windows across the orbit in its tumble, commit
 coefficients changed since the ground, tracked over one orbit (two fresh draws).
 \`tests/tests/temperature.rs\`.
 EOF
-  e2e temperature
+  e2e temperature all
   cat <<EOF
 
 ## Real recordings (real parts)

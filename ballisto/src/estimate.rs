@@ -5,12 +5,8 @@ use std::error::Error;
 use std::path::Path;
 
 use ballisto_config::arrangement_file::{load_arrangement, LoadedArrangement, HOST_CAP};
-use estimator_core::exclusion::MissingRuns;
-use estimator_core::fault_monitor::{
-    FaultMonitor, NoParityTest, Settings, StuckCheck, Suspicion, TrustedRate, Verdict,
-};
-use estimator_core::parity::Parity;
-use estimator_core::recent::{replays, Recent, REPLAY_SETS};
+use estimator_core::recent::replays;
+use estimator_core::supervisor::Supervisor;
 use estimator_core::{ChannelMask, Estimate, Estimator, Flags, Model, Options, Real};
 
 use crate::estimates_csv::ThreadedWriter;
@@ -92,8 +88,12 @@ pub struct HostEstimator<T: Real> {
     held: std::collections::VecDeque<HeldRow<T>>,
     /// The record's first samples while they are gathered for the backward run-in (`None`
     /// once it has run, or with a hint).
-    run_in: Option<Vec<(f64, Vec<T>)>>,
+    run_in: Option<Vec<Gathered<T>>>,
 }
+
+/// A sample gathered for the run-in: time, readings, and their variances if the record has
+/// them.
+type Gathered<T> = (f64, Vec<T>, Option<Vec<T>>);
 
 /// Seconds of record run backwards to start the forward run (without a hint).
 pub const RUN_IN_S: f64 = 2.0;
@@ -105,146 +105,46 @@ type HeldRow<T> = (f64, Estimate<T>, ChannelMask, Model);
 /// steady spin without a hint never settles it.
 pub const SIGN_HOLD_S: f64 = 10.0;
 
-/// What the estimator used for one sample, and what the monitor saw of it.
-#[derive(Clone, Copy, Debug)]
-struct RowUse {
-    /// The channels in the solve.
-    mask: ChannelMask,
-    /// The model in force (model F instead of model G where exclusions leave it unobservable).
-    model: Model,
-    /// Flag 64 on the row: the monitor saw a fault it could not isolate, or isolated a part
-    /// the solve could not leave out.
-    residual_high: bool,
-    /// The monitor's verdict (before the known-field test and the held suspicion).
-    verdict: Verdict,
-    /// A part isolated was taken out of the solve at this sample.
-    newly_out: bool,
-}
-
-/// The fault monitor of a host run and what it decided.
+/// The fault supervisor of a host run (estimator-core's, as the firmware runs it), and
+/// what it needs on the ground: the sample rate from the record's first two times.
 struct Faults<T: Real> {
-    /// Built at the second sample, when the rate is known.
-    monitor: Option<FaultMonitor<T, HOST_CAP>>,
+    supervisor: Box<Supervisor<T, HOST_CAP>>,
     /// Each channel's part (sensors of the arrangement file, `name.x/y/z`).
     part: Vec<u8>,
-    arrangement: estimator_core::Arrangement<HOST_CAP>,
     /// Every channel of the arrangement.
     all: ChannelMask,
     first_t: Option<f64>,
     /// The configured model (the estimator's, unless the channels in use do not carry it).
     preferred: Model,
-    /// Every model has the own-signal check (stuck, or at the arrangement file's `range`).
-    stuck: StuckCheck<T, HOST_CAP>,
-    /// Runs of missing and good samples per part (as the firmware's `Estimation`).
-    runs: MissingRuns<32>,
-    /// The parts out of the estimator's solve (bit per part): missing too long, and
-    /// isolated by the monitor; and an isolated set it refused.
-    missing: u32,
-    isolated: u32,
-    refused: Option<u32>,
-    trusted: TrustedRate,
-    /// A fault suspected and not isolated, held through samples without a test.
-    suspicion: Suspicion,
-    last_omega: Option<[f64; 3]>,
-    /// The sample rate, once known (the monitor's windows).
-    rate: Option<f64>,
-    /// The test where there is no parity space (model G's known field, or model F's own
-    /// residual), once the rate is known.
-    no_parity: NoParityTest<T>,
-    /// The last samples, replayed through the estimator's new configuration when the
-    /// channels in use change (as the firmware's `Estimation`), and whether that is due.
-    recent: Box<Recent<T, HOST_CAP, REPLAY_SETS>>,
-    replay_due: bool,
 }
 
 impl<T: Real> Faults<T> {
-    /// The monitor over the parts of `loaded` (the parity space in model G only).
-    fn new(loaded: &LoadedArrangement, model: Model) -> Option<Self> {
+    /// The supervisor over the parts of `loaded`, with the arrangement file's ranges.
+    fn new(loaded: &LoadedArrangement, model: Model) -> Self {
         let arr = &loaded.arrangement;
         let part: Vec<u8> = (0..arr.len()).map(|i| arr.part(i)).collect();
-        Some(Faults {
-            monitor: None,
-            stuck: StuckCheck::with_limits(&part, &loaded.ranges),
+        Faults {
+            supervisor: Box::new(Supervisor::new(&part, &loaded.ranges, None)),
             part,
-            arrangement: loaded.arrangement.clone(),
             all: ChannelMask::all(loaded.names.len()),
             first_t: None,
             preferred: model,
-            runs: MissingRuns::new(),
-            missing: 0,
-            isolated: 0,
-            refused: None,
-            trusted: TrustedRate::default(),
-            suspicion: Suspicion::default(),
-            last_omega: None,
-            rate: None,
-            no_parity: NoParityTest::None,
-            recent: Box::new(Recent::new()),
-            replay_due: false,
-        })
-    }
-
-    /// Notes which parts have a value in this sample (a part without one has every channel
-    /// NaN: an empty field in the samples file, as the firmware writes a part it could not
-    /// read).
-    fn observe_parts(&mut self, p: &[T]) {
-        let mut present = 0u32;
-        let mut seen = 0u32;
-        for (c, q) in self.part.iter().enumerate() {
-            if *q < 32 {
-                seen |= 1 << q;
-                if p.get(c).is_some_and(|v| !v.to_f64().is_nan()) {
-                    present |= 1 << q;
-                }
-            }
-        }
-        for q in 0..32 {
-            if seen & (1 << q) != 0 {
-                self.runs.observe(q, present & (1 << q) != 0);
-            }
         }
     }
 
-    /// The monitor's tests for the channels of the parts not missing, as the firmware's
-    /// `Isolation::rebuild`: the parity space, or else estimator-core's [`NoParityTest`];
-    /// none before the rate is known.
-    fn rebuild(&mut self, est: &Estimator<T, HOST_CAP>) {
-        let tested = self.mask(self.missing);
-        let (Some(m), Some(rate)) = (&mut self.monitor, self.rate) else {
+    /// The rate from the first two samples' times; once known, the monitor's tests for the
+    /// channels of the parts not missing.
+    fn learn_rate(&mut self, t: f64, est: &Estimator<T, HOST_CAP>) {
+        if self.supervisor.rate_known() {
             return;
-        };
-        // Model G's parity space whatever the model estimated in (model F's field is one of
-        // model G's), as the firmware's.
-        let parity = Parity::build(&self.arrangement, tested, &self.part).ok();
-        self.no_parity =
-            NoParityTest::for_estimator(est, parity.is_some(), Settings::default(), rate);
-        m.set_parity(parity);
-    }
-
-    /// One sample's readings: the monitor's verdict and the parts to keep out of the solve
-    /// from this sample on (bit per part: isolated by the parity space, or stuck); `est` the
-    /// estimator's estimator (the monitor is built at the second sample, when the rate is
-    /// known).
-    fn step(&mut self, t: f64, p: &[T], est: &Estimator<T, HOST_CAP>) -> (Verdict, u32) {
-        self.observe_parts(p);
-        let stuck = self.stuck.step(p);
-        if self.monitor.is_none() {
-            match self.first_t {
-                Some(t0) if t > t0 => {
-                    let rate = 1.0 / (t - t0);
-                    self.rate = Some(rate);
-                    self.monitor = Some(FaultMonitor::new(Settings::default(), rate));
-                    self.rebuild(est);
-                }
-                _ => self.first_t = Some(t),
-            }
         }
-        let Some(m) = &mut self.monitor else {
-            return (Verdict::NoTest, stuck);
-        };
-        let verdict = m.step_with(p, stuck);
-        let isolated = m.isolated().filter(|p| *p < 32).map_or(0, |p| 1u32 << p);
-        (verdict, isolated | stuck)
+        match self.first_t {
+            Some(t0) if t > t0 => {
+                let tested = self.mask(self.supervisor.missing());
+                self.supervisor.set_rate(1.0 / (t - t0), est, tested);
+            }
+            _ => self.first_t = Some(t),
+        }
     }
 
     /// Every channel but those of the parts in `parts` (bit per part).
@@ -268,7 +168,7 @@ impl<T: Real> HostEstimator<T> {
     ) -> Result<Self, estimator_core::ConfigError> {
         Ok(HostEstimator {
             est: Estimator::<T, HOST_CAP>::new(&loaded.arrangement, model, options)?,
-            faults: Faults::new(loaded, model),
+            faults: Some(Faults::new(loaded, model)),
             held: Default::default(),
             run_in: options.initial_omega.is_none().then(Vec::new),
         })
@@ -308,17 +208,30 @@ impl<T: Real> HostEstimator<T> {
         &mut self,
         t: f64,
         p: &[T],
+        emit: impl FnMut(f64, &Estimate<T>, ChannelMask, Model),
+    ) {
+        self.push_with_variance(t, p, None, emit);
+    }
+
+    /// As [`Self::push_masked`], with each reading's noise variance over its channel's
+    /// declared one (the firmware's sampler's, from a record's `var_<channel>` columns) for
+    /// the fault monitor, as the unit's monitor had it.
+    pub fn push_with_variance(
+        &mut self,
+        t: f64,
+        p: &[T],
+        variance: Option<&[T]>,
         mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask, Model),
     ) {
         if let Some(buf) = &mut self.run_in {
-            buf.push((t, p.to_vec()));
+            buf.push((t, p.to_vec(), variance.map(<[T]>::to_vec)));
             if t - buf[0].0 < RUN_IN_S {
                 return;
             }
             self.start_after_run_in(&mut emit);
             return;
         }
-        self.decide(t, p, &mut emit);
+        self.decide(t, p, variance, &mut emit);
     }
 
     /// The backward run-in over the gathered first samples (a fresh estimator on the same
@@ -334,7 +247,7 @@ impl<T: Real> HostEstimator<T> {
         let (arr, model, options) = (self.est.arrangement(), self.est.model(), self.est.options());
         if let Ok(mut back) = Estimator::<T, HOST_CAP>::new(arr, model, options) {
             let mut last = None;
-            for (t, p) in buf.iter().rev() {
+            for (t, p, _) in buf.iter().rev() {
                 last = Some(*back.update(t_end - t, p));
             }
             let unsettled = Flags::SIGN_UNRESOLVED
@@ -345,8 +258,8 @@ impl<T: Real> HostEstimator<T> {
                 let _ = self.est.set_hint(Some(e.omega.map(|v| -v.to_f64())));
             }
         }
-        for (t, p) in &buf {
-            self.decide(*t, p, &mut *emit);
+        for (t, p, v) in &buf {
+            self.decide(*t, p, v.as_deref(), &mut *emit);
         }
     }
 
@@ -355,9 +268,10 @@ impl<T: Real> HostEstimator<T> {
         &mut self,
         t: f64,
         p: &[T],
+        variance: Option<&[T]>,
         mut emit: impl FnMut(f64, &Estimate<T>, ChannelMask, Model),
     ) {
-        let (out, mask, model) = self.estimate(t, p);
+        let (out, mask, model) = self.estimate(t, p, variance);
         let settled =
             !out.flags.has(Flags::SIGN_UNRESOLVED) && !out.flags.has(Flags::INPUT_INVALID);
         if !settled {
@@ -393,117 +307,57 @@ impl<T: Real> HostEstimator<T> {
         emit(t, &out, mask, model);
     }
 
-    /// The estimate of one sample, with the channels it used and its model.
-    fn estimate(&mut self, t: f64, p: &[T]) -> (Estimate<T>, ChannelMask, Model) {
-        let used = self.isolate(t, p);
-        if let Some(f) = &mut self.faults {
-            // A new channel set in force: the last samples through it first (their estimates
-            // dropped), so that the rate filter meets this one warm (as the firmware).
-            if std::mem::take(&mut f.replay_due) {
-                let est = &mut self.est;
-                f.recent.replay(|t, p| {
-                    est.update(t, p);
-                });
-            }
-            f.recent.push(t, p);
-        }
-        let mut out = *self.est.update(t, p);
-        if let Some(f) = &mut self.faults {
-            // With no parity space, model G's known-field test or model F's own residual on
-            // the estimate flags the row (as the firmware's).
-            let field = f.no_parity.step(&out);
-            let verdict = used.verdict.with_field(field);
-            // In model F on the channels left by an exclusion there is no test: a suspicion
-            // stands until a test clears it or an isolated part is taken out (as in the
-            // firmware).
-            let verdict = f.suspicion.hold(verdict, used.newly_out);
-            let residual_high = used.residual_high || verdict == Verdict::NotIsolated;
-            let verdict = if residual_high {
-                out.flags.0 |= Flags::RESIDUAL_HIGH;
-                Verdict::NotIsolated
-            } else {
-                Verdict::Clean
-            };
-            f.trusted.observe(t, &out, verdict);
-            if out.is_finite() && !out.flags.has(Flags::INPUT_INVALID) {
-                f.last_omega = Some(out.omega.map(|v| v.to_f64()));
-            }
-        }
-        (out, used.mask, used.model)
-    }
-
-    /// The fault monitor's step and the parts missing too long (as the firmware's
-    /// `Estimation::process`): the estimator takes the channel mask they decide — in model F
-    /// where the channels left do not carry model G — restarting from the trusted rate when
-    /// an isolated part leaves or re-enters, from the last rate when a missing one does;
-    /// returns what the row used and whether it gets flag 64.
-    fn isolate(&mut self, t: f64, p: &[T]) -> RowUse {
+    /// The estimate of one sample, with the channels it used and its model: the supervisor's
+    /// steps about the estimator's, as in the firmware's `Estimation::process`.
+    fn estimate(
+        &mut self,
+        t: f64,
+        p: &[T],
+        variance: Option<&[T]>,
+    ) -> (Estimate<T>, ChannelMask, Model) {
         let Some(f) = &mut self.faults else {
-            return RowUse {
-                mask: self.est.mask(),
-                model: self.est.model(),
-                residual_high: false,
-                verdict: Verdict::NoTest,
-                newly_out: false,
-            };
+            let out = *self.est.update(t, p);
+            return (out, self.est.mask(), self.est.model());
         };
-        let (verdict, isolated) = f.step(t, p, &self.est);
-        let isolated_before = f.isolated;
-        let wanted = f.runs.wanted(f.missing);
-        if wanted != f.missing || (isolated != f.isolated && f.refused != Some(isolated)) {
-            // Replayed as in the firmware (only a change that takes channels out); the hint is
-            // for the first sample the estimator will see.
-            let mask = f.mask(wanted | isolated);
-            let replay = replays(self.est.mask(), mask);
-            let from = f.recent.first_seen(replay, t);
-            let hint = if isolated != f.isolated {
-                f.trusted.hint_at(from).or(f.last_omega)
-            } else {
-                f.last_omega
-            };
-            let model_before = self.est.model();
-            if let Some(restarted) = set_mask(&mut self.est, mask, f.preferred, hint) {
-                let stale = wanted != f.missing || self.est.model() != model_before;
-                f.missing = wanted;
-                f.isolated = isolated;
-                f.replay_due = restarted && replay;
-                if stale {
-                    f.rebuild(&self.est);
-                }
-            } else {
-                f.refused = Some(isolated);
-            }
-        }
-        // A part isolated that the solve could not leave out (too few channels): flag 64.
-        let kept = isolated & !f.isolated != 0;
-        RowUse {
-            mask: self.est.mask(),
-            model: self.est.model(),
-            residual_high: kept,
-            verdict,
-            newly_out: f.isolated & !isolated_before != 0,
-        }
+        f.learn_rate(t, &self.est);
+        let verdict = f.supervisor.observe(p, variance);
+        f.update_exclusions(t, &mut self.est);
+        let est = &mut self.est;
+        f.supervisor.before_update(t, p, |t, p| {
+            est.update(t, p);
+        });
+        let mut out = *self.est.update(t, p);
+        f.supervisor.after_update(t, &mut out, verdict);
+        (out, self.est.mask(), self.est.model())
     }
 }
 
-/// Takes `mask` in the `preferred` model, or in model F where the channels do not carry it (if
-/// mask and model are not the ones in force: [`Estimator::set_mask_in`]), and restarts branch
-/// and sign from `hint`; `None` if the estimator refuses the mask (too few channels left for
-/// either model), else whether it restarted.
-fn set_mask<T: Real>(
-    est: &mut Estimator<T, HOST_CAP>,
-    mask: ChannelMask,
-    preferred: Model,
-    hint: Option<[f64; 3]>,
-) -> Option<bool> {
-    if est.mask() == mask && est.model() == preferred {
-        return Some(false);
+impl<T: Real> Faults<T> {
+    /// Takes out the parts the supervisor wants out and includes recovered ones (as the
+    /// firmware's `Estimation::update_exclusions`): in model F where the channels left do not
+    /// carry model G, restarting from the hint the supervisor gives.
+    fn update_exclusions(&mut self, t: f64, est: &mut Estimator<T, HOST_CAP>) {
+        let Some(change) = self.supervisor.change() else {
+            return;
+        };
+        let mask = self.mask(change.out());
+        let model_before = est.model();
+        let restarted = mask != est.mask();
+        let replay = replays(est.mask(), mask);
+        if restarted && est.set_mask_in(mask, self.preferred).is_err() {
+            // Too few channels left for either model: the mask stays (the rows flagged).
+            self.supervisor.refuse(change);
+            return;
+        }
+        let taken = self.supervisor.taken(change, restarted, replay, t);
+        if restarted && est.set_hint(taken.hint).is_err() {
+            let _ = est.set_hint(None);
+        }
+        if taken.missing_changed || est.model() != model_before {
+            let tested = self.mask(self.supervisor.missing());
+            self.supervisor.rebuild(est, tested);
+        }
     }
-    est.set_mask_in(mask, preferred).ok()?;
-    if est.set_hint(hint).is_err() {
-        let _ = est.set_hint(None);
-    }
-    Some(true)
 }
 
 fn run_typed<T: Real + Send + 'static>(
@@ -519,6 +373,8 @@ fn run_typed<T: Real + Send + 'static>(
     let mut w = ThreadedWriter::<T>::new(out);
     let mut row = vec![0.0f64; loaded.names.len()];
     let mut p = vec![T::ZERO; loaded.names.len()];
+    let (mut var_row, mut var) = (vec![1.0f64; p.len()], vec![T::ONE; p.len()]);
+    let with_variance = reader.has_variance();
     let mut summary = Summary {
         model: Some(model),
         channels: loaded.names.len(),
@@ -566,8 +422,14 @@ fn run_typed<T: Real + Send + 'static>(
     let result = loop {
         match reader.next_row(&mut row) {
             Ok(Some(t)) => {
-                if let Err(e) = reader.temperatures(&mut temps) {
+                if let Err(e) = reader
+                    .temperatures(&mut temps)
+                    .and_then(|_| reader.variances(&mut var_row))
+                {
                     break Err(e);
+                }
+                for (vi, ri) in var.iter_mut().zip(&var_row) {
+                    *vi = T::of(*ri);
                 }
                 correct_for_temperature(loaded, &temps, &mut row, &mut uncorrected);
                 for (pi, ri) in p.iter_mut().zip(row.iter()) {
@@ -576,7 +438,8 @@ fn run_typed<T: Real + Send + 'static>(
                 if reader.row_absurd() {
                     absurd_rows.borrow_mut().push_back(t);
                 }
-                est.push_masked(t, &p, &mut emit);
+                let variance = with_variance.then_some(&var[..]);
+                est.push_with_variance(t, &p, variance, &mut emit);
             }
             Ok(None) => break Ok(()),
             Err(e) => break Err(e),

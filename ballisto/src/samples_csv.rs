@@ -3,7 +3,8 @@
 //!
 //! An empty field means "channel not available at this sample": it is passed on as NaN and the
 //! estimator outputs its prediction for that row, flagged `INPUT_INVALID` (bit 5). Optional
-//! columns `temp_<channel>` carry a channel's temperature (°C; empty: not read at that row).
+//! columns `temp_<channel>` carry a channel's temperature (°C; empty: not read at that row),
+//! `var_<channel>` a reading's noise variance over the channel's declared one (empty: 1).
 
 use std::fmt;
 use std::fs::File;
@@ -53,6 +54,8 @@ pub struct SamplesReader<R: std::io::Read> {
     row_absurd: bool,
     /// For each channel, its temperature's column, if the file has one.
     temp_column: Vec<Option<usize>>,
+    /// For each channel, its variance's column, if the file has one.
+    var_column: Vec<Option<usize>>,
 }
 
 impl SamplesReader<Box<dyn std::io::BufRead + Send>> {
@@ -89,6 +92,7 @@ impl<R: std::io::Read> SamplesReader<R> {
         let mut t_column = None;
         let mut column = vec![usize::MAX; names.len()];
         let mut temp_column = vec![None; names.len()];
+        let mut var_column = vec![None; names.len()];
         for (i, h) in header.iter().map(str::trim).enumerate() {
             if h == "t" {
                 if t_column.replace(i).is_some() {
@@ -96,21 +100,24 @@ impl<R: std::io::Read> SamplesReader<R> {
                 }
                 continue;
             }
-            let temperature_of = h
-                .strip_prefix("temp_")
-                .and_then(|n| names.iter().position(|m| m == n));
-            match (names.iter().position(|n| n == h), temperature_of) {
-                (Some(c), _) if column[c] == usize::MAX => column[c] = i,
-                (None, Some(c)) if temp_column[c].is_none() => temp_column[c] = Some(i),
-                (Some(_), _) | (None, Some(_)) => {
-                    return Err(err(format!("column \"{h}\" appears twice")))
-                }
-                (None, None) => {
+            let of = |prefix: &str| {
+                h.strip_prefix(prefix)
+                    .and_then(|n| names.iter().position(|m| m == n))
+            };
+            let slot = match (names.iter().position(|n| n == h), of("temp_"), of("var_")) {
+                (Some(c), _, _) => &mut column[c],
+                (None, Some(c), _) => temp_column[c].get_or_insert(usize::MAX),
+                (None, None, Some(c)) => var_column[c].get_or_insert(usize::MAX),
+                (None, None, None) => {
                     return Err(err(format!(
-                        "column \"{h}\" is not a channel of the arrangement, nor a channel's temperature (temp_<channel>)"
+                        "column \"{h}\" is not a channel of the arrangement, nor a channel's temperature (temp_<channel>) or variance (var_<channel>)"
                     )))
                 }
+            };
+            if *slot != usize::MAX {
+                return Err(err(format!("column \"{h}\" appears twice")));
             }
+            *slot = i;
         }
         let t_column = t_column.ok_or_else(|| err("the header has no \"t\" column".into()))?;
         if let Some(c) = column.iter().position(|&c| c == usize::MAX) {
@@ -130,6 +137,7 @@ impl<R: std::io::Read> SamplesReader<R> {
             absurd: vec![AbsurdCount::default(); names.len()],
             row_absurd: false,
             temp_column,
+            var_column,
         })
     }
 
@@ -161,6 +169,40 @@ impl<R: std::io::Read> SamplesReader<R> {
                 });
             }
             *t = v;
+        }
+        Ok(())
+    }
+
+    /// Whether the file has a variance column (`var_<channel>`).
+    pub fn has_variance(&self) -> bool {
+        self.var_column.iter().any(Option::is_some)
+    }
+
+    /// The last row's noise variances into `out` (channel order, over each channel's declared
+    /// one; 1 where the row or the file has none). Errors: a field that is not a finite
+    /// positive number.
+    pub fn variances(&self, out: &mut [f64]) -> Result<(), SamplesError> {
+        let line = self.record.position().map(|p| p.line());
+        for (v, c) in out.iter_mut().zip(&self.var_column) {
+            *v = 1.0;
+            let Some(c) = *c else { continue };
+            let field = self.record.get(c).map_or("", str::trim);
+            if field.is_empty() {
+                continue;
+            }
+            match field.parse::<f64>() {
+                Ok(x) if x.is_finite() && x > 0.0 => *v = x,
+                _ => {
+                    return Err(SamplesError {
+                        file: self.file.clone(),
+                        line,
+                        message: format!(
+                            "\"{field}\" in column {} is not a variance (a finite number above 0)",
+                            c + 1
+                        ),
+                    })
+                }
+            }
         }
         Ok(())
     }
@@ -285,4 +327,52 @@ pub fn write_row(
         }
     }
     writeln!(w)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn reader(text: &str) -> SamplesReader<&[u8]> {
+        let names = ["a".to_string(), "b".to_string()];
+        SamplesReader::new(text.as_bytes(), "s.csv", &names).unwrap()
+    }
+
+    #[test]
+    fn variances_are_read_where_given_and_one_elsewhere() {
+        let mut r = reader("t,a,b,var_b\n0,1,2,0.625\n0.01,1,2,\n");
+        assert!(r.has_variance());
+        let (mut row, mut var) = ([0.0; 2], [0.0; 2]);
+        r.next_row(&mut row).unwrap();
+        r.variances(&mut var).unwrap();
+        assert_eq!(var, [1.0, 0.625]);
+        r.next_row(&mut row).unwrap();
+        r.variances(&mut var).unwrap();
+        assert_eq!(var, [1.0, 1.0]);
+        assert!(!reader("t,a,b\n0,1,2\n").has_variance());
+    }
+
+    #[test]
+    fn a_bad_variance_names_the_file_the_line_and_the_field() {
+        for bad in ["0", "-1", "nan", "x", "inf"] {
+            let text = format!("t,a,b,var_a\n0,1,2,1\n0.01,1,2,{bad}\n");
+            let mut r = reader(&text);
+            let (mut row, mut var) = ([0.0; 2], [0.0; 2]);
+            r.next_row(&mut row).unwrap();
+            r.variances(&mut var).unwrap();
+            r.next_row(&mut row).unwrap();
+            let e = r.variances(&mut var).unwrap_err().to_string();
+            assert!(
+                e.contains("s.csv") && e.contains('3') && e.contains(bad),
+                "{e}"
+            );
+            assert!(e.contains("not a variance"), "{e}");
+        }
+        let twice = SamplesReader::new(
+            "t,a,b,var_a,var_a\n".as_bytes(),
+            "s.csv",
+            &["a".to_string(), "b".to_string()],
+        );
+        assert!(twice.err().unwrap().to_string().contains("appears twice"));
+    }
 }

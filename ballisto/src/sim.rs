@@ -130,11 +130,20 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
     } else {
         Vec::new()
     };
+    // The firmware's record carries each reading's noise variance as the sampler gave it
+    // (`var_<channel>`, docs/formats.md "Variance"): `ballisto estimate` then runs the fault
+    // supervisor on the unit's own input.
+    let var_columns: Vec<String> = if job.firmware.is_some() {
+        loaded.names.iter().map(|n| format!(",var_{n}")).collect()
+    } else {
+        Vec::new()
+    };
     writeln!(
         samples,
-        "t,{}{}",
+        "t,{}{}{}",
         loaded.names.join(","),
-        temp_columns.concat()
+        temp_columns.concat(),
+        var_columns.concat()
     )?;
     let mut report = match job.firmware {
         Some(alignment) => record_firmware(
@@ -308,7 +317,8 @@ fn record_firmware(
     let n = sc.samples();
     let bar = progress_bar(job.progress, n as u64);
     let channels = loaded.names.len();
-    let mut row: Vec<Option<f64>> = vec![None; if temperatures { 2 * channels } else { channels }];
+    let var_at = if temperatures { 2 * channels } else { channels };
+    let mut row: Vec<Option<f64>> = vec![None; var_at + channels];
     let mut flag_counts = [0u64; 16];
     let mut last_temperature = [f32::NAN; ballisto_fw::config::MAX_PARTS];
     let mut failure: Option<std::io::Error> = None;
@@ -318,6 +328,16 @@ fn record_firmware(
         let t = SimTime::seconds(set.t);
         row.iter_mut().for_each(|v| *v = None);
         for_each_channel(&config.sampling, set, |c, x| row[c] = Some(f64::from(x)));
+        // A reading's variance where it is not one sample's (interpolated or extrapolated).
+        for (part, &v) in config.sampling.parts.iter().zip(&set.variance) {
+            if v != 1.0 {
+                for c in part.iter().flat_map(|p| p.channels.iter().flatten()) {
+                    if row[usize::from(*c)].is_some() {
+                        row[var_at + usize::from(*c)] = Some(f64::from(v));
+                    }
+                }
+            }
+        }
         if temperatures {
             // A part's temperature where it changed (the column holds the last one).
             for (i, (&t, part)) in set

@@ -15,6 +15,9 @@
 //! - [`estimate`]: the outputs and their status flags.
 //! - [`exclusion`]: when a part that stops answering leaves the solve and when it returns.
 //! - [`recent`]: the last sample sets, replayed into the estimator after a change of channels.
+//! - [`fault_monitor`]: the consistency of the readings (parity space, known field, own signal).
+//! - [`supervisor`]: the one fault supervisor (isolation, exclusion, replay) the firmware and
+//!   the ground both run.
 //! - [`identify`]: each channel's geometry from a known field (paper §6), at sample rate.
 //! - [`thermal`]: a reading at one temperature turned into the one at the calibration's
 //!   temperature.
@@ -81,6 +84,7 @@ pub mod linalg;
 pub mod parity;
 pub mod real;
 pub mod recent;
+pub mod supervisor;
 pub mod thermal;
 
 #[doc(hidden)]

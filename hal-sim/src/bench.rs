@@ -1,19 +1,20 @@
-//! The simulator's own bench reader: the minimal controller software `ballisto sim` uses to
-//! identify, configure and read each part through its bus — register by register, as a driver
-//! does, with nothing taken from the models directly. (The firmware's drivers are separate;
-//! this one only produces the reference record.)
+//! The simulator's bench reader: the minimal controller software `ballisto sim` uses to
+//! identify, configure and read each part through its bus, with the published driver crates
+//! (`adxl355`, `lis3dh`) — nothing taken from the register models directly, which stay
+//! independent of the drivers and so check them. The simulated buses are ready at once, so
+//! each driver call is run to completion where it is made (`embassy_futures::block_on`).
 
-use embedded_hal::i2c::I2c;
-use embedded_hal::spi::{Operation, SpiDevice};
+use embassy_futures::block_on;
 
+use crate::bus::i2c::SimI2cBus;
+use crate::bus::spi::SimSpiDevice;
 use crate::rig::Port;
 use crate::scenario::{PartType, Scenario};
-use crate::sensors::{adxl355, lis3dh};
 
 /// What went wrong with one part.
 #[derive(Clone, Debug, PartialEq)]
 pub enum BenchError {
-    /// The bus reported an error.
+    /// The bus reported an error, or a transfer read bits the part never sets.
     Bus(String),
     /// The identification registers did not hold the part's IDs.
     WrongId {
@@ -31,12 +32,28 @@ impl std::fmt::Display for BenchError {
     }
 }
 
-/// One part as the bench reader sees it.
-struct BenchPart {
-    kind: PartType,
-    port: Port,
-    /// m/s² per count of the output.
-    lsb: f64,
+impl<E: std::fmt::Debug> From<adxl355::Error<E>> for BenchError {
+    fn from(e: adxl355::Error<E>) -> Self {
+        match e {
+            adxl355::Error::WrongId(id) => BenchError::WrongId { read: id.to_vec() },
+            e => BenchError::Bus(format!("{e:?}")),
+        }
+    }
+}
+
+impl<E: std::fmt::Debug> From<lis3dh::Error<E>> for BenchError {
+    fn from(e: lis3dh::Error<E>) -> Self {
+        match e {
+            lis3dh::Error::WrongId(id) => BenchError::WrongId { read: vec![id] },
+            e => BenchError::Bus(format!("{e:?}")),
+        }
+    }
+}
+
+/// One part through its driver.
+enum BenchPart {
+    Adxl355(adxl355::Adxl355<SimSpiDevice>),
+    Lis3dh(lis3dh::Lis3dh<SimI2cBus>),
 }
 
 /// Reads every part of a scenario, and counts.
@@ -48,10 +65,6 @@ pub struct BenchReader {
     pub errors: Vec<u64>,
 }
 
-fn bus<E: std::fmt::Debug>(e: E) -> BenchError {
-    BenchError::Bus(format!("{e:?}"))
-}
-
 impl BenchReader {
     /// Identifies and configures each part (range, ODR, sync, measurement on); the first
     /// failure names the part.
@@ -59,13 +72,46 @@ impl BenchReader {
         let mut parts = Vec::new();
         for (p, port) in sc.parts.iter().zip(ports.iter()) {
             let range = sc.range_g(p);
-            let mut part = BenchPart {
-                kind: p.part,
-                port: port.clone(),
-                lsb: p.part.lsb(range),
-            };
-            part.configure(range, sc.odr(p), sc.sync(p))
-                .map_err(|e| format!("part \"{}\" at start-up: {e}", p.name))?;
+            let odr = sc.odr(p) as f32;
+            let part = match (port.clone(), p.part) {
+                (Port::Spi(dev), PartType::Adxl355) => {
+                    let config = adxl355::Config {
+                        range: match range {
+                            2 => adxl355::Range::G2,
+                            4 => adxl355::Range::G4,
+                            _ => adxl355::Range::G8,
+                        },
+                        odr: adxl355::Odr::at_least(odr),
+                        sync: if sc.sync(p) {
+                            adxl355::Sync::External
+                        } else {
+                            adxl355::Sync::Internal
+                        },
+                    };
+                    block_on(adxl355::Adxl355::new(dev, config))
+                        .map(BenchPart::Adxl355)
+                        .map_err(BenchError::from)
+                }
+                (Port::I2c(bus, address), PartType::Lis3dh) => {
+                    let config = lis3dh::Config {
+                        range: match range {
+                            2 => lis3dh::Range::G2,
+                            4 => lis3dh::Range::G4,
+                            8 => lis3dh::Range::G8,
+                            _ => lis3dh::Range::G16,
+                        },
+                        odr: lis3dh::Odr::at_least(odr),
+                        fifo: false,
+                    };
+                    block_on(lis3dh::Lis3dh::new(bus, address, config))
+                        .map(BenchPart::Lis3dh)
+                        .map_err(BenchError::from)
+                }
+                _ => Err(BenchError::Bus(
+                    "part type and bus kind do not match".into(),
+                )),
+            }
+            .map_err(|e| format!("part \"{}\" at start-up: {e}", p.name))?;
             parts.push(part);
         }
         let n = parts.len();
@@ -76,135 +122,29 @@ impl BenchReader {
         })
     }
 
-    /// Reads part `i`'s temperature (°C: the ADXL355's with its nominal intercept and slope,
-    /// the LIS3DH's as 25 °C + its relative digits), as the firmware's drivers do.
+    /// Reads part `i`'s temperature (°C, as its driver gives it).
     pub fn read_temperature(&mut self, i: usize) -> Result<f64, BenchError> {
         self.reads[i] += 1;
-        let r = self.parts[i].read_temperature();
+        let r = match &mut self.parts[i] {
+            BenchPart::Adxl355(d) => block_on(d.read_temperature()).map_err(BenchError::from),
+            BenchPart::Lis3dh(d) => block_on(d.read_temperature()).map_err(BenchError::from),
+        };
         if r.is_err() {
             self.errors[i] += 1;
         }
-        r
+        r.map(f64::from)
     }
 
     /// Reads part `i` (m/s², part axes).
     pub fn read(&mut self, i: usize) -> Result<[f64; 3], BenchError> {
         self.reads[i] += 1;
-        let r = self.parts[i].read();
+        let r = match &mut self.parts[i] {
+            BenchPart::Adxl355(d) => block_on(d.read_acceleration()).map_err(BenchError::from),
+            BenchPart::Lis3dh(d) => block_on(d.read_acceleration()).map_err(BenchError::from),
+        };
         if r.is_err() {
             self.errors[i] += 1;
         }
-        r
-    }
-}
-
-impl BenchPart {
-    fn configure(&mut self, range_g: u32, odr: f64, sync: bool) -> Result<(), BenchError> {
-        match (&mut self.port, self.kind) {
-            (Port::Spi(dev), PartType::Adxl355) => {
-                use adxl355::reg;
-                let w = |dev: &mut crate::bus::spi::SimSpiDevice, a: u8, v: u8| {
-                    dev.write(&[a << 1, v]).map_err(bus)
-                };
-                w(dev, reg::RESET, adxl355::RESET_CODE)?;
-                let mut id = [0u8; 3];
-                dev.transaction(&mut [
-                    Operation::Write(&[(reg::DEVID_AD << 1) | 1]),
-                    Operation::Read(&mut id),
-                ])
-                .map_err(bus)?;
-                if id != [0xAD, 0x1D, 0xED] {
-                    return Err(BenchError::WrongId { read: id.to_vec() });
-                }
-                let filter = (4000.0 / odr).log2().round() as u8;
-                let range = match range_g {
-                    2 => 1,
-                    4 => 2,
-                    _ => 3,
-                };
-                w(dev, reg::FILTER, filter)?;
-                w(dev, reg::RANGE, 0x80 | range)?;
-                w(dev, reg::SYNC, if sync { 0x01 } else { 0x00 })?;
-                w(dev, reg::POWER_CTL, 0x00)
-            }
-            (Port::I2c(b, a), PartType::Lis3dh) => {
-                use lis3dh::reg;
-                let mut id = [0u8; 1];
-                b.write_read(*a, &[reg::WHO_AM_I], &mut id).map_err(bus)?;
-                if id[0] != 0x33 {
-                    return Err(BenchError::WrongId { read: id.to_vec() });
-                }
-                // The CTRL_REG1 ODR code (normal / high-resolution mode) of this rate.
-                let code = (1u8..=9).find(|c| lis3dh::odr(c << 4) == odr).unwrap_or(5);
-                let fs = match range_g {
-                    2 => 0,
-                    4 => 1,
-                    8 => 2,
-                    _ => 3,
-                };
-                // BDU, full scale, high resolution; the ADC and its temperature sensor on.
-                b.write(*a, &[reg::CTRL_REG4, 0x80 | (fs << 4) | 0x08])
-                    .map_err(bus)?;
-                b.write(*a, &[reg::TEMP_CFG_REG, 0xC0]).map_err(bus)?;
-                b.write(*a, &[reg::CTRL_REG1, (code << 4) | 0x07])
-                    .map_err(bus)
-            }
-            _ => Err(BenchError::Bus(
-                "part type and bus kind do not match".into(),
-            )),
-        }
-    }
-
-    fn read_temperature(&mut self) -> Result<f64, BenchError> {
-        let mut b = [0u8; 2];
-        match &mut self.port {
-            Port::Spi(dev) => {
-                dev.transaction(&mut [
-                    Operation::Write(&[(adxl355::reg::TEMP2 << 1) | 1]),
-                    Operation::Read(&mut b),
-                ])
-                .map_err(bus)?;
-                let code = f64::from(u16::from(b[0] & 0x0F) << 8 | u16::from(b[1]));
-                Ok(25.0 + (code - adxl355::TEMP_INTERCEPT) / adxl355::TEMP_SLOPE)
-            }
-            Port::I2c(bus_handle, a) => {
-                bus_handle
-                    .write_read(
-                        *a,
-                        &[lis3dh::reg::OUT_ADC3_L | lis3dh::AUTO_INCREMENT],
-                        &mut b,
-                    )
-                    .map_err(bus)?;
-                Ok(25.0 + f64::from(b[1] as i8))
-            }
-        }
-    }
-
-    fn read(&mut self) -> Result<[f64; 3], BenchError> {
-        let mut out = [0.0; 3];
-        match &mut self.port {
-            Port::Spi(dev) => {
-                let mut b = [0u8; 9];
-                dev.transaction(&mut [
-                    Operation::Write(&[(adxl355::reg::XDATA3 << 1) | 1]),
-                    Operation::Read(&mut b),
-                ])
-                .map_err(bus)?;
-                for (o, c) in out.iter_mut().zip(b.chunks_exact(3)) {
-                    *o = f64::from(adxl355::code_from_bytes(c)) * self.lsb;
-                }
-            }
-            Port::I2c(bus_handle, a) => {
-                let mut b = [0u8; 6];
-                bus_handle
-                    .write_read(*a, &[lis3dh::reg::OUT_X_L | lis3dh::AUTO_INCREMENT], &mut b)
-                    .map_err(bus)?;
-                for (i, o) in out.iter_mut().enumerate() {
-                    // 12-bit high resolution, left-justified.
-                    *o = f64::from(i16::from_le_bytes([b[2 * i], b[2 * i + 1]]) >> 4) * self.lsb;
-                }
-            }
-        }
-        Ok(out)
+        r.map(|v| v.map(f64::from))
     }
 }

@@ -157,6 +157,31 @@ fn no_board_depends_on_the_simulator() {
     }
 }
 
+/// The simulator's register models are the check of the driver crates: they share nothing
+/// with them (the bench reader, beside them, reads through the drivers).
+#[test]
+fn the_register_models_are_independent_of_the_drivers() {
+    let dir = root().join("hal-sim/src/sensors");
+    let mut files = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let text = read(&path);
+        files += 1;
+        for (i, line) in text.lines().enumerate() {
+            let code = line.split("//").next().unwrap_or("");
+            for driver in ["adxl355::", "lis3dh::", "ballisto_fw"] {
+                let uses = code.match_indices(driver).any(|(at, _)| {
+                    !code[..at].ends_with("sensors::") && !code[..at].ends_with("super::")
+                });
+                assert!(!uses, "{}:{}: {line}", path.display(), i + 1);
+            }
+        }
+    }
+    assert!(files >= 2, "models in {}", dir.display());
+    let bench = read(&root().join("hal-sim/src/bench.rs"));
+    assert!(bench.contains("adxl355::Adxl355") && bench.contains("lis3dh::Lis3dh"));
+}
+
 /// A manifest parsed.
 fn manifest_toml(path: &str) -> toml::Table {
     read(&root().join(path).join("Cargo.toml"))

@@ -332,6 +332,7 @@ fn drawn_tumble(
 /// refused by name (the channel no start rate explains, the channel and parameter the motion
 /// does not determine, the channel whose solve does not settle).
 #[test]
+#[ignore = "a long sweep: scripts/validate.sh runs it and reports its figures"]
 fn drawn_torque_free_tumbles_are_identified_or_refused_by_name() {
     let mut identified = 0;
     let mut failures = Vec::new();

@@ -35,12 +35,9 @@ pub mod temperature;
 pub use background::Builds;
 
 use ballisto_link::{ChannelSet, PartSet};
-use estimator_core::exclusion::MissingRuns;
-use estimator_core::fault_monitor::{Suspicion, TrustedRate, Verdict};
-use estimator_core::recent::{replays, Recent, REPLAY_SETS};
-use estimator_core::{
-    Arrangement, ChannelMask, ConfigError, Estimate, Estimator, Flags, Model, Options,
-};
+use estimator_core::fault_monitor::Verdict;
+use estimator_core::recent::replays;
+use estimator_core::{Arrangement, ChannelMask, ConfigError, Estimate, Estimator, Model, Options};
 
 use crate::config::{AppConfig, MAX_CHANNELS, MAX_PARTS};
 use crate::isolation::Isolation;
@@ -104,13 +101,7 @@ pub struct Estimation {
     channels: [[Option<u8>; 3]; MAX_PARTS],
     n: usize,
     p: [f32; MAX_CHANNELS],
-    runs: MissingRuns<MAX_PARTS>,
-    /// Parts out because they stopped answering.
-    excluded: PartSet,
-    /// Parts out because the fault monitor isolated them (parity space or stuck).
-    isolated: PartSet,
-    /// An isolation the solve could not take (too few channels left): not retried per set.
-    refused: Option<PartSet>,
+    /// The fault supervisor (parts out for silence or as isolated, the replay, the hint).
     isolation: Isolation,
     commanded: ChannelSet,
     options: Options,
@@ -129,16 +120,6 @@ pub struct Estimation {
     order_outcome: Option<Result<(), ConfigError>>,
     /// A change of the model in force not yet reported: (before, after).
     switch: Option<(Model, Model)>,
-    last_omega: Option<[f64; 3]>,
-    /// The rate hint when an isolated part leaves or re-enters the solve.
-    trusted: TrustedRate,
-    /// A fault suspected and not isolated, held through sets without a test.
-    suspicion: Suspicion,
-    /// The last sets read (every channel), replayed through the configuration an automatic
-    /// change of the channels in use puts in force.
-    recent: Recent<f32, MAX_CHANNELS, REPLAY_SETS>,
-    /// Such a change was put in force at this set: replay [`Self::recent`] before its estimate.
-    replay_due: bool,
     /// The readings' temperature compensation.
     compensation: Compensation,
 }
@@ -152,7 +133,7 @@ impl Estimation {
         };
         let isolation = Isolation::new(config);
         let mut arrangement = config.arrangement.clone();
-        arrangement.set_parts(isolation.parts());
+        arrangement.set_parts(&isolation.parts());
         let estimator = Estimator::new(&arrangement, config.model, options)?;
         let mut channels = [[None; 3]; MAX_PARTS];
         for (i, p) in config.sampling.parts() {
@@ -163,10 +144,6 @@ impl Estimation {
             channels,
             n: config.arrangement.len(),
             p: [f32::NAN; MAX_CHANNELS],
-            runs: MissingRuns::new(),
-            excluded: PartSet::EMPTY,
-            isolated: PartSet::EMPTY,
-            refused: None,
             isolation,
             commanded: ChannelSet::EMPTY,
             options,
@@ -177,11 +154,6 @@ impl Estimation {
             order: None,
             order_outcome: None,
             switch: None,
-            last_omega: None,
-            trusted: TrustedRate::default(),
-            suspicion: Suspicion::default(),
-            recent: Recent::new(),
-            replay_due: false,
             compensation: Compensation::new(),
         };
         e.compensation
@@ -250,14 +222,14 @@ impl Estimation {
         // As the change in the sample path: a reconfiguration with the options configured, a
         // change of channels with those in force.
         let options = Options {
-            initial_omega: self.last_omega,
+            initial_omega: self.isolation.supervisor.last_omega(),
             ..if reconfigures {
                 self.options
             } else {
                 self.estimator.options()
             }
         };
-        let tested = self.tested_after(self.excluded, commanded, reconfigures);
+        let tested = self.tested_after(self.missing(), commanded, reconfigures);
         let arrangement = arrangement.unwrap_or(self.estimator.arrangement());
         let tickets = &mut self.tickets;
         let pending = builds.post(arrangement, options, mask, model, tested, tickets)?;
@@ -282,9 +254,11 @@ impl Estimation {
         reconfigures: bool,
         before: Model,
     ) {
-        let tested_before = self.mask(self.excluded, self.commanded);
+        let tested_before = self.mask(self.missing(), self.commanded);
         self.commanded = commanded;
-        let _ = self.estimator.set_hint(self.last_omega);
+        let _ = self
+            .estimator
+            .set_hint(self.isolation.supervisor.last_omega());
         self.refresh_monitor(tested_before);
         if reconfigures {
             // The `reconfigured` event reports the model in force; what is set aside has the
@@ -339,8 +313,8 @@ impl Estimation {
         anew: bool,
     ) -> background::Tested {
         let tested = self.mask(missing, commanded);
-        let now = self.mask(self.excluded, self.commanded);
-        (anew || tested != now).then(|| (tested, *self.isolation.parts()))
+        let now = self.mask(self.missing(), self.commanded);
+        (anew || tested != now).then(|| (tested, self.isolation.parts()))
     }
 
     /// The fault monitor after a change built by the builder task (the channels it tested were
@@ -351,14 +325,14 @@ impl Estimation {
     /// same channels.
     fn refresh_monitor(&mut self, before: ChannelMask) {
         if let Some(builds) = self.background() {
-            let tested = self.mask(self.excluded, self.commanded);
+            let tested = self.mask(self.missing(), self.commanded);
             if let Some(checks) = builds.take_parity(tested) {
-                let replaced = self.isolation.install(&self.estimator, checks);
+                let replaced = self.isolation.supervisor.install(&self.estimator, checks);
                 builds.set_aside_parity(before, replaced);
                 return;
             }
             if tested == before {
-                self.isolation.refit(&self.estimator);
+                self.isolation.supervisor.refit(&self.estimator);
                 return;
             }
         }
@@ -368,8 +342,8 @@ impl Estimation {
 
     /// The fault monitor's parity space over the channels neither missing nor commanded out.
     fn rebuild_monitor(&mut self) {
-        let tested = self.mask(self.excluded, self.commanded);
-        self.isolation.rebuild(&self.estimator, tested);
+        let tested = self.mask(self.missing(), self.commanded);
+        self.isolation.supervisor.rebuild(&self.estimator, tested);
     }
 
     /// Channels in the arrangement.
@@ -389,7 +363,13 @@ impl Estimation {
 
     /// Parts out automatically (missing on the bus, or isolated).
     pub fn excluded_parts(&self) -> PartSet {
-        PartSet(self.excluded.0 | self.isolated.0)
+        let s = &self.isolation.supervisor;
+        PartSet(((s.missing() | s.isolated()) & 0xff) as u8)
+    }
+
+    /// Parts out because they stopped answering.
+    fn missing(&self) -> PartSet {
+        PartSet((self.isolation.supervisor.missing() & 0xff) as u8)
     }
 
     /// Takes the channels of `commanded` out of the solve and puts the others back. On error
@@ -402,7 +382,9 @@ impl Estimation {
         let mask = self.mask(self.excluded_parts(), commanded);
         self.take_mask(mask)?;
         self.commanded = commanded;
-        let _ = self.estimator.set_hint(self.last_omega);
+        let _ = self
+            .estimator
+            .set_hint(self.isolation.supervisor.last_omega());
         self.rebuild_monitor();
         Ok(Applied::Now)
     }
@@ -482,14 +464,14 @@ impl Estimation {
             });
         }
         // The parts are the sampling's, whatever the arrangement came with.
-        arrangement.set_parts(self.isolation.parts());
+        arrangement.set_parts(&self.isolation.parts());
         let arrangement = &arrangement;
         if let Some(applied) = self.order(Some(arrangement), model, self.commanded) {
             return Ok(applied);
         }
         let mask = self.mask(self.excluded_parts(), self.commanded);
         let options = Options {
-            initial_omega: self.last_omega,
+            initial_omega: self.isolation.supervisor.last_omega(),
             ..self.options
         };
         self.pending = None; // an exclusion waiting was for the old configuration
@@ -509,13 +491,15 @@ impl Estimation {
     /// A rate hint (settles sign and branch from the next set on).
     pub fn set_hint(&mut self, omega: [f64; 3]) -> Result<(), ConfigError> {
         self.estimator.set_hint(Some(omega))?;
-        self.last_omega = Some(omega);
+        self.isolation.supervisor.set_last_omega(omega);
         Ok(())
     }
 
     /// Starts again after a pause (standby): history forgotten, the last Ω as the hint.
     pub fn restart(&mut self) {
-        let _ = self.estimator.set_hint(self.last_omega);
+        let _ = self
+            .estimator
+            .set_hint(self.isolation.supervisor.last_omega());
     }
 
     /// The solve's channel mask with `parts` and `commanded` out.
@@ -607,30 +591,22 @@ impl Estimation {
                             self.p[c] = self.compensation.corrected(c, *x);
                         }
                     }
-                    self.runs.observe(i, true);
                 }
-                None if chans.iter().any(Option::is_some) => {
-                    missing = missing.with(i);
-                    self.runs.observe(i, false);
-                }
+                None if chans.iter().any(Option::is_some) => missing = missing.with(i),
                 None => {}
             }
         }
         let verdict = self.isolation.step(&self.p[..self.n], &set.variance);
-        let isolated_before = self.isolated;
         let ordered = self.collect_order();
         if !ordered {
             self.update_exclusions(set.t);
         }
-        // A new channel set in force: the last sets through it first (their estimates
-        // are dropped), so that the rate filter meets this set warm.
-        if core::mem::take(&mut self.replay_due) {
-            let est = &mut self.estimator;
-            self.recent.replay(|t, p| {
+        let (t, est) = (seconds(set.t), &mut self.estimator);
+        self.isolation
+            .supervisor
+            .before_update(t, &self.p[..self.n], |t, p| {
                 est.update(t, p);
             });
-        }
-        self.recent.push(seconds(set.t), &self.p[..self.n]);
         // Parts whose exclusion waits for its configuration are out already: read as missing.
         let leaving = self.channels_leaving();
         if leaving.0 != 0 {
@@ -640,21 +616,11 @@ impl Estimation {
                 }
             }
         }
-        let newly_out = !self.isolated.minus(isolated_before).is_empty();
-        let mut estimate = *self.estimator.update(seconds(set.t), &self.p[..self.n]);
-        if estimate.is_finite() && !estimate.flags.has(Flags::INPUT_INVALID) {
-            self.last_omega = Some(estimate.omega.map(f64::from));
-        }
-        // A fault the solve may still be using (seen but not isolated, or, with no parity
-        // space, the readings inconsistent with the known field): the estimate is in doubt.
-        let verdict = verdict.with_field(self.isolation.field_inconsistent(&estimate));
-        // In model F on the channels left by an exclusion there is no test: a suspicion
-        // stands until a test clears it or an isolated part is taken out.
-        let verdict = self.suspicion.hold(verdict, newly_out);
-        if verdict == Verdict::NotIsolated {
-            estimate.flags.0 |= Flags::RESIDUAL_HIGH;
-        }
-        self.trusted.observe(seconds(set.t), &estimate, verdict);
+        let mut estimate = *self.estimator.update(t, &self.p[..self.n]);
+        let verdict = self
+            .isolation
+            .supervisor
+            .after_update(t, &mut estimate, verdict);
         SetEstimate {
             k: set.k,
             t: set.t,
@@ -666,350 +632,42 @@ impl Estimation {
         }
     }
 
-    /// Excludes parts missing too long or isolated, and includes recovered ones; in model F
-    /// where the channels left do not carry model G, and back.
+    /// Takes out the parts the supervisor wants out (missing too long or isolated) and
+    /// includes recovered ones; in model F where the channels left do not carry model G, and
+    /// back.
     fn update_exclusions(&mut self, now: Nanos) {
-        let wanted = PartSet(self.runs.wanted(u32::from(self.excluded.0)) as u8);
-        let isolated = self.isolation.isolated();
-        if wanted == self.excluded && (isolated == self.isolated || Some(isolated) == self.refused)
-        {
+        let Some(change) = self.isolation.supervisor.change() else {
             self.pending = None; // a change no longer wanted
             return;
-        }
-        let mask = self.mask(PartSet(wanted.0 | isolated.0), self.commanded);
-        // Too few channels left for either model: keep the mask (the sets stay flagged).
-        let model_before = self.estimator.model();
-        let replay = replays(self.estimator.mask(), mask);
-        let Some(taken) = self.take_mask_when_built(mask, wanted) else {
-            return; // being built: the estimate goes on with the configuration in force
         };
-        if taken.is_ok() {
-            let monitor_stale = wanted != self.excluded || self.estimator.model() != model_before;
-            // The hint is for the first set the estimator will see.
-            let from = self.recent.first_seen(replay, seconds(now));
-            let hint = if isolated != self.isolated {
-                self.trusted.hint_at(from).or(self.last_omega)
-            } else {
-                self.last_omega
+        let wanted = PartSet((change.missing & 0xff) as u8);
+        let mask = self.mask(PartSet((change.out() & 0xff) as u8), self.commanded);
+        let model_before = self.estimator.model();
+        let restarted = mask != self.estimator.mask();
+        let replay = replays(self.estimator.mask(), mask);
+        let tested_before = self.mask(self.missing(), self.commanded);
+        if restarted {
+            let Some(taken) = self.take_mask_when_built(mask, wanted) else {
+                return; // being built: the estimate goes on with the configuration in force
             };
-            let tested_before = self.mask(self.excluded, self.commanded);
-            self.excluded = wanted;
-            self.isolated = isolated;
-            let _ = self.estimator.set_hint(hint);
-            self.replay_due = replay;
-            if monitor_stale {
-                self.refresh_monitor(tested_before);
+            if taken.is_err() {
+                // Too few channels left for either model: the mask stays (the sets flagged).
+                self.isolation.supervisor.refuse(change);
+                return;
             }
-        } else {
-            self.refused = Some(isolated);
+        }
+        let taken = self
+            .isolation
+            .supervisor
+            .taken(change, restarted, replay, seconds(now));
+        if restarted {
+            let _ = self.estimator.set_hint(taken.hint);
+        }
+        if taken.missing_changed || self.estimator.model() != model_before {
+            self.refresh_monitor(tested_before);
         }
     }
 }
 
 #[cfg(test)]
-mod tests {
-    extern crate std;
-    use super::*;
-    use crate::config::tetra;
-    use estimator_core::{Flags, Model};
-
-    fn set(k: u32, part0: bool) -> SampleSet {
-        // The same small change in every part's reading each set (a uniform σ0: consistent),
-        // so that no part repeats its values (the fault monitor's stuck check).
-        let d = 1e-4 * (k % 7) as f32;
-        let mut parts = [Some([0.1 + d, 0.2 - d, 9.8 + d]); MAX_PARTS];
-        if !part0 {
-            parts[0] = None;
-        }
-        SampleSet::new(k, u64::from(k) * 10_000_000, parts)
-    }
-
-    /// Model G on all twelve channels again, and the return from model F reported once.
-    fn back_in_model_g(e: &mut Estimation) {
-        assert_eq!(e.estimator().model(), Model::General);
-        assert_eq!(e.estimator().mask(), ChannelMask::all(12));
-        assert_eq!(
-            e.take_model_switch(),
-            Some((Model::FreeFloat, Model::General))
-        );
-        assert_eq!(e.take_model_switch(), None);
-    }
-
-    #[test]
-    fn a_part_missing_for_several_sets_is_excluded_and_later_included() {
-        let mut cfg = tetra();
-        cfg.model = Model::FreeFloat;
-        let mut e = Estimation::new(&cfg).unwrap();
-        for k in 0..5 {
-            assert_eq!(e.process(&set(k, true)).excluded, PartSet(0));
-        }
-        let gap = 5 + u32::from(EXCLUDE_AFTER);
-        for k in 5..gap {
-            let m = e.process(&set(k, false));
-            assert_eq!(m.missing, PartSet(1));
-            let excluded = k + 1 == gap;
-            assert_eq!(m.excluded, PartSet(u8::from(excluded)), "set {k}");
-            // Missing before the exclusion: the flagged prediction; after: an estimate.
-            assert_eq!(m.estimate.flags.has(Flags::INPUT_INVALID), !excluded);
-            assert_eq!(m.estimate.flags.has(Flags::CHANNELS_EXCLUDED), excluded);
-        }
-        let back = gap + u32::from(INCLUDE_AFTER);
-        for k in gap..back {
-            let m = e.process(&set(k, true));
-            assert_eq!(m.excluded, PartSet(u8::from(k + 1 < back)), "set {k}");
-        }
-        assert_eq!(e.estimator().mask(), ChannelMask::all(12));
-    }
-
-    /// With a part dead, twelve channels leave model G unobservable: the part is
-    /// excluded all the same and the estimate made in model F on the nine left (instead of the
-    /// flagged prediction held for as long as the part is dead); back in model G once the part
-    /// has answered for [`INCLUDE_AFTER`] sets. Each switch is reported once.
-    #[test]
-    fn model_g_switches_to_model_f_while_a_part_is_out_and_back() {
-        let mut e = Estimation::new(&tetra()).unwrap();
-        assert_eq!(e.estimator().model(), Model::General);
-        let gap = 5 + u32::from(EXCLUDE_AFTER);
-        for k in 0..gap {
-            let m = e.process(&set(k, k < 5));
-            let out = k + 1 == gap;
-            assert_eq!(m.excluded, PartSet(u8::from(out)), "set {k}");
-            assert_eq!(m.estimate.flags.has(Flags::INPUT_INVALID), k >= 5 && !out);
-            assert!(m.estimate.is_finite());
-        }
-        assert_eq!(e.estimator().model(), Model::FreeFloat);
-        assert_eq!(e.model(), Model::General, "the configured model is kept");
-        assert_eq!(
-            e.take_model_switch(),
-            Some((Model::General, Model::FreeFloat))
-        );
-        assert_eq!(e.take_model_switch(), None);
-        // Dead 20 sets more, then good: back in after INCLUDE_AFTER good sets.
-        let back = gap + 20 + u32::from(INCLUDE_AFTER);
-        for k in gap..back {
-            let m = e.process(&set(k, k >= gap + 20));
-            assert_eq!(m.excluded, PartSet(u8::from(k + 1 < back)), "set {k}");
-            assert!(m.estimate.is_finite());
-            if k < gap + 20 {
-                assert!(m.estimate.flags.has(Flags::CHANNELS_EXCLUDED), "set {k}");
-                assert!(!m.estimate.flags.has(Flags::INPUT_INVALID), "set {k}");
-            }
-        }
-        back_in_model_g(&mut e);
-    }
-
-    /// The tetrahedron's estimation with a builder task's buffer (the test builds at once with
-    /// `Builds::build_now` where the board's task would build).
-    fn with_builder() -> (Estimation, &'static Builds) {
-        let builds: &'static Builds =
-            std::boxed::Box::leak(std::boxed::Box::new(Builds::background()));
-        let mut e = Estimation::new(&tetra()).unwrap();
-        e.attach_builds(builds);
-        (e, builds)
-    }
-
-    /// With a builder task the exclusion's configuration is built beside the one in
-    /// force. Until it is built the estimates go on every set — the configured model, the
-    /// leaving part read as missing: flagged predictions, finite — and none uses a half-built
-    /// configuration; the first set after the build is made in model F without the part. The
-    /// return, once the part has answered for `INCLUDE_AFTER` sets, swaps model G's
-    /// configuration back from the buffer at once, with no build.
-    #[test]
-    fn an_exclusion_built_in_the_background_never_stops_the_estimates() {
-        let (mut e, builds) = with_builder();
-        let part0 = ChannelMask(0b111);
-        let gap = 5 + u32::from(EXCLUDE_AFTER);
-        for k in 0..gap + 30 {
-            let m = e.process(&set(k, k < 5));
-            assert_eq!(
-                m.excluded,
-                PartSet::EMPTY,
-                "set {k}: not out before it is built"
-            );
-            assert_eq!(m.model, Model::General, "set {k}");
-            assert!(m.estimate.is_finite(), "set {k}");
-            assert_eq!(
-                m.estimate.flags.has(Flags::INPUT_INVALID),
-                k >= 5,
-                "set {k}"
-            );
-            let leaving = if k + 1 >= gap { part0 } else { ChannelMask(0) };
-            assert_eq!(e.channels_leaving(), leaving, "set {k}");
-        }
-        assert_eq!(e.take_model_switch(), None);
-        // The builder runs (once it has the processor): the configuration is built.
-        assert!(builds.build_now());
-        assert!(!builds.build_now(), "one build asked for");
-        let k = gap + 30;
-        let m = e.process(&set(k, false));
-        assert_eq!(m.excluded, PartSet(1));
-        assert_eq!(m.model, Model::FreeFloat);
-        assert!(m.estimate.flags.has(Flags::CHANNELS_EXCLUDED));
-        assert!(!m.estimate.flags.has(Flags::INPUT_INVALID));
-        assert_eq!(e.channels_leaving(), ChannelMask(0));
-        assert_eq!(
-            e.take_model_switch(),
-            Some((Model::General, Model::FreeFloat))
-        );
-        // Back without the builder: model G's configuration was set aside at the swap.
-        let back = k + 1 + u32::from(INCLUDE_AFTER);
-        for k in k + 1..back {
-            let m = e.process(&set(k, true));
-            assert_eq!(m.excluded, PartSet(u8::from(k + 1 < back)), "set {k}");
-            assert!(m.estimate.is_finite(), "set {k}");
-        }
-        back_in_model_g(&mut e);
-    }
-
-    /// A part back before its exclusion's configuration is built: the change is abandoned —
-    /// the estimator keeps its configuration and the part, and the build, when the builder
-    /// gets to it, is not swapped in.
-    #[test]
-    fn an_exclusion_no_longer_wanted_is_not_swapped_in() {
-        let (mut e, builds) = with_builder();
-        let gap = 5 + u32::from(EXCLUDE_AFTER);
-        for k in 0..gap {
-            e.process(&set(k, k < 5));
-        }
-        assert_eq!(e.channels_leaving(), ChannelMask(0b111), "asked for");
-        let m = e.process(&set(gap, true));
-        assert_eq!(e.channels_leaving(), ChannelMask(0), "no longer wanted");
-        assert!(!m.estimate.flags.has(Flags::INPUT_INVALID));
-        assert!(builds.build_now(), "the builder gets to it");
-        for k in gap + 1..gap + 20 {
-            let m = e.process(&set(k, true));
-            assert_eq!(m.excluded, PartSet::EMPTY, "set {k}");
-            assert_eq!(m.model, Model::General, "set {k}");
-            assert!(!m.estimate.flags.has(Flags::INPUT_INVALID), "set {k}");
-        }
-        assert_eq!(e.estimator().mask(), ChannelMask::all(12));
-        assert_eq!(e.take_model_switch(), None);
-    }
-
-    /// Eighteen channels: the tetrahedron and two more parts on the axes (the host simulator's
-    /// `tetra-orbit` with two ADXL355s added).
-    fn eighteen() -> AppConfig {
-        eighteen_turned(0)
-    }
-
-    /// [`eighteen`] with the two added parts' axes turned by `turn` places (another
-    /// arrangement of the same channels).
-    fn eighteen_turned(turn: usize) -> AppConfig {
-        let mut cfg = tetra();
-        let extra = cfg.sampling.parts[0].expect("part 0");
-        for (i, pos) in [[0.12, 0.0, 0.0], [0.0, 0.0, -0.12]].iter().enumerate() {
-            let mut channels = [None; 3];
-            for (k, ch) in channels.iter_mut().enumerate() {
-                let mut axis = [0.0; 3];
-                axis[(k + i + turn) % 3] = 1.0;
-                let noise = cfg.arrangement.channels()[0].noise;
-                *ch = cfg
-                    .arrangement
-                    .push(*pos, axis, noise)
-                    .ok()
-                    .map(|c| c as u8);
-            }
-            cfg.sampling.parts[4 + i] = Some(crate::config::PartConfig { channels, ..extra });
-        }
-        cfg
-    }
-
-    /// Readings consistent with a uniform specific force (no rotation), `part0` absent.
-    fn consistent_set(cfg: &AppConfig, k: u32, part0: bool) -> SampleSet {
-        let d = 1e-3 * f64::from(k % 7);
-        let f = [0.1 + d, 0.2 - d, 9.8 + d];
-        let mut parts = [None; MAX_PARTS];
-        for (i, p) in cfg.sampling.parts() {
-            let mut v = [0.0f32; 3];
-            for (x, c) in v.iter_mut().zip(p.channels.iter()) {
-                if let Some(c) = c {
-                    let a = cfg.arrangement.channels()[usize::from(*c)].axis;
-                    *x = (a[0] * f[0] + a[1] * f[1] + a[2] * f[2]) as f32;
-                }
-            }
-            parts[i] = (i != 0 || part0).then_some(v);
-        }
-        SampleSet::new(k, u64::from(k) * 10_000_000, parts)
-    }
-
-    /// With redundancy (N = 18) the fault monitor's parity space is built by the builder task
-    /// with the exclusion's configuration, not in the sample path: at the swap the monitor
-    /// tests the fifteen channels left with it, and the one for all eighteen is set aside; the
-    /// part's return takes that one back (and sets the other aside) with no build at all.
-    #[test]
-    fn the_parity_space_is_built_with_the_configuration_in_the_background() {
-        let cfg = eighteen();
-        let builds: &'static Builds =
-            std::boxed::Box::leak(std::boxed::Box::new(Builds::background()));
-        let mut e = Estimation::new(&cfg).unwrap();
-        e.attach_builds(builds);
-        let all = ChannelMask::all(18);
-        let without0 = all.without(0).without(1).without(2);
-        assert_eq!(e.consistency_test(), ballisto_link::ConsistencyTest::Parity);
-        let gap = 5 + u32::from(EXCLUDE_AFTER);
-        for k in 0..gap {
-            let m = e.process(&consistent_set(&cfg, k, k < 5));
-            assert_eq!(m.excluded, PartSet::EMPTY, "set {k}");
-        }
-        assert_eq!(builds.parity_held(), None, "asked for, not built");
-        assert!(builds.build_now());
-        assert_eq!(
-            builds.parity_held(),
-            Some(without0),
-            "built with the configuration"
-        );
-        let m = e.process(&consistent_set(&cfg, gap, false));
-        assert_eq!(m.excluded, PartSet(1));
-        assert_eq!(m.model, Model::General, "fifteen channels carry model G");
-        assert_eq!(e.consistency_test(), ballisto_link::ConsistencyTest::Parity);
-        assert_eq!(
-            builds.parity_held(),
-            Some(all),
-            "the one replaced, set aside"
-        );
-        // Back after INCLUDE_AFTER good sets, with no build: the configuration and the
-        // parity space set aside are swapped back.
-        let back = gap + 1 + u32::from(INCLUDE_AFTER);
-        let mut k = gap + 1;
-        while k < back {
-            e.process(&consistent_set(&cfg, k, true));
-            k += 1;
-        }
-        assert!(!builds.build_now(), "nothing asked of the builder");
-        assert_eq!(e.excluded_parts(), PartSet::EMPTY, "back at set {k}");
-        assert_eq!(e.estimator().mask(), all);
-        assert_eq!(e.consistency_test(), ballisto_link::ConsistencyTest::Parity);
-        assert_eq!(builds.parity_held(), Some(without0), "swapped back");
-        for k in k..k + 20 {
-            let m = e.process(&consistent_set(&cfg, k, true));
-            assert!(!m.estimate.flags.has(Flags::RESIDUAL_HIGH), "set {k}");
-        }
-    }
-
-    /// A new arrangement commanded with a builder task: the parity space built with its
-    /// configuration is the one installed (the channels tested are the same as before, which
-    /// must not keep the old arrangement's): readings consistent with the new arrangement are
-    /// not flagged once it is in force.
-    #[test]
-    fn a_new_arrangement_built_in_the_background_brings_its_own_parity_space() {
-        let (cfg, turned) = (eighteen(), eighteen_turned(1));
-        let builds: &'static Builds =
-            std::boxed::Box::leak(std::boxed::Box::new(Builds::background()));
-        let mut e = Estimation::new(&cfg).unwrap();
-        e.attach_builds(builds);
-        for k in 0..50 {
-            let m = e.process(&consistent_set(&cfg, k, true));
-            assert!(!m.estimate.flags.has(Flags::RESIDUAL_HIGH), "set {k}");
-        }
-        let applied = e.configure(turned.arrangement.clone(), Model::General);
-        assert_eq!(applied, Ok(Applied::WhenBuilt));
-        assert!(builds.build_now());
-        // Set 50 is tested before the swap, by the old arrangement's parity space.
-        e.process(&consistent_set(&turned, 50, true));
-        assert_eq!(e.take_order_outcome(), Some(Ok(())));
-        for k in 51..300 {
-            let m = e.process(&consistent_set(&turned, k, true));
-            assert!(!m.estimate.flags.has(Flags::RESIDUAL_HIGH), "set {k}");
-        }
-    }
-}
+mod tests;

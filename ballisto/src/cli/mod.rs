@@ -1,0 +1,7 @@
+//! The `ballisto` binary's command line: one module per group of subcommands.
+
+pub mod args;
+pub mod estimate;
+pub mod sim;
+pub mod tc;
+pub mod telemetry;

@@ -1,0 +1,200 @@
+//! `ballisto decode` and `compare`: a telemetry stream decoded, estimates against a truth or a reference.
+
+use std::error::Error;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::Args;
+
+use super::args::*;
+
+/// The arguments of `ballisto decode`.
+#[derive(Args)]
+pub struct DecodeArgs {
+    /// The raw stream; `-` reads stdin.
+    #[arg(value_name = "FILE")]
+    pub input: PathBuf,
+    /// Estimates file to write, `-` for stdout (CSV: the estimates columns, then k,
+    /// missing_parts, excluded_parts, excluded_channels).
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: PathBuf,
+    /// Write housekeeping, events and verification reports here (default: stdout).
+    #[arg(long, value_name = "FILE.txt")]
+    pub log: Option<PathBuf>,
+    /// Seconds added to the on-board time (time since boot) of every packet.
+    #[arg(
+        long,
+        value_name = "S",
+        default_value = "0",
+        allow_hyphen_values = true
+    )]
+    pub time_offset: f64,
+    /// Also write the stream's last identification solution (TM[200,128–129])
+    /// as an arrangement file over the channel names of --arrangement.
+    #[arg(long, value_name = "FILE.toml", requires = "arrangement")]
+    pub calibration: Option<PathBuf>,
+    /// The nominal arrangement the unit runs (its channel names), for --calibration.
+    #[arg(long, value_name = "FILE.toml")]
+    pub arrangement: Option<PathBuf>,
+    /// Telecommands sent (frames as `ballisto tc` writes them; repeatable): each
+    /// verification report names the command it answers, and a command with no report is
+    /// listed.
+    #[arg(long, value_name = "TC.bin")]
+    pub commands: Vec<PathBuf>,
+}
+
+/// `ballisto decode`.
+pub fn decode(args: DecodeArgs, say: Say, started: Instant) -> Result<ExitCode, Box<dyn Error>> {
+    let _ = started;
+    let DecodeArgs {
+        input,
+        out,
+        log,
+        time_offset,
+        calibration,
+        arrangement,
+        commands,
+    } = args;
+    // Every output checked against every input before anything is written.
+    let outputs: Vec<&Path> = std::iter::once(out.as_path())
+        .chain(log.as_deref())
+        .chain(calibration.as_deref())
+        .collect();
+    let inputs: Vec<&Path> = std::iter::once(input.as_path())
+        .chain(arrangement.as_deref())
+        .chain(commands.iter().map(PathBuf::as_path))
+        .collect();
+    ballisto::output::check_distinct(&outputs, &inputs)?;
+    let mut sent = std::collections::HashMap::new();
+    for c in &commands {
+        let bytes = ballisto::output::read_input(c)?;
+        sent.extend(ballisto::tc::sent(&bytes, &c.display().to_string())?);
+    }
+    let (stream, rows, text) =
+        ballisto::decode::decode_file(&input, &out, log.as_deref(), time_offset, &sent)?;
+    if let (Some(cal), Some(nominal)) = (&calibration, &arrangement) {
+        let file = ballisto::decode::identified_arrangement(&stream, &input, nominal)?;
+        ballisto::output::write(cal, file.as_bytes())?;
+        say.info(format!(
+            "{}: identification solution written",
+            cal.display()
+        ));
+    }
+    if log.is_none() {
+        if ballisto::output::is_std(&out) {
+            // The estimates own stdout: the log goes with the diagnostics.
+            if !say.quiet {
+                eprint!("{text}");
+            }
+        } else {
+            print!("{text}");
+        }
+    }
+    say.info(format!(
+        "{}: {} packets, {rows} motion reports to {}, {} problems",
+        input.display(),
+        stream.packets.len(),
+        out.display(),
+        stream.problems.len()
+    ));
+    let listed = if say.verbose {
+        stream.problems.len()
+    } else {
+        PROBLEMS_LISTED
+    };
+    for p in stream.problems.iter().take(listed) {
+        eprintln!("ballisto: {}: {p}", input.display());
+    }
+    if stream.problems.len() > listed {
+        eprintln!(
+            "ballisto: {}: {} more problems (-v lists them all; the log has every one)",
+            input.display(),
+            stream.problems.len() - listed
+        );
+    }
+    Ok(if stream.problems.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(ballisto::exit::DAMAGED_TELEMETRY)
+    })
+}
+
+/// The arguments of `ballisto compare`.
+#[derive(Args)]
+pub struct CompareArgs {
+    /// TRUTH.csv ESTIMATES.csv (the truth as the simulator writes it, the estimates as
+    /// `ballisto estimate` does); with --reference, ESTIMATES.csv alone.
+    #[arg(value_name = "FILES", num_args = 1..=2, required = true)]
+    pub files: Vec<PathBuf>,
+    /// Reference rate file (CSV: t, omega_x, omega_y, omega_z; rad/s, body frame) to score
+    /// Ω against, in place of a truth file.
+    #[arg(long, value_name = "REFERENCE.csv")]
+    pub reference: Option<PathBuf>,
+    #[command(flatten)]
+    pub validity: ReferenceValidity,
+}
+
+/// `ballisto compare`.
+pub fn compare(args: CompareArgs, say: Say, started: Instant) -> Result<ExitCode, Box<dyn Error>> {
+    let _ = started;
+    match args {
+        CompareArgs {
+            files,
+            reference: Some(reference),
+            validity,
+        } => {
+            let [estimates] = files.as_slice() else {
+                return Err(Box::new(ballisto::exit::Usage(
+                "compare --reference REFERENCE.csv takes the estimates file alone (no truth file)".into(),
+            )));
+            };
+            let c =
+                ballisto::compare::compare_reference(&reference, &validity.validity(), estimates)?;
+            if let Some(d) = c.dropped.describe(&reference) {
+                say.info(format!("ballisto compare: {d}"));
+            }
+            println!(
+                "rows compared: {} of {} (the others not between two valid reference rows)",
+                c.compared, c.rows
+            );
+            for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+                println!(
+                    "omega_{axis}  RMS error {:.3e} rad/s, median |error| {:.3e} rad/s",
+                    c.rms[i], c.median[i]
+                );
+            }
+            println!(
+                "|omega|   RMS error {:.3e} rad/s, median {:.3e} rad/s",
+                c.rms_norm, c.median_norm
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        CompareArgs {
+            files,
+            reference: None,
+            ..
+        } => {
+            let [truth, estimates] = files.as_slice() else {
+                return Err(Box::new(ballisto::exit::Usage(
+                "compare takes TRUTH.csv ESTIMATES.csv (or --reference REFERENCE.csv ESTIMATES.csv)".into(),
+            )));
+            };
+            let c = ballisto::compare::compare(truth, estimates)?;
+            println!("rows compared: {}", c.rows);
+            println!("RMS error  sigma0 {:.3e} m/s^2", c.sigma0);
+            println!("RMS error  domega {:.3e} rad/s^2", c.domega);
+            println!("RMS error  omega  {:.3e} rad/s", c.omega);
+            println!("RMS error  A      {:.3e} 1/s^2", c.field);
+            if let Some(s) = c.silent {
+                println!(
+                    "unflagged rows with an error above {} reported sd: sigma0 {}, omega {}",
+                    ballisto::compare::SILENT_SD,
+                    s.sigma0,
+                    s.omega
+                );
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
