@@ -6,6 +6,7 @@ pub mod board;
 pub mod cases;
 pub mod csv;
 pub mod drawn;
+pub mod fault_matrix;
 pub mod faults;
 pub mod frame;
 pub mod ml;

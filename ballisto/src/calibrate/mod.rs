@@ -20,6 +20,7 @@ pub mod frame;
 pub mod holdout;
 pub mod kinematics;
 pub mod poses;
+mod record;
 pub mod reference_align;
 pub mod reference_rate;
 pub mod report;
@@ -38,7 +39,6 @@ use estimator_core::{Arrangement, Flags, Model, Options};
 use nalgebra::{Matrix3, Vector3};
 
 use crate::estimate::HostEstimator;
-use crate::samples_csv::SamplesReader;
 use fit::{FitSet, Geometry, Identification, RateSource, Record, Tolerance};
 
 /// Window (s) over which a pose must stay within the noise.
@@ -213,162 +213,39 @@ fn plausibility(
 
 /// Runs `ballisto calibrate`.
 pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn Error>> {
-    let png = job.report.map(|r| r.with_extension("png"));
-    let outputs: Vec<&Path> = std::iter::once(job.out)
-        .chain(job.report)
-        .chain(png.as_deref())
-        .collect();
-    let inputs: Vec<&Path> = [job.arrangement, job.samples]
-        .into_iter()
-        .chain(job.reference)
-        .collect();
-    crate::output::check_distinct(&outputs, &inputs)?;
-    let file = ArrangementFile::read(job.arrangement)?;
-    let loaded = file.load(&job.arrangement.display().to_string())?;
-    let names = loaded.names.clone();
-    let (times, rows, temps) = read_record(job.samples, &names)?;
-    if rows.len() < 200 {
-        return Err(format!(
-            "{}: {} sample sets are too few to calibrate from (at least 200: static poses of {POSE_MIN_S} s, or motion)",
-            job.samples.display(),
-            rows.len()
-        )
-        .into());
-    }
-    let rate_hz = (rows.len() - 1) as f64 / (times[times.len() - 1] - times[0]);
-    let nominal: Vec<Geometry> = loaded
-        .arrangement
-        .channels()
-        .iter()
-        .map(|c| Geometry {
-            position: Vector3::from(c.position),
-            axis: Vector3::from(c.axis),
-            scale: c.scale,
-            bias: c.bias,
-            noise: c.noise,
-        })
-        .collect();
-    // Read once: the alignment below interpolates it again at shifted times.
-    let read_reference = match job.reference {
-        Some(path) => Some(reference_rate::read(path, &job.reference_validity)?),
-        None => None,
-    };
-    let reference = match (job.reference, &read_reference) {
-        (Some(path), Some((r, dropped))) => Some(r.at(&times, dropped, path)?),
-        _ => None,
-    };
-    let reference_dropped = job
-        .reference
-        .zip(reference.as_ref())
-        .and_then(|(path, r)| r.dropped.describe(path));
-    let rate_ok: Option<Vec<bool>> = reference.as_ref().map(|r| {
-        r.omega
-            .iter()
-            .zip(r.covered.iter())
-            .map(|(w, c)| *c && w.norm() < REFERENCE_REST_RATE)
-            .collect()
-    });
-    let noise = noise_levels(&loaded, &rows, rate_hz);
-    let nominal: Vec<Geometry> = nominal
-        .into_iter()
-        .zip(noise.iter())
-        .map(|(g, &noise)| Geometry { noise, ..g })
-        .collect();
-    let window = ((POSE_WINDOW_S * rate_hz).round() as usize).max(5);
-    let min_len = ((POSE_MIN_S * rate_hz).round() as usize).max(window);
-    let poses = poses::find_poses(&rows, &noise, rate_ok.as_deref(), window, min_len);
-    // A record with temperatures: each channel's coefficients from its static poses, and the
-    // whole record brought to each channel's `t_ref` before everything else.
+    check_paths(job)?;
+    let record::Prepared {
+        file,
+        loaded,
+        names,
+        times,
+        rows,
+        nominal,
+        poses,
+        in_pose,
+        read_reference,
+        reference,
+        reference_dropped,
+        thermal_found,
+    } = record::prepare(job)?;
     let tolerance = Tolerance::default();
-    let thermal_found = match &temps {
-        Some(temps) => Some(
-            thermal::identify(&nominal, &rows, temps, &poses, job.fit).map_err(|e| {
-                format!(
-                    "{}: the temperature coefficients: {e}",
-                    job.samples.display()
-                )
-            })?,
-        ),
-        None => None,
+    let bar = progress_bar(job);
+    let parts = record::RecordParts {
+        times: &times,
+        rows: &rows,
+        poses: &poses,
+        in_pose: &in_pose,
+        nominal: &nominal,
     };
-    let (rows, poses) = match (&temps, &thermal_found) {
-        (Some(temps), Some(found)) => {
-            let rows = thermal::corrected(&rows, temps, &found.thermal(), &found.bias);
-            let poses = poses::remeasured(&poses, &rows);
-            (rows, poses)
-        }
-        _ => (rows, poses),
-    };
-    let in_pose = {
-        let mut v = vec![false; rows.len()];
-        for p in &poses {
-            v[p.samples.clone()].iter_mut().for_each(|x| *x = true);
-        }
-        v
-    };
-    let motion_with = |reference: Option<&reference_rate::ReferenceAt>| -> Vec<usize> {
-        (0..rows.len())
-            .filter(|&k| !in_pose[k])
-            .filter(|&k| reference.is_none_or(|r| r.covered[k]))
-            .collect()
-    };
-    // Progress: the reference's alignment (its fits one after the other, in the first
-    // stage), the whole-record fit, the fit without the held-out stretches (their
-    // alternations, at most MAX_ALTERNATIONS each), then the scoring.
-    let stage_len = fit::MAX_ALTERNATIONS as u64;
-    let bar = crate::progress::bar(
-        job.progress,
-        2 * stage_len + 1,
-        "{msg:40} {bar:30} {pos}/{len} ({elapsed})",
-    );
-    let align_progress = |it: usize| bar.set_position(it as u64);
-    // A real reference's bias (at rest) and time offset, fitted and removed
-    // (reference_align).
-    let mut alignment = reference_align::Alignment::default();
-    let mut offset_rotation_sd = (0.0, 0.0);
-    let reference = match (job.reference, &read_reference, reference) {
-        (Some(path), Some((read, dropped)), Some(first)) => {
-            let load = |offset: f64| -> Result<reference_rate::ReferenceAt, Box<dyn Error>> {
-                // The row stamped t + offset is the rate at t.
-                let shifted: Vec<f64> = times.iter().map(|t| t + offset).collect();
-                read.at(&shifted, dropped, path)
-            };
-            let fit_to = |r: &reference_rate::ReferenceAt| {
-                bar.set_message("aligning the reference");
-                let (motion, _) = thinning::thin(&motion_with(Some(r)), &times);
-                let record = Record {
-                    rows: &rows,
-                    times: &times,
-                    poses: &poses,
-                    motion: &motion,
-                    gamma: Matrix3::zeros(),
-                    progress: &align_progress,
-                    // The offset from fits with the reference held exact: a reference of
-                    // inexact scale is a reading of Ω only in the fit written (with Ω per sample
-                    // in the alignment fits too, the hour's record took 95 s against 51).
-                    rate_prior: None,
-                };
-                let source = RateSource::Reference(&r.omega);
-                match fit::identify(&nominal, &record, &source, job.fit, &tolerance) {
-                    Ok(id) if id.last_step <= fit::CONVERGED_STEP => {
-                        let geo: Vec<Geometry> = id.channels.iter().map(|c| c.geometry).collect();
-                        Some((
-                            frame::rotation(&nominal, &geo, &tolerance),
-                            reference_align::offset(&geo, &record, &r.omega),
-                        ))
-                    }
-                    // A fit that does not converge is said by the fit below.
-                    _ => None,
-                }
-            };
-            let aligned = reference_align::align(first, &poses, load, &fit_to)?;
-            alignment = aligned.alignment;
-            offset_rotation_sd = (aligned.rotation_sd, aligned.relative_rotation_sd);
-            Some(aligned.reference)
-        }
-        (_, _, reference) => reference,
-    };
-    let motion = motion_with(reference.as_ref());
+    let (reference, alignment, offset_rotation_sd) = record::align_reference(
+        job,
+        &parts,
+        read_reference.as_ref(),
+        reference,
+        &tolerance,
+        &bar,
+    )?;
+    let motion = record::motion_of(&in_pose, reference.as_ref());
     let motion_total = motion.len();
     let (motion, thinned) = thinning::thin(&motion, &times);
     let (fit_motion, held_out) = holdout::split(&motion, &times);
@@ -376,7 +253,6 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         ballisto_config::model_choice::recommend(job.model, &loaded, job.arrangement)?;
     bar.set_message("fit on the whole record");
     let whole_progress = |it: usize| bar.set_position(it as u64);
-    let check_progress = |it: usize| bar.set_position(stage_len + it as u64);
     let record = Record {
         rows: &rows,
         times: &times,
@@ -401,138 +277,40 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     };
     let mut identification = fit::identify(&nominal, &record, &source, job.fit, &tolerance)
         .map_err(|e| format!("{}: {e}", job.samples.display()))?;
-    // A record that leaves most parameters undetermined (or all of them) is not a calibration:
-    // what it does determine are combinations (one pose: bias with scale and axis) that the fit can only
-    // split arbitrarily.
-    let held = held_counts(&identification, job.fit);
-    let (identified, fitted) = held
-        .iter()
-        .fold((0, 0), |(i, f), (_, h, n)| (i + n - h, f + n));
-    if 2 * identified < fitted {
-        let what: Vec<String> = held
-            .iter()
-            .filter(|(_, h, _)| *h > 0)
-            .map(|(kind, h, n)| format!("{kind} {h} of {n}"))
-            .collect();
-        return Err(crate::exit::Refused(format!(
-            "{}: the record is not exciting enough: it determines only {identified} of the {fitted} parameters ({} static poses, {} samples in motion; not determined: {}), and a calibration needs static poses in at least 6 well-spread attitudes, or rotation about several axes with a reference rate: nothing written",
-            job.samples.display(),
-            poses.len(),
-            motion.len(),
-            what.join(", ")
-        ))
-        .into());
-    }
-    let converged = identification.last_step <= fit::CONVERGED_STEP;
-    if !converged {
-        return Err(crate::exit::Refused(format!(
-            "{}: the identification did not converge ({} alternations, the last still moved a parameter by {:.3} of its tolerance; {} static poses, {} samples in motion{}): nothing written",
-            job.samples.display(),
-            identification.iterations,
-            identification.last_step,
-            poses.len(),
-            motion.len(),
-            match (&reference_dropped, job.reference) {
-                (_, None) => "; a reference rate would help".to_string(),
-                (Some(d), _) => format!("; {d}"),
-                (None, Some(_)) => String::new(),
-            }
-        ))
-        .into());
-    }
+    refuse_unless_determined(
+        &identification,
+        job,
+        poses.len(),
+        motion.len(),
+        reference_dropped.as_deref(),
+    )?;
     // The reference's offset is known only so well, and the frame turns with it.
     let frame = &mut identification.frame;
     frame.rotation = frame.rotation.hypot(offset_rotation_sd.0);
     frame.relative_rotation = frame.relative_rotation.hypot(offset_rotation_sd.1);
     let noise = written_noise(&identification, &declared);
-    // Validation: the same fit on the record without the held-out stretches, both geometries
-    // scored on them. The file written is the fit on the whole record (it is at least as well
-    // determined; held-out stretches can hold the ramps that separate the axes' rotation from
-    // the lever arms: the self-calibrated Ω of `ground-calibration` went from 1.0 to 1.85 ×
-    // ideal parts when the file was the fit without them).
-    let check = if held_out.len() < holdout::HOLD_MIN {
-        Err(format!(
-            "the record's motion is too short to hold {} samples of it out of the fit",
-            holdout::HOLD_MIN
-        ))
-    } else {
-        bar.set_position(stage_len);
-        bar.set_message("fit without the held-out stretches");
-        let without = Record {
-            motion: &fit_motion,
-            progress: &check_progress,
-            ..record
-        };
-        match fit::identify(&nominal, &without, &source, job.fit, &tolerance) {
-            Ok(c) if c.last_step <= fit::CONVERGED_STEP => Ok(c),
-            Ok(c) => Err(format!(
-                "the fit without the held-out stretches did not converge ({} alternations)",
-                c.iterations
-            )),
-            Err(e) => Err(format!("the fit without the held-out stretches: {e}")),
-        }
-    };
-    bar.set_position(2 * stage_len);
-    bar.set_message("scoring the held-out stretches");
-    let validation = match check {
-        Err(why) => Err(why),
-        Ok(check) => {
-            let check_noise = written_noise(&check, &declared);
-            let nominal_geo: Vec<Geometry> = nominal
-                .iter()
-                .zip(declared.iter())
-                .map(|(g, &noise)| Geometry { noise, ..*g })
-                .collect();
-            let calibrated_geo: Vec<Geometry> = check
-                .channels
-                .iter()
-                .zip(check_noise.iter())
-                .map(|(c, &noise)| Geometry {
-                    noise,
-                    ..c.geometry
-                })
-                .collect();
-            let score = |geo: &[Geometry]| -> Result<holdout::Score, String> {
-                let run = estimator_run(geo, &names, model, &times, &rows)?;
-                holdout::score(geo, &declared, &record, &held_out, &run, reference.as_ref())
-            };
-            Ok(holdout::Validation {
-                samples: held_out.len(),
-                nominal: score(&nominal_geo)?,
-                calibrated: score(&calibrated_geo)?,
-            })
-        }
-    };
+    let validation = holdout::validate_on_held_out(
+        &holdout::HeldOut {
+            record: &record,
+            fit_motion: &fit_motion,
+            held_out: &held_out,
+            source: &source,
+            nominal: &nominal,
+            declared: &declared,
+            names: &names,
+            model,
+            reference: reference.as_ref(),
+        },
+        job,
+        &tolerance,
+        &bar,
+    );
     bar.finish_and_clear();
-    let reference_found = job.reference.map(|_| {
-        let geo: Vec<Geometry> = identification.channels.iter().map(|c| c.geometry).collect();
-        reference_align::Found {
-            alignment,
-            rotation: frame::rotation(&nominal, &geo, &tolerance)
-                .map(|(r, _)| (r, identification.frame.rotation)),
-            scale: identification.reference_scale,
-        }
-    });
+    let reference_found = job
+        .reference
+        .map(|_| reference_found(&identification, &nominal, alignment, &tolerance));
     let mut warnings = plausibility(&identification, &nominal, &names, &tolerance);
-    if let Some(v) = validation.as_ref().ok().filter(|v| !v.improved()) {
-        let sentence = format!(
-            "the calibration does not improve the part of the record held out of the fit ({})",
-            v.describe()
-        );
-        if !job.force {
-            return Err(crate::exit::Refused(format!(
-                "{}: {sentence}: nothing written (--force writes it with this warning)",
-                job.samples.display()
-            ))
-            .into());
-        }
-        warnings.push(sentence);
-    } else if let Some(v) = validation.as_ref().ok().filter(|v| v.omega_not_lower()) {
-        warnings.push(format!(
-            "Ω on the part of the record held out of the fit is no better than with the nominal geometry ({})",
-            v.describe()
-        ));
-    }
+    warnings.extend(validation_warning(&validation, job)?);
     warnings.extend(crate::plausibility::arrangement(
         &loaded,
         &job.arrangement.display().to_string(),
@@ -540,39 +318,12 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
     if let Some(note) = model_note {
         warnings.push(note);
     }
-    match &thermal_found {
-        None => {
-            let with_coefficients: Vec<&str> = names
-                .iter()
-                .enumerate()
-                .filter(|(c, _)| loaded.arrangement.thermal(*c).is_some())
-                .map(|(_, n)| n.as_str())
-                .collect();
-            if !with_coefficients.is_empty() {
-                warnings.push(format!(
-                    "{}: the temperature coefficients of {} are not written: the record has no temperatures (temp_<channel> columns), and the bias and scale found are the record's, at its temperatures",
-                    job.arrangement.display(),
-                    with_coefficients.join(", ")
-                ));
-            }
-        }
-        Some(found) => {
-            let not: Vec<String> = names
-                .iter()
-                .zip(&found.channels)
-                .filter_map(|(n, c)| match c {
-                    thermal::ChannelThermal::NotDetermined(why) => Some(format!("{n} ({why})")),
-                    thermal::ChannelThermal::Identified { .. } => None,
-                })
-                .collect();
-            if !not.is_empty() {
-                warnings.push(format!(
-                    "temperature coefficients not determined by the record, not written: {}; their bias and scale are the record's, at its temperatures",
-                    not.join(", ")
-                ));
-            }
-        }
-    }
+    warnings.extend(thermal_warnings(
+        thermal_found.as_ref(),
+        &names,
+        &loaded,
+        job,
+    ));
     let text = calibrated_file(
         &file,
         &identification,
@@ -601,16 +352,197 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
         thermal: thermal_found,
     };
     if let Some(path) = job.report {
-        // The PNG beside the Markdown, same name (`REPORT.png`).
-        let png = path.with_extension("png");
-        let plot = crate::output::Pending::new(&png);
-        report::residual_png(&summary, &times, plot.path())?;
-        plot.commit()?;
-        let png_name = png.file_name().map(|n| n.to_string_lossy().into_owned());
-        let markdown = report::markdown(&summary, job, png_name.as_deref());
-        crate::output::write(path, markdown.as_bytes())?;
+        write_report(&summary, &times, job, path)?;
     }
     Ok(summary)
+}
+
+/// The validation's warning, if any: a calibration that does not improve the held-out part
+/// of the record is refused unless forced (then said), one whose Ω there is no better than
+/// the nominal geometry's is said.
+fn validation_warning(
+    validation: &Result<holdout::Validation, String>,
+    job: &CalibrateJob,
+) -> Result<Option<String>, Box<dyn Error>> {
+    if let Some(v) = validation.as_ref().ok().filter(|v| !v.improved()) {
+        let sentence = format!(
+            "the calibration does not improve the part of the record held out of the fit ({})",
+            v.describe()
+        );
+        if !job.force {
+            return Err(crate::exit::Refused(format!(
+                "{}: {sentence}: nothing written (--force writes it with this warning)",
+                job.samples.display()
+            ))
+            .into());
+        }
+        return Ok(Some(sentence));
+    } else if let Some(v) = validation.as_ref().ok().filter(|v| v.omega_not_lower()) {
+        return Ok(Some(format!(
+            "Ω on the part of the record held out of the fit is no better than with the nominal geometry ({})",
+            v.describe()
+        )));
+    }
+    Ok(None)
+}
+
+/// The report for people (Markdown at `path`, its residual plot beside it as `.png`).
+fn write_report(
+    summary: &CalibrationSummary,
+    times: &[f64],
+    job: &CalibrateJob,
+    path: &Path,
+) -> Result<(), Box<dyn Error>> {
+    // The PNG beside the Markdown, same name (`REPORT.png`).
+    let png = path.with_extension("png");
+    let plot = crate::output::Pending::new(&png);
+    report::residual_png(summary, times, plot.path())?;
+    plot.commit()?;
+    let png_name = png.file_name().map(|n| n.to_string_lossy().into_owned());
+    let markdown = report::markdown(summary, job, png_name.as_deref());
+    crate::output::write(path, markdown.as_bytes())?;
+    Ok(())
+}
+
+/// What the fit found of the reference: its alignment, the frame rotation of the identified
+/// geometry against the nominal one (with its deviation), its scale.
+fn reference_found(
+    id: &Identification,
+    nominal: &[Geometry],
+    alignment: reference_align::Alignment,
+    tolerance: &Tolerance,
+) -> reference_align::Found {
+    let geo: Vec<Geometry> = id.channels.iter().map(|c| c.geometry).collect();
+    reference_align::Found {
+        alignment,
+        rotation: frame::rotation(nominal, &geo, tolerance).map(|(r, _)| (r, id.frame.rotation)),
+        scale: id.reference_scale,
+    }
+}
+
+/// No output of `job` is one of its inputs or another output (the report's PNG included).
+fn check_paths(job: &CalibrateJob) -> Result<(), Box<dyn Error>> {
+    let png = job.report.map(|r| r.with_extension("png"));
+    let outputs: Vec<&Path> = std::iter::once(job.out)
+        .chain(job.report)
+        .chain(png.as_deref())
+        .collect();
+    let inputs: Vec<&Path> = [job.arrangement, job.samples]
+        .into_iter()
+        .chain(job.reference)
+        .collect();
+    crate::output::check_distinct(&outputs, &inputs)?;
+    Ok(())
+}
+
+/// The progress bar of a calibration: the reference's alignment (its fits one after the
+/// other, in the first stage), the whole-record fit, the fit without the held-out stretches
+/// (their alternations, at most [`fit::MAX_ALTERNATIONS`] each), then the scoring.
+fn progress_bar(job: &CalibrateJob) -> indicatif::ProgressBar {
+    let stage_len = fit::MAX_ALTERNATIONS as u64;
+    crate::progress::bar(
+        job.progress,
+        2 * stage_len + 1,
+        "{msg:40} {bar:30} {pos}/{len} ({elapsed})",
+    )
+}
+
+/// What the record's temperatures leave unsaid: coefficients the file had and a record
+/// without temperatures cannot carry, or channels whose coefficients the record does not
+/// determine.
+fn thermal_warnings(
+    thermal_found: Option<&thermal::Found>,
+    names: &[String],
+    loaded: &LoadedArrangement,
+    job: &CalibrateJob,
+) -> Option<String> {
+    match thermal_found {
+        None => {
+            let with_coefficients: Vec<&str> = names
+                .iter()
+                .enumerate()
+                .filter(|(c, _)| loaded.arrangement.thermal(*c).is_some())
+                .map(|(_, n)| n.as_str())
+                .collect();
+            if !with_coefficients.is_empty() {
+                return Some(format!(
+                    "{}: the temperature coefficients of {} are not written: the record has no temperatures (temp_<channel> columns), and the bias and scale found are the record's, at its temperatures",
+                    job.arrangement.display(),
+                    with_coefficients.join(", ")
+                ));
+            }
+        }
+        Some(found) => {
+            let not: Vec<String> = names
+                .iter()
+                .zip(&found.channels)
+                .filter_map(|(n, c)| match c {
+                    thermal::ChannelThermal::NotDetermined(why) => Some(format!("{n} ({why})")),
+                    thermal::ChannelThermal::Identified { .. } => None,
+                })
+                .collect();
+            if !not.is_empty() {
+                return Some(format!(
+                    "temperature coefficients not determined by the record, not written: {}; their bias and scale are the record's, at its temperatures",
+                    not.join(", ")
+                ));
+            }
+        }
+    }
+    None
+}
+
+/// Refuses a fit that does not converge, or a record that determines fewer than half the
+/// parameters asked for (what it does determine are then combinations the fit can only split
+/// arbitrarily): `poses` static poses and `motion` samples in motion, `reference_dropped` the
+/// reference rows left out.
+fn refuse_unless_determined(
+    id: &Identification,
+    job: &CalibrateJob,
+    poses: usize,
+    motion: usize,
+    reference_dropped: Option<&str>,
+) -> Result<(), Box<dyn Error>> {
+    // A record that leaves most parameters undetermined (or all of them) is not a calibration:
+    // what it does determine are combinations (one pose: bias with scale and axis) that the fit can only
+    // split arbitrarily.
+    let held = held_counts(id, job.fit);
+    let (identified, fitted) = held
+        .iter()
+        .fold((0, 0), |(i, f), (_, h, n)| (i + n - h, f + n));
+    if 2 * identified < fitted {
+        let what: Vec<String> = held
+            .iter()
+            .filter(|(_, h, _)| *h > 0)
+            .map(|(kind, h, n)| format!("{kind} {h} of {n}"))
+            .collect();
+        return Err(crate::exit::Refused(format!(
+            "{}: the record is not exciting enough: it determines only {identified} of the {fitted} parameters ({} static poses, {} samples in motion; not determined: {}), and a calibration needs static poses in at least 6 well-spread attitudes, or rotation about several axes with a reference rate: nothing written",
+            job.samples.display(),
+            poses,
+            motion,
+            what.join(", ")
+        ))
+        .into());
+    }
+    let converged = id.last_step <= fit::CONVERGED_STEP;
+    if !converged {
+        return Err(crate::exit::Refused(format!(
+            "{}: the identification did not converge ({} alternations, the last still moved a parameter by {:.3} of its tolerance; {} static poses, {} samples in motion{}): nothing written",
+            job.samples.display(),
+            id.iterations,
+            id.last_step,
+            poses,
+            motion,
+            match (reference_dropped, job.reference) {
+                (_, None) => "; a reference rate would help".to_string(),
+                (Some(d), _) => format!("; {d}"),
+                (None, Some(_)) => String::new(),
+            }
+        ))
+        .into());
+    }
+    Ok(())
 }
 
 /// Per kind of parameter (scale, axis, bias, position) asked for by `fit`: how many of the
@@ -634,60 +566,6 @@ fn held_counts(id: &Identification, fit: FitSet) -> Vec<(&'static str, usize, us
                 .filter(|s| !s.is_finite())
                 .count();
             (*kind, held, n)
-        })
-        .collect()
-}
-
-/// Sample times and rows, and each row's temperatures (per channel, °C: the last read, NaN
-/// before the first; `None` if the record has no temperature column).
-type Samples = (Vec<f64>, Vec<Vec<f64>>, Option<Vec<Vec<f64>>>);
-
-/// The whole record in memory (a calibration record is minutes long, not hours).
-fn read_record(path: &Path, names: &[String]) -> Result<Samples, Box<dyn Error>> {
-    let mut reader = SamplesReader::open(path, names)?;
-    let with_temps = (0..names.len()).any(|c| reader.has_temperature(c));
-    let mut times = Vec::new();
-    let mut rows = Vec::new();
-    let mut temps = Vec::new();
-    let mut row = vec![0.0; names.len()];
-    let mut last = vec![f64::NAN; names.len()];
-    while let Some(t) = reader.next_row(&mut row)? {
-        times.push(t);
-        rows.push(row.clone());
-        if with_temps {
-            reader.temperatures(&mut last)?;
-            temps.push(last.clone());
-        }
-    }
-    Ok((times, rows, with_temps.then_some(temps)))
-}
-
-/// Each channel's noise: the file's if it gives one, else the quietest 10 % of half-second
-/// windows of the record.
-fn noise_levels(loaded: &LoadedArrangement, rows: &[Vec<f64>], rate_hz: f64) -> Vec<f64> {
-    let n = loaded.names.len();
-    if loaded.noise_given {
-        return loaded
-            .arrangement
-            .channels()
-            .iter()
-            .map(|c| c.noise)
-            .collect();
-    }
-    let w = ((POSE_WINDOW_S * rate_hz) as usize).max(5);
-    (0..n)
-        .map(|c| {
-            let mut sds: Vec<f64> = rows
-                .chunks(w)
-                .filter(|ch| ch.len() == w)
-                .map(|ch| {
-                    let m = ch.iter().map(|r| r[c]).sum::<f64>() / w as f64;
-                    (ch.iter().map(|r| (r[c] - m).powi(2)).sum::<f64>() / (w - 1) as f64).sqrt()
-                })
-                .filter(|s| s.is_finite() && *s > 0.0)
-                .collect();
-            sds.sort_by(f64::total_cmp);
-            sds.get(sds.len() / 10).copied().unwrap_or(1.0)
         })
         .collect()
 }
