@@ -308,7 +308,7 @@ fn record_firmware(
     samples: &mut impl Write,
     truth: &mut TruthFiles<impl Write>,
 ) -> Result<SimReport, Box<dyn Error>> {
-    use hal_sim::firmware_host::{firmware_config, for_each_channel, run_firmware_with, SimTime};
+    use hal_sim::firmware_host::{firmware_config, run_firmware_with, SimTime};
     let sc = job.scenario;
     let config = firmware_config(sc, loaded, alignment)?;
     let path = job.out.join("estimates.csv");
@@ -317,8 +317,8 @@ fn record_firmware(
     let n = sc.samples();
     let bar = progress_bar(job.progress, n as u64);
     let channels = loaded.names.len();
-    let var_at = if temperatures { 2 * channels } else { channels };
-    let mut row: Vec<Option<f64>> = vec![None; var_at + channels];
+    let columns = if temperatures { 3 } else { 2 };
+    let mut row: Vec<Option<f64>> = vec![None; columns * channels];
     let mut flag_counts = [0u64; 16];
     let mut last_temperature = [f32::NAN; ballisto_fw::config::MAX_PARTS];
     let mut failure: Option<std::io::Error> = None;
@@ -326,35 +326,7 @@ fn record_firmware(
                     m: &ballisto_fw::estimation::SetEstimate,
                     tr: &hal_sim::motion::Truth| {
         let t = SimTime::seconds(set.t);
-        row.iter_mut().for_each(|v| *v = None);
-        for_each_channel(&config.sampling, set, |c, x| row[c] = Some(f64::from(x)));
-        // A reading's variance where it is not one sample's (interpolated or extrapolated).
-        for (part, &v) in config.sampling.parts.iter().zip(&set.variance) {
-            if v != 1.0 {
-                for c in part.iter().flat_map(|p| p.channels.iter().flatten()) {
-                    if row[usize::from(*c)].is_some() {
-                        row[var_at + usize::from(*c)] = Some(f64::from(v));
-                    }
-                }
-            }
-        }
-        if temperatures {
-            // A part's temperature where it changed (the column holds the last one).
-            for (i, (&t, part)) in set
-                .temperatures
-                .iter()
-                .zip(&config.sampling.parts)
-                .enumerate()
-            {
-                if t.is_nan() || t.to_bits() == last_temperature[i].to_bits() {
-                    continue;
-                }
-                last_temperature[i] = t;
-                for c in part.iter().flat_map(|p| p.channels.iter().flatten()) {
-                    row[channels + usize::from(*c)] = Some(f64::from(t));
-                }
-            }
-        }
+        firmware_row(&mut row, &config, set, temperatures, &mut last_temperature);
         crate::estimate::count_flags(&mut flag_counts, m.estimate.flags);
         let r = samples_csv::write_row(samples, t, row.iter().copied())
             .and_then(|_| truth.row(set.k as usize, tr))
@@ -411,23 +383,7 @@ fn record_firmware(
             &mut emit,
         )?;
         crate::output::write(&first_path, &first)?;
-        let stream = crate::decode::decode_stream(&first);
-        use ballisto_link::decode::Report;
-        for p in &stream.packets {
-            let wanted = match &p.report {
-                Report::IdentificationSummary(_)
-                | Report::IdentifiedChannel(_)
-                | Report::ThermalTrack(_) => true,
-                Report::Event(e) => e.id == ballisto_link::EventId::CalibrationStored,
-                Report::Verification(v) => v.failure.is_some(),
-                _ => false,
-            };
-            if wanted {
-                // On-board time → scenario time (the unit powers up 50 ms before it starts).
-                identification.extend(crate::decode::log_line(p, hal_sim::rig::POWER_ON));
-            }
-        }
-        identification.extend(stream.problems);
+        identification.extend(identification_lines(&first));
         identification.push(format!(
             "second boot: calibration {:?} id={} crc={:#010x}",
             id.source, id.id, id.crc
@@ -482,6 +438,74 @@ fn record_firmware(
         firmware: Some(fw),
         identification,
     })
+}
+
+/// One set's row of the firmware's samples file: each channel's reading, then (with
+/// `temperatures`) its part's temperature where it changed since `last_temperature`, then its
+/// variance where it is not one sample's (interpolated or extrapolated).
+fn firmware_row(
+    row: &mut [Option<f64>],
+    config: &ballisto_fw::config::AppConfig,
+    set: &ballisto_fw::sampler::SampleSet,
+    temperatures: bool,
+    last_temperature: &mut [f32; ballisto_fw::config::MAX_PARTS],
+) {
+    use hal_sim::firmware_host::for_each_channel;
+    let channels = config.arrangement.len();
+    let var_at = if temperatures { 2 * channels } else { channels };
+    row.iter_mut().for_each(|v| *v = None);
+    for_each_channel(&config.sampling, set, |c, x| row[c] = Some(f64::from(x)));
+    // A reading's variance where it is not one sample's (interpolated or extrapolated).
+    for (part, &v) in config.sampling.parts.iter().zip(&set.variance) {
+        if v != 1.0 {
+            for c in part.iter().flat_map(|p| p.channels.iter().flatten()) {
+                if row[usize::from(*c)].is_some() {
+                    row[var_at + usize::from(*c)] = Some(f64::from(v));
+                }
+            }
+        }
+    }
+    if temperatures {
+        // A part's temperature where it changed (the column holds the last one).
+        for (i, (&t, part)) in set
+            .temperatures
+            .iter()
+            .zip(&config.sampling.parts)
+            .enumerate()
+        {
+            if t.is_nan() || t.to_bits() == last_temperature[i].to_bits() {
+                continue;
+            }
+            last_temperature[i] = t;
+            for c in part.iter().flat_map(|p| p.channels.iter().flatten()) {
+                row[channels + usize::from(*c)] = Some(f64::from(t));
+            }
+        }
+    }
+}
+
+/// The first boot's identification as log lines (its summary, channels, tracks, the commit
+/// and any refusal; on scenario time), and what was damaged in its stream.
+fn identification_lines(first: &[u8]) -> Vec<String> {
+    use ballisto_link::decode::Report;
+    let stream = crate::decode::decode_stream(first);
+    let mut lines = Vec::new();
+    for p in &stream.packets {
+        let wanted = match &p.report {
+            Report::IdentificationSummary(_)
+            | Report::IdentifiedChannel(_)
+            | Report::ThermalTrack(_) => true,
+            Report::Event(e) => e.id == ballisto_link::EventId::CalibrationStored,
+            Report::Verification(v) => v.failure.is_some(),
+            _ => false,
+        };
+        if wanted {
+            // On-board time → scenario time (the unit powers up 50 ms before it starts).
+            lines.extend(crate::decode::log_line(p, hal_sim::rig::POWER_ON));
+        }
+    }
+    lines.extend(stream.problems);
+    lines
 }
 
 /// The calibrated arrangement of `path` as the unit stores it; its channels must be the

@@ -81,6 +81,75 @@ pub struct ParitySample<T, const CAP: usize> {
     pub without: [T; CAP],
 }
 
+/// Each part's leave-one-part-out test over the channels of `mask` (`idx`: their channel
+/// indices in row order; `part[i]`: channel `i`'s part, of `n` channels): its included channels
+/// and `(P_SS)⁻¹` from the projector `p64`, isolable where removing it leaves a degree of
+/// freedom of `dof` and `P_SS` is invertible. Returns the tests and the number of parts.
+fn part_tests<T: Real, const CAP: usize>(
+    part: &[u8],
+    mask: ChannelMask,
+    n: usize,
+    idx: &[usize],
+    dof: usize,
+    p64: &[[f64; CAP]; CAP],
+) -> ([PartTest<T>; CAP], usize) {
+    // The parts: their included channels and P_SS⁻¹.
+    let empty = PartTest {
+        channels: [0; PART_CHANNELS],
+        rows: [0; PART_CHANNELS],
+        count: 0,
+        inverse: Sym3([T::ONE, T::ONE, T::ONE, T::ZERO, T::ZERO, T::ZERO]),
+        isolable: false,
+    };
+    let mut parts = [empty; CAP];
+    let mut n_parts = 0;
+    let mut row_of = [usize::MAX; CAP];
+    for (row, &i) in idx.iter().enumerate() {
+        row_of[i] = row;
+    }
+    let mut overfull = [false; CAP];
+    for (i, &pt) in part.iter().enumerate().take(n) {
+        let pt = usize::from(pt);
+        if pt >= CAP || !mask.contains(i) {
+            continue;
+        }
+        n_parts = n_parts.max(pt + 1);
+        let t = &mut parts[pt];
+        if usize::from(t.count) == PART_CHANNELS {
+            overfull[pt] = true;
+            continue;
+        }
+        t.channels[usize::from(t.count)] = i as u8;
+        t.rows[usize::from(t.count)] = row_of[i] as u8;
+        t.count += 1;
+    }
+    for (t, over) in parts.iter_mut().zip(overfull).take(n_parts) {
+        let c = usize::from(t.count);
+        if c == 0 || over || dof <= c {
+            continue;
+        }
+        let mut pss = [[0.0f64; 3]; 3];
+        for (a, pa) in pss.iter_mut().enumerate() {
+            for (b, pab) in pa.iter_mut().enumerate() {
+                *pab = if a < c && b < c {
+                    p64[usize::from(t.rows[a])][usize::from(t.rows[b])]
+                } else if a == b {
+                    1.0
+                } else {
+                    0.0
+                };
+            }
+        }
+        // Invertible to well within working precision (each diagonal ≤ 1): a part whose
+        // channels' parity directions are (nearly) dependent cannot be told apart.
+        if let Some(inv) = Sym3::from_mat(&pss).inverse(1e-6) {
+            t.inverse = inv.cast();
+            t.isolable = true;
+        }
+    }
+    (parts, n_parts)
+}
+
 impl<T: Real, const CAP: usize> Parity<T, CAP> {
     /// The parity space of the channels of `mask` in `arr`; `part[i]` is channel `i`'s part
     /// number (below `CAP`, or [`NO_PART`]). Errors: too few channels for a residual (model G
@@ -177,60 +246,7 @@ impl<T: Real, const CAP: usize> Parity<T, CAP> {
             bias[row] = T::of(ch.bias);
             index[row] = i as u8;
         }
-        // The parts: their included channels and P_SS⁻¹.
-        let empty = PartTest {
-            channels: [0; PART_CHANNELS],
-            rows: [0; PART_CHANNELS],
-            count: 0,
-            inverse: Sym3([T::ONE, T::ONE, T::ONE, T::ZERO, T::ZERO, T::ZERO]),
-            isolable: false,
-        };
-        let mut parts = [empty; CAP];
-        let mut n_parts = 0;
-        let mut row_of = [usize::MAX; CAP];
-        for (row, &i) in idx.iter().enumerate().take(rows) {
-            row_of[i] = row;
-        }
-        let mut overfull = [false; CAP];
-        for (i, &pt) in part.iter().enumerate().take(n) {
-            let pt = usize::from(pt);
-            if pt >= CAP || !mask.contains(i) {
-                continue;
-            }
-            n_parts = n_parts.max(pt + 1);
-            let t = &mut parts[pt];
-            if usize::from(t.count) == PART_CHANNELS {
-                overfull[pt] = true;
-                continue;
-            }
-            t.channels[usize::from(t.count)] = i as u8;
-            t.rows[usize::from(t.count)] = row_of[i] as u8;
-            t.count += 1;
-        }
-        for (t, over) in parts.iter_mut().zip(overfull).take(n_parts) {
-            let c = usize::from(t.count);
-            if c == 0 || over || dof <= c {
-                continue;
-            }
-            let mut pss = [[0.0f64; 3]; 3];
-            for (a, pa) in pss.iter_mut().enumerate() {
-                for (b, pab) in pa.iter_mut().enumerate() {
-                    *pab = if a < c && b < c {
-                        p64[usize::from(t.rows[a])][usize::from(t.rows[b])]
-                    } else if a == b {
-                        1.0
-                    } else {
-                        0.0
-                    };
-                }
-            }
-            // Invertible to well within working precision (each diagonal ≤ 1): a part whose
-            // channels' parity directions are (nearly) dependent cannot be told apart.
-            if let Some(inv) = Sym3::from_mat(&pss).inverse(1e-6) {
-                t.inverse = inv.cast();
-                t.isolable = true;
-            }
-        }
+        let (parts, n_parts) = part_tests(part, mask, n, &idx[..rows], dof, &p64);
         Ok(Parity {
             n,
             dof,

@@ -73,8 +73,9 @@ pub struct Taken {
     pub missing_changed: bool,
 }
 
-/// The fault supervisor of one estimator of up to `CAP` channels (see the module's doc).
-pub struct Supervisor<T, const CAP: usize> {
+/// The fault supervisor of one estimator of up to `CAP` channels from up to `P` parts (at most
+/// [`MAX_PARTS`]; see the module's doc).
+pub struct Supervisor<T, const CAP: usize, const P: usize = MAX_PARTS> {
     /// Built once the sample rate is known (its windows are in sets).
     monitor: Option<FaultMonitor<T, CAP>>,
     rate_hz: Option<f64>,
@@ -89,7 +90,7 @@ pub struct Supervisor<T, const CAP: usize> {
     stuck: StuckCheck<T, CAP>,
     /// Parts stuck or at their limit at the last set.
     stuck_parts: u32,
-    runs: MissingRuns<MAX_PARTS>,
+    runs: MissingRuns<P>,
     /// The parts out of the solve: for silence, and as isolated.
     missing: u32,
     isolated: u32,
@@ -104,7 +105,7 @@ pub struct Supervisor<T, const CAP: usize> {
     replay_due: bool,
 }
 
-impl<T: Real, const CAP: usize> Supervisor<T, CAP> {
+impl<T: Real, const CAP: usize, const P: usize> Supervisor<T, CAP, P> {
     /// A supervisor for channels read from `part` (each channel's part, [`NO_PART`] for none)
     /// with full scales `range` (m/s², infinite for none), at `rate_hz` if known (else from
     /// [`Supervisor::set_rate`] on); no parity space until [`Supervisor::rebuild`].
@@ -199,17 +200,18 @@ impl<T: Real, const CAP: usize> Supervisor<T, CAP> {
         self.newly_out = false;
         let (mut present, mut seen) = (0u32, 0u32);
         for (c, q) in self.part[..self.n].iter().enumerate() {
-            if usize::from(*q) < MAX_PARTS {
+            if usize::from(*q) < P.min(MAX_PARTS) {
                 seen |= 1 << q;
                 if p.get(c).is_some_and(|v| !v.to_f64().is_nan()) {
                     present |= 1 << q;
                 }
             }
         }
-        for q in 0..MAX_PARTS {
-            if seen & (1 << q) != 0 {
-                self.runs.observe(q, present & (1 << q) != 0);
-            }
+        let mut bits = seen;
+        while bits != 0 {
+            let q = bits.trailing_zeros() as usize;
+            self.runs.observe(q, present & (1 << q) != 0);
+            bits &= bits - 1;
         }
         self.stuck_parts = self.stuck.step(p);
         let Some(m) = &mut self.monitor else {
@@ -236,7 +238,7 @@ impl<T: Real, const CAP: usize> Supervisor<T, CAP> {
     pub fn isolated_now(&self) -> u32 {
         let monitor = self.monitor.as_ref().and_then(|m| m.isolated());
         let by_parity = monitor
-            .filter(|p| usize::from(*p) < MAX_PARTS)
+            .filter(|p| usize::from(*p) < P.min(MAX_PARTS))
             .map_or(0, |p| 1 << p);
         by_parity | self.stuck_parts
     }

@@ -385,17 +385,19 @@ impl Boot<'_, '_> {
     }
 }
 
-/// [`run_firmware_with`] for one boot ([`Boot`]).
-pub fn run_firmware_boot(
-    sc: &Scenario,
-    config: &AppConfig,
-    instants: u32,
-    uplink: &Uplink,
-    downlink: &mut dyn std::io::Write,
-    emit: Emit,
-    boot: Boot,
-) -> Result<FirmwareReport, String> {
-    let rig = Rig::build(sc)?;
+/// A free-running part's conversion clock uncertainty once its clock is locked (none for a
+/// part on the sync line).
+fn clock_uncertainty(p: &ballisto_fw::sampler::part::Part<SimSpiDevice, SimI2cBus>) -> Option<f64> {
+    (!p.synced() && p.clock().is_locked()).then(|| p.clock().uncertainty())
+}
+
+/// Each part's bus as the sampler takes it (the rig's ports), and the sync line.
+fn sampler_ports(
+    rig: &Rig,
+) -> (
+    [Option<PartBus<SimSpiDevice, SimI2cBus>>; MAX_PARTS],
+    SimSyncPin,
+) {
     let mut buses: [Option<PartBus<SimSpiDevice, SimI2cBus>>; MAX_PARTS] = Default::default();
     for (slot, port) in buses.iter_mut().zip(rig.ports.iter()) {
         *slot = Some(match port.clone() {
@@ -407,6 +409,21 @@ pub fn run_firmware_boot(
         line: rig.sync.clone(),
         clock: rig.clock.clone(),
     };
+    (buses, sync)
+}
+
+/// [`run_firmware_with`] for one boot ([`Boot`]).
+pub fn run_firmware_boot(
+    sc: &Scenario,
+    config: &AppConfig,
+    instants: u32,
+    uplink: &Uplink,
+    downlink: &mut dyn std::io::Write,
+    emit: Emit,
+    boot: Boot,
+) -> Result<FirmwareReport, String> {
+    let rig = Rig::build(sc)?;
+    let (buses, sync) = sampler_ports(&rig);
     let mut sampler = Sampler::new(&config.sampling, buses, sync);
     let spare = Loan::<Builds>::take();
     let identifier = Loan::<Identifier>::take();
@@ -523,12 +540,7 @@ pub fn run_firmware_boot(
         .map(|i| sampler.part_health(i).unwrap_or_default())
         .collect();
     let clock_uncertainty = (0..sc.parts.len())
-        .map(|i| {
-            sampler
-                .part(i)
-                .filter(|p| !p.synced() && p.clock().is_locked())
-                .map(|p| p.clock().uncertainty())
-        })
+        .map(|i| sampler.part(i).and_then(clock_uncertainty))
         .collect();
     let buses = rig.bus_usage_since(&start_up);
     let housekeeping = app.housekeeping(telemetry.lost());

@@ -335,74 +335,8 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
                 housekeeping_every,
             })
         }
-        (service::BALLISTOMETER, subtype::START_IDENTIFICATION) => {
-            let source = *data.first().ok_or((FailureCode::DataLength, 7))?;
-            match source {
-                identification::SOURCE_REFERENCE => length(7)?,
-                identification::SOURCE_TUMBLE => length(7 + 24)?,
-                _ => return Err((FailureCode::OutOfRange, 0)),
-            }
-            g.u8();
-            let period_ms = g.u16().unwrap_or(0);
-            let window_ms = g.u32().unwrap_or(0);
-            if !(1..=identification::PERIOD_MAX_MS).contains(&period_ms) {
-                return Err((FailureCode::OutOfRange, 1));
-            }
-            if !(1..=identification::WINDOW_MAX_MS).contains(&window_ms) {
-                return Err((FailureCode::OutOfRange, 2));
-            }
-            let inertia = if source == identification::SOURCE_TUMBLE {
-                let j: [f32; 6] = g.f32s().unwrap_or([f32::NAN; 6]);
-                for (k, v) in j.iter().enumerate() {
-                    real(*v, 3 + k, f32::MAX)?;
-                }
-                // Positive definite (Sylvester's leading minors), in f64.
-                let [xx, yy, zz, xy, xz, yz] = j.map(f64::from);
-                let minor2 = xx * yy - xy * xy;
-                let det =
-                    xx * (yy * zz - yz * yz) - xy * (xy * zz - yz * xz) + xz * (xy * yz - yy * xz);
-                if !(xx > 0.0 && minor2 > 0.0 && det > 0.0) {
-                    return Err((FailureCode::OutOfRange, 3));
-                }
-                Some(j)
-            } else {
-                None
-            };
-            Ok(Command::StartIdentification {
-                period_ms,
-                window_ms,
-                inertia,
-            })
-        }
-        (service::BALLISTOMETER, subtype::REFERENCE_RATE) => {
-            let n = usize::from(*data.first().ok_or((FailureCode::DataLength, 1))?);
-            length(1 + identification::POINT_LEN * n)?;
-            if !(1..=identification::MAX_POINTS).contains(&n) {
-                return Err((FailureCode::OutOfRange, 0));
-            }
-            // Field index 1 + 4·point + j: the time (j = 0), then Ω x, y, z.
-            let mut last = None;
-            for (i, chunk) in data[1..]
-                .chunks_exact(identification::POINT_LEN)
-                .enumerate()
-            {
-                let field = |j: usize| 1 + 4 * i + j;
-                let mut time = [0u8; crate::cuc::TIME_LEN];
-                time.copy_from_slice(&chunk[..crate::cuc::TIME_LEN]);
-                let t = crate::cuc::cuc_nanos(&time)
-                    .ok_or((FailureCode::OutOfRange, field(0) as u32))?;
-                if last.is_some_and(|l| t <= l) {
-                    return Err((FailureCode::OutOfRange, field(0) as u32));
-                }
-                last = Some(t);
-                let mut w = Get::new(&chunk[crate::cuc::TIME_LEN..]);
-                let omega: [f32; 3] = w.f32s().ok_or((FailureCode::DataLength, 0))?;
-                for (j, v) in omega.iter().enumerate() {
-                    real(*v, field(1 + j), identification::REFERENCE_MAX)?;
-                }
-            }
-            Ok(Command::ReferenceRate(data))
-        }
+        (service::BALLISTOMETER, subtype::START_IDENTIFICATION) => start_identification(data),
+        (service::BALLISTOMETER, subtype::REFERENCE_RATE) => reference_rate(data),
         (service::BALLISTOMETER, subtype::REPORT_IDENTIFICATION) => {
             length(0)?;
             Ok(Command::ReportIdentification)
@@ -445,6 +379,89 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
             (u32::from(s) << 8) | u32::from(st),
         )),
     }
+}
+
+/// TC[200,8]'s data: the source (reference or torque-free tumble), the period and window,
+/// and for a tumble the inertia (finite, positive definite).
+fn start_identification(data: &[u8]) -> Result<Command<'_>, Refusal> {
+    let length = |n: usize| {
+        if data.len() == n {
+            Ok(())
+        } else {
+            Err((FailureCode::DataLength, n as u32))
+        }
+    };
+    let mut g = Get::new(data);
+    let source = *data.first().ok_or((FailureCode::DataLength, 7))?;
+    match source {
+        identification::SOURCE_REFERENCE => length(7)?,
+        identification::SOURCE_TUMBLE => length(7 + 24)?,
+        _ => return Err((FailureCode::OutOfRange, 0)),
+    }
+    g.u8();
+    let period_ms = g.u16().unwrap_or(0);
+    let window_ms = g.u32().unwrap_or(0);
+    if !(1..=identification::PERIOD_MAX_MS).contains(&period_ms) {
+        return Err((FailureCode::OutOfRange, 1));
+    }
+    if !(1..=identification::WINDOW_MAX_MS).contains(&window_ms) {
+        return Err((FailureCode::OutOfRange, 2));
+    }
+    let inertia = if source == identification::SOURCE_TUMBLE {
+        let j: [f32; 6] = g.f32s().unwrap_or([f32::NAN; 6]);
+        for (k, v) in j.iter().enumerate() {
+            real(*v, 3 + k, f32::MAX)?;
+        }
+        // Positive definite (Sylvester's leading minors), in f64.
+        let [xx, yy, zz, xy, xz, yz] = j.map(f64::from);
+        let minor2 = xx * yy - xy * xy;
+        let det = xx * (yy * zz - yz * yz) - xy * (xy * zz - yz * xz) + xz * (xy * yz - yy * xz);
+        if !(xx > 0.0 && minor2 > 0.0 && det > 0.0) {
+            return Err((FailureCode::OutOfRange, 3));
+        }
+        Some(j)
+    } else {
+        None
+    };
+    Ok(Command::StartIdentification {
+        period_ms,
+        window_ms,
+        inertia,
+    })
+}
+
+/// TC[200,9]'s data: N points of a reference rate, their times increasing, their rates
+/// finite and within the gyro's range.
+fn reference_rate(data: &[u8]) -> Result<Command<'_>, Refusal> {
+    let n = usize::from(*data.first().ok_or((FailureCode::DataLength, 1))?);
+    let expected = 1 + identification::POINT_LEN * n;
+    if data.len() != expected {
+        return Err((FailureCode::DataLength, expected as u32));
+    }
+    if !(1..=identification::MAX_POINTS).contains(&n) {
+        return Err((FailureCode::OutOfRange, 0));
+    }
+    // Field index 1 + 4·point + j: the time (j = 0), then Ω x, y, z.
+    let mut last = None;
+    for (i, chunk) in data[1..]
+        .chunks_exact(identification::POINT_LEN)
+        .enumerate()
+    {
+        let field = |j: usize| 1 + 4 * i + j;
+        let mut time = [0u8; crate::cuc::TIME_LEN];
+        time.copy_from_slice(&chunk[..crate::cuc::TIME_LEN]);
+        let t = crate::cuc::cuc_nanos(&time).ok_or((FailureCode::OutOfRange, field(0) as u32))?;
+        if last.is_some_and(|l| t <= l) {
+            return Err((FailureCode::OutOfRange, field(0) as u32));
+        }
+        last = Some(t);
+        let mut w = Get::new(&chunk[crate::cuc::TIME_LEN..]);
+        let omega: [f32; 3] = w.f32s().ok_or((FailureCode::DataLength, 0))?;
+        for (j, v) in omega.iter().enumerate() {
+            real(*v, field(1 + j), identification::REFERENCE_MAX)?;
+        }
+    }
+    Ok(Command::ReferenceRate(data))
 }
 
 /// A real field: finite and at most `max` in magnitude.

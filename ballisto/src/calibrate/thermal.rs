@@ -93,23 +93,10 @@ pub fn corrected(
         .collect()
 }
 
-/// Identifies every channel's coefficients from the static `poses` of `rows` at the
-/// temperatures `temps` (per row and channel, °C, NaN before the first), starting from the
-/// `nominal` geometry; `fit` says which of bias, scale and axis the poses may change with
-/// them (positions: a pose does not see them). Errors: a record without a usable pose.
-pub fn identify(
-    nominal: &[Geometry],
-    rows: &[Vec<f64>],
-    temps: &[Vec<f64>],
-    poses: &[Pose],
-    fit: FitSet,
-) -> Result<Found, String> {
-    let n = nominal.len();
-    // Each channel's mean temperature over each pose (NaN where the record has none).
-    let at_pose: Vec<Vec<f64>> = remeasured(poses, temps)
-        .into_iter()
-        .map(|p| p.mean)
-        .collect();
+/// Each channel's `t_ref` (its mean temperature over the poses, to 0.01 °C) where the poses
+/// determine its coefficients (at least 4 with a temperature, spanning at least
+/// [`MIN_SPAN_C`]); else why not.
+fn reference_temperatures(at_pose: &[Vec<f64>], n: usize) -> (Vec<f64>, Vec<Option<String>>) {
     // t_ref: the channel's mean over the poses; the span decides whether it is determined.
     let mut t_ref = vec![f64::NAN; n];
     let mut undetermined: Vec<Option<String>> = vec![None; n];
@@ -140,6 +127,91 @@ pub fn identify(
         }
         t_ref[c] = ((ts.iter().sum::<f64>() / ts.len() as f64) * 100.0).round() / 100.0;
     }
+    (t_ref, undetermined)
+}
+
+/// The span of the poses' temperatures (°C; 0 without any).
+fn span_of(at_pose: &[Vec<f64>]) -> f64 {
+    let finite: Vec<f64> = at_pose
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|t| t.is_finite())
+        .collect();
+    let span = finite.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
+        - finite.iter().fold(f64::INFINITY, |a, &b| a.min(b));
+    if finite.is_empty() {
+        0.0
+    } else {
+        span
+    }
+}
+
+/// Each pose's gravity turned by the step `x` (its turns from column `first` on, three per
+/// pose), its magnitude kept at G0.
+fn turn_poses(gravity: &mut [Option<Vector3<f64>>], x: &DVector<f64>, first: usize) {
+    for (k, grav) in gravity.iter_mut().enumerate() {
+        if let Some(g) = grav {
+            let at = first + 3 * k;
+            let turn = Vector3::new(x[at], x[at + 1], x[at + 2]);
+            *g = (*g + turn.cross(g)).normalize() * estimator_core::G0;
+        }
+    }
+}
+
+/// The unknowns of each channel: bias_tc, scale_tc, then the bias, scale and tilt (3) that
+/// `fit` frees.
+fn unknowns_per_channel(fit: FitSet) -> usize {
+    [(true, 2), (fit.bias, 1), (fit.scale, 1), (fit.axis, 3)]
+        .iter()
+        .filter(|(on, _)| *on)
+        .map(|(_, k)| *k)
+        .sum()
+}
+
+/// Each channel's result: its coefficients and their deviations, or why they are not
+/// determined (too few or too close poses, or coefficients beyond any part's).
+fn channel_results(
+    undetermined: &[Option<String>],
+    t_ref: &[f64],
+    btc: &[f64],
+    stc: &[f64],
+    sds: &[(f64, f64)],
+) -> Vec<ChannelThermal> {
+    (0..undetermined.len())
+        .map(|c| {
+            if let Some(why) = &undetermined[c] {
+                return ChannelThermal::NotDetermined(why.clone());
+            }
+            match Thermal::new(t_ref[c], btc[c], stc[c]) {
+                Ok(thermal) => ChannelThermal::Identified { thermal, sd: sds[c] },
+                Err(_) => ChannelThermal::NotDetermined(format!(
+                    "bias_tc {:.3e}, scale_tc {:.3e} beyond any part's (something other than temperature moves its readings)",
+                    btc[c], stc[c]
+                )),
+            }
+        })
+        .collect()
+}
+
+/// Identifies every channel's coefficients from the static `poses` of `rows` at the
+/// temperatures `temps` (per row and channel, °C, NaN before the first), starting from the
+/// `nominal` geometry; `fit` says which of bias, scale and axis the poses may change with
+/// them (positions: a pose does not see them). Errors: a record without a usable pose.
+pub fn identify(
+    nominal: &[Geometry],
+    rows: &[Vec<f64>],
+    temps: &[Vec<f64>],
+    poses: &[Pose],
+    fit: FitSet,
+) -> Result<Found, String> {
+    let n = nominal.len();
+    // Each channel's mean temperature over each pose (NaN where the record has none).
+    let at_pose: Vec<Vec<f64>> = remeasured(poses, temps)
+        .into_iter()
+        .map(|p| p.mean)
+        .collect();
+    let (t_ref, mut undetermined) = reference_temperatures(&at_pose, n);
     let raw = remeasured(poses, rows);
     let mut geo: Vec<Geometry> = nominal.to_vec();
     // Each pose's gravity (|g| = G0: free, its magnitude would take up every channel's common
@@ -152,14 +224,8 @@ pub fn identify(
     if gravity.iter().all(Option::is_none) {
         return Err("no static pose to identify temperature coefficients from".into());
     }
-    // Per channel: bias_tc, scale_tc, then the bias, scale and tilt (3) that `fit` frees;
-    // per pose: a turn of its gravity (3).
-    let own: Vec<usize> = [(true, 2), (fit.bias, 1), (fit.scale, 1), (fit.axis, 3)]
-        .iter()
-        .filter(|(on, _)| *on)
-        .map(|(_, k)| *k)
-        .collect();
-    let per_channel: usize = own.iter().sum();
+    // Per pose, after every channel's unknowns: a turn of its gravity (3).
+    let per_channel = unknowns_per_channel(fit);
     let mut btc = vec![0.0; n];
     let mut stc = vec![0.0; n];
     let mut sds = vec![(0.0, 0.0); n];
@@ -268,43 +334,16 @@ pub fn identify(
                 .max(x[base + 1].abs() / sd.1.max(1e-15));
             sds[c] = sd;
         }
-        for (k, grav) in gravity.iter_mut().enumerate() {
-            if let Some(g) = grav {
-                let at = per_channel * n + 3 * k;
-                let turn = Vector3::new(x[at], x[at + 1], x[at + 2]);
-                *g = (*g + turn.cross(g)).normalize() * estimator_core::G0;
-            }
-        }
+        turn_poses(&mut gravity, &x, per_channel * n);
         if moved < 0.01 {
             break;
         }
     }
-    let finite: Vec<f64> = at_pose
-        .iter()
-        .flatten()
-        .copied()
-        .filter(|t| t.is_finite())
-        .collect();
-    let span = finite.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
-        - finite.iter().fold(f64::INFINITY, |a, &b| a.min(b));
-    let channels = (0..n)
-        .map(|c| {
-            if let Some(why) = &undetermined[c] {
-                return ChannelThermal::NotDetermined(why.clone());
-            }
-            match Thermal::new(t_ref[c], btc[c], stc[c]) {
-                Ok(thermal) => ChannelThermal::Identified { thermal, sd: sds[c] },
-                Err(_) => ChannelThermal::NotDetermined(format!(
-                    "bias_tc {:.3e}, scale_tc {:.3e} beyond any part's (something other than temperature moves its readings)",
-                    btc[c], stc[c]
-                )),
-            }
-        })
-        .collect();
+    let channels = channel_results(&undetermined, &t_ref, &btc, &stc, &sds);
     Ok(Found {
         channels,
         bias: geo.iter().map(|g| g.bias).collect(),
-        poses: (poses.len(), if finite.is_empty() { 0.0 } else { span }),
+        poses: (poses.len(), span_of(&at_pose)),
         steps,
     })
 }

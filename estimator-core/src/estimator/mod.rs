@@ -151,6 +151,48 @@ impl<T: Real, const CAP: usize> Work<T, CAP> {
 }
 
 impl<T: Real, const CAP: usize> Config<T, CAP> {
+    /// The tracker's candidates of one sample from its `branches` in `frame` (`eps`: the
+    /// frame's scaling): Ω with its covariance, Ω′ in body axes with its variance, the fit.
+    #[inline]
+    fn candidates(
+        &self,
+        frame: usize,
+        eps: T,
+        branches: &mut [Branch<T>],
+        cands: &mut [Candidate<T>; MAX_CANDIDATES],
+    ) {
+        for (c, b) in cands.iter_mut().zip(branches.iter_mut()) {
+            let omega = self.omega_of(frame, eps, b);
+            let (omega_cov, domega_var) = match &self.proj[frame].general_cov {
+                Some(gc) => {
+                    // Model G: A is linear in p, its covariance a constant; Ω's follows from it.
+                    let var = omega_variances(&gc.field, &omega);
+                    b.omega_sd = [var[0].sqrt(), var[1].sqrt(), var[2].sqrt()];
+                    b.ill = frame_score(&b.a) < T::of(KELVIN_MIN_SCORE);
+                    let z = T::ZERO;
+                    let sd = &gc.sd_domega;
+                    let domega_var = (sd[0] * sd[0] + sd[1] * sd[1] + sd[2] * sd[2]) / T::of(3.0);
+                    // Isotropic, at the largest: near Ω = 0 the first-order variances of Ω from
+                    // ΩΩᵀ are not valid component by component (a spin-up from rest: 17 rows
+                    // of the firmware's output silently wrong with the diagonal, none with its
+                    // mean; 1 of `ballisto estimate`'s with the mean, none with the largest).
+                    let m = var[0].max(var[1]).max(var[2]);
+                    (Sym3([m, m, m, z, z, z]), domega_var)
+                }
+                None => (b.cov_a, self.domega_variance(frame, b)),
+            };
+            *c = Candidate {
+                omega,
+                omega_cov,
+                domega: self.proj[frame].to_body(&[b.x[3], b.x[4], b.x[5]]),
+                domega_var,
+                fit: b.fit,
+            };
+        }
+    }
+}
+
+impl<T: Real, const CAP: usize> Config<T, CAP> {
     /// A configuration with no channel (nothing precomputed).
     fn empty(model: Model) -> Self {
         Config {
@@ -535,34 +577,7 @@ impl<T: Real, const CAP: usize> Estimator<T, CAP> {
                 widen_near_crossings(&mut branches[..nb]);
             }
         }
-        for (c, b) in cands.iter_mut().zip(branches.iter_mut()).take(nb) {
-            let omega = cfg.omega_of(frame, eps, b);
-            let (omega_cov, domega_var) = match &cfg.proj[frame].general_cov {
-                Some(gc) => {
-                    // Model G: A is linear in p, its covariance a constant; Ω's follows from it.
-                    let var = omega_variances(&gc.field, &omega);
-                    b.omega_sd = [var[0].sqrt(), var[1].sqrt(), var[2].sqrt()];
-                    b.ill = frame_score(&b.a) < T::of(KELVIN_MIN_SCORE);
-                    let z = T::ZERO;
-                    let sd = &gc.sd_domega;
-                    let domega_var = (sd[0] * sd[0] + sd[1] * sd[1] + sd[2] * sd[2]) / T::of(3.0);
-                    // Isotropic, at the largest: near Ω = 0 the first-order variances of Ω from
-                    // ΩΩᵀ are not valid component by component (a spin-up from rest: 17 rows
-                    // of the firmware's output silently wrong with the diagonal, none with its
-                    // mean; 1 of `ballisto estimate`'s with the mean, none with the largest).
-                    let m = var[0].max(var[1]).max(var[2]);
-                    (Sym3([m, m, m, z, z, z]), domega_var)
-                }
-                None => (b.cov_a, cfg.domega_variance(frame, b)),
-            };
-            *c = Candidate {
-                omega,
-                omega_cov,
-                domega: cfg.proj[frame].to_body(&[b.x[3], b.x[4], b.x[5]]),
-                domega_var,
-                fit: b.fit,
-            };
-        }
+        cfg.candidates(frame, eps, &mut branches[..nb], cands);
         let hint_var = hint.map(|h| (h, T::of(0.0625) * norm2(&h) + T::of(0.01)));
         // Model F with m = 3 (several roots, crossing): the readings each track is updated by
         // (`Ω = a`): the null-space equations and the linear solve's Ω′ rows (their values

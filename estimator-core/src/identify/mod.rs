@@ -53,6 +53,7 @@ pub(crate) mod cholesky;
 mod fit;
 pub mod model;
 mod result;
+mod search;
 mod solve;
 mod sums;
 mod tumble;

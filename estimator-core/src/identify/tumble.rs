@@ -40,6 +40,7 @@ use super::cholesky::{cholesky, cholesky_solve};
 use super::fit::ALWAYS_HELD;
 use super::model::{too_few_determined, Param, Tolerance, PARAMS};
 use super::result::{ChannelFit, Identified, IdentifyError};
+use super::search::{distinct_candidates, nelder_mead, stage_spans, STEPS};
 use super::solve::identify;
 use super::sums::{field_terms, FieldSums, TERMS};
 use crate::arrangement::Arrangement;
@@ -53,16 +54,6 @@ pub const RESIDUAL_LIMIT: f64 = 3.0;
 /// Added to the linear cost of a start where the geometry's solve does not settle, so that the
 /// search prefers any start where it does.
 const UNSOLVED: f64 = 1e12;
-
-/// The shortest stage of the search, s (a 5 s window of the `orbit-identify` tumble left Ω0
-/// too loose to determine the geometry; 10 s did).
-const MIN_STAGE_S: f64 = 5.0;
-
-/// Nelder–Mead iterations per round, at most.
-const ITERATIONS: usize = 200;
-
-/// The three rounds' initial simplex steps, as fractions of `|Ω0|`.
-const STEPS: [f64; 3] = [0.05, 0.01, 0.002];
 
 /// The window's sample sets, oldest first.
 pub trait Sets {
@@ -318,35 +309,7 @@ pub fn identify_tumble<S: Sets + ?Sized, const CAP: usize>(
     // and an estimator on an uncalibrated geometry can hold the wrong one (measured: on 12
     // drawn tumbles the estimator's first rate had the wrong sign in 6; with these four starts
     // 6 of the 12 are identified at 0.98–1.04 × ideal parts, with the first alone 3).
-    let follow = |w0: &Vec3<f64>, sign: f64| {
-        let (mut w, mut last, mut sum) = (*w0, None::<f64>, 0.0);
-        sets.rates(&mut |t, r| {
-            if let Some(t0) = last {
-                if t > t0 {
-                    w = rk4(&problem.j, &problem.j_inv, &w, t - t0);
-                }
-            }
-            last = Some(t);
-            sum += (0..3)
-                .map(|k| (w[k] - sign * r[k]) * (w[k] - sign * r[k]))
-                .sum::<f64>();
-        });
-        if sum.is_finite() {
-            sum
-        } else {
-            f64::INFINITY
-        }
-    };
-    let followed = [1.0, -1.0].map(|sign| {
-        let mut x = omega0.map(|v| sign * v);
-        if follow(&x, sign) > 0.0 {
-            for step in STEPS {
-                x = nelder_mead(&mut |w| follow(w, sign), x, step * scale);
-            }
-        }
-        x
-    });
-    let starts = [followed[0], followed[1], *omega0, omega0.map(|v| -v)];
+    let starts = starts(&problem, omega0, scale);
     let mut best = starts[0];
     // The search from those starts and, unless one ends at the noise, from six more each, 20 % of |Ω0|
     // off along each axis (measured: from the estimator's rates at 15 s and at 35 s of the
@@ -358,23 +321,7 @@ pub fn identify_tumble<S: Sets + ?Sized, const CAP: usize>(
     // window the more rugged the cost (measured: a 40 s window of one `tumble_variants` case,
     // searched whole, ended 168× the noise off; 20 s found it). No stage is shorter than
     // [`MIN_STAGE_S`].
-    let (mut t_first, mut t_last) = (f64::NAN, f64::NAN);
-    sets.for_each(&mut |t, _| {
-        if t_first.is_nan() {
-            t_first = t;
-        }
-        t_last = t;
-    });
-    let total = t_last - t_first;
-    let mut spans = [f64::INFINITY; 3];
-    let mut stages = 1;
-    while stages < spans.len() && total / (1u32 << stages) as f64 >= MIN_STAGE_S {
-        stages += 1;
-    }
-    for (k, span) in spans.iter_mut().take(stages).enumerate() {
-        *span = total / (1u32 << (stages - 1 - k)) as f64;
-    }
-    spans[stages - 1] = f64::INFINITY;
+    let (spans, stages) = stage_spans(sets);
     // A fit at the noise: whitened cost within twice the channel count.
     let at_noise = 2.0 * nominal.len() as f64;
     let search = |x: Vec3<f64>, evaluations: &mut u32| {
@@ -422,32 +369,7 @@ pub fn identify_tumble<S: Sets + ?Sized, const CAP: usize>(
         };
         Real::sqrt(d(1.0).min(d(-1.0))) < 0.01 * scale
     };
-    let mut kept = 0;
-    for i in 0..candidates.len() {
-        if !(0..kept).any(|j| same(&candidates[j].0, &candidates[i].0)) {
-            candidates[kept] = candidates[i];
-            kept += 1;
-        }
-    }
-    // If any candidate is at the noise, only those go on.
-    if candidates[..kept].iter().any(|c| c.1 <= at_noise) {
-        let mut n = 0;
-        for i in 0..kept {
-            if candidates[i].1 <= at_noise {
-                candidates[n] = candidates[i];
-                n += 1;
-            }
-        }
-        kept = n;
-    } else {
-        // Else the cheapest alone.
-        let cheapest = candidates[..kept]
-            .iter()
-            .copied()
-            .fold((best, f64::INFINITY), |a, c| if c.1 < a.1 { c } else { a });
-        candidates[0] = cheapest;
-        kept = 1;
-    }
+    let kept = distinct_candidates(&mut candidates, &same, at_noise, best);
     // The later stages from each candidate's end.
     for span in spans.iter().take(stages).skip(1) {
         problem.span.set(*span);
@@ -469,28 +391,93 @@ pub fn identify_tumble<S: Sets + ?Sized, const CAP: usize>(
     // noise, Ω then 45 × ideal; another start ended near the true one).
     let (cost, identified) = problem.solve(&best).map_err(TumbleError::Identify)?;
     evaluations += 1;
-    for other in candidates[..kept].iter().filter(|c| c.1 <= at_noise) {
-        if same(&other.0, &best) {
-            continue;
-        }
+    let others = candidates[..kept]
+        .iter()
+        .filter(|c| c.1 <= at_noise && !same(&c.0, &best));
+    for other in others {
         evaluations += 1;
         let (_, b) = problem.solve(&other.0).map_err(TumbleError::Identify)?;
-        let apart = identified
-            .channels()
-            .iter()
-            .zip(b.channels())
-            .any(|(fa, fb)| {
-                let d = difference(fa, fb);
-                Param::ALL.iter().enumerate().any(|(k, p)| {
-                    !fa.is_held(*p) && !fb.is_held(*p) && !(d[k] <= 0.5 * tolerance.of(k))
-                })
-            });
-        if apart {
+        if apart(&identified, &b, tolerance) {
             return Err(TumbleError::Ambiguous {
                 omega0: [best, other.0],
             });
         }
     }
+    check_determined(&identified, nominal)?;
+    let mut identified = identified;
+    let omega0_sd =
+        carry_start_uncertainty(&problem, &best, scale, &mut identified, &mut evaluations)?;
+    identified.scale_noise(Real::sqrt(averaged));
+    Ok(TumbleFit {
+        identified,
+        omega0: best,
+        omega0_sd,
+        cost,
+        evaluations,
+    })
+}
+
+/// The searches' starts: the motions that follow the estimator's rates over the window and
+/// their negatives, the first rate `omega0` and its negative (`scale`: |Ω0|).
+fn starts<S: Sets + ?Sized, const CAP: usize>(
+    problem: &Problem<'_, S, CAP>,
+    omega0: &Vec3<f64>,
+    scale: f64,
+) -> [Vec3<f64>; 4] {
+    let follow = |w0: &Vec3<f64>, sign: f64| {
+        let (mut w, mut last, mut sum) = (*w0, None::<f64>, 0.0);
+        problem.sets.rates(&mut |t, r| {
+            if let Some(t0) = last {
+                if t > t0 {
+                    w = rk4(&problem.j, &problem.j_inv, &w, t - t0);
+                }
+            }
+            last = Some(t);
+            sum += (0..3)
+                .map(|k| (w[k] - sign * r[k]) * (w[k] - sign * r[k]))
+                .sum::<f64>();
+        });
+        if sum.is_finite() {
+            sum
+        } else {
+            f64::INFINITY
+        }
+    };
+    let followed = [1.0, -1.0].map(|sign| {
+        let mut x = omega0.map(|v| sign * v);
+        if follow(&x, sign) > 0.0 {
+            for step in STEPS {
+                x = nelder_mead(&mut |w| follow(w, sign), x, step * scale);
+            }
+        }
+        x
+    });
+    [followed[0], followed[1], *omega0, omega0.map(|v| -v)]
+}
+
+/// Whether two identifications' geometries are apart by more than half a tolerance in a
+/// parameter both determine (the rule that holds a parameter).
+fn apart<const CAP: usize>(
+    a: &Identified<CAP>,
+    b: &Identified<CAP>,
+    tolerance: &Tolerance,
+) -> bool {
+    a.channels().iter().zip(b.channels()).any(|(fa, fb)| {
+        let d = difference(fa, fb);
+        Param::ALL
+            .iter()
+            .enumerate()
+            .any(|(k, p)| !fa.is_held(*p) && !fb.is_held(*p) && !(d[k] <= 0.5 * tolerance.of(k)))
+    })
+}
+
+/// Refuses an identification whose worst channel's residual is beyond [`RESIDUAL_LIMIT`]
+/// times its noise, or that determines too few of the parameters asked for (naming the
+/// channel that holds the most, and a parameter it holds).
+fn check_determined<const CAP: usize>(
+    identified: &super::result::Identified<CAP>,
+    nominal: &Arrangement<CAP>,
+) -> Result<(), TumbleError> {
     let worst = identified
         .channels()
         .iter()
@@ -520,17 +507,7 @@ pub fn identify_tumble<S: Sets + ?Sized, const CAP: usize>(
             .unwrap_or(Param::Scale);
         return Err(TumbleError::NotExcited { channel, param });
     }
-    let mut identified = identified;
-    let omega0_sd =
-        carry_start_uncertainty(&problem, &best, scale, &mut identified, &mut evaluations)?;
-    identified.scale_noise(Real::sqrt(averaged));
-    Ok(TumbleFit {
-        identified,
-        omega0: best,
-        omega0_sd,
-        cost,
-        evaluations,
-    })
+    Ok(())
 }
 
 /// The start rate's uncertainty, carried into every parameter's deviation: its covariance
@@ -657,69 +634,6 @@ fn difference(a: &ChannelFit, b: &ChannelFit) -> [f64; PARAMS] {
         d(ca.position[2], cb.position[2]),
         d(ca.bias, cb.bias),
     ]
-}
-
-/// Nelder–Mead over three variables from `x0` with an initial simplex of `step` along each
-/// axis, at most [`ITERATIONS`] iterations (fewer once the simplex has shrunk to 10⁻⁶ of
-/// `step`); returns the best vertex.
-fn nelder_mead(f: &mut dyn FnMut(&Vec3<f64>) -> f64, x0: Vec3<f64>, step: f64) -> Vec3<f64> {
-    let mut pts = [(x0, 0.0); 4];
-    for (i, p) in pts.iter_mut().enumerate() {
-        if i > 0 {
-            p.0[i - 1] += step;
-        }
-        p.1 = f(&p.0);
-    }
-    let order = |pts: &mut [(Vec3<f64>, f64); 4]| {
-        // Insertion sort by cost, infinities last (four vertices).
-        for i in 1..4 {
-            let mut k = i;
-            while k > 0 && pts[k].1 < pts[k - 1].1 {
-                pts.swap(k, k - 1);
-                k -= 1;
-            }
-        }
-    };
-    for _ in 0..ITERATIONS {
-        order(&mut pts);
-        // Settled: the simplex has shrunk to 10⁻⁶ of its first size.
-        let spread = pts[1..]
-            .iter()
-            .flat_map(|p| (0..3).map(move |k| (p.0[k] - pts[0].0[k]).abs()))
-            .fold(0.0, f64::max);
-        if spread < 1e-6 * step {
-            break;
-        }
-        let c: Vec3<f64> =
-            core::array::from_fn(|k| (pts[0].0[k] + pts[1].0[k] + pts[2].0[k]) / 3.0);
-        let along = |s: f64, worst: &Vec3<f64>| -> Vec3<f64> {
-            core::array::from_fn(|k| c[k] + s * (worst[k] - c[k]))
-        };
-        let worst = pts[3].0;
-        let xr = along(-1.0, &worst);
-        let fr = f(&xr);
-        if fr < pts[0].1 {
-            let xe = along(-2.0, &worst);
-            let fe = f(&xe);
-            pts[3] = if fe < fr { (xe, fe) } else { (xr, fr) };
-        } else if fr < pts[2].1 {
-            pts[3] = (xr, fr);
-        } else {
-            let xc = along(0.5, &worst);
-            let fc = f(&xc);
-            if fc < pts[3].1 {
-                pts[3] = (xc, fc);
-            } else {
-                let b = pts[0].0;
-                for p in pts.iter_mut().skip(1) {
-                    p.0 = core::array::from_fn(|k| b[k] + 0.5 * (p.0[k] - b[k]));
-                    p.1 = f(&p.0);
-                }
-            }
-        }
-    }
-    order(&mut pts);
-    pts[0].0
 }
 
 #[cfg(test)]

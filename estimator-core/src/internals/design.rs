@@ -251,6 +251,36 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
             *dst = src.cast();
         }
         self.tq_diag_known = model == Model::General && tq_structured(&tq, k);
+        self.build_covariances(&pinv, n, &tq, k, v);
+        self.build_linear_s(&mq, m);
+        self.build_linear_o(&mq, m, model);
+        self.general_cov = None;
+        if model == Model::General {
+            if let Some(gc) = general_covariance(&pinv, n, &mq, &tq, m, v) {
+                self.general_cov = Some(gc.cast());
+            }
+        }
+        for (dst, src) in self.frame.iter_mut().zip(v.iter()) {
+            for (d, s) in dst.iter_mut().zip(src.iter()) {
+                *d = T::of(*s);
+            }
+        }
+        self.identity = (0..3).all(|r| (0..3).all(|c| v[r][c] == if r == c { 1.0 } else { 0.0 }));
+        Ok(())
+    }
+
+    /// The linear solve's covariance blocks (σ0, Ω′, and the third block of model G's nine
+    /// columns) per unit noise, and, for σ0 and Ω′ in body axes, the `T` forms and variances
+    /// of each component (`pinv`: the pseudo-inverse's rows over `n` channels, `tq` its forms,
+    /// `k` the linear unknowns, `v` the frame).
+    fn build_covariances(
+        &mut self,
+        pinv: &[[f64; CAP]; MAX_COLS],
+        n: usize,
+        tq: &[Sym3<f64>; MAX_COLS],
+        k: usize,
+        v: &Mat3<f64>,
+    ) {
         for b in 0..3 {
             let mut blk = [[0.0f64; 3]; 3];
             if 3 * b + 2 < k {
@@ -278,21 +308,6 @@ impl<T: Real, const CAP: usize> Projection<T, CAP> {
                 }
             }
         }
-        self.build_linear_s(&mq, m);
-        self.build_linear_o(&mq, m, model);
-        self.general_cov = None;
-        if model == Model::General {
-            if let Some(gc) = general_covariance(&pinv, n, &mq, &tq, m, v) {
-                self.general_cov = Some(gc.cast());
-            }
-        }
-        for (dst, src) in self.frame.iter_mut().zip(v.iter()) {
-            for (d, s) in dst.iter_mut().zip(src.iter()) {
-                *d = T::of(*s);
-            }
-        }
-        self.identity = (0..3).all(|r| (0..3).all(|c| v[r][c] == if r == c { 1.0 } else { 0.0 }));
-        Ok(())
     }
 
     /// `L_o` for model G (see [`Projection::lin_o`]): columns `2 (M₁₂, M₁₃, M₂₃)` of the forms.

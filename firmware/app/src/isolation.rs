@@ -17,7 +17,7 @@ use estimator_core::ChannelMask;
 use crate::config::{AppConfig, MAX_CHANNELS, MAX_PARTS};
 
 /// The firmware's supervisor: f32, up to [`MAX_CHANNELS`] channels.
-pub type FwSupervisor = Supervisor<f32, MAX_CHANNELS>;
+pub type FwSupervisor = Supervisor<f32, MAX_CHANNELS, MAX_PARTS>;
 
 /// The supervisor and what the events have told the ground.
 pub struct Isolation {

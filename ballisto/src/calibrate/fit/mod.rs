@@ -29,13 +29,14 @@
 
 use super::kinematics::RelativeRotation;
 use super::scatter::Scatter;
-use nalgebra::{Matrix3, SVector, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, SVector, Vector3};
 
 pub use estimator_core::identify::Tolerance;
 use estimator_core::identify::{too_few_determined, ChannelFit, Param, PARAMS};
 use estimator_core::Channel;
 
 mod fields;
+mod finish;
 mod residuals;
 mod step;
 #[cfg(test)]
@@ -44,6 +45,7 @@ mod tests;
 pub use fields::array_fields;
 pub(super) use fields::pose_gravity;
 use fields::*;
+use finish::*;
 pub use residuals::{residuals, Residuals};
 use step::*;
 
@@ -347,6 +349,21 @@ pub struct Identification {
 pub const CONVERGED_STEP: f64 = 0.01;
 
 /// Runs the identification (see the module doc). `nominal` is the arrangement as drawn.
+///
+/// Without a reference, Ω comes from the estimator on the geometry being identified: the fit
+/// starts from the static poses alone (the parameters they determine), so that the first
+/// field is not the uncalibrated one. Ω at every motion sample is the reference's, or
+/// (self-calibration) the estimator's on the geometry after the static poses, then refined
+/// with the field at every alternation. The record is weighted by the declared noise first;
+/// once that fit has converged, by each kind of datum's measured scatter ([`Scatter`]), from
+/// where the motion's stage started: the directions the reweighted record no longer
+/// determines stay where that start put them; the scatter is measured once the
+/// declared-noise fit has settled to [`SETTLED_COST`] of its cost (the residuals it measures
+/// are then as good as converged): on a record the model does not fit, that fit only finds the
+/// weights, and its slow tail cost as much as the reweighted fit. The identified subspace is
+/// decided on the third iteration of a stage (the first ones may start far from the solution)
+/// and then kept, so that directions near the threshold do not flip in and out and the
+/// iteration converges.
 pub fn identify(
     nominal: &[Geometry],
     record: &Record,
@@ -363,33 +380,21 @@ pub fn identify(
     let mut step = JointStep::default();
     let mut iterations = 0;
     let mut last_step = f64::INFINITY;
-    // Without a reference, Ω comes from the estimator on the geometry being identified: start
-    // from the static poses alone (the parameters they determine), so that the first field
-    // is not the uncalibrated one.
     let self_calibration = matches!(rate, RateSource::Estimator(_));
     let statics_first = self_calibration && !record.poses.is_empty();
-    // Ω at every motion sample: the reference's, or (self-calibration) the estimator's on the
-    // geometry after the static poses, then refined with the field at every alternation.
     let mut omega: Option<Vec<Option<Vector3<f64>>>> = None;
     let mut frozen: Option<JointStep> = None;
     let mut flat = 0;
     let mut stage_start = if statics_first { MAX_ITERATIONS / 3 } else { 0 };
     let motion_iterations = MAX_ITERATIONS - stage_start;
-    // Weighted by the declared noise first; once that fit has converged, by each kind of
-    // datum's measured scatter ([`Scatter`]), from where the motion's stage started: the
-    // directions the reweighted record no longer determines stay where that start put them.
     let mut scatter = Scatter::white(nominal);
     let mut motion_start: Option<Vec<Geometry>> = None;
     let mut weights_final = false;
     let mut limit = MAX_ITERATIONS;
     let poses_only = Record {
-        rows: record.rows,
-        times: record.times,
-        poses: record.poses,
         motion: &[],
-        gamma: record.gamma,
-        progress: record.progress,
         rate_prior: None,
+        ..*record
     };
     let free_omega = omega_unknown(rate, record);
     for it in 0.. {
@@ -407,22 +412,8 @@ pub fn identify(
         if it == stage_start && motion_start.is_none() {
             motion_start = Some(geo.clone());
         }
-        if !record.motion.is_empty() && omega.is_none() {
-            omega = Some(initial_rates(&geo, record, rate)?);
-        }
-        let fields = match &omega {
-            Some(w) => motion_fields(&geo, record, w, free_omega),
-            None => Vec::new(),
-        };
-        if free_omega && !record.motion.is_empty() {
-            omega = Some(fields.iter().map(|f| f.map(|f| f.omega)).collect());
-        }
-        let gravity = pose_gravity(&geo, record.poses, &scatter);
-        let (normal, rhs) =
-            joint_normal_equations(&geo, record, &fields, &gravity, free_omega, &scatter);
-        // The identified subspace is decided on the third iteration of a stage (the first
-        // ones may start far from the solution) and then kept, so that directions near the
-        // threshold do not flip in and out and the iteration converges.
+        let probe = Probe::new(record, free_omega, &scatter);
+        let (normal, rhs, motion_fields) = normal_equations(&geo, &probe, rate, &mut omega)?;
         let at = if std::ptr::eq(stage, &poses_only) {
             it
         } else {
@@ -438,53 +429,22 @@ pub fn identify(
         };
         if at == 2 {
             frozen = Some(step.clone());
-            // A record that determines fewer than half of the parameters asked for is
-            // refused by the caller ("not exciting enough"): stop here rather than slide
-            // along what it does not determine (one pose with a little motion moved a scale
-            // out of range in 30 alternations).
-            let mask = fit.mask();
-            let asked = (0..7 * n).filter(|&p| mask[p % 7]).count();
-            let determined = (0..7 * n)
-                .filter(|&p| mask[p % 7] && step.sd[p].is_finite())
-                .count();
             let last_stage = !std::ptr::eq(stage, &poses_only);
-            if last_stage && too_few_determined(determined, asked) {
+            if last_stage && determines_too_few(&step, fit, n) {
                 last_step = f64::INFINITY;
                 break;
             }
         }
-        let largest = (0..7 * n)
-            .map(|p| (step.delta[p] / tol.of(p % 7)).abs())
-            .fold(0.0f64, f64::max);
-        // Trust region: no parameter moves more than MAX_STEP tolerances in one step (far
-        // from the solution the linearisation, and a field from an uncalibrated estimator,
-        // would otherwise throw the iteration out).
+        let (largest, shrink) = trust_region(&step, tol, n);
         last_step = largest;
-        let shrink = if largest > MAX_STEP {
-            MAX_STEP / largest
-        } else {
-            1.0
-        };
         let seeds = omega.clone().unwrap_or_default();
-        let moved = |scale: f64| {
-            let mut trial = geo.clone();
-            for (i, g) in trial.iter_mut().enumerate() {
-                let d = SVector::<f64, 7>::from_fn(|j, _| step.delta[7 * i + j] * scale);
-                apply(g, &d);
-            }
-            trial
+        let probe = Probe {
+            record,
+            seeds: &seeds,
+            free_omega,
+            scatter: &scatter,
         };
-        let before = cost(&geo, record, &seeds, free_omega, &scatter);
-        let mut scale = shrink;
-        let mut trial = moved(scale);
-        let mut halvings = 0;
-        let mut after = cost(&trial, record, &seeds, free_omega, &scatter);
-        while halvings < MAX_HALVINGS && after > before {
-            scale *= 0.5;
-            trial = moved(scale);
-            after = cost(&trial, record, &seeds, free_omega, &scatter);
-            halvings += 1;
-        }
+        let (trial, scale, before, after) = line_search(&geo, &step, &probe, shrink);
         // A step that raises the cost even shortened is not taken. Converged on the cost when
         // no step lowers it by more than a part in 10⁷ any more (the Gauss–Newton step can
         // stay finite along directions the cost is flat in: a real board's misfit).
@@ -492,54 +452,28 @@ pub fn identify(
         if descends {
             geo = trial;
         }
-        if let Some((i, g)) = geo
-            .iter()
-            .enumerate()
-            .find(|(_, g)| !(g.scale > 0.5 && g.scale < 2.0 && g.bias.is_finite()))
-        {
-            return Err(format!(
-                "the identification diverged: after {} alternations channel {i} (arrangement order, from 0) has scale {:.3} and bias {:.3} m/s², outside any part's range; the record does not determine them (in free fall, without static poses, a channel's scale and its lever arm are seen only as their product): nothing written",
-                it + 1,
-                g.scale,
-                g.bias
-            ));
-        }
-        flat = if !descends || before - after <= 1e-7 * before {
-            flat + 1
-        } else {
+        check_in_range(&geo, it)?;
+        flat = if descends && before - after > 1e-7 * before {
             0
+        } else {
+            flat + 1
         };
         if flat >= FLAT_ITERATIONS {
             last_step = 0.0;
         }
         log::debug!(
-            "iteration {it}: largest scaled step {largest:.3e} (taken × {scale:.3}), cost {before:.6e} -> {after:.6e}, motion fields {}",
-            fields.iter().filter(|f| f.is_some()).count()
+            "iteration {it}: largest scaled step {largest:.3e} (taken × {scale:.3}), cost {before:.6e} -> {after:.6e}, motion fields {motion_fields}"
         );
         let converged = largest < 1e-10 || flat >= FLAT_ITERATIONS;
-        // The scatter is measured once the declared-noise fit has settled to a part in a
-        // thousand of its cost (the residuals it measures are then as good as converged): on
-        // a record the model does not fit, that fit only finds the weights, and its slow
-        // tail cost as much as the reweighted fit (a one-hour record: 74 s).
         let settled = !weights_final && descends && before - after <= SETTLED_COST * before;
         if converged || settled {
             if statics_first && it < MAX_ITERATIONS / 3 {
                 continue;
             }
             if !weights_final {
-                // Reweighted once. Helmert's iteration would go on until the scatter settles
-                // — a misfit in motion drags the parameters the poses fix, so their floor
-                // comes out high at first and the deviations conservative (error/sd 0.63 RMS
-                // on the misfit test, 0.78 after three reweightings) — but on the real board
-                // each further reweighting raised the self-calibration's declared motion
-                // noise, the estimator left more samples undecided (6 525 → 4 538 on exp4)
-                // and the kinematic tie turned the axes by 0.24 rad: Ω 6.9 rad/s RMS against
-                // 2.8 after one.
                 weights_final = true;
-                let measured =
-                    measured_scatter(&geo, record, omega.as_deref(), &scatter, free_omega);
-                let pose_len = record.poses.iter().map(|p| p.samples.len()).max();
-                if scatter.reweights(&measured, pose_len.unwrap_or(1)) {
+                let probe = Probe::new(record, free_omega, &scatter);
+                if let Some(measured) = reweighted(&geo, &probe, omega.as_deref()) {
                     log::debug!("reweighted: {measured:?}");
                     scatter = measured;
                     geo = motion_start.clone().unwrap_or_else(|| nominal.to_vec());
@@ -558,67 +492,97 @@ pub fn identify(
             }
         }
     }
-    // With a reference of inexact scale, its common factor and the array's size are one
-    // freedom ([`RatePrior`]): the size is held at the drawing's and the factor follows
-    // (exact for the array's own Ω: its readings do not change).
-    let prior = record.rate_prior.map(|p| {
-        let k = size(nominal) / size(&geo);
-        grow(&mut geo, k);
-        RatePrior {
-            scale: p.scale / k.sqrt(),
-            ..p
-        }
-    });
-    let kinematic = match &omega {
-        Some(w) if self_calibration => tie_kinematics(&mut geo, record, w),
-        _ => None,
+    finish(
+        nominal,
+        record,
+        rate,
+        tol,
+        Fitted {
+            geo,
+            omega: omega.filter(|_| self_calibration),
+            scatter,
+            step,
+            residual_before,
+            iterations,
+            last_step,
+        },
+    )
+}
+
+/// The joint normal equations at `geo` ([`joint_normal_equations`]) with the field of every
+/// motion sample from `omega` (the rates, first from `rate`; updated when Ω is free) and the
+/// poses' gravity; also how many motion samples have a field.
+fn normal_equations(
+    geo: &[Geometry],
+    probe: &Probe,
+    rate: &RateSource,
+    omega: &mut Option<Vec<Option<Vector3<f64>>>>,
+) -> Result<(DMatrix<f64>, DVector<f64>, usize), String> {
+    let (record, free_omega, scatter) = (probe.record, probe.free_omega, probe.scatter);
+    if !record.motion.is_empty() && omega.is_none() {
+        *omega = Some(initial_rates(geo, record, rate)?);
+    }
+    let fields = match omega.as_ref() {
+        Some(w) => motion_fields(geo, record, w, free_omega),
+        None => Vec::new(),
     };
-    for (g, w) in geo.iter_mut().zip(scatter.white.iter()) {
-        // The geometry's noise is the white noise again (the motion's scatter was the fit's
-        // weight).
-        g.noise = *w;
+    if free_omega && !record.motion.is_empty() {
+        *omega = Some(fields.iter().map(|f| f.map(|f| f.omega)).collect());
     }
-    let fitted = Record {
-        rate_prior: prior,
-        ..*record
+    let gravity = pose_gravity(geo, record.poses, scatter);
+    let (normal, rhs) = joint_normal_equations(geo, record, &fields, &gravity, free_omega, scatter);
+    Ok((normal, rhs, fields.iter().filter(|f| f.is_some()).count()))
+}
+
+/// A record that determines fewer than half of the parameters asked for is refused by the
+/// caller ("not exciting enough"): the alternations stop there rather than slide along what
+/// it does not determine (one pose with a little motion moved a scale out of range in 30
+/// alternations).
+fn determines_too_few(step: &JointStep, fit: FitSet, n: usize) -> bool {
+    let mask = fit.mask();
+    let asked = (0..7 * n).filter(|&p| mask[p % 7]).count();
+    let determined = (0..7 * n)
+        .filter(|&p| mask[p % 7] && step.sd[p].is_finite())
+        .count();
+    too_few_determined(determined, asked)
+}
+
+/// The step's largest move in tolerances, and the factor that keeps it within the trust
+/// region: no parameter moves more than [`MAX_STEP`] tolerances in one step (far from the
+/// solution the linearisation, and a field from an uncalibrated estimator, would otherwise
+/// throw the iteration out).
+fn trust_region(step: &JointStep, tol: &Tolerance, n: usize) -> (f64, f64) {
+    let largest = (0..7 * n)
+        .map(|p| (step.delta[p] / tol.of(p % 7)).abs())
+        .fold(0.0f64, f64::max);
+    let shrink = if largest > MAX_STEP {
+        MAX_STEP / largest
+    } else {
+        1.0
     };
-    let residual_after = residuals(&geo, &fitted, rate)?;
-    let channels = (0..n)
-        .map(|i| Identified {
-            geometry: geo[i],
-            sd: core::array::from_fn(|j| step.sd[7 * i + j]),
-            held: step.held[i].clone(),
-            residual_rms: (
-                residual_before.per_channel[i],
-                residual_after.per_channel[i],
-            ),
-            rest_scatter: scatter.at_rest(i),
-        })
-        .collect();
-    let mut frame = super::frame::uncertainty(&geo, &step.error_covariance(n), tol);
-    let mut conventions = step.common;
-    if let Some(p) = prior {
-        // The size is held as a gauge is: only as good as the drawing.
-        frame.size = frame.size.hypot(super::frame::held_size(&geo, tol));
-        conventions.push(format!(
-            "the array's size: held at the drawing's (with a reference of inexact scale the size and the reference's common scale factor are one freedom; the factor is fitted: {:.4})",
-            p.scale
-        ));
-    }
-    if let Some(k) = kinematic.as_ref().filter(|k| k.holds()) {
-        frame.relative_rotation = k.sd.max();
-    }
-    Ok(Identification {
-        channels,
-        conventions,
-        reference_scale: prior.map(|p| p.scale),
-        tolerance: *tol,
-        iterations,
-        last_step,
-        frame,
-        residuals: (residual_before, residual_after),
-        kinematic,
-    })
+    (largest, shrink)
+}
+
+/// The weights measured on `geo` ([`measured_scatter`]), if they call for reweighting
+/// ([`Scatter::reweights`]). Reweighted once: Helmert's iteration would go on until the
+/// scatter settles — a misfit in motion drags the parameters the poses fix, so their floor
+/// comes out high at first and the deviations conservative (error/sd 0.63 RMS on the misfit
+/// test, 0.78 after three reweightings) — but on the real board each further reweighting
+/// raised the self-calibration's declared motion noise, the estimator left more samples
+/// undecided (6 525 → 4 538 on exp4) and the kinematic tie turned the axes by 0.24 rad: Ω
+/// 6.9 rad/s RMS against 2.8 after one.
+fn reweighted(
+    geo: &[Geometry],
+    probe: &Probe,
+    omega: Option<&[Option<Vector3<f64>>]>,
+) -> Option<Scatter> {
+    let record = probe.record;
+    let measured = measured_scatter(geo, record, omega, probe.scatter, probe.free_omega);
+    let pose_len = record.poses.iter().map(|p| p.samples.len()).max();
+    probe
+        .scatter
+        .reweights(&measured, pose_len.unwrap_or(1))
+        .then_some(measured)
 }
 
 /// Iterations in a row that leave the cost unchanged before the fit counts as converged.

@@ -420,3 +420,82 @@ pub(super) fn apply(g: &mut Geometry, d: &SVector<f64, 7>) {
     g.position += Vector3::new(d[3], d[4], d[5]);
     g.bias += d[6];
 }
+
+/// What a cost is evaluated on: the record, the motion's Ω seeds, whether Ω is free, the
+/// weights.
+pub(super) struct Probe<'a> {
+    pub(super) record: &'a Record<'a>,
+    pub(super) seeds: &'a [Option<Vector3<f64>>],
+    pub(super) free_omega: bool,
+    pub(super) scatter: &'a Scatter,
+}
+
+impl<'a> Probe<'a> {
+    /// A probe without Ω seeds (the field's own).
+    pub(super) fn new(record: &'a Record<'a>, free_omega: bool, scatter: &'a Scatter) -> Self {
+        Probe {
+            record,
+            seeds: &[],
+            free_omega,
+            scatter,
+        }
+    }
+}
+
+/// The step `step` taken from `geo` at `shrink` (the trust region), halved while it raises
+/// the cost (at most [`MAX_HALVINGS`] times): the trial geometry, the scale taken, and the
+/// cost before and after.
+pub(super) fn line_search(
+    geo: &[Geometry],
+    step: &JointStep,
+    probe: &Probe,
+    shrink: f64,
+) -> (Vec<Geometry>, f64, f64, f64) {
+    let moved = |scale: f64| {
+        let mut trial = geo.to_vec();
+        for (i, g) in trial.iter_mut().enumerate() {
+            let d = SVector::<f64, 7>::from_fn(|j, _| step.delta[7 * i + j] * scale);
+            apply(g, &d);
+        }
+        trial
+    };
+    let cost_of = |g: &[Geometry]| {
+        cost(
+            g,
+            probe.record,
+            probe.seeds,
+            probe.free_omega,
+            probe.scatter,
+        )
+    };
+    let before = cost_of(geo);
+    let mut scale = shrink;
+    let mut trial = moved(scale);
+    let mut halvings = 0;
+    let mut after = cost_of(&trial);
+    while halvings < MAX_HALVINGS && after > before {
+        scale *= 0.5;
+        trial = moved(scale);
+        after = cost_of(&trial);
+        halvings += 1;
+    }
+    (trial, scale, before, after)
+}
+
+/// Refuses a geometry whose scale or bias has left any part's range after `it` alternations:
+/// the record does not determine them.
+pub(super) fn check_in_range(geo: &[Geometry], it: usize) -> Result<(), String> {
+    if let Some((i, g)) = geo
+        .iter()
+        .enumerate()
+        .find(|(_, g)| !(g.scale > 0.5 && g.scale < 2.0 && g.bias.is_finite()))
+    {
+        return Err(format!(
+            "the identification diverged: after {} alternations channel {i} (arrangement order, from 0) has scale {:.3} and bias {:.3} m/s², outside any part's range; the record does not determine them (in free fall, without static poses, a channel's scale and its lever arm are seen only as their product): nothing written",
+            it + 1,
+            g.scale,
+            g.bias
+        ));
+    }
+    Ok(())
+}

@@ -2,7 +2,7 @@
 
 use super::*;
 use estimator_core::G0;
-use nalgebra::{DMatrix, DVector, SymmetricEigen};
+use nalgebra::SymmetricEigen;
 
 /// The joint normal matrix with the field projected out is positive semi-definite (a
 /// Schur complement), to round-off.

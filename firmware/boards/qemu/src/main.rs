@@ -433,6 +433,32 @@ mod board {
         }
     }
 
+    /// The boot's parts, sets and uplink script: the built-in demo, or the tumble (chosen on
+    /// the semihosting command line); boot 1 in free flight for the identification, boot 2
+    /// with the scenario's faults, boot 3 without.
+    fn scenario(tumbling: bool, stage: Stage) -> (Synthetic, u32, Script) {
+        match (tumbling, stage) {
+            (false, Stage::One) => {
+                let source = Synthetic::new(&demo::truth(), None, None).in_free_flight();
+                (source, BOOT1_SETS, demo::identification)
+            }
+            (false, Stage::Two) => {
+                let source = Synthetic::new(&demo::truth(), Some(demo::OUTAGE), Some(demo::STUCK));
+                (source, SETS, demo::script)
+            }
+            (_, Stage::Three) => {
+                let source = Synthetic::new(&demo::truth(), None, None);
+                (source, BOOT3_SETS, demo::quiet)
+            }
+            (true, Stage::One) => (
+                tumble::source(Some(tumble::OUTAGE)),
+                tumble::BOOT1_SETS,
+                tumble::identification,
+            ),
+            (true, Stage::Two) => (tumble::source(None), tumble::SETS, demo::quiet),
+        }
+    }
+
     #[embassy_executor::main]
     async fn main(spawner: Spawner) {
         let Some(mut p) = cortex_m::Peripherals::take() else {
@@ -544,28 +570,8 @@ mod board {
         app.attach_builds(builds);
         app.attach_identifier(identifier);
         let app = APP.init(app);
-        // The parts as mounted (`demo::truth`); boot 1 in free flight for the identification,
-        // boot 2 with the scenario's faults, boot 3 without.
-        let (source, sets, script): (Synthetic, u32, Script) = match (tumbling, stage) {
-            (false, Stage::One) => {
-                let source = Synthetic::new(&demo::truth(), None, None).in_free_flight();
-                (source, BOOT1_SETS, demo::identification)
-            }
-            (false, Stage::Two) => {
-                let source = Synthetic::new(&demo::truth(), Some(demo::OUTAGE), Some(demo::STUCK));
-                (source, SETS, demo::script)
-            }
-            (_, Stage::Three) => {
-                let source = Synthetic::new(&demo::truth(), None, None);
-                (source, BOOT3_SETS, demo::quiet)
-            }
-            (true, Stage::One) => (
-                tumble::source(Some(tumble::OUTAGE)),
-                tumble::BOOT1_SETS,
-                tumble::identification,
-            ),
-            (true, Stage::Two) => (tumble::source(None), tumble::SETS, demo::quiet),
-        };
+        // The parts as mounted (`demo::truth`).
+        let (source, sets, script) = scenario(tumbling, stage);
         let source = SOURCE.init(source);
         let tm = TELEMETRY.init(Telemetry::new(file));
         spawner.spawn(identification(identifier, WINDOW.init_with(Identification::new)).unwrap());
