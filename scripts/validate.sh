@@ -37,6 +37,17 @@ e2e() {
   cargo nextest run -p e2e-tests --test "$1" --run-ignored "$ignored" --no-capture 2>/dev/null | figures
 }
 
+# One e2e test file's table: the header given, then the rows its tests print (lines starting
+# with "|"), sorted by case.
+e2e_table() {
+  step "tests/tests/$1.rs (table)"
+  echo
+  echo "$2"
+  echo "$2" | sed 's/[^|]\+/---/g'
+  cargo nextest run -p e2e-tests --test "$1" --no-capture 2>/dev/null | grep '^|' | sort || true
+  echo
+}
+
 step "building"
 cargo build -q --bin ballisto
 ballisto=./target/debug/ballisto
@@ -55,9 +66,10 @@ representative subset of each sweep on every change.
 ## Accuracy against the maximum likelihood (ideal parts)
 
 The truth-started multi-start maximum likelihood of the same readings is the reference; a ratio
-of 1.00 is as good as the data allow. \`tests/tests/accuracy_vs_ml.rs\`.
+of 1.00 is as good as the data allow; "raw" is the per-sample estimate, "filtered" with the
+rate filter. \`tests/tests/accuracy_vs_ml.rs\`.
 EOF
-  e2e accuracy_vs_ml
+  e2e_table accuracy_vs_ml "| case | parts | mode | RMS σ0 (m/s²) | RMS Ω′ (rad/s²) | RMS Ω (rad/s) | RMS A (1/s²) | bound | verdict |"
   cat <<EOF
 ## Branch lock of the nine-channel ballistometer (ideal parts apart from mounting jitter)
 
