@@ -34,11 +34,11 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
     match cli.command {
         Command::Estimate(args) => cli::estimate::estimate(args, say, started),
         Command::Sim(args) => cli::sim::sim(args, say, started),
-        Command::Decode(args) => cli::telemetry::decode(args, say, started),
+        Command::Decode(args) => cli::telemetry::decode(args, say),
         Command::Calibrate(args) => cli::estimate::calibrate(args, say, started),
-        Command::Com(args) => cli::estimate::com(args, say, started),
-        Command::Compare(args) => cli::telemetry::compare(args, say, started),
-        Command::Tc(args) => cli::tc::tc(args, say, started),
+        Command::Com(args) => cli::estimate::com(args, say),
+        Command::Compare(args) => cli::telemetry::compare(args, say),
+        Command::Tc(args) => cli::tc::tc(args, say),
     }
 }
 

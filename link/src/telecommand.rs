@@ -267,13 +267,7 @@ type Refusal = (FailureCode, u32);
 
 /// The application data of TC[`s`,`st`].
 fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refusal> {
-    let length = |n: usize| {
-        if data.len() == n {
-            Ok(())
-        } else {
-            Err((FailureCode::DataLength, n as u32))
-        }
-    };
+    let length = |n: usize| exact_length(data, n);
     let mut g = Get::new(data);
     match (s, st) {
         (service::BALLISTOMETER, subtype::SET_MODE) => {
@@ -384,13 +378,7 @@ fn command(s: u8, st: u8, data: &[u8], ctx: Context) -> Result<Command<'_>, Refu
 /// TC[200,8]'s data: the source (reference or torque-free tumble), the period and window,
 /// and for a tumble the inertia (finite, positive definite).
 fn start_identification(data: &[u8]) -> Result<Command<'_>, Refusal> {
-    let length = |n: usize| {
-        if data.len() == n {
-            Ok(())
-        } else {
-            Err((FailureCode::DataLength, n as u32))
-        }
-    };
+    let length = |n: usize| exact_length(data, n);
     let mut g = Get::new(data);
     let source = *data.first().ok_or((FailureCode::DataLength, 7))?;
     match source {
@@ -462,6 +450,15 @@ fn reference_rate(data: &[u8]) -> Result<Command<'_>, Refusal> {
         }
     }
     Ok(Command::ReferenceRate(data))
+}
+
+/// Data of exactly `n` octets, or the refusal that names the length expected.
+fn exact_length(data: &[u8], n: usize) -> Result<(), Refusal> {
+    if data.len() == n {
+        Ok(())
+    } else {
+        Err((FailureCode::DataLength, n as u32))
+    }
 }
 
 /// A real field: finite and at most `max` in magnitude.

@@ -102,13 +102,7 @@ impl Tally {
 /// same for the same `runs`), sized by that part's own noise (in the mixed layout a LIS3DH's
 /// σ is 13 times an ADXL355's).
 pub fn fault_matrix(runs: u64, layout: fn(u64) -> Scenario) -> (Tally, Vec<(&'static str, Tally)>) {
-    let mut rng = 0x9E37_79B9_7F4A_7C15u64;
-    let mut next = move || {
-        rng ^= rng << 13;
-        rng ^= rng >> 7;
-        rng ^= rng << 17;
-        (rng >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = draws(0x9E37_79B9_7F4A_7C15u64);
     let mut clean = Tally::default();
     for seed in 0..runs {
         clean.add(&fault_run(&layout(1000 + seed), None));
@@ -122,13 +116,7 @@ pub fn fault_matrix(runs: u64, layout: fn(u64) -> Scenario) -> (Tally, Vec<(&'st
         let mut tally = Tally::default();
         for seed in 0..runs {
             let mut sc = layout(2000 + seed);
-            let part = (next() * sc.parts.len() as f64) as usize % sc.parts.len();
-            let faulty = &sc.parts[part];
-            let (_, spec) = kinds(
-                sc.channel_noise(faulty),
-                faulty.noise_density.unwrap_or(0.0),
-            )
-            .swap_remove(k);
+            let (part, spec) = drawn_fault(&sc, k, &mut next);
             let start = 3.0 + 4.0 * next();
             let bursts = if name.starts_with(INTERMITTENT) {
                 // Three bursts from 2–4 s: the window spans their pattern, and the run goes

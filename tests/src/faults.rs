@@ -546,6 +546,30 @@ pub(crate) fn burst_times(name: &str, s0: f64, draw: &mut impl FnMut() -> f64) -
     out
 }
 
+/// Uniform draws in [0, 1) from `seed` (xorshift64): the same sequence for the same seed.
+pub fn draws(seed: u64) -> impl FnMut() -> f64 {
+    let mut x = seed;
+    move || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// Fault kind `k` of [`kinds`] in a part of `sc` drawn by `next`, sized by that part's own
+/// noise: (the part, the fault).
+pub fn drawn_fault(sc: &Scenario, k: usize, next: &mut impl FnMut() -> f64) -> (usize, FaultSpec) {
+    let part = (next() * sc.parts.len() as f64) as usize % sc.parts.len();
+    let faulty = &sc.parts[part];
+    let (_, spec) = kinds(
+        sc.channel_noise(faulty),
+        faulty.noise_density.unwrap_or(0.0),
+    )
+    .swap_remove(k);
+    (part, spec)
+}
+
 /// Adds fault `spec` to part `part` of `sc` over each of `windows` (start, end; s).
 pub fn inject(sc: &mut Scenario, part: usize, spec: &FaultSpec, windows: &[(f64, f64)]) {
     for (start, end) in windows {

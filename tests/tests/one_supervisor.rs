@@ -5,7 +5,7 @@
 //! model F, gives the same parts out and the same rows flagged 64 on both.
 
 use e2e_tests::csv::read_columns;
-use e2e_tests::faults::{firmware_then_host, inject, kinds};
+use e2e_tests::faults::{drawn_fault, draws, firmware_then_host, inject, kinds};
 use estimator_core::Flags;
 use hal_sim::scenario::Scenario;
 
@@ -36,23 +36,11 @@ fn differences(sc: &Scenario, tag: &str) -> (usize, usize, usize) {
 
 /// Every kind of [`kinds`] in a part drawn per kind, from a time drawn in 3–6 s, for 3 s.
 fn every_kind_agrees(name: &str, layout: fn(u64) -> Scenario) {
-    let mut draw = 0x2545_F491_4F6C_DD1Du64;
-    let mut next = move || {
-        draw ^= draw << 13;
-        draw ^= draw >> 7;
-        draw ^= draw << 17;
-        (draw >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = draws(0x2545_F491_4F6C_DD1Du64);
     let mut report = Vec::new();
     for (k, (kind, _)) in kinds(1.0, 1.0).into_iter().enumerate() {
         let mut sc = layout(7000 + k as u64);
-        let part = (next() * sc.parts.len() as f64) as usize % sc.parts.len();
-        let faulty = &sc.parts[part];
-        let (_, spec) = kinds(
-            sc.channel_noise(faulty),
-            faulty.noise_density.unwrap_or(0.0),
-        )
-        .swap_remove(k);
+        let (part, spec) = drawn_fault(&sc, k, &mut next);
         let start = 3.0 + 3.0 * next();
         inject(&mut sc, part, &spec, &[(start, start + 3.0)]);
         let (excluded, flagged, rows) = differences(&sc, &format!("{name}-{k}"));

@@ -55,7 +55,6 @@ pub fn estimate(
     say: Say,
     started: Instant,
 ) -> Result<ExitCode, Box<dyn Error>> {
-    let _ = started;
     let EstimateArgs {
         arrangement,
         samples,
@@ -174,7 +173,6 @@ pub fn calibrate(
     say: Say,
     started: Instant,
 ) -> Result<ExitCode, Box<dyn Error>> {
-    let _ = started;
     let CalibrateArgs {
         arrangement,
         samples,
@@ -305,8 +303,7 @@ pub struct ComArgs {
 }
 
 /// `ballisto com`.
-pub fn com(args: ComArgs, say: Say, started: Instant) -> Result<ExitCode, Box<dyn Error>> {
-    let _ = started;
+pub fn com(args: ComArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
     let ComArgs {
         arrangement,
         samples,

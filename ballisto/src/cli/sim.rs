@@ -59,7 +59,6 @@ pub struct SimArgs {
 
 /// `ballisto sim`.
 pub fn sim(args: SimArgs, say: Say, started: Instant) -> Result<ExitCode, Box<dyn Error>> {
-    let _ = started;
     let SimArgs {
         scenario,
         out,

@@ -3,7 +3,6 @@
 use std::error::Error;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Instant;
 
 use clap::Args;
 
@@ -34,8 +33,7 @@ pub struct TcArgs {
 }
 
 /// `ballisto tc`.
-pub fn tc(args: TcArgs, say: Say, started: Instant) -> Result<ExitCode, Box<dyn Error>> {
-    let _ = started;
+pub fn tc(args: TcArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
     let TcArgs {
         out,
         sequence,

@@ -3,7 +3,6 @@
 use std::error::Error;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Instant;
 
 use clap::Args;
 
@@ -45,8 +44,7 @@ pub struct DecodeArgs {
 }
 
 /// `ballisto decode`.
-pub fn decode(args: DecodeArgs, say: Say, started: Instant) -> Result<ExitCode, Box<dyn Error>> {
-    let _ = started;
+pub fn decode(args: DecodeArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
     let DecodeArgs {
         input,
         out,
@@ -136,8 +134,7 @@ pub struct CompareArgs {
 }
 
 /// `ballisto compare`.
-pub fn compare(args: CompareArgs, say: Say, started: Instant) -> Result<ExitCode, Box<dyn Error>> {
-    let _ = started;
+pub fn compare(args: CompareArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
     match args {
         CompareArgs {
             files,
