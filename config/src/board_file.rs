@@ -91,19 +91,13 @@ pub fn board_config(
             ));
         }
     }
-    let mut arrangement = Arrangement::<MAX_CHANNELS>::new();
-    for (i, name) in loaded.names.iter().enumerate() {
-        let at = source.names.iter().position(|n| n == name).unwrap_or(i);
-        let c = &source.arrangement.channels()[at];
-        // Valid: the host arrangement took the same values.
-        arrangement
-            .push(c.position, c.axis, c.noise)
-            .and_then(|_| arrangement.set_calibration(i, c.bias, c.scale))
-            .and_then(|_| arrangement.set_thermal(i, source.arrangement.thermal(at)))
-            .map_err(|e| err(format!("channel \"{name}\": {e}")))?;
-    }
-    arrangement
-        .set_frame_uncertainty(source.arrangement.frame_uncertainty())
+    // The board file's channels in its own order, from the calibration where there is one.
+    let order = loaded
+        .names
+        .iter()
+        .enumerate()
+        .map(|(i, name)| source.names.iter().position(|n| n == name).unwrap_or(i));
+    let arrangement = Arrangement::<MAX_CHANNELS>::select(&source.arrangement, order)
         .map_err(|e| err(e.to_string()))?;
     let parts = spec
         .sensors

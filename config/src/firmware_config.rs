@@ -179,14 +179,7 @@ pub fn firmware_arrangement(
     loaded: &LoadedArrangement,
 ) -> Result<Arrangement<MAX_CHANNELS>, ConfigError> {
     let a = &loaded.arrangement;
-    let mut out = Arrangement::<MAX_CHANNELS>::new();
-    for (i, c) in a.channels().iter().enumerate() {
-        out.push(c.position, c.axis, c.noise)?;
-        out.set_calibration(i, c.bias, c.scale)?;
-        out.set_thermal(i, a.thermal(i))?;
-    }
-    out.set_frame_uncertainty(a.frame_uncertainty())?;
-    Ok(out)
+    Arrangement::select(a, 0..a.len())
 }
 
 #[cfg(test)]

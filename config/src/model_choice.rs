@@ -24,23 +24,7 @@ pub fn model_g_diagonal_sd(loaded: &LoadedArrangement) -> Option<[f64; 3]> {
     }
     let mut normal = DMatrix::<f64>::zeros(9, 9);
     for c in chans {
-        let (r, s) = (c.position, c.axis);
-        let rs = [
-            r[1] * s[2] - r[2] * s[1],
-            r[2] * s[0] - r[0] * s[2],
-            r[0] * s[1] - r[1] * s[0],
-        ];
-        let h = DVector::from_column_slice(&[
-            s[0],
-            s[1],
-            s[2],
-            rs[0],
-            rs[1],
-            rs[2],
-            s[0] * r[0],
-            s[1] * r[1],
-            s[2] * r[2],
-        ]);
+        let h = DVector::from_column_slice(&c.design_row());
         normal += &h * h.transpose() / (c.noise * c.noise);
     }
     let cov = normal.try_inverse()?;

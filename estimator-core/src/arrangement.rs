@@ -22,6 +22,14 @@ pub struct Channel {
     pub scale: f64,
 }
 
+impl Channel {
+    /// The channel's row of the linear design (paper eq. 10, unwhitened): `s`, `R × s` and
+    /// the diagonal `s_k R_k`, the columns of σ0, Ω′ and the field's diagonal.
+    pub fn design_row(&self) -> [f64; 9] {
+        crate::internals::design::design_row(&self.axis, &self.position)
+    }
+}
+
 impl AsRef<Channel> for Channel {
     fn as_ref(&self) -> &Channel {
         self
@@ -224,6 +232,30 @@ impl<const CAP: usize> Arrangement<CAP> {
         a
     }
 
+    /// The channels `order` of `source` (by index, in that order), each with its calibration
+    /// and temperature coefficients, and `source`'s frame uncertainty: one arrangement taken
+    /// into another capacity (the host's into the firmware's) or reordered (a board file's
+    /// channels in its own order). An index beyond `source` is
+    /// [`ConfigError::NoSuchChannel`]; other errors are [`Arrangement::push`]'s, naming the
+    /// channel of the new arrangement.
+    pub fn select<const M: usize>(
+        source: &Arrangement<M>,
+        order: impl IntoIterator<Item = usize>,
+    ) -> Result<Self, ConfigError> {
+        let mut out = Self::new();
+        for at in order {
+            let c = source
+                .channels()
+                .get(at)
+                .ok_or(ConfigError::NoSuchChannel { channel: at })?;
+            let i = out.push(c.position, c.axis, c.noise)?;
+            out.set_calibration(i, c.bias, c.scale)?;
+            out.set_thermal(i, source.thermal(at))?;
+        }
+        out.set_frame_uncertainty(source.frame_uncertainty())?;
+        Ok(out)
+    }
+
     /// The frame's uncertainty (zero unless set).
     pub fn frame_uncertainty(&self) -> FrameUncertainty<f64> {
         self.frame
@@ -326,5 +358,47 @@ mod tests {
                 assert_eq!(m.holds_all(n), m.count(n) == n, "{m:?}, n = {n}");
             }
         }
+    }
+
+    /// A selection keeps each channel's geometry, calibration and temperature coefficients,
+    /// in the order asked, with the frame's uncertainty; it says which index is missing, and
+    /// refuses more channels than its capacity.
+    #[test]
+    fn a_selection_carries_every_channel_fact_in_its_order() {
+        use super::{Arrangement, ConfigError, FrameUncertainty};
+        let mut a = Arrangement::<6>::new();
+        for k in 0..3 {
+            let x = k as f64;
+            let i = a
+                .push([x, 0.1, 0.2], [0.0, 0.0, 1.0], 1e-3 * (x + 1.0))
+                .unwrap();
+            a.set_calibration(i, 0.01 * x, 1.0 + 0.001 * x).unwrap();
+        }
+        let thermal = crate::thermal::Thermal::new(20.0, 1e-4, 2e-5).unwrap();
+        a.set_thermal(2, Some(thermal)).unwrap();
+        let frame = FrameUncertainty {
+            rotation: 1e-3,
+            translation: 2e-4,
+            size: 1e-4,
+            relative_rotation: 5e-4,
+        };
+        a.set_frame_uncertainty(frame).unwrap();
+        let b = Arrangement::<4>::select(&a, [2, 0]).unwrap();
+        assert_eq!(b.len(), 2);
+        for (i, at) in [2usize, 0].into_iter().enumerate() {
+            let (x, y) = (&b.channels()[i], &a.channels()[at]);
+            assert_eq!((x.position, x.axis, x.noise), (y.position, y.axis, y.noise));
+            assert_eq!((x.bias, x.scale), (y.bias, y.scale));
+            assert_eq!(b.thermal(i), a.thermal(at));
+        }
+        assert_eq!(b.frame_uncertainty(), frame);
+        assert!(matches!(
+            Arrangement::<4>::select(&a, [0, 5]),
+            Err(ConfigError::NoSuchChannel { channel: 5 })
+        ));
+        assert!(matches!(
+            Arrangement::<2>::select(&a, 0..3),
+            Err(ConfigError::TooManyChannels { capacity: 2 })
+        ));
     }
 }
