@@ -34,7 +34,9 @@ e2e() {
   step "tests/tests/$1.rs ${2:-}"
   local ignored=default
   case "${2:-}" in full) ignored=only ;; all) ignored=all ;; esac
-  cargo nextest run -p e2e-tests --test "$1" --run-ignored "$ignored" --no-capture 2>/dev/null | figures
+  # A failing test is said in the report, not an end to it.
+  cargo nextest run -p e2e-tests --test "$1" --run-ignored "$ignored" --no-capture 2>/dev/null | figures ||
+    echo "- **A test of \`tests/tests/$1.rs\` failed**: the figures above are those it printed before."
 }
 
 # One e2e test file's table: the header given, then the rows its tests print (lines starting
@@ -44,7 +46,8 @@ e2e_table() {
   echo
   echo "$2"
   echo "$2" | sed 's/[^|]\+/---/g'
-  cargo nextest run -p e2e-tests --test "$1" --no-capture 2>/dev/null | grep '^|' | sort || true
+  cargo nextest run -p e2e-tests --test "$1" --no-capture 2>/dev/null | grep '^|' | sort ||
+    echo "A test of \`tests/tests/$1.rs\` failed: the rows are those it printed."
   echo
 }
 

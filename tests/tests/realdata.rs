@@ -204,13 +204,19 @@ fn calibrate_in(
 ) -> Result<ballisto::calibrate::CalibrationSummary, String> {
     use ballisto::calibrate::reference_rate::Validity;
     use ballisto::calibrate::{calibrate_files, fit::FitSet, CalibrateJob};
-    let (reference, flags) = (
-        dir.join("reference.csv.gz"),
-        dir.join("reference_flags.csv.gz"),
-    );
+    // The recordings are stored compressed; a record joined by a test is written plain.
+    let file = |name: &str| {
+        let gz = dir.join(format!("{name}.gz"));
+        if gz.exists() {
+            gz
+        } else {
+            dir.join(name)
+        }
+    };
+    let (reference, flags) = (file("reference.csv"), file("reference_flags.csv"));
     calibrate_files(&CalibrateJob {
         arrangement,
-        samples: &dir.join("samples.csv.gz"),
+        samples: &file("samples.csv"),
         out,
         reference: gyro.then_some(reference.as_path()),
         reference_validity: Validity {
