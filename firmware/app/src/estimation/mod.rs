@@ -646,6 +646,10 @@ impl Estimation {
         let restarted = mask != self.estimator.mask();
         let replay = replays(self.estimator.mask(), mask);
         let tested_before = self.mask(self.missing(), self.commanded);
+        if !restarted {
+            // The channels in force are the ones wanted: a build for others is not.
+            self.pending = None;
+        }
         if restarted {
             let Some(taken) = self.take_mask_when_built(mask, wanted) else {
                 return; // being built: the estimate goes on with the configuration in force
