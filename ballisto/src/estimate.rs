@@ -109,10 +109,6 @@ pub const SIGN_HOLD_S: f64 = 10.0;
 /// what it needs on the ground: the sample rate from the record's first two times.
 struct Faults<T: Real> {
     supervisor: Box<Supervisor<T, HOST_CAP>>,
-    /// Each channel's part (sensors of the arrangement file, `name.x/y/z`).
-    part: Vec<u8>,
-    /// Every channel of the arrangement.
-    all: ChannelMask,
     first_t: Option<f64>,
     /// The configured model (the estimator's, unless the channels in use do not carry it).
     preferred: Model,
@@ -125,8 +121,6 @@ impl<T: Real> Faults<T> {
         let part: Vec<u8> = (0..arr.len()).map(|i| arr.part(i)).collect();
         Faults {
             supervisor: Box::new(Supervisor::new(&part, &loaded.ranges, None)),
-            part,
-            all: ChannelMask::all(loaded.names.len()),
             first_t: None,
             preferred: model,
         }
@@ -149,13 +143,7 @@ impl<T: Real> Faults<T> {
 
     /// Every channel but those of the parts in `parts` (bit per part).
     fn mask(&self, parts: u32) -> ChannelMask {
-        let mut mask = self.all;
-        for (c, p) in self.part.iter().enumerate() {
-            if *p < 32 && parts & (1 << p) != 0 {
-                mask = mask.without(c);
-            }
-        }
-        mask
+        self.supervisor.without_parts(parts)
     }
 }
 
@@ -422,14 +410,17 @@ fn run_typed<T: Real + Send + 'static>(
     let result = loop {
         match reader.next_row(&mut row) {
             Ok(Some(t)) => {
-                if let Err(e) = reader
-                    .temperatures(&mut temps)
-                    .and_then(|_| reader.variances(&mut var_row))
-                {
+                if let Err(e) = reader.temperatures(&mut temps) {
                     break Err(e);
                 }
-                for (vi, ri) in var.iter_mut().zip(&var_row) {
-                    *vi = T::of(*ri);
+                // A record without variance columns has none to read or convert per row.
+                if with_variance {
+                    if let Err(e) = reader.variances(&mut var_row) {
+                        break Err(e);
+                    }
+                    for (vi, ri) in var.iter_mut().zip(&var_row) {
+                        *vi = T::of(*ri);
+                    }
                 }
                 correct_for_temperature(loaded, &temps, &mut row, &mut uncorrected);
                 for (pi, ri) in p.iter_mut().zip(row.iter()) {

@@ -140,6 +140,18 @@ impl<T: Real, const CAP: usize, const P: usize> Supervisor<T, CAP, P> {
         &self.part[..self.n]
     }
 
+    /// Every channel but those of the parts in `parts` (bit per part): the channels the solve
+    /// and the monitor use with those parts out.
+    pub fn without_parts(&self, parts: u32) -> ChannelMask {
+        let mut mask = ChannelMask::all(self.n);
+        for (c, q) in self.parts().iter().enumerate() {
+            if usize::from(*q) < MAX_PARTS && parts & (1 << q) != 0 {
+                mask = mask.without(c);
+            }
+        }
+        mask
+    }
+
     /// Whether the sample rate is known (the monitor runs).
     pub fn rate_known(&self) -> bool {
         self.monitor.is_some()

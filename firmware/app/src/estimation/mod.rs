@@ -504,17 +504,10 @@ impl Estimation {
 
     /// The solve's channel mask with `parts` and `commanded` out.
     fn mask(&self, parts: PartSet, commanded: ChannelSet) -> ChannelMask {
-        let mut mask = ChannelMask::all(self.n);
+        let mut mask = self.isolation.supervisor.without_parts(u32::from(parts.0));
         for c in 0..self.n {
             if commanded.contains(c) {
                 mask = mask.without(c);
-            }
-        }
-        for (i, chans) in self.channels.iter().enumerate() {
-            if parts.contains(i) {
-                for c in chans.iter().flatten() {
-                    mask = mask.without(usize::from(*c));
-                }
             }
         }
         mask
