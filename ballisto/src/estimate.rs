@@ -5,7 +5,6 @@ use std::error::Error;
 use std::path::Path;
 
 use ballisto_config::arrangement_file::{load_arrangement, LoadedArrangement, HOST_CAP};
-use estimator_core::recent::replays;
 use estimator_core::supervisor::Supervisor;
 use estimator_core::{ChannelMask, Estimate, Estimator, Flags, Model, Options, Real};
 
@@ -330,14 +329,14 @@ impl<T: Real> Faults<T> {
         };
         let mask = self.mask(change.out());
         let model_before = est.model();
-        let restarted = mask != est.mask();
-        let replay = replays(est.mask(), mask);
+        let before = est.mask();
+        let restarted = mask != before;
         if restarted && est.set_mask_in(mask, self.preferred).is_err() {
             // Too few channels left for either model: the mask stays (the rows flagged).
             self.supervisor.refuse(change);
             return;
         }
-        let taken = self.supervisor.taken(change, restarted, replay, t);
+        let taken = self.supervisor.taken(change, before, mask, t);
         if restarted && est.set_hint(taken.hint).is_err() {
             let _ = est.set_hint(None);
         }

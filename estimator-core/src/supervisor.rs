@@ -37,7 +37,7 @@ use crate::fault_monitor::{
 };
 use crate::parity::{Parity, NO_PART};
 use crate::real::Real;
-use crate::recent::{Recent, REPLAY_SETS};
+use crate::recent::{replays, Recent, REPLAY_SETS};
 
 /// Most parts the supervisor tells apart (a part is a bit of a `u32` set).
 pub const MAX_PARTS: usize = 32;
@@ -265,10 +265,17 @@ impl<T: Real, const CAP: usize, const P: usize> Supervisor<T, CAP, P> {
         (!same).then_some(Change { missing, isolated })
     }
 
-    /// `change` is in force at the set read at `now` (s); `restarted`: the estimator restarted
-    /// (a new mask), `replay`: it takes channels out (`crate::recent::replays`), and the
-    /// last sets are replayed before this one.
-    pub fn taken(&mut self, change: Change, restarted: bool, replay: bool, now: f64) -> Taken {
+    /// `change` is in force at the set read at `now` (s), the estimator's channels `before`
+    /// it and `after`: where they differ the estimator restarted, and where the change takes
+    /// channels out ([`replays`]) the last sets are replayed before this one.
+    pub fn taken(
+        &mut self,
+        change: Change,
+        before: ChannelMask,
+        after: ChannelMask,
+        now: f64,
+    ) -> Taken {
+        let replay = replays(before, after);
         let from = self.recent.first_seen(replay, now);
         let hint = if change.isolated != self.isolated {
             self.trusted.hint_at(from).or(self.last_omega)
@@ -279,7 +286,7 @@ impl<T: Real, const CAP: usize, const P: usize> Supervisor<T, CAP, P> {
         self.newly_out |= change.isolated & !self.isolated != 0;
         self.missing = change.missing;
         self.isolated = change.isolated;
-        self.replay_due = restarted && replay;
+        self.replay_due = replay;
         Taken {
             hint,
             missing_changed,
@@ -438,7 +445,8 @@ mod tests {
                 isolated: 0
             }
         );
-        let taken = sup.taken(change, true, true, 0.05);
+        let all = ChannelMask::all(18);
+        let taken = sup.taken(change, all, sup.without_parts(0b10), 0.05);
         assert!(taken.missing_changed);
         assert_eq!(sup.missing(), 0b10);
         for k in 0..INCLUDE_AFTER {
@@ -447,7 +455,7 @@ mod tests {
             assert_eq!(back.is_some(), k + 1 == INCLUDE_AFTER, "set {k}");
             if let Some(c) = back {
                 assert_eq!(c.out(), 0);
-                sup.taken(c, true, false, 1.0);
+                sup.taken(c, sup.without_parts(0b10), all, 1.0);
             }
         }
         assert_eq!(sup.missing(), 0);

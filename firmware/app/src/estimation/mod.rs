@@ -36,7 +36,6 @@ pub use background::Builds;
 
 use ballisto_link::{ChannelSet, PartSet};
 use estimator_core::fault_monitor::Verdict;
-use estimator_core::recent::replays;
 use estimator_core::{Arrangement, ChannelMask, ConfigError, Estimate, Estimator, Model, Options};
 
 use crate::config::{AppConfig, MAX_CHANNELS, MAX_PARTS};
@@ -636,8 +635,8 @@ impl Estimation {
         let wanted = PartSet((change.missing & 0xff) as u8);
         let mask = self.mask(PartSet((change.out() & 0xff) as u8), self.commanded);
         let model_before = self.estimator.model();
-        let restarted = mask != self.estimator.mask();
-        let replay = replays(self.estimator.mask(), mask);
+        let before = self.estimator.mask();
+        let restarted = mask != before;
         let tested_before = self.mask(self.missing(), self.commanded);
         if !restarted {
             // The channels in force are the ones wanted: a build for others is not.
@@ -656,7 +655,7 @@ impl Estimation {
         let taken = self
             .isolation
             .supervisor
-            .taken(change, restarted, replay, seconds(now));
+            .taken(change, before, mask, seconds(now));
         if restarted {
             let _ = self.estimator.set_hint(taken.hint);
         }
