@@ -2,7 +2,7 @@
 # Regenerates docs/validation.md (and its plots in docs/validation/): the long sweeps the tests
 # run only a representative subset of, the real recordings, the firmware's budgets and the
 # ground tool's speed, with the commit and date. Never edit docs/validation.md by hand: run
-# this (about 30 minutes on 2 cores; `bash scripts/setup.sh` first on a fresh machine).
+# this (about an hour on 2 cores; `bash scripts/setup.sh` first on a fresh machine).
 set -euo pipefail
 # A failing bar is reported by its message, without a backtrace.
 export RUST_BACKTRACE=0
@@ -16,27 +16,49 @@ mkdir -p "$plots"
 
 step() { echo "validate: $*" >&2; }
 
-# A test binary's printed figures as Markdown: its tables verbatim, every other line a bullet;
-# the harness's own lines left out.
-figures() {
+# The lines a test binary prints, without the harness's own.
+printed() {
   awk '
-    /^running [0-9]+ tests?$/ || /^test .* \.\.\. / || /^test result:/ || /^successes:|^failures:/ || /^$/ { next }
+    /^running [0-9]+ tests?$/ || /^test .* \.\.\. / || /^test result:/ || /^successes:|^failures:/ { next }
     / has been running for over [0-9]+ seconds$/ { next }
-    /^\|/ { if (!table) print ""; table = 1; print; next }
-    { if (table) print ""; table = 0; print "- " $0 }
-    END { print "" }'
+    { print }'
 }
 
-# One e2e test file's tests, one at a time (nextest with --no-capture: the printed tables stay
-# whole, its own status lines go to stderr); $2 = "full" runs only the ignored full sweeps
-# (whose subsets the other tests are), "all" both.
+# What the tests of a section print is gathered in $section, then rendered by `render`.
+section="$tmp/section"
+: > "$section"
+
+# One e2e test file's tests (nextest with --no-capture: printed tables stay whole, its own
+# status lines go to stderr); $2 = "full" runs only the ignored full sweeps (whose subsets the
+# other tests are), "all" both. A failing test is a row of the section's table, not an end to
+# the report.
 e2e() {
   step "tests/tests/$1.rs ${2:-}"
   local ignored=default
   case "${2:-}" in full) ignored=only ;; all) ignored=all ;; esac
-  # A failing test is said in the report, not an end to it.
-  cargo nextest run -p e2e-tests --test "$1" --run-ignored "$ignored" --no-capture 2>/dev/null | figures ||
-    echo "- **A test of \`tests/tests/$1.rs\` failed**: the figures above are those it printed before."
+  cargo nextest run -p e2e-tests --test "$1" --run-ignored "$ignored" --no-capture 2>/dev/null |
+    printed >> "$section" ||
+    echo "report: | \`tests/tests/$1.rs\` | — | a test of the file | failed (its rows above) | passes | FAIL |" >> "$section"
+}
+
+# A section's figures as Markdown: the rows its tests print (`e2e_tests::report`) as one table
+# (case, parts, figure, measured, bound, verdict); the tables they print themselves, each after
+# the line before it; every other line folded into the section's test output.
+render() {
+  local rows rest
+  rows=$(sed -n 's/^report: //p' "$section")
+  if [ -n "$rows" ]; then
+    printf '\n| case | parts | figure | measured | bound | verdict |\n|---|---|---|---|---|---|\n%s\n' "$rows"
+  fi
+  grep -v '^report: ' "$section" | awk '
+    /^\|/ { if (!t) { print ""; if (prev != "") { print prev; print "" } } t = 1; print; next }
+    { if (t) print ""; t = 0; if ($0 !~ /^[[:space:]]*$/) prev = $0 }
+    END { print "" }'
+  rest=$(grep -v '^report: ' "$section" | grep -v '^|' | grep -v '^[[:space:]]*$' || true)
+  if [ -n "$rest" ]; then
+    printf '<details><summary>What the tests printed</summary>\n\n```text\n%s\n```\n\n</details>\n\n' "$rest"
+  fi
+  : > "$section"
 }
 
 # One e2e test file's table: the header given, then the rows its tests print (lines starting
@@ -80,18 +102,19 @@ Model F, m = 3: 50 Hz–4 kHz, 1e-4–1e-2 m/s², arms 0.05–0.2 m, torque-free
 manoeuvre, 20 s, seeds 1–4. "Silent": Ω more than 5 reported deviations off with no flag.
 \`tests/tests/branch_lock.rs\` (the \`*_full\` tests).
 EOF
-  # A family case that misses a bar is reported with the table, not an end to the report.
-  e2e branch_lock full || echo "(a family case did not hold: the rows above with more than 0.1 % silently wrong)"
-  echo "The firmware path (f32, the firmware's tasks on the simulated buses) on \`nine-channel\` at 1 kHz:"
-  cargo nextest run -p e2e-tests --test branch_lock firmware_path --no-capture 2>/dev/null | figures
+  e2e branch_lock full
+  step "branch lock: the firmware path"
+  echo "The firmware path (f32, the firmware's tasks on the simulated buses) on nine-channel at 1 kHz:" >> "$section"
+  cargo nextest run -p e2e-tests --test branch_lock firmware_path --no-capture 2>/dev/null |
+    printed >> "$section" || true
+  render
   cat <<EOF
 ### On layouts the estimator was not tuned on (ideal parts)
 
 The property test of branch and sign: nine channels drawn at random (rate, noise, arm and motion drawn too; fresh seeds). \`tests/tests/random_layouts.rs\`.
 EOF
-  # The property test's bars are printed with the draws that miss them; a miss is reported
-  # here, not an end to the report.
-  e2e random_layouts full || echo "(the property test did not hold on every draw: a slow manoeuvre whose filtered Ω is above 0.25 × ML, above)"
+  e2e random_layouts full
+  render
   cat <<EOF
 ## Fault detection, isolation and exclusion (ideal parts)
 
@@ -103,9 +126,13 @@ EOF
   for layout in g f mixed; do
     step "fault matrix ($layout)"
     echo
-    cargo run -q -p e2e-tests --example fault_matrix -- 20 "$layout" 2>/dev/null | figures
+    cargo run -q -p e2e-tests --example fault_matrix -- 20 "$layout" 2>/dev/null >> "$section" ||
+      echo "report: | fault matrix, layout $layout | ideal | the example | failed | runs | FAIL |" >> "$section"
+    render
   done
   e2e fault_isolation
+  e2e one_supervisor
+  render
   cat <<EOF
 ## Calibration and identification (datasheet-realistic parts)
 
@@ -121,8 +148,10 @@ EOF
   e2e identification_tumble all
   e2e builtin_tumble
   step "the QEMU board's tumble on the Cortex-M7"
-  bash scripts/qemu-board-m7.sh 2>/dev/null | grep -E '^(board-qemu|QEMU tumble)' | sed 's/^/- /' || true
-  echo
+  bash scripts/qemu-board-m7.sh 2>/dev/null | printed |
+    grep -E '^(report: |board-qemu|QEMU tumble)' >> "$section" ||
+    echo "report: | the QEMU board's built-in tumble on QEMU's Cortex-M7 | ideal | scripts/qemu-board-m7.sh | failed | passes | FAIL |" >> "$section"
+  render
   step "ground-calibration report"
   $ballisto sim -q --scenario ground-calibration --out "$tmp/gc"
   $ballisto calibrate -q --arrangement "$tmp/gc/arrangement.toml" --samples "$tmp/gc/samples.csv" \
@@ -140,6 +169,7 @@ coefficients changed since the ground, tracked over one orbit (two fresh draws).
 \`tests/tests/temperature.rs\`.
 EOF
   e2e temperature all
+  render
   cat <<EOF
 
 ## Real recordings (real parts)
@@ -148,6 +178,7 @@ The MIMU4444 board (8 MPU9150, 62.5 Hz, 19 mm × 19 mm × 2 mm), Ω against the 
 gyros over the rows where no gyro saturates. \`tests/tests/realdata.rs\`.
 EOF
   e2e realdata all
+  render
   cat <<EOF
 ## The firmware under the simulator (ideal parts)
 
@@ -155,6 +186,7 @@ EOF
 \`tests/tests/firmware_sim.rs\`.
 EOF
   e2e firmware_sim
+  render
   for scenario in tetra-orbit nine-channel ground-spin-mixed; do
     step "sim --firmware $scenario"
     $ballisto sim -q --firmware --scenario "$scenario" --out "$tmp/$scenario"

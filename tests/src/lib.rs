@@ -12,4 +12,5 @@ pub mod frame;
 pub mod ml;
 pub mod nine;
 pub mod recorded;
+pub mod report;
 pub mod stats;

@@ -3,6 +3,7 @@
 //! same samples.
 
 use ballisto_fw::config::Alignment;
+use e2e_tests::report::{self, Parts};
 use estimator_core::ChannelMask;
 use hal_sim::firmware_host::{firmware_config, run_firmware};
 use hal_sim::scenario::{PartType, Scenario};
@@ -231,16 +232,25 @@ fn named_scenarios_through_the_firmware_match_estimator_core_on_the_same_samples
         assert_eq!(fw.rows, core.rows, "{name}");
         // The firmware runs estimator-core in f32 on these samples: the same accuracy, up to
         // its exclusion of parts missing for several sets.
-        for (what, f, c) in [
-            ("sigma0", fw.sigma0, core.sigma0),
-            ("domega", fw.domega, core.domega),
-            ("omega", fw.omega, core.omega),
-        ] {
-            assert!(
-                f <= 1.01 * c + 1e-6,
-                "{name} {what}: firmware {f:e}, core {c:e}"
-            );
-        }
+        let pairs = [
+            (fw.sigma0, core.sigma0),
+            (fw.domega, core.domega),
+            (fw.omega, core.omega),
+        ];
+        let held = report::row(
+            &format!("{name} through the firmware"),
+            Parts::Ideal,
+            "RMS error σ0 / Ω′ / Ω, firmware over estimator-core f32 on its samples",
+            format!(
+                "{:.3} / {:.3} / {:.3}",
+                fw.sigma0 / core.sigma0,
+                fw.domega / core.domega,
+                fw.omega / core.omega
+            ),
+            "≤ 1.01 (+1e-6)",
+            pairs.iter().all(|(f, c)| *f <= 1.01 * c + 1e-6),
+        );
+        assert!(held, "{name}: firmware and core {pairs:?}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
@@ -423,7 +433,16 @@ fn a_sign_contradicted_in_a_spin_up_is_never_silently_wrong_after_it() {
     .unwrap();
     println!("{rows} rows: {off} more than 1 rad/s off, {silent} silently wrong");
     assert!(rows > 1000);
-    assert_eq!(silent, 0, "{silent} of {rows} rows silently wrong");
+    let case = "mixed layout, a sign contradicted in a spin-up";
+    let held = report::row(
+        &format!("{case}, firmware"),
+        Parts::Ideal,
+        "rows silently wrong",
+        format!("{silent} of {rows}"),
+        "0",
+        silent == 0,
+    );
+    assert!(held, "{silent} of {rows} rows silently wrong");
     let dir = tmpdir("sign-doubt");
     let host = e2e_tests::faults::firmware_then_host(&sc, &dir);
     let c = ballisto::compare::compare(&dir.join("truth.csv"), &host).unwrap();
@@ -433,7 +452,20 @@ fn a_sign_contradicted_in_a_spin_up_is_never_silently_wrong_after_it() {
         c.rows, c.omega, c.silent
     );
     assert!(c.rows > 1000);
-    assert_eq!(c.silent.map(|s| s.omega), Some(0), "ballisto estimate");
+    let ground = c.silent.map(|s| s.omega);
+    let held = report::row(
+        &format!("{case}, ballisto estimate of its record"),
+        Parts::Ideal,
+        "rows silently wrong",
+        format!(
+            "{} of {}",
+            ground.map_or("?".into(), |n| n.to_string()),
+            c.rows
+        ),
+        "0",
+        ground == Some(0),
+    );
+    assert!(held, "ballisto estimate: {:?}", c.silent);
 }
 
 /// Each LIS3DH's worst timing error (s) over 1 s windows after the first second: the

@@ -13,6 +13,7 @@ use ballisto_link::framing::Deframer;
 use ballisto_link::identification::IdentificationSummary;
 use ballisto_link::{subtype, CalibrationSource, EventId, FailureCode};
 use e2e_tests::drawn::drawn_case;
+use e2e_tests::report::{self, Parts};
 use hal_sim::firmware_host::{firmware_config, run_firmware_with};
 use hal_sim::in_flight::{identify_and_reboot, uplink, uplink_tumble, Plan};
 use hal_sim::motion::Propagator;
@@ -176,7 +177,14 @@ type Booted = Result<
 
 /// Prints σ0's, Ω′'s and Ω's RMS errors with the nominal geometry (`before`), the identified
 /// one (`after`) and ideal parts (`reference`), and asserts `after` within `bound` × ideal.
-fn within(label: &str, before: &[f64; 3], after: &[f64; 3], reference: &[f64; 3], bound: f64) {
+fn within(
+    case: &str,
+    label: &str,
+    before: &[f64; 3],
+    after: &[f64; 3],
+    reference: &[f64; 3],
+    bound: f64,
+) {
     for (k, name) in ["σ0", "Ω′", "Ω"].iter().enumerate() {
         println!(
             "{label}{name}: nominal geometry {:.3e}, identified {:.3e}, ideal parts {:.3e} ({:.2}×)",
@@ -186,12 +194,11 @@ fn within(label: &str, before: &[f64; 3], after: &[f64; 3], reference: &[f64; 3]
             after[k] / reference[k]
         );
     }
-    for k in 0..3 {
-        assert!(
-            after[k] <= bound * reference[k],
-            "{k}: {after:?} vs {reference:?}"
-        );
-    }
+    let ratios: [f64; 3] = core::array::from_fn(|k| after[k] / reference[k]);
+    assert!(
+        report::over_ideal(case, Parts::Datasheet, &ratios, bound),
+        "{after:?} vs {reference:?}"
+    );
 }
 
 #[test]
@@ -289,12 +296,16 @@ fn identify_commit_reset_and_the_errors_return_to_ideal_parts() {
         after_drawn[0],
         after_drawn[0] / reference[0]
     );
-    within("", &before, &after, &reference, 1.2);
+    let case = "orbit-identify, gyro reference";
+    within(case, "", &before, &after, &reference, 1.2);
     // Never silently wrong: at the drawn origin σ0 is off by the frame's translation, which
     // the reported deviations carry.
     let (silent, rows) = silent_rows(&sc, &second, skip);
     println!("after the reset: {silent} of {rows} rows silently wrong (σ0 at the drawn origin, Ω)");
-    assert!(silent * 1000 <= rows, "{silent} of {rows}");
+    assert!(
+        report::silent(case, Parts::Datasheet, silent, rows, 1000),
+        "{silent} of {rows}"
+    );
 }
 
 /// What one identify → commit → reset gives against ideal parts: σ0 at the identified origin,
@@ -348,7 +359,9 @@ fn identification_holds_on_drawn_arrays_motions_and_parts() {
              ideal; σ0 at the drawn origin {:.2} ×; {silent} of {rows} rows silently wrong",
             r[0], r[1], r[2], r[3]
         );
-        if r[..3].iter().any(|x| x.is_nan() || *x > 1.2) || silent * 1000 > rows {
+        let case = format!("drawn {seed}: {parts} × ADXL355, gyro reference {hz} Hz");
+        let held = report::over_ideal(&case, Parts::Datasheet, &[r[0], r[1], r[2]], 1.2);
+        if !(held & report::silent(&case, Parts::Datasheet, silent, rows, 1000)) {
             failures.push((seed, r, silent));
         }
     }
@@ -389,7 +402,9 @@ fn without_a_reference_a_torque_free_tumble_is_identified_on_board() {
     let before = rms_from_stream(&sc, &first, skip, [0.0; 3]);
     let after = rms_from_stream(&sc, &second, skip, origin);
     let reference = ideal_errors(&sc, &loaded, skip);
+    let case = "orbit-identify, torque-free tumble, no reference";
     within(
+        case,
         "without a reference, on board, ",
         &before,
         &after,
@@ -398,13 +413,18 @@ fn without_a_reference_a_torque_free_tumble_is_identified_on_board() {
     );
     let (silent, rows) = silent_rows(&sc, &second, skip);
     println!("after the reset: {silent} of {rows} rows silently wrong");
-    assert!(silent * 1000 <= rows);
+    assert!(report::silent(case, Parts::Datasheet, silent, rows, 1000));
 
     // Near a spin about z: refused, naming the channel and the parameter.
     sc.body.omega0 = Some([0.0, 0.02, 1.5]);
     let (_, first, _) = tumble_on_board(&sc);
     let refused = refusal(&packets(&first)).expect("the solve refused");
     println!("near a spin: refused {refused:?}");
+    report::refused(
+        "orbit-identify, tumble near a spin, no reference",
+        Parts::Datasheet,
+        format!("{:?} {:#x}", refused.0, refused.1),
+    );
     let (code, data) = refused;
     assert_eq!(code, ballisto_link::FailureCode::NotReady);
     // The parameter the motion does not determine, or the channel no start rate explains.
@@ -439,6 +459,11 @@ fn without_a_reference_drawn_tumbles_are_identified_or_refused_by_name() {
                 "case {seed} ({parts} parts): refused, {code:?} data {data:#x} (channel {})",
                 data & 0xFF
             );
+            report::refused(
+                &format!("drawn tumble {seed}: {parts} × ADXL355, no reference"),
+                Parts::Datasheet,
+                format!("{code:?}, channel {}", data & 0xFF),
+            );
             assert!(
                 booted.map_or(true, |(_, _, id)| id.source != CalibrationSource::Flash),
                 "case {seed}: nothing committed after a refusal"
@@ -460,7 +485,9 @@ fn without_a_reference_drawn_tumbles_are_identified_or_refused_by_name() {
             summary.sets, r[0], r[1], r[2]
         );
         identified += 1;
-        if r.iter().any(|x| x.is_nan() || *x > 1.5) || silent * 1000 > rows {
+        let case = format!("drawn tumble {seed}: {parts} × ADXL355, no reference");
+        let held = report::over_ideal(&case, Parts::Datasheet, &[r[0], r[1], r[2]], 1.5);
+        if !(held & report::silent(&case, Parts::Datasheet, silent, rows, 1000)) {
             failures.push((seed, r, silent));
         }
     }

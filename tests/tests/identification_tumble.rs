@@ -8,6 +8,7 @@
 
 use ballisto_config::arrangement_file::HOST_CAP;
 use e2e_tests::recorded;
+use e2e_tests::report::{self, Parts};
 use estimator_core::identify::{identify_tumble, Body, Sets, Tolerance, TumbleError};
 use estimator_core::{Arrangement, Estimator, Model, Options, Sym3};
 use hal_sim::scenario::Scenario;
@@ -169,10 +170,27 @@ fn a_torque_free_tumble_identifies_the_geometry_without_a_reference() {
     for k in 0..3 {
         assert!((fit.omega0[k] - rec.omega[k0][k]).abs() < 5.0 * fit.omega0_sd[k]);
     }
-    assert!(after <= 1.2 * reference, "{after} against {reference}");
+    let case = "orbit-identify, torque-free tumble, 20 s, no reference (host)";
+    assert!(
+        report::row(
+            case,
+            Parts::Datasheet,
+            "RMS error Ω over ideal parts",
+            format!("{:.2}", after / reference),
+            "≤ 1.2",
+            after <= 1.2 * reference
+        ),
+        "{after} against {reference}"
+    );
     let quiet = silent(&identified, &rec);
     println!("{quiet} of {} rows silently wrong", rec.sets.len());
-    assert!(quiet * 1000 <= rec.sets.len());
+    assert!(report::silent(
+        case,
+        Parts::Datasheet,
+        quiet,
+        rec.sets.len(),
+        1000
+    ));
     // Torque-free: at least one parameter held per channel besides the scale, and named.
     assert!(fit
         .identified
@@ -219,7 +237,9 @@ fn a_torque_free_tumble_identifies_the_geometry_without_a_reference() {
 fn a_wrong_inertia_is_refused_not_returned() {
     let (sc, nominal, rec) = setup();
     let j = sc.body.inertia.unwrap();
-    let (k0, k1, est) = window(&rec, &nominal, 1.0, 20.0);
+    // A window of one stage: a refusal runs the search's whole budget (every start, every
+    // offset), the longer the window the longer (20 s: twice the time, refused alike).
+    let (k0, k1, est) = window(&rec, &nominal, 1.0, 4.0);
     // The principal moments given in the wrong order: no start rate fits the readings.
     let swapped = Body {
         inertia: Sym3([j[2], j[1], j[0], 0.0, 0.0, 0.0]),
@@ -363,7 +383,9 @@ fn drawn_torque_free_tumbles_are_identified_or_refused_by_name() {
                     fit.evaluations, r[0], r[1], r[2]
                 );
                 identified += 1;
-                if r.iter().any(|x| x.is_nan() || *x > 1.5) || silent * 1000 > sets.len() {
+                let case = format!("drawn tumble {seed}: {parts} × ADXL355, no reference (host)");
+                let held = report::over_ideal(&case, Parts::Datasheet, &[r[0], r[1], r[2]], 1.5);
+                if !(held & report::silent(&case, Parts::Datasheet, silent, sets.len(), 1000)) {
                     failures.push((seed, r, silent));
                 }
             }
@@ -373,7 +395,12 @@ fn drawn_torque_free_tumbles_are_identified_or_refused_by_name() {
             | Err(e @ TumbleError::NotExcited { .. })
             | Err(e @ TumbleError::Ambiguous { .. })
             | Err(e @ TumbleError::Identify(_)) => {
-                println!("case {seed} ({parts} parts): refused: {e:?}")
+                println!("case {seed} ({parts} parts): refused: {e:?}");
+                report::refused(
+                    &format!("drawn tumble {seed}: {parts} × ADXL355, no reference (host)"),
+                    Parts::Datasheet,
+                    refusal_name(&e),
+                );
             }
             Err(e) => panic!("case {seed}: refused for a reason naming nothing: {e:?}"),
         }
@@ -494,5 +521,22 @@ fn means_of_sets_give_the_raw_sets_solution() {
                 "channel {i} parameter {p}: sd {r}"
             );
         }
+    }
+}
+
+/// A refusal's kind and what it names, for the report.
+fn refusal_name(e: &TumbleError) -> String {
+    match e {
+        TumbleError::NotDetermined { channel, ratio } => {
+            format!("not determined: channel {channel}, residual {ratio:.1} × its noise")
+        }
+        TumbleError::MotionUncertain { channel, param, .. } => {
+            format!("motion uncertain: channel {channel}, {param:?}")
+        }
+        TumbleError::NotExcited { channel, param } => {
+            format!("not excited: channel {channel}, {param:?}")
+        }
+        TumbleError::Ambiguous { .. } => "two start rates fit".to_string(),
+        other => format!("{other:?}"),
     }
 }

@@ -9,6 +9,7 @@ use ballisto::estimate::HostEstimator;
 use ballisto::samples_csv::SamplesReader;
 use ballisto_config::arrangement_file::load_arrangement;
 use e2e_tests::csv::read_columns;
+use e2e_tests::report::{self, Parts};
 use e2e_tests::stats::rms3;
 use estimator_core::{Model, Options};
 
@@ -125,13 +126,26 @@ fn mimu4444_rate_error_against_gyros() {
         assert!(f.rows > 3000);
         // Regression guards at about 1.5× the figures measured when this test was written
         // (`docs/validation.md`): free float 5.6 rad/s RMS / 2.0 median, general 16.2 / 9.1.
-        match model {
-            Model::FreeFloat => assert!(
-                f.rms < 8.5 && f.median < 3.0,
-                "free-float figures regressed"
+        let (rms, median) = match model {
+            Model::FreeFloat => (8.5, 3.0),
+            Model::General => (24.0, 14.0),
+        };
+        let held = report::row(
+            &format!(
+                "mimu4444_exp6 (calibrated excerpt), model {}, {}",
+                model.name(),
+                if raw { "raw" } else { "filtered" }
             ),
-            Model::General => assert!(f.rms < 24.0 && f.median < 14.0, "general figures regressed"),
-        }
+            Parts::Real,
+            "Ω error against the gyros: RMS / median (rad/s)",
+            format!(
+                "{:.2} / {:.2} (|Ω| RMS {:.1})",
+                f.rms, f.median, f.reference_rms
+            ),
+            &format!("< {rms} / {median}"),
+            f.rms < rms && f.median < median,
+        );
+        assert!(held, "{} figures regressed", model.name());
         assert!(f.rms < f.reference_rms, "no better than answering zero");
     }
 }
@@ -178,7 +192,15 @@ fn mimu4444_protection_levels_are_never_silently_exceeded() {
         100.0 * above as f64 / rows.max(1) as f64
     );
     assert!(rows > 3000, "{rows} rows with a level");
-    assert_eq!(silent, 0, "rows above their level without flag 64");
+    let held = report::row(
+        "mimu4444_exp6 (calibrated excerpt), model G, filtered",
+        Parts::Real,
+        "rows with Ω above its protection level without flag 64",
+        format!("{silent} of {rows} ({above} above, flagged)"),
+        "0",
+        silent == 0,
+    );
+    assert!(held, "rows above their level without flag 64");
 }
 
 /// The calibration of a raw recording `k` (exp1–exp6) into `out`: self-calibration, or
@@ -351,14 +373,22 @@ fn gyro_aided_calibration_converges_on_every_recording_and_carries_to_the_next()
             "calibrated on exp{k} (gyro-aided), estimated on exp{next}: Ω RMS {:.2} rad/s hand-held, {:.2} in the poses (nominal {:.2}, {:.2})",
             calibrated.hand_held, calibrated.poses, nominal.hand_held, nominal.poses
         );
-        assert!(
+        let held = report::row(
+            &format!("mimu4444 exp{k} raw, gyro-aided calibration, estimated on exp{next}"),
+            Parts::Real,
+            "Ω RMS against the gyros, hand-held / poses (rad/s)",
+            format!(
+                "{:.2} / {:.2} (nominal {:.2} / {:.2})",
+                calibrated.hand_held, calibrated.poses, nominal.hand_held, nominal.poses
+            ),
+            "no worse than nominal / better",
             calibrated.compared(&nominal, true) != std::cmp::Ordering::Greater
                 && calibrated.poses < nominal.poses,
+        );
+        assert!(
+            held,
             "exp{k} on exp{next}: hand-held {} vs nominal {}, poses {} vs {}",
-            calibrated.hand_held,
-            nominal.hand_held,
-            calibrated.poses,
-            nominal.poses
+            calibrated.hand_held, nominal.hand_held, calibrated.poses, nominal.poses
         );
     }
 }

@@ -26,6 +26,7 @@ use ballisto::sim::{run_sim, SimJob};
 use ballisto_config::arrangement_file::ArrangementFile;
 use ballisto_fw::config::Alignment;
 use e2e_tests::frame::{errors_in, frame_of, Frame};
+use e2e_tests::report::{self, Parts};
 use hal_sim::scenario::Scenario;
 use hal_sim::sensors::thermal::Surroundings;
 use nalgebra::Vector3;
@@ -115,6 +116,7 @@ fn check_coefficients(sc: &Scenario, summary: &CalibrationSummary, what: &str) -
         .as_ref()
         .expect("the record has temperatures");
     let mut worst = 0.0f64;
+    let mut failures = Vec::new();
     for (i, c) in found.channels.iter().enumerate() {
         let part = &sc.parts[i / 3];
         let (b, k) = (part.bias_tc.unwrap()[i % 3], part.scale_tc.unwrap()[i % 3]);
@@ -125,17 +127,24 @@ fn check_coefficients(sc: &Scenario, summary: &CalibrationSummary, what: &str) -
             .abs()
             .max(((thermal.scale_tc - k) / sd.1).abs());
         worst = worst.max(z);
-        assert!(
-            z <= 5.0,
-            "{what}: channel {i}: bias_tc {:.4e} ± {:.1e} (true {b:.4e}), scale_tc {:.3e} ± {:.1e} (true {k:.3e})",
-            thermal.bias_tc,
-            sd.0,
-            thermal.scale_tc,
-            sd.1
-        );
-        // Determined to a few per cent of a datasheet-typical coefficient.
-        assert!(sd.0 < 3e-5 && sd.1 < 3e-6, "{what}: channel {i}: sd {sd:?}");
+        // Within 5 of its deviations, and determined to a few per cent of a
+        // datasheet-typical coefficient.
+        if z > 5.0 || sd.0 >= 3e-5 || sd.1 >= 3e-6 {
+            failures.push(format!(
+                "channel {i}: bias_tc {:.4e} ± {:.1e} (true {b:.4e}), scale_tc {:.3e} ± {:.1e} (true {k:.3e})",
+                thermal.bias_tc, sd.0, thermal.scale_tc, sd.1
+            ));
+        }
     }
+    let held = report::row(
+        what,
+        Parts::Datasheet,
+        "thermal coefficients: worst error; deviations",
+        format!("{worst:.2} sd"),
+        "≤ 5 sd; bias < 3e-5 m/s²/°C, scale < 3e-6 /°C",
+        failures.is_empty(),
+    );
+    assert!(held, "{what}: {failures:?}");
     worst
 }
 
@@ -146,7 +155,7 @@ fn the_ground_thermal_schedule_identifies_the_coefficients() {
     let sc = Scenario::load("ground-thermal").unwrap();
     let d = dir("ground");
     let summary = calibrate(&sc, &d);
-    let worst = check_coefficients(&sc, &summary, "ground-thermal");
+    let worst = check_coefficients(&sc, &summary, "ground-thermal, ballisto calibrate");
     println!(
         "ground-thermal: coefficients within {worst:.2} sd of the truth ({} poses over {:.1} °C)",
         summary.thermal.as_ref().unwrap().poses.0,
@@ -165,7 +174,11 @@ fn the_ground_thermal_schedule_identifies_the_coefficients() {
         calibration: None,
     })
     .unwrap();
-    let worst = check_coefficients(&sc, &calibrate_record(&bench), "bench record");
+    let worst = check_coefficients(
+        &sc,
+        &calibrate_record(&bench),
+        "ground-thermal, the bench reader's record",
+    );
     println!("ground-thermal, bench reader's record: within {worst:.2} sd of the truth");
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5053);
     for draw in 0..3 {
@@ -180,7 +193,8 @@ fn the_ground_thermal_schedule_identifies_the_coefficients() {
         }
         let d = dir(&format!("ground-draw{draw}"));
         let summary = calibrate(&sc, &d);
-        let worst = check_coefficients(&sc, &summary, &format!("draw {draw}"));
+        let worst =
+            check_coefficients(&sc, &summary, &format!("ground-thermal, fresh draw {draw}"));
         println!("fresh draw {draw}: coefficients within {worst:.2} sd of the truth");
         let _ = std::fs::remove_dir_all(&d);
     }
@@ -284,21 +298,44 @@ fn compensated_in_orbit_as_ideal_parts() {
         frame.translation.norm() * 1e3,
         sigma0_moved / base.sigma0
     );
-    as_ideal_parts("compensated", &comp, sigma0_moved, &base);
+    as_ideal_parts(
+        "tetra-orbit-thermal, compensated (firmware)",
+        &comp,
+        sigma0_moved,
+        &base,
+    );
     // One estimator: the ground's compensation of the record is the unit's.
-    for (g, f) in [
+    let same = [
         (on_ground.sigma0, comp.sigma0),
         (on_ground.domega, comp.domega),
         (on_ground.omega, comp.omega),
-    ] {
-        assert!(
-            (g / f - 1.0).abs() < 0.02,
-            "ground {g:.4e} vs firmware {f:.4e}"
-        );
-    }
-    // The coefficients matter, and their absence is not silent.
+    ];
+    let worst = same
+        .iter()
+        .map(|(g, f)| (g / f - 1.0).abs())
+        .fold(0.0, f64::max);
     assert!(
-        bare.omega > 3.0 * base.omega,
+        report::row(
+            "tetra-orbit-thermal, the ground's estimate of the unit's record",
+            Parts::Datasheet,
+            "RMS errors against the unit's",
+            format!("{:.2} % apart", 100.0 * worst),
+            "< 2 %",
+            worst < 0.02
+        ),
+        "ground vs firmware {same:?}"
+    );
+    // The coefficients matter, and their absence is not silent.
+    let case = "tetra-orbit-thermal, without its coefficients";
+    assert!(
+        report::row(
+            case,
+            Parts::Datasheet,
+            "RMS error Ω over ideal parts (the coefficients matter)",
+            format!("{:.2}", bare.omega / base.omega),
+            "> 3",
+            bare.omega > 3.0 * base.omega
+        ),
         "uncompensated Ω {}",
         bare.omega
     );
@@ -306,7 +343,7 @@ fn compensated_in_orbit_as_ideal_parts() {
         .silent
         .expect("firmware estimates carry deviations and flags");
     assert!(
-        silent.omega <= bare.rows / 1000,
+        report::silent(case, Parts::Datasheet, silent.omega, bare.rows, 1000),
         "uncompensated: {silent:?} of {} rows silently wrong",
         bare.rows
     );
@@ -315,25 +352,35 @@ fn compensated_in_orbit_as_ideal_parts() {
         "tracked in flight: σ0 at the identified origin {tracked_sigma0:.3e} ({:.2}×)",
         tracked_sigma0 / base.sigma0
     );
-    as_ideal_parts("tracked in flight", &tracked, tracked_sigma0, &base);
+    as_ideal_parts(
+        "tetra-orbit-thermal, tracked in flight (booted without coefficients)",
+        &tracked,
+        tracked_sigma0,
+        &base,
+    );
 }
 
 /// The bound: σ0 (`sigma0`, at the origin the run's geometry calls its own), Ω′ and Ω
 /// of `run` within 1.2 × those of `ideal`, and at most one row in 100 000 silently wrong.
 fn as_ideal_parts(what: &str, run: &Comparison, sigma0: f64, ideal: &Comparison) {
-    for (name, got, base) in [
-        ("σ0", sigma0, ideal.sigma0),
-        ("Ω′", run.domega, ideal.domega),
-        ("Ω", run.omega, ideal.omega),
-    ] {
-        assert!(
-            got <= 1.2 * base,
-            "{what}: {name} {got:.3e} vs ideal {base:.3e}"
-        );
-    }
+    let ratios = [
+        sigma0 / ideal.sigma0,
+        run.domega / ideal.domega,
+        run.omega / ideal.omega,
+    ];
+    assert!(
+        report::over_ideal(what, Parts::Datasheet, &ratios, 1.2),
+        "{what}: {ratios:?} × ideal"
+    );
     let silent = run.silent.expect("firmware estimates carry flags");
     assert!(
-        silent.sigma0 + silent.omega <= run.rows / 100_000,
+        report::silent(
+            what,
+            Parts::Datasheet,
+            silent.sigma0 + silent.omega,
+            run.rows,
+            100_000
+        ),
         "{what}: {silent:?} of {} rows silently wrong",
         run.rows
     );
@@ -380,7 +427,14 @@ fn the_track_corrects_coefficients_that_changed_since_the_ground() {
             tracked.domega / ideal.domega,
             tracked.omega / ideal.omega
         );
-        as_ideal_parts(&format!("draw {draw}"), &tracked, sigma0, &ideal);
+        as_ideal_parts(
+            &format!(
+                "tetra-orbit-thermal, coefficients changed since the ground, draw {draw}, tracked"
+            ),
+            &tracked,
+            sigma0,
+            &ideal,
+        );
     }
 }
 
@@ -410,7 +464,7 @@ fn tracked_in_flight(sc: &Scenario, plain: &Path) -> (Comparison, f64) {
     assert_eq!(summaries.len(), windows, "every window solved");
     assert_eq!(tracks.len(), 12, "the last solution's track, every channel");
     // The coefficient the commit stores against the part's (channel order: part, x y z).
-    let mut worst = (0.0f64, 0.0f64);
+    let (mut worst, mut off) = ((0.0f64, 0.0f64), Vec::new());
     for k in &tracks {
         let c = usize::from(k.channel);
         let truth = sc.parts[c / 3].bias_tc.unwrap()[c % 3];
@@ -433,7 +487,9 @@ fn tracked_in_flight(sc: &Scenario, plain: &Path) -> (Comparison, f64) {
         worst = (worst.0.max(err.abs()), worst.1.max(z));
         // Over the ±20 °C cycle the coefficient's error leaves at most 0.1 mg of bias, a
         // twentieth of the datasheet's 0.15 mg/°C over it.
-        assert!(err.abs() < 5e-5, "channel {c}: {k:?} vs {truth}");
+        if err.abs() >= 5e-5 {
+            off.push(format!("channel {c}: {k:?} vs {truth}"));
+        }
         // Beyond its deviation only where the track says the scale's drift may be in it.
         assert!(
             z <= 5.0 || k.state & TRACK_SCALE_DRIFT != 0,
@@ -444,6 +500,7 @@ fn tracked_in_flight(sc: &Scenario, plain: &Path) -> (Comparison, f64) {
         "tracked coefficients: worst error {:.2e} m/s² per °C ({:.1} sd)",
         worst.0, worst.1
     );
+    assert!(report_tracked(sc, worst.0, off.is_empty()), "{off:?}");
     let last = summaries.last().unwrap();
     let drawn = sc.body.origin_offset.unwrap_or([0.0; 3]);
     let origin = Frame {
@@ -455,6 +512,22 @@ fn tracked_in_flight(sc: &Scenario, plain: &Path) -> (Comparison, f64) {
     let sigma0 = errors_in(&run, "estimates.csv", &origin)[0];
     let _ = std::fs::remove_dir_all(&run);
     (errors, sigma0)
+}
+
+/// The report's row of the worst tracked coefficient's error (`holds`: under its bar);
+/// returns `holds`.
+fn report_tracked(sc: &Scenario, worst: f64, holds: bool) -> bool {
+    report::row(
+        &format!(
+            "tetra-orbit-thermal, seed {}: thermal track in flight",
+            sc.seed
+        ),
+        Parts::Datasheet,
+        "worst bias coefficient error",
+        format!("{worst:.2e} m/s²/°C"),
+        "< 5e-5 m/s²/°C",
+        holds,
+    )
 }
 
 /// Coefficients and no temperature columns: estimated uncorrected, and said per channel.
