@@ -55,8 +55,8 @@ pub struct Summary {
     pub warnings: Vec<String>,
 }
 
-/// Runs the estimator over a samples file, streaming rows to the estimates file. Rows written
-/// before an error stay in the output (flushed); the error names file and line.
+/// Runs the estimator over a samples file, streaming rows to the estimates file, put in place
+/// once complete: after an error (naming file and line) the previous file stays as it was.
 pub fn estimate_files(job: &EstimateJob) -> Result<Summary, Box<dyn Error>> {
     crate::output::check_distinct(&[job.out], &[job.arrangement, job.samples])?;
     let loaded = load_arrangement(job.arrangement)?;
@@ -435,24 +435,23 @@ fn run_typed<T: Real + Send + 'static>(
             Err(e) => break Err(e),
         }
     };
-    // Rows accepted before an error are still estimated and written.
+    if let Err(e) = result {
+        // The pending output is dropped: a previous file of that name stays as it was.
+        return Err(e.into());
+    }
     est.finish_masked(&mut emit);
     let written = w.finish();
     if let Some(e) = io_err.or(written.err()) {
         return Err(format!("{}: write failed: {e}", job.out.display()).into());
     }
     if summary.rows == 0 {
-        // The pending output is dropped: a previous file of that name stays as it was.
-        result?;
         return Err(format!(
             "{}: no sample rows after the header: nothing written",
             job.samples.display()
         )
         .into());
     }
-    // The rows accepted before an input error are a whole output: in place, then the error.
     pending.commit()?;
-    result?;
     let file = job.arrangement.display().to_string();
     summary
         .warnings

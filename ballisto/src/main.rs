@@ -79,7 +79,16 @@ fn main() -> ExitCode {
     if cli.verbose && log::set_logger(&STDERR_LOG).is_ok() {
         log::set_max_level(log::LevelFilter::Debug);
     }
-    match run(cli) {
+    if let Err(e) = ballisto::output::signals::remove_temporaries_on_signals() {
+        eprintln!("ballisto: cannot watch for signals: {e}");
+        return ExitCode::from(ballisto::exit::BAD_INPUT);
+    }
+    let result = run(cli);
+    // A reader of stdout that went away (`| head`) took what it wanted: no failure.
+    if ballisto::output::signals::stdout_closed() {
+        return ExitCode::SUCCESS;
+    }
+    match result {
         Ok(code) => code,
         Err(e) => {
             eprintln!("ballisto: {e}");

@@ -42,6 +42,7 @@ pub fn tc(args: TcArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
         command,
     } = args;
     let ack = ballisto::tc::ack_flags(&ack)?;
+    ballisto::output::check_distinct(&[&out], &inputs(&command))?;
     let frames = telecommands(command, sequence, ack, say)?;
     let bytes = if hex {
         ballisto::tc::hex(&frames).into_bytes()
@@ -62,6 +63,18 @@ pub fn tc(args: TcArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
         say.info(format!("ballisto tc: {} -> {}", f.text, out.display()));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The files a `tc` command reads (the output may be none of them).
+fn inputs(command: &TcCommand) -> Vec<&std::path::Path> {
+    match command {
+        TcCommand::Exclude { arrangement, .. } | TcCommand::Include { arrangement, .. } => {
+            arrangement.iter().map(PathBuf::as_path).collect()
+        }
+        TcCommand::LoadArrangement { arrangement } => vec![arrangement.as_path()],
+        TcCommand::Reference { file, .. } => vec![file.as_path()],
+        _ => Vec::new(),
+    }
 }
 
 /// The frames of a `tc` command: consecutive sequence counts from `sequence`.

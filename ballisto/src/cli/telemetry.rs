@@ -86,7 +86,7 @@ pub fn decode(args: DecodeArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
                 eprint!("{text}");
             }
         } else {
-            print!("{text}");
+            ballisto::output::signals::print(&text)?;
         }
     }
     say.info(format!(
@@ -151,20 +151,21 @@ pub fn compare(args: CompareArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> 
             if let Some(d) = c.dropped.describe(&reference) {
                 say.info(format!("ballisto compare: {d}"));
             }
-            println!(
-                "rows compared: {} of {} (the others not between two valid reference rows)",
+            let mut text = format!(
+                "rows compared: {} of {} (the others not between two valid reference rows)\n",
                 c.compared, c.rows
             );
             for (i, axis) in ["x", "y", "z"].iter().enumerate() {
-                println!(
-                    "omega_{axis}  RMS error {:.3e} rad/s, median |error| {:.3e} rad/s",
+                text += &format!(
+                    "omega_{axis}  RMS error {:.3e} rad/s, median |error| {:.3e} rad/s\n",
                     c.rms[i], c.median[i]
                 );
             }
-            println!(
-                "|omega|   RMS error {:.3e} rad/s, median {:.3e} rad/s",
+            text += &format!(
+                "|omega|   RMS error {:.3e} rad/s, median {:.3e} rad/s\n",
                 c.rms_norm, c.median_norm
             );
+            ballisto::output::signals::print(&text)?;
             Ok(ExitCode::SUCCESS)
         }
         CompareArgs {
@@ -178,19 +179,19 @@ pub fn compare(args: CompareArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> 
             )));
             };
             let c = ballisto::compare::compare(truth, estimates)?;
-            println!("rows compared: {}", c.rows);
-            println!("RMS error  sigma0 {:.3e} m/s^2", c.sigma0);
-            println!("RMS error  domega {:.3e} rad/s^2", c.domega);
-            println!("RMS error  omega  {:.3e} rad/s", c.omega);
-            println!("RMS error  A      {:.3e} 1/s^2", c.field);
+            let mut text = format!(
+                "rows compared: {}\nRMS error  sigma0 {:.3e} m/s^2\nRMS error  domega {:.3e} rad/s^2\nRMS error  omega  {:.3e} rad/s\nRMS error  A      {:.3e} 1/s^2\n",
+                c.rows, c.sigma0, c.domega, c.omega, c.field
+            );
             if let Some(s) = c.silent {
-                println!(
-                    "unflagged rows with an error above {} reported sd: sigma0 {}, omega {}",
+                text += &format!(
+                    "unflagged rows with an error above {} reported sd: sigma0 {}, omega {}\n",
                     ballisto::compare::SILENT_SD,
                     s.sigma0,
                     s.omega
                 );
             }
+            ballisto::output::signals::print(&text)?;
             Ok(ExitCode::SUCCESS)
         }
     }
