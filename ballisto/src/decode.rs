@@ -371,6 +371,18 @@ pub fn decode_file(
         return Err(format!("{}: empty: no telemetry", input.display()));
     }
     let stream = decode_stream(&bytes);
+    if stream.packets.is_empty() {
+        // Nothing of the link's framing: the wrong file, not damaged telemetry.
+        return Err(format!(
+            "{}: not telemetry: no packet in {} bytes ({}; nothing written)",
+            input.display(),
+            bytes.len(),
+            stream
+                .problems
+                .first()
+                .map_or_else(|| "no frame".to_string(), |p| format!("first: {p}"))
+        ));
+    }
     // Written beside the final path, put in place once complete (`crate::output`).
     let (pending, mut w) = crate::output::create(out)?;
     let rows = write_estimates(&mut w, &stream, time_offset)

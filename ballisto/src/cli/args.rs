@@ -77,6 +77,34 @@ pub fn positive_rate(s: &str) -> Result<f64, String> {
 }
 
 /// A relative deviation: a number above 0 and below 1.
+/// A finite number (an option's value: NaN or infinity would make every result NaN).
+pub fn finite(s: &str) -> Result<f64, String> {
+    let x: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("\"{s}\" is not a number"))?;
+    if !x.is_finite() {
+        return Err(format!("\"{s}\" is not a finite number"));
+    }
+    Ok(x)
+}
+
+/// A finite duration above zero, in seconds.
+pub fn positive_seconds(s: &str) -> Result<f64, String> {
+    match finite(s)? {
+        x if x > 0.0 => Ok(x),
+        _ => Err(format!("\"{s}\" is not a duration above 0 s")),
+    }
+}
+
+/// A time, or `inf` for no end.
+pub fn time_or_inf(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x == f64::INFINITY => Ok(x),
+        _ => finite(s),
+    }
+}
+
 /// `--inertia`: three principal moments or the six components of a symmetric tensor.
 pub fn inertia(s: &str) -> Result<[f64; 6], String> {
     let v: Vec<f64> = s
@@ -274,7 +302,7 @@ pub enum TcCommand {
         #[arg(long, value_name = "MS")]
         period_ms: u16,
         /// The window's length from reception, s (at most one hour).
-        #[arg(long, value_name = "SECONDS")]
+        #[arg(long, value_name = "SECONDS", value_parser = positive_seconds)]
         window: f64,
         /// Without a reference (source 2): the body's inertia in the body frame, XX,YY,ZZ or
         /// XX,YY,ZZ,XY,XZ,YZ (only the ratios matter); the motion must be torque-free.
@@ -288,10 +316,10 @@ pub enum TcCommand {
         #[arg(value_name = "REFERENCE.csv")]
         file: PathBuf,
         /// First time to send, s.
-        #[arg(long, value_name = "S", default_value = "0")]
+        #[arg(long, value_name = "S", default_value = "0", allow_hyphen_values = true, value_parser = finite)]
         from: f64,
         /// Last time to send, s.
-        #[arg(long, value_name = "S", default_value = "inf")]
+        #[arg(long, value_name = "S", default_value = "inf", allow_hyphen_values = true, value_parser = time_or_inf)]
         to: f64,
     },
     /// TC[200,10]: solve the identification window and report the solution.
@@ -306,7 +334,7 @@ pub enum TcCommand {
     /// TC[9,128]: the spacecraft time at the command's reception (s; CUC 4+3).
     SetTime {
         /// Seconds of the spacecraft's time scale.
-        #[arg(value_name = "SECONDS")]
+        #[arg(value_name = "SECONDS", value_parser = finite)]
         seconds: f64,
     },
     /// TC[17,1]: are you alive.

@@ -15,7 +15,8 @@ pub struct TcArgs {
     #[arg(long, value_name = "TC.bin", global = true, default_value = "-")]
     pub out: PathBuf,
     /// Sequence count of the (first) packet, 0–16383: the verification reports carry it.
-    #[arg(long, value_name = "N", global = true, default_value = "0")]
+    #[arg(long, value_name = "N", global = true, default_value = "0",
+          value_parser = clap::value_parser!(u16).range(0..=0x3FFF))]
     pub sequence: u16,
     /// Verification reports asked for: acceptance, completion (comma-separated), or none.
     #[arg(
@@ -86,9 +87,6 @@ fn telecommands(
 ) -> Result<Vec<ballisto::tc::Framed>, Box<dyn std::error::Error>> {
     use ballisto::tc;
     use ballisto_link::telecommand::Command as Tc;
-    if sequence > 0x3FFF {
-        return Err(format!("--sequence {sequence}: at most 16383 (14 bits)").into());
-    }
     let one = |c: Tc, channels: Option<usize>| tc::frame(&c, sequence, ack, channels);
     let frames = match command {
         TcCommand::Mode { mode } => vec![one(
@@ -141,7 +139,9 @@ fn telecommands(
         } => {
             let ms = (window * 1000.0).round();
             if !(ms >= 1.0 && ms <= f64::from(u32::MAX)) {
-                return Err(format!("--window {window}: not a window length in seconds").into());
+                return Err(Box::new(ballisto::exit::Usage(format!(
+                    "--window {window}: not a window length in seconds (1 ms to 49 days)"
+                ))));
             }
             vec![one(
                 Tc::StartIdentification {

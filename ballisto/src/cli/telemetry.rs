@@ -26,7 +26,8 @@ pub struct DecodeArgs {
         long,
         value_name = "S",
         default_value = "0",
-        allow_hyphen_values = true
+        allow_hyphen_values = true,
+        value_parser = finite
     )]
     pub time_offset: f64,
     /// Also write the stream's last identification solution (TM[200,128–129])

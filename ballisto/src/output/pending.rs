@@ -159,10 +159,12 @@ impl Pending {
             Ok(m) if m.is_dir() => {
                 return Err(format!("{}: is a directory: name a file", dest.display()))
             }
-            Ok(_) if !writable(&real) => return Err(format!(
+            Ok(_) if !writable(&real) => {
+                return Err(format!(
                 "{}: not writable: refusing to replace it (change its mode or name another output)",
                 dest.display()
-            )),
+            ))
+            }
             Ok(m) if !m.is_file() => (Target::Special(real), None),
             Ok(m) => {
                 let (file, tmp) = temporary(dest, &real, Some(&m))?;
