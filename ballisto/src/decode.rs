@@ -16,7 +16,13 @@ use ballisto_link::{
 };
 
 /// Extra columns of the decoded estimates file, after the estimates-file columns.
-pub const LINK_COLUMNS: [&str; 4] = ["k", "missing_parts", "excluded_parts", "excluded_channels"];
+pub const LINK_COLUMNS: [&str; 5] = [
+    "k",
+    "missing_parts",
+    "excluded_parts",
+    "excluded_channels",
+    "boot",
+];
 
 /// A decoded stream.
 #[derive(Debug, Default)]
@@ -46,7 +52,10 @@ pub fn decode_stream(bytes: &[u8]) -> Stream {
         pending_start = offset + 1;
         match frame {
             Ok(p) => {
-                if let Some(expected) = next {
+                // A boot starts the count again: the stream of a new boot, not lost packets.
+                let booted = matches!(&p.report, Report::Event(e) if e.id == EventId::Boot)
+                    && p.sequence == 0;
+                if let Some(expected) = next.filter(|_| !booted) {
                     if p.sequence != expected {
                         let lost = p.sequence.wrapping_sub(expected) & 0x3FFF;
                         out.problems.push(format!(
@@ -119,11 +128,22 @@ pub fn write_estimates<W: Write>(
     // and the reconfigured and model-switched events, unless the report carries it: model G's
     // rows carry the gravity gradient.
     let mut model = None;
+    // The boot the rows are of (`t` starts again at each): from the boot event and the
+    // housekeeping (format 2).
+    let mut boot: Option<u32> = None;
     for p in &stream.packets {
         let m = match &p.report {
             Report::Motion(m) => m,
             Report::Housekeeping(h) => {
                 model = ModelCode::try_from(h.model).ok();
+                if let Some((info, _)) = &h.boot {
+                    boot = Some(info.count);
+                }
+                continue;
+            }
+            Report::Event(e) if e.id == EventId::Boot => {
+                let b = BootEvent::from_words(e.a, e.b);
+                boot = (b.format >= 2).then_some(u32::from(b.count));
                 continue;
             }
             Report::Event(e) if e.id == EventId::ModelSwitched => {
@@ -148,11 +168,15 @@ pub fn write_estimates<W: Write>(
         crate::estimates_csv::write_row(&mut line, t, &m.estimate, gamma, excluded)?;
         line.pop();
         w.write_all(&line)?;
-        writeln!(
+        write!(
             w,
-            ",{},{},{},{}",
+            ",{},{},{},{},",
             m.k, m.missing_parts.0, m.excluded_parts.0, m.excluded_channels.0
         )?;
+        match boot {
+            Some(b) => writeln!(w, "{b}")?,
+            None => writeln!(w)?,
+        }
         rows += 1;
     }
     Ok(rows)
