@@ -4,7 +4,7 @@ mod cli;
 
 use std::process::ExitCode;
 
-use clap::Parser;
+use clap::{CommandFactory, Parser};
 use cli::args::{Command, Say};
 
 #[derive(Parser)]
@@ -39,6 +39,8 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Command::Com(args) => cli::estimate::com(args, say),
         Command::Compare(args) => cli::telemetry::compare(args, say),
         Command::Tc(args) => cli::tc::tc(args, say),
+        Command::Completions { shell } => cli::manual::completions(shell, Cli::command()),
+        Command::Man { out } => cli::manual::man(&out, Cli::command(), say),
     }
 }
 

@@ -238,6 +238,20 @@ pub enum Command {
     /// to a file, or stdout.
     #[command(after_help = TC_HELP)]
     Tc(TcArgs),
+    /// Shell completions for ballisto on stdout, e.g. `ballisto completions bash >
+    /// ~/.local/share/bash-completion/completions/ballisto`.
+    Completions {
+        /// The shell.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// The manual pages (roff): ballisto.1 and one per subcommand (ballisto-estimate.1, …),
+    /// into a directory, e.g. `ballisto man --out ~/.local/share/man/man1`.
+    Man {
+        /// The directory to write them into (made if absent).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+    },
 }
 
 /// The telecommands of `ballisto tc` (docs/telemetry.md, "Telecommands").
