@@ -36,6 +36,8 @@ pub struct EstimateJob<'a> {
     pub options: Options,
     /// Scalar type.
     pub precision: Precision,
+    /// A progress bar on stderr (drawn only on a terminal).
+    pub progress: bool,
 }
 
 /// Counts of a run.
@@ -406,7 +408,13 @@ fn run_typed<T: Real + Send + 'static>(
     // the last temperature its column gave; uncorrected rows counted for a warning.
     let mut temps = vec![f64::NAN; loaded.names.len()];
     let mut uncorrected = vec![0u64; loaded.names.len()];
+    let bar = progress_bar(job);
+    let mut read = 0u64;
     let result = loop {
+        if read.is_multiple_of(4096) {
+            bar.set_position(reader.bytes_read());
+        }
+        read += 1;
         match reader.next_row(&mut row) {
             Ok(Some(t)) => {
                 if let Err(e) = reader.temperatures(&mut temps) {
@@ -435,6 +443,7 @@ fn run_typed<T: Real + Send + 'static>(
             Err(e) => break Err(e),
         }
     };
+    bar.finish_and_clear();
     if let Err(e) = result {
         // The pending output is dropped: a previous file of that name stays as it was.
         return Err(e.into());
@@ -530,5 +539,27 @@ pub fn count_flags(counts: &mut [u64; 16], flags: Flags) {
         if flags.has(1 << bit) {
             *c += 1;
         }
+    }
+}
+
+/// The bar of an estimate: the samples file's bytes read of its size, or (compressed, stdin)
+/// the bytes read alone.
+fn progress_bar(job: &EstimateJob) -> indicatif::ProgressBar {
+    let plain_size = std::fs::metadata(job.samples)
+        .ok()
+        .filter(|m| m.is_file())
+        .filter(|_| job.samples.extension().is_none_or(|e| e != "gz"))
+        .map(|m| m.len());
+    match plain_size {
+        Some(len) => crate::progress::bar(
+            job.progress,
+            len,
+            "estimate {bar:30} {bytes}/{total_bytes} ({elapsed}, {eta} left)",
+        ),
+        None => crate::progress::bar(
+            job.progress,
+            u64::MAX,
+            "estimate {spinner} {bytes} read ({elapsed})",
+        ),
     }
 }

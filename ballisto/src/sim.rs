@@ -189,6 +189,7 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
                 ..Default::default()
             },
             precision: Precision::F64,
+            progress: false,
         })?;
         report.flag_counts = summary.flag_counts;
     }

@@ -85,6 +85,7 @@ pub fn estimate(
             ..Default::default()
         },
         precision,
+        progress: !say.quiet,
     };
     let s = estimate_files(&job)?;
     if let Some(note) = &s.model_note {
