@@ -35,6 +35,7 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Command::Estimate(args) => cli::estimate::estimate(args, say, started),
         Command::Sim(args) => cli::sim::sim(args, say, started),
         Command::Decode(args) => cli::telemetry::decode(args, say),
+        Command::Capture(args) => cli::telemetry::capture(args, say),
         Command::Calibrate(args) => cli::estimate::calibrate(args, say, started),
         Command::Com(args) => cli::estimate::com(args, say),
         Command::Compare(args) => cli::telemetry::compare(args, say),

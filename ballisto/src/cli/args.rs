@@ -9,7 +9,7 @@ use estimator_core::Model;
 pub use super::estimate::{CalibrateArgs, ComArgs, EstimateArgs};
 pub use super::sim::SimArgs;
 pub use super::tc::TcArgs;
-pub use super::telemetry::{CompareArgs, DecodeArgs};
+pub use super::telemetry::{CaptureArgs, CompareArgs, DecodeArgs};
 
 pub const FLAGS_HELP: &str = "The flags column of estimates.csv is a bit set:
   1   sign unresolved: Ω may be −Ω (steady spin, no hint yet)
@@ -94,6 +94,14 @@ pub fn positive_seconds(s: &str) -> Result<f64, String> {
     match finite(s)? {
         x if x > 0.0 => Ok(x),
         _ => Err(format!("\"{s}\" is not a duration above 0 s")),
+    }
+}
+
+/// A finite duration of zero or more seconds.
+pub fn non_negative_seconds(s: &str) -> Result<f64, String> {
+    match finite(s)? {
+        x if x >= 0.0 => Ok(x),
+        _ => Err(format!("\"{s}\" is not a duration of 0 s or more")),
     }
 }
 
@@ -220,6 +228,13 @@ pub enum Command {
     /// (the good packets are still written).
     #[command(after_help = DECODE_HELP)]
     Decode(DecodeArgs),
+    /// Follow the unit's link live from a serial port (or a pseudo-terminal, or a file that
+    /// grows): decoded as it arrives, every motion report to the estimates file and every
+    /// other report to the log as it comes, a status line on a terminal; a port unplugged is
+    /// waited for, a reset of the unit starts a new boot's rows; telecommand frames can be sent
+    /// first. Ends after --idle seconds without a byte, or on Ctrl-C (the files then hold
+    /// everything received).
+    Capture(CaptureArgs),
     /// Identify every channel's position, axis, scale and bias from a record of static poses
     /// and motion (paper §6); writes a calibrated arrangement file with standard deviations
     /// and the frame's uncertainty (frame_*_sd). What the record does not determine keeps its

@@ -44,6 +44,92 @@ pub struct DecodeArgs {
     pub commands: Vec<PathBuf>,
 }
 
+/// The arguments of `ballisto capture`.
+#[derive(Args)]
+pub struct CaptureArgs {
+    /// The serial port (e.g. /dev/ttyUSB0; a pseudo-terminal such as QEMU's `-serial pty`),
+    /// or a file that grows.
+    #[arg(long, value_name = "PORT")]
+    pub port: PathBuf,
+    /// The port's baud rate (8N1; the STM32H743 board's link runs at 921 600).
+    #[arg(long, value_name = "BAUD", default_value = "921600")]
+    pub baud: u32,
+    /// Estimates file to write as the reports arrive (must not exist).
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: PathBuf,
+    /// Housekeeping, events, verification reports and problems, as they arrive (must not
+    /// exist).
+    #[arg(long, value_name = "FILE.txt")]
+    pub log: PathBuf,
+    /// Also keep the raw bytes received (must not exist), for `ballisto decode` later.
+    #[arg(long, value_name = "FILE.bin")]
+    pub raw: Option<PathBuf>,
+    /// Seconds added to the on-board time (time since boot) of every packet.
+    #[arg(
+        long,
+        value_name = "S",
+        default_value = "0",
+        allow_hyphen_values = true,
+        value_parser = finite
+    )]
+    pub time_offset: f64,
+    /// End after this many seconds without a byte (0: at a file's end); without it, run
+    /// until interrupted.
+    #[arg(long, value_name = "SECONDS", value_parser = non_negative_seconds)]
+    pub idle: Option<f64>,
+    /// Telecommand frames to send on the port once it is open (`ballisto tc`'s files;
+    /// repeatable, sent in order).
+    #[arg(long, value_name = "TC.bin")]
+    pub send: Vec<PathBuf>,
+}
+
+/// `ballisto capture`.
+pub fn capture(args: CaptureArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
+    for p in [Some(&args.out), Some(&args.log), args.raw.as_ref()]
+        .into_iter()
+        .flatten()
+    {
+        if ballisto::output::is_std(p) {
+            return Err(Box::new(ballisto::exit::Usage(
+                "capture writes files as the reports arrive: name --out, --log and --raw files"
+                    .into(),
+            )));
+        }
+    }
+    let send = args
+        .send
+        .iter()
+        .map(|f| ballisto::output::read_input(f))
+        .collect::<Result<Vec<_>, _>>()?;
+    let s = ballisto::capture::capture(&ballisto::capture::CaptureJob {
+        port: &args.port,
+        baud: args.baud,
+        out: &args.out,
+        log: &args.log,
+        raw: args.raw.as_deref(),
+        time_offset: args.time_offset,
+        idle: args.idle,
+        send,
+        progress: !say.quiet,
+    })?;
+    say.info(format!(
+        "{}: {} bytes, {} packets, {} motion reports to {}, {} boots, {} problems, port reopened {} times",
+        args.port.display(),
+        s.bytes,
+        s.packets,
+        s.rows,
+        args.out.display(),
+        s.boots,
+        s.problems,
+        s.reopened
+    ));
+    Ok(if s.problems > 0 {
+        ExitCode::from(ballisto::exit::DAMAGED_TELEMETRY)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
 /// `ballisto decode`.
 pub fn decode(args: DecodeArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
     let DecodeArgs {
