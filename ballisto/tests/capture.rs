@@ -48,18 +48,7 @@ fn pty() -> (std::fs::File, std::path::PathBuf, std::fs::File) {
 
 #[test]
 fn a_live_capture_across_a_reset_is_the_file_decode_row_for_row() {
-    let d = common::tmpdir("capture", "pty");
-    let mut c = common::ballisto();
-    c.args([
-        "sim",
-        "-q",
-        "--scenario",
-        "tetra-orbit",
-        "--firmware",
-        "--out",
-    ])
-    .arg(&d);
-    common::run_ok(&mut c);
+    let d = common::firmware_record("capture", "pty");
     let boot = std::fs::read(d.join("telemetry.bin")).unwrap();
     let tc = d.join("ping.bin");
     common::run_ok(common::ballisto().args(["tc", "ping", "--out"]).arg(&tc));

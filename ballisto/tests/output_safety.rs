@@ -248,18 +248,7 @@ fn an_interrupted_run_leaves_no_temporary_file() {
 
 #[test]
 fn a_reader_that_goes_away_ends_the_command_quietly() {
-    let d = common::tmpdir("output-safety", "pipe");
-    let mut c = common::ballisto();
-    c.args([
-        "sim",
-        "-q",
-        "--scenario",
-        "tetra-orbit",
-        "--firmware",
-        "--out",
-    ])
-    .arg(&d);
-    common::run_ok(&mut c);
+    let d = common::firmware_record("output-safety", "pipe");
     let mut c = common::ballisto();
     c.arg("decode")
         .arg(d.join("telemetry.bin"))

@@ -8,6 +8,20 @@ use clap::Args;
 
 use super::args::*;
 
+/// `--time-offset`, of `decode` and `capture`.
+#[derive(Args)]
+pub struct TimeOffset {
+    /// Seconds added to the on-board time (time since boot) of every packet.
+    #[arg(
+        long,
+        value_name = "S",
+        default_value = "0",
+        allow_hyphen_values = true,
+        value_parser = finite
+    )]
+    pub time_offset: f64,
+}
+
 /// The arguments of `ballisto decode`.
 #[derive(Args)]
 pub struct DecodeArgs {
@@ -21,15 +35,8 @@ pub struct DecodeArgs {
     /// Write housekeeping, events and verification reports here (default: stdout).
     #[arg(long, value_name = "FILE.txt")]
     pub log: Option<PathBuf>,
-    /// Seconds added to the on-board time (time since boot) of every packet.
-    #[arg(
-        long,
-        value_name = "S",
-        default_value = "0",
-        allow_hyphen_values = true,
-        value_parser = finite
-    )]
-    pub time_offset: f64,
+    #[command(flatten)]
+    pub offset: TimeOffset,
     /// Also write the stream's last identification solution (TM[200,128–129])
     /// as an arrangement file over the channel names of --arrangement.
     #[arg(long, value_name = "FILE.toml", requires = "arrangement")]
@@ -64,15 +71,8 @@ pub struct CaptureArgs {
     /// Also keep the raw bytes received (must not exist), for `ballisto decode` later.
     #[arg(long, value_name = "FILE.bin")]
     pub raw: Option<PathBuf>,
-    /// Seconds added to the on-board time (time since boot) of every packet.
-    #[arg(
-        long,
-        value_name = "S",
-        default_value = "0",
-        allow_hyphen_values = true,
-        value_parser = finite
-    )]
-    pub time_offset: f64,
+    #[command(flatten)]
+    pub offset: TimeOffset,
     /// End after this many seconds without a byte (0: at a file's end); without it, run
     /// until interrupted.
     #[arg(long, value_name = "SECONDS", value_parser = non_negative_seconds)]
@@ -107,7 +107,7 @@ pub fn capture(args: CaptureArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> 
         out: &args.out,
         log: &args.log,
         raw: args.raw.as_deref(),
-        time_offset: args.time_offset,
+        time_offset: args.offset.time_offset,
         idle: args.idle,
         send,
         progress: !say.quiet,
@@ -136,7 +136,7 @@ pub fn decode(args: DecodeArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
         input,
         out,
         log,
-        time_offset,
+        offset: TimeOffset { time_offset },
         calibration,
         arrangement,
         commands,
