@@ -8,8 +8,8 @@
 //!
 //! The outputs are the live record, written as it goes: they must not exist yet (a capture
 //! never replaces a previous one), and whatever was received is in them when the capture
-//! ends — at `--idle` seconds without a byte, at the end of a file with `--idle 0`, or on
-//! Ctrl-C.
+//! ends — at `--idle` seconds without a byte (or without the port, once lost), at the end of
+//! a file with `--idle 0`, or on Ctrl-C.
 
 use std::fs::File;
 use std::io::{BufWriter, Read, Write};
@@ -82,8 +82,11 @@ impl Source {
     /// Reads what has arrived: `Ok(0)` when nothing did (a timeout, or a file's end).
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
         match self {
+            // A port's read waits up to its timeout for a byte: no byte is a timeout, and
+            // an end of file is the line hung up (the other side gone).
             Source::Port(p) => match p.read(buf) {
                 Err(e) if e.kind() == std::io::ErrorKind::TimedOut => Ok(0),
+                Ok(0) => Err(hung_up()),
                 other => other,
             },
             Source::File(f) => f.read(buf),
@@ -98,6 +101,14 @@ impl Source {
             )),
         }
     }
+}
+
+/// A port whose line hung up, or whose device is gone.
+fn hung_up() -> std::io::Error {
+    std::io::Error::new(
+        std::io::ErrorKind::BrokenPipe,
+        "the line hung up (the device is gone)",
+    )
 }
 
 /// The error of a failed write to `p`.
@@ -145,7 +156,13 @@ pub fn capture(job: &CaptureJob) -> Result<CaptureSummary, String> {
     let mut last_byte = Instant::now();
     let started = Instant::now();
     loop {
-        let n = match source.read(&mut buf) {
+        // A device unplugged (a USB adapter, a terminal whose other side closed) may read
+        // as silence: its node is gone.
+        let read = match source.read(&mut buf) {
+            Ok(0) if matches!(source, Source::Port(_)) && !job.port.exists() => Err(hung_up()),
+            other => other,
+        };
+        let n = match read {
             Ok(n) => n,
             Err(e) => {
                 // The port went away (unplugged, the unit powered off): what was read of a
@@ -154,7 +171,18 @@ pub fn capture(job: &CaptureJob) -> Result<CaptureSummary, String> {
                 decoder.interrupted(&mut stream);
                 writeln!(log, "PROBLEM the port was lost: {e}").map_err(write_err(job.log))?;
                 write_packets(&stream, &mut rows, &mut out, &mut log, job, &mut summary)?;
-                source = reopen(job, &status, &mut summary)?;
+                match reopen(job, &status, &mut summary) {
+                    Some(s) => source = s,
+                    None => {
+                        writeln!(
+                            log,
+                            "PROBLEM the port was not back within {} s: the capture ends",
+                            job.idle.unwrap_or_default()
+                        )
+                        .map_err(write_err(job.log))?;
+                        break;
+                    }
+                }
                 last_byte = Instant::now();
                 continue;
             }
@@ -205,26 +233,23 @@ pub fn capture(job: &CaptureJob) -> Result<CaptureSummary, String> {
     Ok(summary)
 }
 
-/// The port opened again once it is back (every 0.5 s; until idle for `job.idle` s).
+/// The port opened again once it is back (tried every 0.5 s); `None` when it is not back
+/// within `job.idle` s.
 fn reopen(
     job: &CaptureJob,
     status: &indicatif::ProgressBar,
     summary: &mut CaptureSummary,
-) -> Result<Source, String> {
+) -> Option<Source> {
     let lost = Instant::now();
     loop {
         status.set_message(format!("{}: lost, waiting for it", job.port.display()));
         status.tick();
         if let Ok(s) = Source::open(job.port, job.baud) {
             summary.reopened += 1;
-            return Ok(s);
+            return Some(s);
         }
         if job.idle.is_some_and(|s| lost.elapsed().as_secs_f64() >= s) {
-            return Err(format!(
-                "{}: lost and not back within {} s",
-                job.port.display(),
-                job.idle.unwrap_or_default()
-            ));
+            return None;
         }
         std::thread::sleep(Duration::from_millis(500));
     }

@@ -25,6 +25,14 @@ fn pty() -> (std::fs::File, std::path::PathBuf, std::fs::File) {
         )
     };
     assert_eq!(r, 0, "openpty");
+    // Not inherited by the capture: the master's close must reach it as a hang-up.
+    for fd in [master, slave] {
+        // SAFETY: fcntl(2) on an open descriptor.
+        assert_eq!(
+            unsafe { libc::fcntl(fd, libc::F_SETFD, libc::FD_CLOEXEC) },
+            0
+        );
+    }
     // SAFETY: `slave` is open; termios is plain data filled by tcgetattr.
     unsafe {
         let mut t: libc::termios = std::mem::zeroed();
@@ -143,4 +151,48 @@ fn a_capture_never_replaces_a_previous_record() {
         "{stderr}"
     );
     assert_eq!(std::fs::read_to_string(&out).unwrap(), "previous");
+}
+
+/// The port goes away (the terminal's other side closed: a cable pulled, the unit off): what
+/// was received stays in the files, the loss is in the log, and the capture ends once the
+/// port is not back within --idle.
+#[test]
+fn a_port_that_goes_away_keeps_what_was_received() {
+    let d = common::firmware_record("capture", "lost");
+    let boot = std::fs::read(d.join("telemetry.bin")).unwrap();
+    let (mut master, slave_path, slave) = pty();
+    drop(slave);
+    let (out, log) = (d.join("live.csv"), d.join("live.txt"));
+    let mut capture = common::ballisto();
+    capture
+        .args(["capture", "-q", "--baud", "115200", "--idle", "1", "--port"])
+        .arg(&slave_path)
+        .arg("--out")
+        .arg(&out)
+        .arg("--log")
+        .arg(&log)
+        .stderr(Stdio::piped());
+    let child = capture.spawn().unwrap();
+    let started = Instant::now();
+    while !out.exists() {
+        assert!(
+            started.elapsed() < Duration::from_secs(20),
+            "the capture never opened"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    // Half the stream, ending on a frame's delimiter, then the port gone.
+    let zeros: Vec<usize> = (0..boot.len()).filter(|i| boot[*i] == 0).collect();
+    let cut = zeros[(zeros.len() / 2) | 1] + 1;
+    master.write_all(&boot[..cut]).unwrap();
+    std::thread::sleep(Duration::from_millis(500));
+    drop(master);
+    let done = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&done.stderr);
+    assert_eq!(done.status.code(), Some(0), "{stderr}");
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(text.contains("PROBLEM the port was lost"), "{text}");
+    assert!(text.contains("not back within 1 s"), "{text}");
+    let rows = std::fs::read_to_string(&out).unwrap().lines().count() - 1;
+    assert!(rows > 900, "{rows} rows of the half received");
 }
