@@ -54,6 +54,7 @@ fn main() {
             model: None,
             options: Options::default(),
             precision: Precision::F64,
+            progress: false,
         })
         .expect("estimate");
         times.push(started.elapsed().as_secs_f64());

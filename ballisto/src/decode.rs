@@ -16,7 +16,13 @@ use ballisto_link::{
 };
 
 /// Extra columns of the decoded estimates file, after the estimates-file columns.
-pub const LINK_COLUMNS: [&str; 4] = ["k", "missing_parts", "excluded_parts", "excluded_channels"];
+pub const LINK_COLUMNS: [&str; 5] = [
+    "k",
+    "missing_parts",
+    "excluded_parts",
+    "excluded_channels",
+    "boot",
+];
 
 /// A decoded stream.
 #[derive(Debug, Default)]
@@ -31,46 +37,98 @@ pub struct Stream {
 /// gaps in each report kind's message type counter (telemetry format 2: which kinds were lost)
 /// are listed in [`Stream::problems`], never silently skipped.
 pub fn decode_stream(bytes: &[u8]) -> Stream {
-    let mut deframer = Deframer::<{ max_encoded_len(TC_MAX) }>::new();
+    let mut decoder = StreamDecoder::default();
     let mut out = Stream::default();
-    let mut next: Option<u16> = None;
-    let mut types = TypeCounters::default();
-    let mut pending_start = 0usize;
-    for (offset, &b) in bytes.iter().enumerate() {
-        let frame = match deframer.push(b) {
-            Deframed::Pending => continue,
-            Deframed::Garbage => Err("not a COBS frame (or longer than any packet)".to_string()),
-            Deframed::Packet(n) => decode(deframer.packet(n)).map_err(|e| e.to_string()),
-        };
-        let at = pending_start;
-        pending_start = offset + 1;
-        match frame {
-            Ok(p) => {
-                if let Some(expected) = next {
-                    if p.sequence != expected {
-                        let lost = p.sequence.wrapping_sub(expected) & 0x3FFF;
-                        out.problems.push(format!(
-                            "byte {at}: sequence count {} where {expected} was due ({lost} packets lost)",
-                            p.sequence
-                        ));
-                    }
-                }
-                next = Some((p.sequence + 1) & 0x3FFF);
-                if let Some(problem) = types.follow(&p) {
-                    out.problems.push(format!("byte {at}: {problem}"));
-                }
-                out.packets.push(p);
-            }
-            Err(e) => out.problems.push(format!("byte {at}: {e}")),
+    decoder.push(bytes, &mut out);
+    decoder.finish(&mut out);
+    out
+}
+
+/// The decoder of a stream that arrives in pieces (a file, or a live link): the frames and
+/// the checks of [`decode_stream`], byte offsets counted from the stream's start.
+pub struct StreamDecoder {
+    deframer: Deframer<{ max_encoded_len(TC_MAX) }>,
+    next: Option<u16>,
+    types: TypeCounters,
+    /// Where the frame being read began.
+    pending_start: u64,
+    /// Bytes pushed so far.
+    offset: u64,
+}
+
+impl Default for StreamDecoder {
+    fn default() -> Self {
+        StreamDecoder {
+            deframer: Deframer::new(),
+            next: None,
+            types: TypeCounters::default(),
+            pending_start: 0,
+            offset: 0,
         }
     }
-    if pending_start < bytes.len() {
-        out.problems.push(format!(
-            "byte {pending_start}: the stream ends inside a frame ({} bytes without a delimiter)",
-            bytes.len() - pending_start
-        ));
+}
+
+impl StreamDecoder {
+    /// Decodes `bytes`, the stream's next ones: its packets and problems appended to `out`.
+    pub fn push(&mut self, bytes: &[u8], out: &mut Stream) {
+        for &b in bytes {
+            let offset = self.offset;
+            self.offset += 1;
+            let frame = match self.deframer.push(b) {
+                Deframed::Pending => continue,
+                Deframed::Garbage => {
+                    Err("not a COBS frame (or longer than any packet)".to_string())
+                }
+                Deframed::Packet(n) => decode(self.deframer.packet(n)).map_err(|e| e.to_string()),
+            };
+            let at = self.pending_start;
+            self.pending_start = offset + 1;
+            match frame {
+                Ok(p) => self.follow(p, at, out),
+                Err(e) => out.problems.push(format!("byte {at}: {e}")),
+            }
+        }
     }
-    out
+
+    /// Checks packet `p` (ended at byte `at`) against the sequence and type counts.
+    fn follow(&mut self, p: Decoded, at: u64, out: &mut Stream) {
+        // A boot starts the count again: the stream of a new boot, not lost packets.
+        let booted =
+            matches!(&p.report, Report::Event(e) if e.id == EventId::Boot) && p.sequence == 0;
+        if let Some(expected) = self.next.filter(|_| !booted) {
+            if p.sequence != expected {
+                let lost = p.sequence.wrapping_sub(expected) & 0x3FFF;
+                out.problems.push(format!(
+                    "byte {at}: sequence count {} where {expected} was due ({lost} packets lost)",
+                    p.sequence
+                ));
+            }
+        }
+        self.next = Some((p.sequence + 1) & 0x3FFF);
+        if let Some(problem) = self.types.follow(&p) {
+            out.problems.push(format!("byte {at}: {problem}"));
+        }
+        out.packets.push(p);
+    }
+
+    /// A frame cut off (the link lost, or reopened): what was read of it is a problem, and
+    /// the next frame starts afresh.
+    pub fn interrupted(&mut self, out: &mut Stream) {
+        self.finish(out);
+        self.deframer = Deframer::new();
+        self.pending_start = self.offset;
+    }
+
+    /// The stream's end: a frame left open is a problem.
+    pub fn finish(&mut self, out: &mut Stream) {
+        if self.pending_start < self.offset {
+            out.problems.push(format!(
+                "byte {}: the stream ends inside a frame ({} bytes without a delimiter)",
+                self.pending_start,
+                self.offset - self.pending_start
+            ));
+        }
+    }
 }
 
 /// The message type counter of each kind of report (PUS-C TM secondary header), followed
@@ -112,50 +170,91 @@ pub fn write_estimates<W: Write>(
     stream: &Stream,
     time_offset: f64,
 ) -> std::io::Result<usize> {
-    crate::estimates_csv::write_header(&mut RowWithout(w, &LINK_COLUMNS))?;
-    let mut rows = 0;
-    let mut line = Vec::with_capacity(512);
-    // The model in force, from the housekeeping (one is sent at boot, before any estimate)
-    // and the reconfigured and model-switched events, unless the report carries it: model G's
-    // rows carry the gravity gradient.
-    let mut model = None;
+    let mut rows = RowWriter::new(time_offset);
+    rows.header(w)?;
+    let mut written = 0;
     for p in &stream.packets {
+        written += usize::from(rows.packet(w, p)?);
+    }
+    Ok(written)
+}
+
+/// The rows of an estimates file, packet by packet, with what earlier packets said: the model
+/// in force (model G's rows carry the gravity gradient) and the boot.
+pub struct RowWriter {
+    time_offset: f64,
+    /// From the housekeeping (one is sent at boot, before any estimate) and the reconfigured
+    /// and model-switched events, unless the report carries it.
+    model: Option<ModelCode>,
+    /// The boot the rows are of (`t` starts again at each): from the boot event and the
+    /// housekeeping (format 2).
+    boot: Option<u32>,
+    line: Vec<u8>,
+}
+
+impl RowWriter {
+    /// Rows with `time_offset` added to each packet's time.
+    pub fn new(time_offset: f64) -> Self {
+        RowWriter {
+            time_offset,
+            model: None,
+            boot: None,
+            line: Vec::with_capacity(512),
+        }
+    }
+
+    /// The header line.
+    pub fn header<W: Write>(&self, w: &mut W) -> std::io::Result<()> {
+        crate::estimates_csv::write_header(&mut RowWithout(w, &LINK_COLUMNS))
+    }
+
+    /// Follows packet `p`: its row if it is a motion report (true), else what it says of the
+    /// model or the boot.
+    pub fn packet<W: Write>(&mut self, w: &mut W, p: &Decoded) -> std::io::Result<bool> {
+        let code = |b: u32| {
+            u8::try_from(b)
+                .ok()
+                .and_then(|b| ModelCode::try_from(b).ok())
+        };
         let m = match &p.report {
             Report::Motion(m) => m,
             Report::Housekeeping(h) => {
-                model = ModelCode::try_from(h.model).ok();
-                continue;
+                self.model = ModelCode::try_from(h.model).ok();
+                if let Some((info, _)) = &h.boot {
+                    self.boot = Some(info.count);
+                }
+                return Ok(false);
             }
-            Report::Event(e) if e.id == EventId::ModelSwitched => {
-                model = u8::try_from(e.b)
-                    .ok()
-                    .and_then(|b| ModelCode::try_from(b).ok());
-                continue;
+            Report::Event(e) if e.id == EventId::Boot => {
+                let b = BootEvent::from_words(e.a, e.b);
+                self.boot = (b.format >= 2).then_some(u32::from(b.count));
+                return Ok(false);
             }
-            Report::Event(e) if e.id == EventId::Reconfigured => {
-                model = u8::try_from(e.b)
-                    .ok()
-                    .and_then(|b| ModelCode::try_from(b).ok());
-                continue;
+            Report::Event(e) if e.id == EventId::ModelSwitched || e.id == EventId::Reconfigured => {
+                self.model = code(e.b);
+                return Ok(false);
             }
-            _ => continue,
+            _ => return Ok(false),
         };
-        line.clear();
-        let t = ((p.t + time_offset) * 1e7).round() / 1e7;
+        self.line.clear();
+        let t = ((p.t + self.time_offset) * 1e7).round() / 1e7;
         // The report's own model where it carries one (format 2).
-        let gamma = m.context.map_or(model, |(_, c)| Some(c)) == Some(ModelCode::General);
+        let gamma = m.context.map_or(self.model, |(_, c)| Some(c)) == Some(ModelCode::General);
         let excluded = u64::from(m.excluded_channels.0);
-        crate::estimates_csv::write_row(&mut line, t, &m.estimate, gamma, excluded)?;
-        line.pop();
-        w.write_all(&line)?;
-        writeln!(
+        crate::estimates_csv::write_row(&mut self.line, t, &m.estimate, gamma, excluded)?;
+        self.line.pop();
+        w.write_all(&self.line)?;
+        write!(
             w,
-            ",{},{},{},{}",
+            ",{},{},{},{},",
             m.k, m.missing_parts.0, m.excluded_parts.0, m.excluded_channels.0
         )?;
-        rows += 1;
+        match self.boot {
+            Some(b) => writeln!(w, "{b}")?,
+            None => writeln!(w)?,
+        }
+        Ok(true)
     }
-    Ok(rows)
 }
 
 /// Appends extra columns to the header line written through it.
@@ -371,6 +470,18 @@ pub fn decode_file(
         return Err(format!("{}: empty: no telemetry", input.display()));
     }
     let stream = decode_stream(&bytes);
+    if stream.packets.is_empty() {
+        // Nothing of the link's framing: the wrong file, not damaged telemetry.
+        return Err(format!(
+            "{}: not telemetry: no packet in {} bytes ({}; nothing written)",
+            input.display(),
+            bytes.len(),
+            stream
+                .problems
+                .first()
+                .map_or_else(|| "no frame".to_string(), |p| format!("first: {p}"))
+        ));
+    }
     // Written beside the final path, put in place once complete (`crate::output`).
     let (pending, mut w) = crate::output::create(out)?;
     let rows = write_estimates(&mut w, &stream, time_offset)

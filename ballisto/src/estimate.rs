@@ -36,6 +36,8 @@ pub struct EstimateJob<'a> {
     pub options: Options,
     /// Scalar type.
     pub precision: Precision,
+    /// A progress bar on stderr (drawn only on a terminal).
+    pub progress: bool,
 }
 
 /// Counts of a run.
@@ -55,8 +57,8 @@ pub struct Summary {
     pub warnings: Vec<String>,
 }
 
-/// Runs the estimator over a samples file, streaming rows to the estimates file. Rows written
-/// before an error stay in the output (flushed); the error names file and line.
+/// Runs the estimator over a samples file, streaming rows to the estimates file, put in place
+/// once complete: after an error (naming file and line) the previous file stays as it was.
 pub fn estimate_files(job: &EstimateJob) -> Result<Summary, Box<dyn Error>> {
     crate::output::check_distinct(&[job.out], &[job.arrangement, job.samples])?;
     let loaded = load_arrangement(job.arrangement)?;
@@ -406,7 +408,13 @@ fn run_typed<T: Real + Send + 'static>(
     // the last temperature its column gave; uncorrected rows counted for a warning.
     let mut temps = vec![f64::NAN; loaded.names.len()];
     let mut uncorrected = vec![0u64; loaded.names.len()];
+    let bar = progress_bar(job);
+    let mut read = 0u64;
     let result = loop {
+        if read.is_multiple_of(4096) {
+            bar.set_position(reader.bytes_read());
+        }
+        read += 1;
         match reader.next_row(&mut row) {
             Ok(Some(t)) => {
                 if let Err(e) = reader.temperatures(&mut temps) {
@@ -435,24 +443,24 @@ fn run_typed<T: Real + Send + 'static>(
             Err(e) => break Err(e),
         }
     };
-    // Rows accepted before an error are still estimated and written.
+    bar.finish_and_clear();
+    if let Err(e) = result {
+        // The pending output is dropped: a previous file of that name stays as it was.
+        return Err(e.into());
+    }
     est.finish_masked(&mut emit);
     let written = w.finish();
     if let Some(e) = io_err.or(written.err()) {
         return Err(format!("{}: write failed: {e}", job.out.display()).into());
     }
     if summary.rows == 0 {
-        // The pending output is dropped: a previous file of that name stays as it was.
-        result?;
         return Err(format!(
             "{}: no sample rows after the header: nothing written",
             job.samples.display()
         )
         .into());
     }
-    // The rows accepted before an input error are a whole output: in place, then the error.
     pending.commit()?;
-    result?;
     let file = job.arrangement.display().to_string();
     summary
         .warnings
@@ -531,5 +539,27 @@ pub fn count_flags(counts: &mut [u64; 16], flags: Flags) {
         if flags.has(1 << bit) {
             *c += 1;
         }
+    }
+}
+
+/// The bar of an estimate: the samples file's bytes read of its size, or (compressed, stdin)
+/// the bytes read alone.
+fn progress_bar(job: &EstimateJob) -> indicatif::ProgressBar {
+    let plain_size = std::fs::metadata(job.samples)
+        .ok()
+        .filter(|m| m.is_file())
+        .filter(|_| job.samples.extension().is_none_or(|e| e != "gz"))
+        .map(|m| m.len());
+    match plain_size {
+        Some(len) => crate::progress::bar(
+            job.progress,
+            len,
+            "estimate {bar:30} {bytes}/{total_bytes} ({elapsed}, {eta} left)",
+        ),
+        None => crate::progress::bar(
+            job.progress,
+            u64::MAX,
+            "estimate {spinner} {bytes} read ({elapsed})",
+        ),
     }
 }

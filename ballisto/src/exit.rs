@@ -58,8 +58,9 @@ pub fn code_of(e: &(dyn std::error::Error + 'static)) -> u8 {
 
 /// The exit codes as `--help` lists them.
 pub const HELP: &str =
-    "Exit status: 0 done; 1 an input is wrong (unreadable, empty, malformed, or an output
-that would overwrite an input: nothing written); 2 the command line is wrong; 3 (decode)
+    "Exit status: 0 done (or stdout's reader went away); 1 an input is wrong (unreadable,
+empty, malformed, or an output that would overwrite an input, is a directory or is not
+writable: nothing written); 2 the command line is wrong; 3 (decode)
 telemetry damaged or packets lost (the good ones were written); 4 the data do not support the
 result asked for (e.g. a calibration record that does not determine the parameters: nothing
 written). Results go to stdout or the named file, diagnostics to stderr; `-` names stdin or

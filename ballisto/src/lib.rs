@@ -9,6 +9,7 @@
 #![deny(missing_docs)]
 
 pub mod calibrate;
+pub mod capture;
 mod columns;
 pub mod com;
 pub mod compare;

@@ -4,7 +4,7 @@ mod cli;
 
 use std::process::ExitCode;
 
-use clap::Parser;
+use clap::{CommandFactory, Parser};
 use cli::args::{Command, Say};
 
 #[derive(Parser)]
@@ -35,10 +35,13 @@ fn run(cli: Cli) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Command::Estimate(args) => cli::estimate::estimate(args, say, started),
         Command::Sim(args) => cli::sim::sim(args, say, started),
         Command::Decode(args) => cli::telemetry::decode(args, say),
+        Command::Capture(args) => cli::telemetry::capture(args, say),
         Command::Calibrate(args) => cli::estimate::calibrate(args, say, started),
         Command::Com(args) => cli::estimate::com(args, say),
         Command::Compare(args) => cli::telemetry::compare(args, say),
         Command::Tc(args) => cli::tc::tc(args, say),
+        Command::Completions { shell } => cli::manual::completions(shell, Cli::command()),
+        Command::Man { out } => cli::manual::man(&out, Cli::command(), say),
     }
 }
 
@@ -79,7 +82,16 @@ fn main() -> ExitCode {
     if cli.verbose && log::set_logger(&STDERR_LOG).is_ok() {
         log::set_max_level(log::LevelFilter::Debug);
     }
-    match run(cli) {
+    if let Err(e) = ballisto::output::signals::remove_temporaries_on_signals() {
+        eprintln!("ballisto: cannot watch for signals: {e}");
+        return ExitCode::from(ballisto::exit::BAD_INPUT);
+    }
+    let result = run(cli);
+    // A reader of stdout that went away (`| head`) took what it wanted: no failure.
+    if ballisto::output::signals::stdout_closed() {
+        return ExitCode::SUCCESS;
+    }
+    match result {
         Ok(code) => code,
         Err(e) => {
             eprintln!("ballisto: {e}");

@@ -226,6 +226,11 @@ impl<R: std::io::Read> SamplesReader<R> {
         self.row_absurd
     }
 
+    /// The bytes of the file read so far (decompressed).
+    pub fn bytes_read(&self) -> u64 {
+        self.rdr.position().byte()
+    }
+
     /// Reads the next row into `out` (channel order, NaN for empty fields); returns its time,
     /// or `None` at the end of the file.
     pub fn next_row(&mut self, out: &mut [f64]) -> Result<Option<f64>, SamplesError> {

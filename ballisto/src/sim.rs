@@ -189,6 +189,7 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
                 ..Default::default()
             },
             precision: Precision::F64,
+            progress: false,
         })?;
         report.flag_counts = summary.flag_counts;
     }
@@ -196,7 +197,7 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
         report.errors = Some(compare(&path("truth.csv"), &est)?);
         report.files.push(est.clone());
         let png = path("estimates.png");
-        let plot = crate::output::Pending::new(&png);
+        let (plot, _) = crate::output::Pending::new(&png)?;
         crate::plot::plot_files(&path("truth.csv"), &est, plot.path())?;
         plot.commit()?;
         report.files.push(png);

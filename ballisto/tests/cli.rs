@@ -147,7 +147,7 @@ fn good_samples(rows: usize) -> String {
 }
 
 #[test]
-fn bad_samples_are_named_and_accepted_rows_kept() {
+fn bad_samples_are_named_and_nothing_is_written() {
     let d = tmpdir("badsamples");
     let a = good_arrangement();
     let s = good_samples(10);
@@ -162,7 +162,7 @@ fn bad_samples_are_named_and_accepted_rows_kept() {
         err.contains("s.csv line 1") && err.contains("channel \"u3.z\" has no column"),
         "{err}"
     );
-    // Non-numeric field on line 6: the four rows before it are written.
+    // Non-numeric field on line 6.
     let mut l: Vec<String> = s.lines().map(str::to_string).collect();
     l[5] = l[5].replacen(",0.", ",zero", 1);
     let (err, rows) = run_expect_error(&d, &a, &(l.join("\n") + "\n"), &[]);
@@ -170,7 +170,7 @@ fn bad_samples_are_named_and_accepted_rows_kept() {
         err.contains("line 6") && err.contains("is not a number"),
         "{err}"
     );
-    assert_eq!(rows, 4, "rows accepted before the error are written");
+    assert_eq!(rows, 0, "a failed run writes nothing");
     // Non-increasing t on line 4.
     let mut l: Vec<String> = s.lines().map(str::to_string).collect();
     l[3] = l[3].replacen("0.02", "0.005", 1);
@@ -179,7 +179,7 @@ fn bad_samples_are_named_and_accepted_rows_kept() {
         err.contains("line 4") && err.contains("does not increase"),
         "{err}"
     );
-    assert_eq!(rows, 2);
+    assert_eq!(rows, 0);
     // Wrong number of fields.
     let mut l: Vec<String> = s.lines().map(str::to_string).collect();
     l[2] += ",1.0";

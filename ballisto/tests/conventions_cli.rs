@@ -157,7 +157,7 @@ fn exit_codes_and_bare_help() {
         "{help}"
     );
     assert!(
-        help.contains("Exit status: 0 done; 1 an input is wrong"),
+        help.contains("Exit status: 0 done (or stdout's reader went away); 1 an input is wrong"),
         "{help}"
     );
     let out = ballisto()
@@ -406,4 +406,45 @@ fn sim_help_lists_every_named_scenario() {
             "sim --help omits {name}:\n{help}"
         );
     }
+}
+
+/// The shell completions and the manual pages come from the command line's definition: every
+/// subcommand is in them.
+#[test]
+fn completions_and_manual_pages_cover_every_subcommand() {
+    let subcommands = [
+        "estimate",
+        "sim",
+        "decode",
+        "calibrate",
+        "com",
+        "compare",
+        "tc",
+    ];
+    for shell in ["bash", "zsh", "fish"] {
+        let out = common::ballisto()
+            .args(["completions", shell])
+            .output()
+            .unwrap();
+        let script = common::succeeded(&out);
+        for s in subcommands {
+            assert!(script.contains(s), "{shell}: no {s}");
+        }
+    }
+    let d = common::tmpdir("conventions", "man");
+    let out = common::ballisto()
+        .args(["man", "--out"])
+        .arg(&d)
+        .output()
+        .unwrap();
+    common::succeeded(&out);
+    for s in subcommands {
+        let page = std::fs::read_to_string(d.join(format!("ballisto-{s}.1"))).unwrap();
+        assert!(page.contains(".SH NAME"), "{s}: {page}");
+    }
+    let tc = std::fs::read_to_string(d.join("ballisto-tc-identify.1")).unwrap();
+    assert!(tc.contains("period\\-ms"), "{tc}");
+    assert!(std::fs::read_to_string(d.join("ballisto.1"))
+        .unwrap()
+        .contains("ballisto\\-decode(1)"));
 }

@@ -295,7 +295,7 @@ fn decoding_the_firmwares_telemetry_gives_its_estimates() {
         let n = w.split(',').count();
         let g: Vec<&str> = g.split(',').collect();
         assert_eq!(*w, g[..n].join(","));
-        assert_eq!(g.len(), n + 4);
+        assert_eq!(g.len(), n + ballisto::decode::LINK_COLUMNS.len());
     }
     let log = std::fs::read_to_string(decoded.with_extension("txt")).unwrap();
     assert!(
@@ -357,4 +357,33 @@ fn sim_firmware_rejects_an_unknown_alignment() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--align") && err.contains("nearest"), "{err}");
+}
+
+/// A capture across a reset (the unit's stream, then its stream again from boot): the second
+/// boot's packets start a new segment — no packet counted lost, every motion report written,
+/// `boot` saying which boot each row is of and `t` starting again where it changes.
+#[test]
+fn decode_of_a_capture_across_a_reset_loses_nothing() {
+    let d = tmpdir("decode-reset");
+    common::succeeded(&sim_firmware("tetra-orbit", &d, "interpolate"));
+    let one = std::fs::read(d.join("telemetry.bin")).unwrap();
+    let capture = d.join("capture.bin");
+    std::fs::write(&capture, [one.clone(), one].concat()).unwrap();
+    let decoded = d.join("decoded.csv");
+    let out = decode(&capture, &decoded);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains(" 0 problems"), "{stderr}");
+    let (names, rows) = common::read_table(&decoded);
+    assert_eq!(rows.len(), 2 * 2001, "every motion report of both boots");
+    let boot = names
+        .iter()
+        .position(|n| n == "boot")
+        .expect("a boot column");
+    assert!(
+        rows.iter().all(|r| r[boot] == "1"),
+        "the boot count of each"
+    );
+    let t = |i: usize| rows[i][0].parse::<f64>().unwrap();
+    assert!(t(2001) < t(2000), "t starts again with the second boot");
 }

@@ -667,6 +667,7 @@ pub fn firmware_then_host(
             ..Default::default()
         },
         precision: Precision::F32,
+        progress: false,
     })
     .unwrap();
     host

@@ -113,6 +113,7 @@ fn estimate(arrangement: &Path, run: &Path, name: &str) -> Comparison {
         model: None,
         options: Default::default(),
         precision: Precision::F64,
+        progress: false,
     })
     .unwrap();
     compare(&run.join("truth.csv"), &out).unwrap()

@@ -50,6 +50,7 @@ fn estimate(arrangement: &Path, samples: &Path, out: &Path) -> Result<Summary, S
         model: None,
         options: Default::default(),
         precision: Precision::F64,
+        progress: false,
     })
     .map_err(|e| e.to_string())
 }
@@ -258,6 +259,7 @@ fn compensated_in_orbit_as_ideal_parts() {
         model: None,
         options: Default::default(),
         precision: Precision::F32,
+        progress: false,
     })
     .unwrap();
     assert!(

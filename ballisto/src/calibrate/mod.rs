@@ -395,7 +395,7 @@ fn write_report(
 ) -> Result<(), Box<dyn Error>> {
     // The PNG beside the Markdown, same name (`REPORT.png`).
     let png = path.with_extension("png");
-    let plot = crate::output::Pending::new(&png);
+    let (plot, _) = crate::output::Pending::new(&png)?;
     report::residual_png(summary, times, plot.path())?;
     plot.commit()?;
     let png_name = png.file_name().map(|n| n.to_string_lossy().into_owned());

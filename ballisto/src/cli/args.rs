@@ -9,7 +9,7 @@ use estimator_core::Model;
 pub use super::estimate::{CalibrateArgs, ComArgs, EstimateArgs};
 pub use super::sim::SimArgs;
 pub use super::tc::TcArgs;
-pub use super::telemetry::{CompareArgs, DecodeArgs};
+pub use super::telemetry::{CaptureArgs, CompareArgs, DecodeArgs};
 
 pub const FLAGS_HELP: &str = "The flags column of estimates.csv is a bit set:
   1   sign unresolved: Ω may be −Ω (steady spin, no hint yet)
@@ -77,6 +77,42 @@ pub fn positive_rate(s: &str) -> Result<f64, String> {
 }
 
 /// A relative deviation: a number above 0 and below 1.
+/// A finite number (an option's value: NaN or infinity would make every result NaN).
+pub fn finite(s: &str) -> Result<f64, String> {
+    let x: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("\"{s}\" is not a number"))?;
+    if !x.is_finite() {
+        return Err(format!("\"{s}\" is not a finite number"));
+    }
+    Ok(x)
+}
+
+/// A finite duration above zero, in seconds.
+pub fn positive_seconds(s: &str) -> Result<f64, String> {
+    match finite(s)? {
+        x if x > 0.0 => Ok(x),
+        _ => Err(format!("\"{s}\" is not a duration above 0 s")),
+    }
+}
+
+/// A finite duration of zero or more seconds.
+pub fn non_negative_seconds(s: &str) -> Result<f64, String> {
+    match finite(s)? {
+        x if x >= 0.0 => Ok(x),
+        _ => Err(format!("\"{s}\" is not a duration of 0 s or more")),
+    }
+}
+
+/// A time, or `inf` for no end.
+pub fn time_or_inf(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x == f64::INFINITY => Ok(x),
+        _ => finite(s),
+    }
+}
+
 /// `--inertia`: three principal moments or the six components of a symmetric tensor.
 pub fn inertia(s: &str) -> Result<[f64; 6], String> {
     let v: Vec<f64> = s
@@ -192,6 +228,13 @@ pub enum Command {
     /// (the good packets are still written).
     #[command(after_help = DECODE_HELP)]
     Decode(DecodeArgs),
+    /// Follow the unit's link live from a serial port (or a pseudo-terminal, or a file that
+    /// grows): decoded as it arrives, every motion report to the estimates file and every
+    /// other report to the log as it comes, a status line on a terminal; a port unplugged is
+    /// waited for, a reset of the unit starts a new boot's rows; telecommand frames can be sent
+    /// first. Ends after --idle seconds without a byte, or on Ctrl-C (the files then hold
+    /// everything received).
+    Capture(CaptureArgs),
     /// Identify every channel's position, axis, scale and bias from a record of static poses
     /// and motion (paper §6); writes a calibrated arrangement file with standard deviations
     /// and the frame's uncertainty (frame_*_sd). What the record does not determine keeps its
@@ -210,6 +253,20 @@ pub enum Command {
     /// to a file, or stdout.
     #[command(after_help = TC_HELP)]
     Tc(TcArgs),
+    /// Shell completions for ballisto on stdout, e.g. `ballisto completions bash >
+    /// ~/.local/share/bash-completion/completions/ballisto`.
+    Completions {
+        /// The shell.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// The manual pages (roff): ballisto.1 and one per subcommand (ballisto-estimate.1, …),
+    /// into a directory, e.g. `ballisto man --out ~/.local/share/man/man1`.
+    Man {
+        /// The directory to write them into (made if absent).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+    },
 }
 
 /// The telecommands of `ballisto tc` (docs/telemetry.md, "Telecommands").
@@ -274,7 +331,7 @@ pub enum TcCommand {
         #[arg(long, value_name = "MS")]
         period_ms: u16,
         /// The window's length from reception, s (at most one hour).
-        #[arg(long, value_name = "SECONDS")]
+        #[arg(long, value_name = "SECONDS", value_parser = positive_seconds)]
         window: f64,
         /// Without a reference (source 2): the body's inertia in the body frame, XX,YY,ZZ or
         /// XX,YY,ZZ,XY,XZ,YZ (only the ratios matter); the motion must be torque-free.
@@ -288,10 +345,10 @@ pub enum TcCommand {
         #[arg(value_name = "REFERENCE.csv")]
         file: PathBuf,
         /// First time to send, s.
-        #[arg(long, value_name = "S", default_value = "0")]
+        #[arg(long, value_name = "S", default_value = "0", allow_hyphen_values = true, value_parser = finite)]
         from: f64,
         /// Last time to send, s.
-        #[arg(long, value_name = "S", default_value = "inf")]
+        #[arg(long, value_name = "S", default_value = "inf", allow_hyphen_values = true, value_parser = time_or_inf)]
         to: f64,
     },
     /// TC[200,10]: solve the identification window and report the solution.
@@ -306,7 +363,7 @@ pub enum TcCommand {
     /// TC[9,128]: the spacecraft time at the command's reception (s; CUC 4+3).
     SetTime {
         /// Seconds of the spacecraft's time scale.
-        #[arg(value_name = "SECONDS")]
+        #[arg(value_name = "SECONDS", value_parser = finite)]
         seconds: f64,
     },
     /// TC[17,1]: are you alive.

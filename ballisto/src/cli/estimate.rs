@@ -85,6 +85,7 @@ pub fn estimate(
             ..Default::default()
         },
         precision,
+        progress: !say.quiet,
     };
     let s = estimate_files(&job)?;
     if let Some(note) = &s.model_note {
@@ -295,7 +296,7 @@ pub struct ComArgs {
     #[arg(long, value_name = "COM.csv")]
     pub out: PathBuf,
     /// Window length, s (one window every half window).
-    #[arg(long, value_name = "SECONDS", default_value = "10")]
+    #[arg(long, value_name = "SECONDS", default_value = "10", value_parser = positive_seconds)]
     pub window: f64,
     /// Model; default as for estimate.
     #[arg(long, value_enum)]

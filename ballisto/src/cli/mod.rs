@@ -2,6 +2,7 @@
 
 pub mod args;
 pub mod estimate;
+pub mod manual;
 pub mod sim;
 pub mod tc;
 pub mod telemetry;

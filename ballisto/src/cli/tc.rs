@@ -15,7 +15,8 @@ pub struct TcArgs {
     #[arg(long, value_name = "TC.bin", global = true, default_value = "-")]
     pub out: PathBuf,
     /// Sequence count of the (first) packet, 0–16383: the verification reports carry it.
-    #[arg(long, value_name = "N", global = true, default_value = "0")]
+    #[arg(long, value_name = "N", global = true, default_value = "0",
+          value_parser = clap::value_parser!(u16).range(0..=0x3FFF))]
     pub sequence: u16,
     /// Verification reports asked for: acceptance, completion (comma-separated), or none.
     #[arg(
@@ -42,6 +43,7 @@ pub fn tc(args: TcArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
         command,
     } = args;
     let ack = ballisto::tc::ack_flags(&ack)?;
+    ballisto::output::check_distinct(&[&out], &inputs(&command))?;
     let frames = telecommands(command, sequence, ack, say)?;
     let bytes = if hex {
         ballisto::tc::hex(&frames).into_bytes()
@@ -64,6 +66,18 @@ pub fn tc(args: TcArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// The files a `tc` command reads (the output may be none of them).
+fn inputs(command: &TcCommand) -> Vec<&std::path::Path> {
+    match command {
+        TcCommand::Exclude { arrangement, .. } | TcCommand::Include { arrangement, .. } => {
+            arrangement.iter().map(PathBuf::as_path).collect()
+        }
+        TcCommand::LoadArrangement { arrangement } => vec![arrangement.as_path()],
+        TcCommand::Reference { file, .. } => vec![file.as_path()],
+        _ => Vec::new(),
+    }
+}
+
 /// The frames of a `tc` command: consecutive sequence counts from `sequence`.
 fn telecommands(
     command: TcCommand,
@@ -73,9 +87,6 @@ fn telecommands(
 ) -> Result<Vec<ballisto::tc::Framed>, Box<dyn std::error::Error>> {
     use ballisto::tc;
     use ballisto_link::telecommand::Command as Tc;
-    if sequence > 0x3FFF {
-        return Err(format!("--sequence {sequence}: at most 16383 (14 bits)").into());
-    }
     let one = |c: Tc, channels: Option<usize>| tc::frame(&c, sequence, ack, channels);
     let frames = match command {
         TcCommand::Mode { mode } => vec![one(
@@ -128,7 +139,9 @@ fn telecommands(
         } => {
             let ms = (window * 1000.0).round();
             if !(ms >= 1.0 && ms <= f64::from(u32::MAX)) {
-                return Err(format!("--window {window}: not a window length in seconds").into());
+                return Err(Box::new(ballisto::exit::Usage(format!(
+                    "--window {window}: not a window length in seconds (1 ms to 49 days)"
+                ))));
             }
             vec![one(
                 Tc::StartIdentification {

@@ -8,6 +8,20 @@ use clap::Args;
 
 use super::args::*;
 
+/// `--time-offset`, of `decode` and `capture`.
+#[derive(Args)]
+pub struct TimeOffset {
+    /// Seconds added to the on-board time (time since boot) of every packet.
+    #[arg(
+        long,
+        value_name = "S",
+        default_value = "0",
+        allow_hyphen_values = true,
+        value_parser = finite
+    )]
+    pub time_offset: f64,
+}
+
 /// The arguments of `ballisto decode`.
 #[derive(Args)]
 pub struct DecodeArgs {
@@ -21,14 +35,8 @@ pub struct DecodeArgs {
     /// Write housekeeping, events and verification reports here (default: stdout).
     #[arg(long, value_name = "FILE.txt")]
     pub log: Option<PathBuf>,
-    /// Seconds added to the on-board time (time since boot) of every packet.
-    #[arg(
-        long,
-        value_name = "S",
-        default_value = "0",
-        allow_hyphen_values = true
-    )]
-    pub time_offset: f64,
+    #[command(flatten)]
+    pub offset: TimeOffset,
     /// Also write the stream's last identification solution (TM[200,128–129])
     /// as an arrangement file over the channel names of --arrangement.
     #[arg(long, value_name = "FILE.toml", requires = "arrangement")]
@@ -43,13 +51,92 @@ pub struct DecodeArgs {
     pub commands: Vec<PathBuf>,
 }
 
+/// The arguments of `ballisto capture`.
+#[derive(Args)]
+pub struct CaptureArgs {
+    /// The serial port (e.g. /dev/ttyUSB0; a pseudo-terminal such as QEMU's `-serial pty`),
+    /// or a file that grows.
+    #[arg(long, value_name = "PORT")]
+    pub port: PathBuf,
+    /// The port's baud rate (8N1; the STM32H743 board's link runs at 921 600).
+    #[arg(long, value_name = "BAUD", default_value = "921600")]
+    pub baud: u32,
+    /// Estimates file to write as the reports arrive (must not exist).
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: PathBuf,
+    /// Housekeeping, events, verification reports and problems, as they arrive (must not
+    /// exist).
+    #[arg(long, value_name = "FILE.txt")]
+    pub log: PathBuf,
+    /// Also keep the raw bytes received (must not exist), for `ballisto decode` later.
+    #[arg(long, value_name = "FILE.bin")]
+    pub raw: Option<PathBuf>,
+    #[command(flatten)]
+    pub offset: TimeOffset,
+    /// End after this many seconds without a byte (0: at a file's end); without it, run
+    /// until interrupted.
+    #[arg(long, value_name = "SECONDS", value_parser = non_negative_seconds)]
+    pub idle: Option<f64>,
+    /// Telecommand frames to send on the port once it is open (`ballisto tc`'s files;
+    /// repeatable, sent in order).
+    #[arg(long, value_name = "TC.bin")]
+    pub send: Vec<PathBuf>,
+}
+
+/// `ballisto capture`.
+pub fn capture(args: CaptureArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
+    for p in [Some(&args.out), Some(&args.log), args.raw.as_ref()]
+        .into_iter()
+        .flatten()
+    {
+        if ballisto::output::is_std(p) {
+            return Err(Box::new(ballisto::exit::Usage(
+                "capture writes files as the reports arrive: name --out, --log and --raw files"
+                    .into(),
+            )));
+        }
+    }
+    let send = args
+        .send
+        .iter()
+        .map(|f| ballisto::output::read_input(f))
+        .collect::<Result<Vec<_>, _>>()?;
+    let s = ballisto::capture::capture(&ballisto::capture::CaptureJob {
+        port: &args.port,
+        baud: args.baud,
+        out: &args.out,
+        log: &args.log,
+        raw: args.raw.as_deref(),
+        time_offset: args.offset.time_offset,
+        idle: args.idle,
+        send,
+        progress: !say.quiet,
+    })?;
+    say.info(format!(
+        "{}: {} bytes, {} packets, {} motion reports to {}, {} boots, {} problems, port reopened {} times",
+        args.port.display(),
+        s.bytes,
+        s.packets,
+        s.rows,
+        args.out.display(),
+        s.boots,
+        s.problems,
+        s.reopened
+    ));
+    Ok(if s.problems > 0 {
+        ExitCode::from(ballisto::exit::DAMAGED_TELEMETRY)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
 /// `ballisto decode`.
 pub fn decode(args: DecodeArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
     let DecodeArgs {
         input,
         out,
         log,
-        time_offset,
+        offset: TimeOffset { time_offset },
         calibration,
         arrangement,
         commands,
@@ -86,7 +173,7 @@ pub fn decode(args: DecodeArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
                 eprint!("{text}");
             }
         } else {
-            print!("{text}");
+            ballisto::output::signals::print(&text)?;
         }
     }
     say.info(format!(
@@ -151,20 +238,21 @@ pub fn compare(args: CompareArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> 
             if let Some(d) = c.dropped.describe(&reference) {
                 say.info(format!("ballisto compare: {d}"));
             }
-            println!(
-                "rows compared: {} of {} (the others not between two valid reference rows)",
+            let mut text = format!(
+                "rows compared: {} of {} (the others not between two valid reference rows)\n",
                 c.compared, c.rows
             );
             for (i, axis) in ["x", "y", "z"].iter().enumerate() {
-                println!(
-                    "omega_{axis}  RMS error {:.3e} rad/s, median |error| {:.3e} rad/s",
+                text += &format!(
+                    "omega_{axis}  RMS error {:.3e} rad/s, median |error| {:.3e} rad/s\n",
                     c.rms[i], c.median[i]
                 );
             }
-            println!(
-                "|omega|   RMS error {:.3e} rad/s, median {:.3e} rad/s",
+            text += &format!(
+                "|omega|   RMS error {:.3e} rad/s, median {:.3e} rad/s\n",
                 c.rms_norm, c.median_norm
             );
+            ballisto::output::signals::print(&text)?;
             Ok(ExitCode::SUCCESS)
         }
         CompareArgs {
@@ -178,19 +266,19 @@ pub fn compare(args: CompareArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> 
             )));
             };
             let c = ballisto::compare::compare(truth, estimates)?;
-            println!("rows compared: {}", c.rows);
-            println!("RMS error  sigma0 {:.3e} m/s^2", c.sigma0);
-            println!("RMS error  domega {:.3e} rad/s^2", c.domega);
-            println!("RMS error  omega  {:.3e} rad/s", c.omega);
-            println!("RMS error  A      {:.3e} 1/s^2", c.field);
+            let mut text = format!(
+                "rows compared: {}\nRMS error  sigma0 {:.3e} m/s^2\nRMS error  domega {:.3e} rad/s^2\nRMS error  omega  {:.3e} rad/s\nRMS error  A      {:.3e} 1/s^2\n",
+                c.rows, c.sigma0, c.domega, c.omega, c.field
+            );
             if let Some(s) = c.silent {
-                println!(
-                    "unflagged rows with an error above {} reported sd: sigma0 {}, omega {}",
+                text += &format!(
+                    "unflagged rows with an error above {} reported sd: sigma0 {}, omega {}\n",
                     ballisto::compare::SILENT_SD,
                     s.sigma0,
                     s.omega
                 );
             }
+            ballisto::output::signals::print(&text)?;
             Ok(ExitCode::SUCCESS)
         }
     }

@@ -55,6 +55,24 @@ pub fn tmpdir(suite: &str, name: &str) -> PathBuf {
     d
 }
 
+/// A fresh directory with `ballisto sim --firmware`'s record of tetra-orbit (its
+/// `telemetry.bin` among the files).
+pub fn firmware_record(suite: &str, name: &str) -> PathBuf {
+    let d = tmpdir(suite, name);
+    let mut c = ballisto();
+    c.args([
+        "sim",
+        "-q",
+        "--scenario",
+        "tetra-orbit",
+        "--firmware",
+        "--out",
+    ])
+    .arg(&d);
+    run_ok(&mut c);
+    d
+}
+
 /// The text of the named scenario file `hal-sim/scenarios/<name>.toml`.
 pub fn scenario_text(name: &str) -> String {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -1,15 +1,24 @@
 //! Outputs written without losing data. An output that is one of the command's
-//! inputs — the same file, by identity (device and inode), not by name, so a second path or a
-//! hard link to it counts — is refused before anything is written. Every output is written to
-//! a temporary file beside its final path and renamed into place only when it is complete: a
-//! failed or interrupted run leaves the previous file (or none), never half of one.
+//! inputs — the same file by identity (`same-file`: device and inode), not by name, so a
+//! second path, a hard link, or the file stdin or stdout is — is refused before anything is
+//! written. A regular output is written to a temporary file beside it and renamed into place
+//! only when it is complete, with the previous file's mode and owner: a failed or interrupted
+//! run (SIGINT, SIGTERM, SIGHUP included: [`signals`]) leaves the previous file (or none),
+//! never half of one, and no temporary. An output the user may not write is refused, as `cp`
+//! refuses it. A symbolic link is written through (the file it points to is replaced, the link
+//! stays); a device, a FIFO or a socket is written in place, as it goes.
 //!
-//! `-` names stdout as an output (and stdin as an input, [`open_input`]): it is never the same
-//! file as another path, and is written as it goes.
+//! `-` names stdout as an output (and stdin as an input, [`open_input`]), written as it goes; a
+//! reader that goes away (`| head`) ends the command quietly ([`signals::stdout_closed`]).
+
+mod pending;
+pub mod signals;
+
+pub use pending::{create, finish, write, Pending, Sink};
 
 use std::fs::File;
-use std::io::{BufRead, BufReader, BufWriter, Read, Write};
-use std::path::{Path, PathBuf};
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
 
 /// Whether `path` is `-`: stdin as an input, stdout as an output.
 pub fn is_std(path: &Path) -> bool {
@@ -46,10 +55,14 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>, String> {
 }
 
 /// Refuses outputs that are the same file as an input, or as each other (two outputs both on
-/// stdout included), and outputs in a directory that does not exist (before any work is done,
-/// not after it).
+/// stdout included), an output that is the file stdin reads (an input `-`) or an input that
+/// is the file stdout writes (an output `-`), outputs that are directories, and outputs in a
+/// directory that does not exist (before any work is done, not after it).
 pub fn check_distinct(outputs: &[&Path], inputs: &[&Path]) -> Result<(), String> {
     for out in outputs.iter().filter(|p| !is_std(p)) {
+        if out.is_dir() {
+            return Err(format!("{}: is a directory: name a file", out.display()));
+        }
         let dir = out.parent().filter(|d| !d.as_os_str().is_empty());
         if let Some(dir) = dir.filter(|d| !d.is_dir()) {
             return Err(format!(
@@ -59,15 +72,26 @@ pub fn check_distinct(outputs: &[&Path], inputs: &[&Path]) -> Result<(), String>
             ));
         }
     }
+    let stdin_read = inputs.iter().any(|p| is_std(p));
     for (i, out) in outputs.iter().enumerate() {
         for input in inputs.iter().filter(|p| !is_std(p)) {
             if same_file(out, input) {
                 return Err(format!(
                     "{}: is the input {}: refusing to overwrite an input (name another output)",
-                    out.display(),
+                    if is_std(out) {
+                        "stdout".to_string()
+                    } else {
+                        out.display().to_string()
+                    },
                     input.display()
                 ));
             }
+        }
+        if stdin_read && !is_std(out) && is_stdin(out) {
+            return Err(format!(
+                "{}: is the input read on stdin: refusing to overwrite an input (name another output)",
+                out.display()
+            ));
         }
         for other in &outputs[..i] {
             if same_file(out, other) || out == other {
@@ -82,162 +106,38 @@ pub fn check_distinct(outputs: &[&Path], inputs: &[&Path]) -> Result<(), String>
     Ok(())
 }
 
-/// Whether `a` and `b` name one existing file (stdout is no file).
+/// Whether `path` is the file stdin reads.
+fn is_stdin(path: &Path) -> bool {
+    match (
+        same_file::Handle::stdin(),
+        same_file::Handle::from_path(path),
+    ) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    }
+}
+
+/// Whether output `a` and `b` name one existing file; `-` is the file stdout writes (when it
+/// is a file). Inputs `-` are checked by [`is_stdin`].
 fn same_file(a: &Path, b: &Path) -> bool {
-    if is_std(a) || is_std(b) {
-        return false;
-    }
-    let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
-        return false;
+    let handle = |p: &Path| {
+        if is_std(p) {
+            same_file::Handle::stdout().ok()
+        } else {
+            same_file::Handle::from_path(p).ok()
+        }
     };
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::MetadataExt;
-        ma.dev() == mb.dev() && ma.ino() == mb.ino()
+    if is_std(a) && is_std(b) {
+        return false;
     }
-    #[cfg(not(unix))]
-    {
-        let _ = (ma, mb);
-        match (a.canonicalize(), b.canonicalize()) {
-            (Ok(x), Ok(y)) => x == y,
-            _ => false,
-        }
-    }
-}
-
-/// An output being written: a temporary file beside `dest`, renamed onto it by
-/// [`Pending::commit`]; removed if dropped uncommitted. For `-` (stdout) there is nothing to
-/// rename.
-#[derive(Debug)]
-pub struct Pending {
-    tmp: PathBuf,
-    dest: PathBuf,
-    committed: bool,
-}
-
-/// Where an output's bytes go: its temporary file, or stdout.
-pub enum Sink {
-    /// The temporary file beside the destination.
-    File(BufWriter<File>),
-    /// Stdout (`-`).
-    Stdout(BufWriter<std::io::Stdout>),
-}
-
-impl Write for Sink {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        match self {
-            Sink::File(w) => w.write(buf),
-            Sink::Stdout(w) => w.write(buf),
-        }
-    }
-
-    fn write_all(&mut self, buf: &[u8]) -> std::io::Result<()> {
-        match self {
-            Sink::File(w) => w.write_all(buf),
-            Sink::Stdout(w) => w.write_all(buf),
-        }
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        match self {
-            Sink::File(w) => w.flush(),
-            Sink::Stdout(w) => w.flush(),
-        }
-    }
-}
-
-impl Pending {
-    /// A temporary path beside `dest`, with its extension (plot writers choose the format by
-    /// it): `dir/.name.<pid>.tmp.ext`.
-    pub fn new(dest: &Path) -> Self {
-        let dir = dest.parent().unwrap_or(Path::new(""));
-        let stem = dest
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let ext = dest
-            .extension()
-            .map(|e| format!(".{}", e.to_string_lossy()))
-            .unwrap_or_default();
-        let tmp = dir.join(format!(".{stem}.{}.tmp{ext}", std::process::id()));
-        Pending {
-            tmp,
-            dest: dest.to_path_buf(),
-            committed: false,
-        }
-    }
-
-    /// Where to write.
-    pub fn path(&self) -> &Path {
-        &self.tmp
-    }
-
-    /// The final path.
-    pub fn dest(&self) -> &Path {
-        &self.dest
-    }
-
-    /// Puts the complete file in place (one rename: atomic on one file system).
-    pub fn commit(mut self) -> Result<(), String> {
-        if is_std(&self.dest) {
-            self.committed = true;
-            return Ok(());
-        }
-        std::fs::rename(&self.tmp, &self.dest)
-            .map_err(|e| format!("{}: cannot write: {e}", self.dest.display()))?;
-        self.committed = true;
-        Ok(())
-    }
-}
-
-impl Drop for Pending {
-    fn drop(&mut self) {
-        if !self.committed && !is_std(&self.dest) {
-            let _ = std::fs::remove_file(&self.tmp);
-        }
-    }
-}
-
-/// An output opened for writing (buffered), and its [`Pending`] to commit once it is
-/// flushed; `-` is stdout.
-pub fn create(dest: &Path) -> Result<(Pending, Sink), String> {
-    let pending = Pending::new(dest);
-    if is_std(dest) {
-        return Ok((
-            pending,
-            Sink::Stdout(BufWriter::with_capacity(1 << 16, std::io::stdout())),
-        ));
-    }
-    let file = File::create(pending.path())
-        .map_err(|e| format!("{}: cannot create: {e}", dest.display()))?;
-    Ok((pending, Sink::File(BufWriter::with_capacity(1 << 16, file))))
-}
-
-/// Flushes `w` (to disk) and puts the file in place.
-pub fn finish(pending: Pending, w: Sink) -> Result<(), String> {
-    let dest = pending.dest().display().to_string();
-    let failed = |e: std::io::Error| format!("{dest}: write failed: {e}");
-    match w {
-        Sink::File(w) => {
-            let file = w.into_inner().map_err(|e| failed(e.into_error()))?;
-            file.sync_all().map_err(failed)?;
-        }
-        Sink::Stdout(mut w) => w.flush().map_err(failed)?,
-    }
-    pending.commit()
-}
-
-/// Writes `bytes` to `dest` through a temporary file.
-pub fn write(dest: &Path, bytes: &[u8]) -> Result<(), String> {
-    let (pending, mut w) = create(dest)?;
-    w.write_all(bytes)
-        .map_err(|e| format!("{}: write failed: {e}", dest.display()))?;
-    finish(pending, w)
+    matches!((handle(a), handle(b)), (Some(x), Some(y)) if x == y)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::io::Write;
+    use std::path::PathBuf;
 
     fn dir() -> PathBuf {
         let d = std::env::temp_dir().join(format!("ballisto-output-{}", std::process::id()));
@@ -310,9 +210,7 @@ mod tests {
         write(&dest, b"new").unwrap();
         assert_eq!(std::fs::read_to_string(&dest).unwrap(), "new");
         // The extension is kept (plot writers choose the format by it).
-        assert!(Pending::new(&d.join("plot.png"))
-            .path()
-            .to_string_lossy()
-            .ends_with(".tmp.png"));
+        let (plot, _) = Pending::new(&d.join("plot.png")).unwrap();
+        assert!(plot.path().to_string_lossy().ends_with(".tmp.png"));
     }
 }
