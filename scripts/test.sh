@@ -17,50 +17,62 @@ step() { echo "test.sh [$((SECONDS - started)) s]: $*" >&2; }
 step "formatting and lints"
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets -- -D warnings
-cargo clippy -p qemu-bench --profile flight --target thumbv7em-none-eabihf -- -D warnings
-cargo clippy -p ballisto-fw --target thumbv7em-none-eabihf -- -D warnings
-cargo clippy -p board-qemu --profile flight --target thumbv7em-none-eabihf -- -D warnings
-step "the tests"
-cargo nextest run --workspace --no-fail-fast
-step "the doc tests"
-cargo test --workspace --doc
+# The firmware packages for the target, named (never the whole workspace: features unify),
+# in one run: their dependencies are checked once.
+cargo clippy -p qemu-bench -p ballisto-fw -p board-qemu --profile flight \
+  --target thumbv7em-none-eabihf -- -D warnings
+step "the builds"
+cargo nextest run --workspace --no-run
+QEMU_BENCH_STRICT=1 cargo build -p qemu-bench --profile flight --target thumbv7em-none-eabihf
+cargo build -p board-qemu --profile flight --target thumbv7em-none-eabihf
 
-# The STM32H743 (its own directory and target: its .cargo/config.toml, Cortex-M7 FPU, probe-rs
-# runner): linted, then built from a user's board file (BALLISTO_ARRANGEMENT, read by its
-# build.rs), then from the built-in board's, which the size report measures. It compiles while
-# QEMU, one thread, runs below: its output is shown when it ends.
-step "the STM32H743 board (alongside the QEMU runs)"
-stm32_log=$(mktemp)
-trap 'rm -f "$stm32_log"' EXIT
+# While the tests run: QEMU (one thread per run: counts under -icount do not depend on the
+# host's load) and the STM32H743 (its own directory and target: its .cargo/config.toml,
+# Cortex-M7 FPU, probe-rs runner; linted, then built from a user's board file —
+# BALLISTO_ARRANGEMENT, read by its build.rs — then from the built-in board's, which the size
+# report measures). Their output is shown when they end.
+step "the tests, and alongside them the QEMU runs and the STM32H743 board"
+logs=$(mktemp -d)
+trap 'rm -rf "$logs"' EXIT
+(
+  # Instruction counts of the flashed profile (a mean over its budget fails: QEMU_BENCH_STRICT
+  # above); then the QEMU board's built-in scenario, writing out/qemu/telemetry*.bin.
+  bash .cargo/qemu-runner.sh target/thumbv7em-none-eabihf/flight/qemu-bench
+  bash .cargo/qemu-runner.sh target/thumbv7em-none-eabihf/flight/board-qemu
+) > "$logs/qemu" 2>&1 &
+qemu=$!
 (
   cd firmware/boards/stm32h743
   cargo clippy --profile flight -- -D warnings
   BALLISTO_ARRANGEMENT=example-board.toml cargo build --profile flight
   cargo build --profile flight
-) > "$stm32_log" 2>&1 &
+) > "$logs/stm32" 2>&1 &
 stm32=$!
-
-step "instruction counts under QEMU"
-QEMU_BENCH_STRICT=1 cargo qemu-bench
-# QEMU: runs the built-in scenario, writes out/qemu/telemetry*.bin.
-step "the QEMU board's built-in scenario"
-cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf
+# `ended NAME PID`: waits for a job, shows its output, fails if it failed.
+ended() {
+  local status=0
+  wait "$2" || status=$?
+  cat "$logs/$1" >&2
+  [ "$status" = 0 ] || { echo "test.sh: $1 failed" >&2; exit "$status"; }
+}
+tests=0
+cargo nextest run --workspace --no-fail-fast || tests=$?
+step "the doc tests"
+cargo test --workspace --doc || tests=$?
+step "the QEMU runs"
+ended qemu "$qemu"
+[ "$tests" = 0 ] || { echo "test.sh: the tests failed" >&2; exit "$tests"; }
 # The host side with the binaries the tests built (no second, release build of the host crates).
-cargo build -q --bin ballisto
 ./target/debug/ballisto decode out/qemu/telemetry-boot1.bin --out out/qemu/estimates-boot1.csv \
   --log out/qemu/log-boot1.txt
 ./target/debug/ballisto decode out/qemu/telemetry.bin --out out/qemu/estimates.csv \
   --log out/qemu/log.txt
 ./target/debug/ballisto decode out/qemu/telemetry-boot3.bin --out out/qemu/estimates-boot3.csv \
   --log out/qemu/log-boot3.txt
-BOARD_QEMU_TELEMETRY="$PWD/out/qemu/telemetry.bin" \
-  cargo nextest run -p e2e-tests --test builtin_scenario --run-ignored only --no-capture
-
+BOARD_QEMU_TELEMETRY="$PWD/out/qemu/telemetry.bin" cargo nextest run --workspace \
+  -E 'binary(builtin_scenario)' --run-ignored only --no-capture
 step "the STM32H743 board"
-status=0
-wait "$stm32" || status=$?
-cat "$stm32_log" >&2
-[ "$status" = 0 ] || { echo "test.sh: the STM32H743 board's lint or build failed" >&2; exit "$status"; }
+ended stm32 "$stm32"
 step "flash and RAM"
 bash scripts/size-report.sh
 step "done"

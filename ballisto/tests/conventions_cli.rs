@@ -3,6 +3,9 @@
 //! distinct; `-` is stdin/stdout; `--quiet` is quiet; empty inputs are errors.
 
 mod common;
+/// Options and inputs refused as documented.
+#[path = "conventions_cli/options.rs"]
+mod options;
 
 use std::io::Write;
 use std::path::Path;

@@ -3,6 +3,9 @@
 //! writes anything, and leaves the input as it was; a finished run leaves no temporary file.
 
 mod common;
+/// What may not happen to a file a command writes or reads (special files, modes, stdin, signals, closed pipes).
+#[path = "no_data_loss/output_safety.rs"]
+mod output_safety;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

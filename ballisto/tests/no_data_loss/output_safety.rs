@@ -4,7 +4,7 @@
 //! temporaries, a closed pipe ending in a panic. Special files are made in temporary
 //! directories only.
 
-mod common;
+use crate::common;
 
 use std::ffi::CString;
 use std::os::unix::ffi::OsStrExt;

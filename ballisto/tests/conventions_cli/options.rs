@@ -2,7 +2,7 @@
 //! option value exits 2 naming the option, before any work; the wrong kind of input exits 1
 //! with nothing written.
 
-mod common;
+use crate::common;
 
 use std::process::Command;
 
