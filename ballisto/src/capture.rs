@@ -16,7 +16,7 @@ use std::io::{BufWriter, Read, Write};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use crate::decode::{log_line, RowWriter, Stream, StreamDecoder};
+use crate::decode::{is_boot, log_line, RowWriter, Stream, StreamDecoder};
 
 /// What `ballisto capture` is asked to do.
 pub struct CaptureJob<'a> {
@@ -140,7 +140,10 @@ pub fn capture(job: &CaptureJob) -> Result<CaptureSummary, String> {
     let mut source = Source::open(job.port, job.baud)?;
     let mut out = new_output(job.out)?;
     let mut log = new_output(job.log)?;
-    let mut raw = job.raw.map(new_output).transpose()?;
+    let mut raw = match job.raw {
+        Some(path) => Some((new_output(path)?, path)),
+        None => None,
+    };
     let mut rows = RowWriter::new(job.time_offset);
     rows.header(&mut out).map_err(write_err(job.out))?;
     out.flush().map_err(write_err(job.out))?;
@@ -205,10 +208,10 @@ pub fn capture(job: &CaptureJob) -> Result<CaptureSummary, String> {
         }
         last_byte = Instant::now();
         summary.bytes += n as u64;
-        if let Some(r) = raw.as_mut() {
+        if let Some((r, path)) = raw.as_mut() {
             r.write_all(&buf[..n])
-                .map_err(write_err(job.raw.unwrap_or(job.out)))?;
-            r.flush().map_err(write_err(job.raw.unwrap_or(job.out)))?;
+                .and_then(|()| r.flush())
+                .map_err(write_err(path))?;
         }
         let mut stream = Stream::default();
         decoder.push(&buf[..n], &mut stream);
@@ -265,26 +268,21 @@ fn write_packets(
     job: &CaptureJob,
     summary: &mut CaptureSummary,
 ) -> Result<(), String> {
-    let out_err = |e: std::io::Error| format!("{}: write failed: {e}", job.out.display());
-    let log_err = |e: std::io::Error| format!("{}: write failed: {e}", job.log.display());
     for p in &stream.packets {
         summary.packets += 1;
-        if rows.packet(out, p).map_err(out_err)? {
+        if rows.packet(out, p).map_err(write_err(job.out))? {
             summary.rows += 1;
         }
-        if matches!(&p.report, ballisto_link::decode::Report::Event(e) if e.id == ballisto_link::EventId::Boot)
-        {
-            summary.boots += 1;
-        }
+        summary.boots += u32::from(is_boot(p));
         if let Some(line) = log_line(p, job.time_offset) {
-            writeln!(log, "{line}").map_err(log_err)?;
+            writeln!(log, "{line}").map_err(write_err(job.log))?;
         }
     }
     for problem in &stream.problems {
         summary.problems += 1;
-        writeln!(log, "PROBLEM {problem}").map_err(log_err)?;
+        writeln!(log, "PROBLEM {problem}").map_err(write_err(job.log))?;
     }
-    out.flush().map_err(out_err)?;
-    log.flush().map_err(log_err)?;
+    out.flush().map_err(write_err(job.out))?;
+    log.flush().map_err(write_err(job.log))?;
     Ok(())
 }

@@ -44,6 +44,12 @@ pub fn decode_stream(bytes: &[u8]) -> Stream {
     out
 }
 
+/// Whether `p` is the unit's boot event: the start of a boot's stream (its counts start
+/// again, its `t` is the time since that boot).
+pub fn is_boot(p: &Decoded) -> bool {
+    matches!(&p.report, Report::Event(e) if e.id == EventId::Boot)
+}
+
 /// The decoder of a stream that arrives in pieces (a file, or a live link): the frames and
 /// the checks of [`decode_stream`], byte offsets counted from the stream's start.
 pub struct StreamDecoder {
@@ -93,8 +99,7 @@ impl StreamDecoder {
     /// Checks packet `p` (ended at byte `at`) against the sequence and type counts.
     fn follow(&mut self, p: Decoded, at: u64, out: &mut Stream) {
         // A boot starts the count again: the stream of a new boot, not lost packets.
-        let booted =
-            matches!(&p.report, Report::Event(e) if e.id == EventId::Boot) && p.sequence == 0;
+        let booted = is_boot(&p) && p.sequence == 0;
         if let Some(expected) = self.next.filter(|_| !booted) {
             if p.sequence != expected {
                 let lost = p.sequence.wrapping_sub(expected) & 0x3FFF;
@@ -144,7 +149,7 @@ impl TypeCounters {
     /// A boot event starts the count again. Streams of format 1 carry 0 in every packet,
     /// which reads as "no counter" (a count that stays 0 is never a gap).
     fn follow(&mut self, p: &Decoded) -> Option<String> {
-        if matches!(&p.report, Report::Event(e) if e.id == EventId::Boot) {
+        if is_boot(p) {
             self.last.clear();
         }
         let c = p.type_counter;

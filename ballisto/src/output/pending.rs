@@ -234,19 +234,19 @@ impl Drop for Pending {
 /// flushed; `-` is stdout.
 pub fn create(dest: &Path) -> Result<(Pending, Sink), String> {
     let (pending, file) = Pending::new(dest)?;
-    let sink = match (&pending.target, file) {
-        (Target::Stdout, _) => Sink::Stdout(BufWriter::with_capacity(1 << 16, signals::Stdout)),
-        (_, Some(file)) => Sink::File(BufWriter::with_capacity(1 << 16, file)),
-        (target, None) => {
-            let file = OpenOptions::new()
-                .write(true)
-                .open(pending.path())
-                .map_err(|e| format!("{}: cannot open: {e}", dest.display()))?;
-            debug_assert!(matches!(target, Target::Special(_)));
-            Sink::File(BufWriter::with_capacity(1 << 16, file))
+    let file = match (&pending.target, file) {
+        (Target::Stdout, _) => {
+            let sink = Sink::Stdout(BufWriter::with_capacity(1 << 16, signals::Stdout));
+            return Ok((pending, sink));
         }
+        (_, Some(temporary)) => temporary,
+        // A special file, written in place.
+        (_, None) => OpenOptions::new()
+            .write(true)
+            .open(pending.path())
+            .map_err(|e| format!("{}: cannot open: {e}", dest.display()))?,
     };
-    Ok((pending, sink))
+    Ok((pending, Sink::File(BufWriter::with_capacity(1 << 16, file))))
 }
 
 /// Flushes `w` (a regular file to disk) and puts the file in place.
