@@ -4,7 +4,9 @@
 # exceeds the per-sample budget), the STM32H743 build, the QEMU board running the built-in
 # scenario (boot 1: identification and commit; a reset; boot 2 on the stored calibration, a part
 # stuck and isolated, then its sets stop; the watchdog's reset; boot 3 on the stored calibration)
-# with the boots' telemetry decoded and checked against the host, and the flash / RAM report
+# with the boots' telemetry decoded and checked against the host, the same scenario followed live
+# over the board's UART on a pseudo-terminal by `ballisto capture` (scripts/qemu-live.sh) and
+# checked against the boots' files, and the flash / RAM report
 # (which fails if the STM32H743 build is over its budget). The long sweeps, the Cortex-M7 counts
 # and the QEMU board's tumble on the Cortex-M7 are `scripts/validate.sh`'s.
 set -euo pipefail
@@ -39,6 +41,8 @@ trap 'rm -rf "$logs"' EXIT
   # above); then the QEMU board's built-in scenario, writing out/qemu/telemetry*.bin.
   bash .cargo/qemu-runner.sh target/thumbv7em-none-eabihf/flight/qemu-bench
   bash .cargo/qemu-runner.sh target/thumbv7em-none-eabihf/flight/board-qemu
+  # The same image followed live over its UART (the ground tool built with the tests).
+  bash scripts/qemu-live.sh out/qemu-live
 ) > "$logs/qemu" 2>&1 &
 qemu=$!
 (
@@ -69,8 +73,9 @@ ended qemu "$qemu"
   --log out/qemu/log.txt
 ./target/debug/ballisto decode out/qemu/telemetry-boot3.bin --out out/qemu/estimates-boot3.csv \
   --log out/qemu/log-boot3.txt
-BOARD_QEMU_TELEMETRY="$PWD/out/qemu/telemetry.bin" cargo nextest run --workspace \
-  -E 'binary(builtin_scenario)' --run-ignored only --no-capture
+BOARD_QEMU_TELEMETRY="$PWD/out/qemu/telemetry.bin" BOARD_QEMU_LIVE="$PWD/out/qemu-live" \
+  cargo nextest run --workspace -E 'binary(builtin_scenario) | binary(capture)' \
+  --run-ignored only --no-capture
 step "the STM32H743 board"
 ended stm32 "$stm32"
 step "flash and RAM"

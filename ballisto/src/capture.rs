@@ -38,6 +38,9 @@ pub struct CaptureJob<'a> {
     pub send: Vec<Vec<u8>>,
     /// A status line on stderr (drawn only on a terminal).
     pub progress: bool,
+    /// Called once the port is open, the outputs created and the frames sent: from here on
+    /// nothing that arrives is missed (a script starts the unit then).
+    pub on_open: &'a dyn Fn(),
 }
 
 /// What a capture received.
@@ -152,6 +155,7 @@ pub fn capture(job: &CaptureJob) -> Result<CaptureSummary, String> {
             .send(frames)
             .map_err(|e| format!("{}: cannot send: {e}", job.port.display()))?;
     }
+    (job.on_open)();
     let status = crate::progress::bar(job.progress, u64::MAX, "capture {spinner} {msg}");
     let mut decoder = StreamDecoder::default();
     let mut summary = CaptureSummary::default();

@@ -196,3 +196,76 @@ fn a_port_that_goes_away_keeps_what_was_received() {
     let rows = std::fs::read_to_string(&out).unwrap().lines().count() - 1;
     assert!(rows > 900, "{rows} rows of the half received");
 }
+
+/// The QEMU board's built-in scenario followed live over its UART0 on a pseudo-terminal
+/// (`scripts/qemu-live.sh`, which the test command runs and names here with
+/// `BOARD_QEMU_LIVE`): three boots and two resets of the board (its own, then the
+/// watchdog's). The capture received every byte of the boots' files, in order, and its rows
+/// and log are the file decode's of those files; each boot is its own segment.
+#[test]
+#[ignore = "needs the QEMU board's live run: scripts/qemu-live.sh, then BOARD_QEMU_LIVE=DIR"]
+fn the_qemu_board_followed_live_over_its_uart_is_its_files_row_for_row() {
+    let live = std::path::PathBuf::from(std::env::var("BOARD_QEMU_LIVE").expect("BOARD_QEMU_LIVE"));
+    let files = [
+        "telemetry-boot1.bin",
+        "telemetry.bin",
+        "telemetry-boot3.bin",
+    ];
+    let mut recorded = Vec::new();
+    for f in files {
+        let bytes = std::fs::read(live.join(f)).unwrap();
+        assert!(!bytes.is_empty(), "{f} is empty");
+        recorded.extend(bytes);
+    }
+    let received = std::fs::read(live.join("capture.bin")).unwrap();
+    assert_eq!(
+        received.len(),
+        recorded.len(),
+        "octets received over the UART against the boots' files"
+    );
+    assert!(
+        received == recorded,
+        "the octets received differ from the files'"
+    );
+
+    let d = common::tmpdir("capture", "qemu-live");
+    let whole = d.join("whole.bin");
+    std::fs::write(&whole, &recorded).unwrap();
+    let (decoded, decoded_log) = (d.join("decoded.csv"), d.join("decoded.txt"));
+    common::run_ok(
+        common::ballisto()
+            .arg("decode")
+            .arg(&whole)
+            .arg("--out")
+            .arg(&decoded)
+            .arg("--log")
+            .arg(&decoded_log),
+    );
+    let captured = std::fs::read_to_string(live.join("estimates.csv")).unwrap();
+    let file = std::fs::read_to_string(&decoded).unwrap();
+    let rows = captured.lines().count() - 1;
+    assert!(rows > 4000, "{rows} rows: the three boots run 4100 sets");
+    assert!(
+        captured == file,
+        "the live rows differ from the file decode's"
+    );
+    // One segment per boot: the `boot` column (the last) counts 1, 2, 3.
+    let boots: std::collections::BTreeSet<&str> = captured
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.rsplit(',').next())
+        .collect();
+    assert_eq!(boots.into_iter().collect::<Vec<_>>(), ["1", "2", "3"]);
+    // The log: the file decode's, then the end of the board (QEMU gone, the port with it).
+    let captured_log = std::fs::read_to_string(live.join("log.txt")).unwrap();
+    let (head, tail) = captured_log
+        .split_once("PROBLEM the port was lost")
+        .expect("the capture saw the port go when QEMU ended");
+    assert_eq!(
+        head,
+        std::fs::read_to_string(&decoded_log).unwrap(),
+        "the log"
+    );
+    assert!(tail.contains("not back within 5 s"), "{tail}");
+    assert!(!head.contains("PROBLEM"), "{head}");
+}

@@ -111,6 +111,7 @@ pub fn capture(args: CaptureArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> 
         idle: args.idle,
         send,
         progress: !say.quiet,
+        on_open: &|| say.info(format!("{}: open, following the link", args.port.display())),
     })?;
     say.info(format!(
         "{}: {} bytes, {} packets, {} motion reports to {}, {} boots, {} problems, port reopened {} times",

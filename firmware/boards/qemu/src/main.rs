@@ -10,8 +10,9 @@
 //!   too) and the scripted uplink,
 //! - the built-in scenario in place of the parts (QEMU has no accelerometers) and its
 //!   scripted uplink,
-//! - the telemetry link written through semihosting into QEMU's working directory:
-//!   `telemetry-boot1.bin`, `telemetry.bin` (boot 2), `telemetry-boot3.bin`,
+//! - the telemetry link (`link`) written through semihosting into QEMU's working directory:
+//!   `telemetry-boot1.bin`, `telemetry.bin` (boot 2), `telemetry-boot3.bin`, and to UART0,
+//!   QEMU's first serial port (`-serial pty`: followed live by `ballisto capture`),
 //! - a RAM-backed flash for the calibration store in the SSRAM QEMU maps as flash, beyond the
 //!   image. At power-on (the store erased) boot 1 runs the nominal arrangement while the
 //!   scripted ground identifies the geometry and commits it (`demo::identification`), then
@@ -31,6 +32,9 @@
 //! `cargo run -p board-qemu --profile flight --target thumbv7em-none-eabihf` (the runner,
 //! `.cargo/qemu-runner.sh`, writes into `out/qemu/`).
 #![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(target_os = "none")]
+mod link;
 
 #[cfg(target_os = "none")]
 mod board {
@@ -53,19 +57,21 @@ mod board {
     use board_qemu::demo::{self, Script, ScriptedUplink, BOOT1_SETS, BOOT3_SETS, SETS};
     use board_qemu::synthetic::{synthetic_task, Synthetic};
     use board_qemu::tumble;
+
+    use crate::link::{BoardLink, HostFile, Uart};
     use cortex_m::interrupt::InterruptNumber;
     use cortex_m::peripheral::scb::SystemHandler;
     use cortex_m::peripheral::syst::SystClkSource;
     use cortex_m::peripheral::SYST;
     use cortex_m_rt::exception;
-    use cortex_m_semihosting::{debug, hprintln, syscall};
+    use cortex_m_semihosting::{debug, hprintln};
     use embassy_executor::{InterruptExecutor, Spawner};
     use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex as Cs;
     use embassy_sync::blocking_mutex::Mutex as BlockingMutex;
     use embassy_sync::channel::Channel;
     use embassy_sync::waitqueue::MultiWakerRegistration;
     use embassy_sync::zerocopy_channel::{self, Channel as ZeroCopyChannel};
-    use embedded_io_async::{ErrorKind, ErrorType, Write};
+    use embedded_io_async::Write;
     use static_cell::StaticCell;
 
     /// SysTick counts the 25 MHz core clock: 40 ns per count.
@@ -154,39 +160,6 @@ mod board {
         }
     }
 
-    /// A host file opened through semihosting.
-    struct HostFile(usize);
-
-    impl HostFile {
-        /// `name` must end with a NUL.
-        fn create(name: &str) -> Option<Self> {
-            let mode = cortex_m_semihosting::nr::open::W_TRUNC_BINARY;
-            // SAFETY: SYS_OPEN reads `len` bytes at `ptr` (a NUL-terminated name).
-            let fd = unsafe { syscall!(OPEN, name.as_ptr(), mode, name.len() - 1) } as isize;
-            (fd >= 0).then_some(HostFile(fd as usize))
-        }
-    }
-
-    impl ErrorType for HostFile {
-        type Error = ErrorKind;
-    }
-
-    impl Write for HostFile {
-        async fn write(&mut self, buf: &[u8]) -> Result<usize, ErrorKind> {
-            // SAFETY: SYS_WRITE reads `len` bytes at `ptr`; returns the count NOT written.
-            let left = unsafe { syscall!(WRITE, self.0, buf.as_ptr(), buf.len()) };
-            match left {
-                0 => Ok(buf.len()),
-                n if n < buf.len() => Ok(buf.len() - n),
-                _ => Err(ErrorKind::Other),
-            }
-        }
-
-        async fn flush(&mut self) -> Result<(), ErrorKind> {
-            Ok(())
-        }
-    }
-
     static SAMPLES: Channel<Cs, SampleSet, { ballisto_fw::QUEUE }> = Channel::new();
     static SLOTS: StaticCell<[Incoming; COMMAND_QUEUE]> = StaticCell::new();
     static COMMANDS: StaticCell<ZeroCopyChannel<'static, Cs, Incoming>> = StaticCell::new();
@@ -197,7 +170,7 @@ mod board {
     static IDENTIFIER: StaticCell<Identifier> = StaticCell::new();
     static WINDOW: StaticCell<Identification> = StaticCell::new();
     static SOURCE: StaticCell<Synthetic> = StaticCell::new();
-    static TELEMETRY: StaticCell<Telemetry<HostFile>> = StaticCell::new();
+    static TELEMETRY: StaticCell<Telemetry<BoardLink<SysTickTime>>> = StaticCell::new();
     /// Sector of the RAM-backed calibration flash.
     const CAL_SECTOR: usize = 4096;
     /// The calibration flash: two sectors of the SSRAM QEMU maps at 0 as flash, at 3 MiB.
@@ -306,7 +279,7 @@ mod board {
     #[embassy_executor::task]
     async fn application(
         app: &'static mut App,
-        tm: &'static mut Telemetry<HostFile>,
+        tm: &'static mut Telemetry<BoardLink<SysTickTime>>,
         commands: zerocopy_channel::Receiver<'static, Cs, Incoming>,
     ) {
         let links = Links {
@@ -573,7 +546,11 @@ mod board {
         // The parts as mounted (`demo::truth`).
         let (source, sets, script) = scenario(tumbling, stage);
         let source = SOURCE.init(source);
-        let tm = TELEMETRY.init(Telemetry::new(file));
+        let link = BoardLink {
+            file,
+            uart: Uart::enable(SysTickTime),
+        };
+        let tm = TELEMETRY.init(Telemetry::new(link));
         spawner.spawn(identification(identifier, WINDOW.init_with(Identification::new)).unwrap());
         let middle = MIDDLE.start(MIDDLE_LINE);
         middle.spawn(builder(builds).unwrap());
