@@ -6,7 +6,7 @@ use std::path::Path;
 
 /// Reads the columns `names` (in that order) of every row.
 pub(crate) struct Columns {
-    rdr: csv::Reader<Box<dyn std::io::BufRead + Send>>,
+    rdr: csv::Reader<Box<dyn std::io::Read + Send>>,
     record: csv::StringRecord,
     index: Vec<usize>,
     name: String,
@@ -17,7 +17,7 @@ impl Columns {
     pub(crate) fn open(path: &Path, names: &[&str]) -> Result<Self, String> {
         let name = path.display().to_string();
         let input =
-            crate::output::open_input(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
+            crate::text_input::open_text(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
         let mut rdr = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
             .from_reader(input);
@@ -65,6 +65,11 @@ impl Columns {
         Ok(true)
     }
 
+    /// The bytes of the file read so far (decompressed).
+    pub(crate) fn bytes_read(&self) -> u64 {
+        self.rdr.position().byte()
+    }
+
     /// The file's name, for messages.
     pub(crate) fn name(&self) -> &str {
         &self.name
@@ -99,6 +104,11 @@ impl Matched {
             estimates: Columns::open(estimates, &all)?,
             truth_row: vec![f64::NEG_INFINITY; columns.len()],
         })
+    }
+
+    /// The bytes of the estimates file read so far.
+    pub(crate) fn estimates_read(&self) -> u64 {
+        self.estimates.bytes_read()
     }
 
     /// The next estimates row into `est` and its truth into `tru`; `false` at the end.

@@ -59,6 +59,16 @@ const COLUMNS: [&str; 16] = [
 /// Compares `estimates` with `truth`, row by row (both in time order, matched by `t`;
 /// memory does not grow with the files).
 pub fn compare(truth: &Path, estimates: &Path) -> Result<Comparison, Box<dyn Error>> {
+    compare_shown(truth, estimates, false)
+}
+
+/// [`compare`], with a progress bar on stderr (drawn only on a terminal) if `progress`.
+pub fn compare_shown(
+    truth: &Path,
+    estimates: &Path,
+    progress: bool,
+) -> Result<Comparison, Box<dyn Error>> {
+    let bar = crate::progress::reading(progress, estimates, "compare");
     let with_sd = crate::columns::has_columns(estimates, &DEVIATIONS);
     let extra: &[&str] = if with_sd { &DEVIATIONS } else { &[] };
     let mut rows_in = Matched::open(truth, estimates, &COLUMNS, extra)?;
@@ -73,6 +83,9 @@ pub fn compare(truth: &Path, estimates: &Path) -> Result<Comparison, Box<dyn Err
     let mut rows = 0;
     let mut silent = Silent::default();
     while rows_in.next_into(&mut e[..width], &mut t)? {
+        if rows % 4096 == 0 {
+            bar.set_position(rows_in.estimates_read());
+        }
         if with_sd && e[flags] == 0.0 {
             let beyond = |est: usize, sd: usize| {
                 (0..3).any(|k| (e[est + k] - t[est + k]).abs() > SILENT_SD * e[sd + k])
@@ -95,6 +108,7 @@ pub fn compare(truth: &Path, estimates: &Path) -> Result<Comparison, Box<dyn Err
         }
         rows += 1;
     }
+    bar.finish_and_clear();
     if rows == 0 {
         // An RMS of nothing would read as a perfect score.
         return Err(format!(
@@ -137,18 +151,25 @@ pub struct RateComparison {
 
 /// Compares the Ω of `estimates` with the reference rate file `reference` (its valid rows by
 /// `validity`, interpolated to the estimates' times; the reference format of docs/formats.md).
+/// A progress bar on stderr (drawn only on a terminal) if `progress`, over the estimates read.
 pub fn compare_reference(
     reference: &Path,
     validity: &Validity,
     estimates: &Path,
+    progress: bool,
 ) -> Result<RateComparison, Box<dyn Error>> {
+    let bar = crate::progress::reading(progress, estimates, "compare");
     let mut cols = Columns::open(estimates, &["t", "omega_x", "omega_y", "omega_z"])?;
     let (mut times, mut omega) = (Vec::new(), Vec::new());
     let mut row = [0.0; 4];
     while cols.next_into(&mut row)? {
+        if times.len() % 4096 == 0 {
+            bar.set_position(cols.bytes_read());
+        }
         times.push(row[0]);
         omega.push([row[1], row[2], row[3]]);
     }
+    bar.finish_and_clear();
     if times.is_empty() {
         return Err(format!("{}: no rows: nothing to compare", estimates.display()).into());
     }

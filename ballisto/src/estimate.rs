@@ -408,7 +408,7 @@ fn run_typed<T: Real + Send + 'static>(
     // the last temperature its column gave; uncorrected rows counted for a warning.
     let mut temps = vec![f64::NAN; loaded.names.len()];
     let mut uncorrected = vec![0u64; loaded.names.len()];
-    let bar = progress_bar(job);
+    let bar = crate::progress::reading(job.progress, job.samples, "estimate");
     let mut read = 0u64;
     let result = loop {
         if read.is_multiple_of(4096) {
@@ -539,27 +539,5 @@ pub fn count_flags(counts: &mut [u64; 16], flags: Flags) {
         if flags.has(1 << bit) {
             *c += 1;
         }
-    }
-}
-
-/// The bar of an estimate: the samples file's bytes read of its size, or (compressed, stdin)
-/// the bytes read alone.
-fn progress_bar(job: &EstimateJob) -> indicatif::ProgressBar {
-    let plain_size = std::fs::metadata(job.samples)
-        .ok()
-        .filter(|m| m.is_file())
-        .filter(|_| job.samples.extension().is_none_or(|e| e != "gz"))
-        .map(|m| m.len());
-    match plain_size {
-        Some(len) => crate::progress::bar(
-            job.progress,
-            len,
-            "estimate {bar:30} {bytes}/{total_bytes} ({elapsed}, {eta} left)",
-        ),
-        None => crate::progress::bar(
-            job.progress,
-            u64::MAX,
-            "estimate {spinner} {bytes} read ({elapsed})",
-        ),
     }
 }

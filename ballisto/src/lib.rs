@@ -25,4 +25,5 @@ mod progress;
 pub mod samples_csv;
 pub mod sim;
 pub mod tc;
+pub mod text_input;
 pub mod truth_csv;

@@ -58,11 +58,11 @@ pub struct SamplesReader<R: std::io::Read> {
     var_column: Vec<Option<usize>>,
 }
 
-impl SamplesReader<Box<dyn std::io::BufRead + Send>> {
+impl SamplesReader<Box<dyn std::io::Read + Send>> {
     /// Opens `path` (stdin for `-`) and matches its header against the channel `names`.
     pub fn open(path: &Path, names: &[String]) -> Result<Self, SamplesError> {
         let file = path.display().to_string();
-        let reader = crate::output::open_input(path).map_err(|e| SamplesError {
+        let reader = crate::text_input::open_text(path).map_err(|e| SamplesError {
             file: file.clone(),
             line: None,
             message: format!("cannot open: {e}"),

@@ -2,6 +2,9 @@
 //! and their verification reports come back named by `decode --commands`; exit codes are
 //! distinct; `-` is stdin/stdout; `--quiet` is quiet; empty inputs are errors.
 
+/// Memory bounded whatever the input's size.
+#[path = "conventions_cli/bounded.rs"]
+mod bounded;
 mod common;
 /// Options and inputs refused as documented.
 #[path = "conventions_cli/options.rs"]

@@ -198,11 +198,12 @@ fn invalid_by<'a>(
     Ok(None)
 }
 
-type Input = Box<dyn std::io::BufRead + Send>;
+type Input = Box<dyn std::io::Read + Send>;
 
 fn open(path: &Path) -> Result<(csv::Reader<Input>, csv::StringRecord), String> {
     let name = path.display().to_string();
-    let input = crate::output::open_input(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
+    let input =
+        crate::text_input::open_text(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
     let mut rdr = csv::ReaderBuilder::new()
         .comment(Some(b'#'))
         .from_reader(input);

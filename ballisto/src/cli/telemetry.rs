@@ -4,6 +4,7 @@ use std::error::Error;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use ballisto::decode::{DecodeJob, LogTo};
 use clap::Args;
 
 use super::args::*;
@@ -157,49 +158,56 @@ pub fn decode(args: DecodeArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> {
         let bytes = ballisto::output::read_input(c)?;
         sent.extend(ballisto::tc::sent(&bytes, &c.display().to_string())?);
     }
-    let (stream, rows, text) =
-        ballisto::decode::decode_file(&input, &out, log.as_deref(), time_offset, &sent)?;
+    let to_stdout = ballisto::output::is_std(&out);
+    let log_to = match (&log, to_stdout, say.quiet) {
+        (Some(path), _, _) => LogTo::File(path),
+        // The estimates own stdout: the log goes with the diagnostics.
+        (None, true, false) => LogTo::Stderr,
+        (None, true, true) => LogTo::Nowhere,
+        (None, false, _) => LogTo::Stdout,
+    };
+    let listed = if say.verbose {
+        usize::MAX
+    } else {
+        PROBLEMS_LISTED
+    };
+    let found = ballisto::decode::decode_file(&DecodeJob {
+        input: &input,
+        out: &out,
+        log: log_to,
+        time_offset,
+        sent: &sent,
+        keep_problems: listed,
+        progress: !say.quiet,
+    })?;
     if let (Some(cal), Some(nominal)) = (&calibration, &arrangement) {
-        let file = ballisto::decode::identified_arrangement(&stream, &input, nominal)?;
+        let file =
+            ballisto::decode::identified_arrangement(&found.identification, &input, nominal)?;
         ballisto::output::write(cal, file.as_bytes())?;
         say.info(format!(
             "{}: identification solution written",
             cal.display()
         ));
     }
-    if log.is_none() {
-        if ballisto::output::is_std(&out) {
-            // The estimates own stdout: the log goes with the diagnostics.
-            if !say.quiet {
-                eprint!("{text}");
-            }
-        } else {
-            ballisto::output::signals::print(&text)?;
-        }
-    }
     say.info(format!(
-        "{}: {} packets, {rows} motion reports to {}, {} problems",
+        "{}: {} packets, {} motion reports to {}, {} problems",
         input.display(),
-        stream.packets.len(),
+        found.packets,
+        found.rows,
         out.display(),
-        stream.problems.len()
+        found.problems
     ));
-    let listed = if say.verbose {
-        stream.problems.len()
-    } else {
-        PROBLEMS_LISTED
-    };
-    for p in stream.problems.iter().take(listed) {
+    for p in &found.listed {
         eprintln!("ballisto: {}: {p}", input.display());
     }
-    if stream.problems.len() > listed {
+    let more = found.problems - found.listed.len() as u64;
+    if more > 0 {
         eprintln!(
-            "ballisto: {}: {} more problems (-v lists them all; the log has every one)",
+            "ballisto: {}: {more} more problems (-v lists them all; the log has every one)",
             input.display(),
-            stream.problems.len() - listed
         );
     }
-    Ok(if stream.problems.is_empty() {
+    Ok(if found.problems == 0 {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(ballisto::exit::DAMAGED_TELEMETRY)
@@ -234,8 +242,12 @@ pub fn compare(args: CompareArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> 
                 "compare --reference REFERENCE.csv takes the estimates file alone (no truth file)".into(),
             )));
             };
-            let c =
-                ballisto::compare::compare_reference(&reference, &validity.validity(), estimates)?;
+            let c = ballisto::compare::compare_reference(
+                &reference,
+                &validity.validity(),
+                estimates,
+                !say.quiet,
+            )?;
             if let Some(d) = c.dropped.describe(&reference) {
                 say.info(format!("ballisto compare: {d}"));
             }
@@ -266,7 +278,7 @@ pub fn compare(args: CompareArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> 
                 "compare takes TRUTH.csv ESTIMATES.csv (or --reference REFERENCE.csv ESTIMATES.csv)".into(),
             )));
             };
-            let c = ballisto::compare::compare(truth, estimates)?;
+            let c = ballisto::compare::compare_shown(truth, estimates, !say.quiet)?;
             let mut text = format!(
                 "rows compared: {}\nRMS error  sigma0 {:.3e} m/s^2\nRMS error  domega {:.3e} rad/s^2\nRMS error  omega  {:.3e} rad/s\nRMS error  A      {:.3e} 1/s^2\n",
                 c.rows, c.sigma0, c.domega, c.omega, c.field

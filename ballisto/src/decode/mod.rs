@@ -2,17 +2,20 @@
 //! checked (COBS frame, length, CRC, APID, layout) and its sequence count followed, → the
 //! estimates file and a readable log of housekeeping, events and verification reports.
 
-use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::io::Write;
-use std::path::Path;
+
+mod file;
+mod identified;
+
+pub use file::{decode_file, DecodeJob, Decoding, LogTo};
+pub use identified::identified_arrangement;
 
 use ballisto_link::decode::{decode, Decoded, Report};
 use ballisto_link::framing::{max_encoded_len, Deframed, Deframer};
 use ballisto_link::ids::TC_MAX;
 use ballisto_link::{
     subtype, BootEvent, CalibrationSource, EventId, Housekeeping, Mode, ModelCode, PartState,
-    RequestId,
 };
 
 /// Extra columns of the decoded estimates file, after the estimates-file columns.
@@ -457,173 +460,4 @@ fn housekeeping_text(h: &Housekeeping) -> String {
         }
     }
     s
-}
-
-/// `ballisto decode`: reads `input`, writes the estimates to `out` and the log to `log` (or
-/// returns it). Returns the stream for the caller's summary. The caller has checked every
-/// output against every input first (`crate::output::check_distinct`: the command line also
-/// names `--calibration`, `--arrangement` and `--commands`, which this does not see).
-pub fn decode_file(
-    input: &Path,
-    out: &Path,
-    log: Option<&Path>,
-    time_offset: f64,
-    sent: &HashMap<RequestId, String>,
-) -> Result<(Stream, usize, String), String> {
-    let bytes = crate::output::read_input(input)?;
-    if bytes.is_empty() {
-        return Err(format!("{}: empty: no telemetry", input.display()));
-    }
-    let stream = decode_stream(&bytes);
-    if stream.packets.is_empty() {
-        // Nothing of the link's framing: the wrong file, not damaged telemetry.
-        return Err(format!(
-            "{}: not telemetry: no packet in {} bytes ({}; nothing written)",
-            input.display(),
-            bytes.len(),
-            stream
-                .problems
-                .first()
-                .map_or_else(|| "no frame".to_string(), |p| format!("first: {p}"))
-        ));
-    }
-    // Written beside the final path, put in place once complete (`crate::output`).
-    let (pending, mut w) = crate::output::create(out)?;
-    let rows = write_estimates(&mut w, &stream, time_offset)
-        .map_err(|e| format!("{}: {e}", out.display()))?;
-    crate::output::finish(pending, w)?;
-    let mut text = String::new();
-    let mut answered = std::collections::HashSet::new();
-    for p in &stream.packets {
-        if let Some(l) = log_line(p, time_offset) {
-            text.push_str(&l);
-            if let Report::Verification(v) = &p.report {
-                if let Some(what) = sent.get(&v.request) {
-                    let _ = write!(text, " -- {what}");
-                    answered.insert(v.request);
-                }
-            }
-            text.push('\n');
-        }
-    }
-    let mut unanswered: Vec<(&RequestId, &String)> = sent
-        .iter()
-        .filter(|(id, _)| !answered.contains(*id))
-        .collect();
-    unanswered.sort_by_key(|(id, _)| id.sequence);
-    for (id, what) in unanswered {
-        let _ = writeln!(
-            text,
-            "NO VERIFICATION TC {:#06x}/{:#06x} -- {what} (not received, refused before its header, or sent without acknowledgement flags)",
-            id.packet_id, id.sequence
-        );
-    }
-    for p in &stream.problems {
-        let _ = writeln!(text, "PROBLEM {p}");
-    }
-    if let Some(log) = log {
-        crate::output::write(log, text.as_bytes())?;
-    }
-    Ok((stream, rows, text))
-}
-
-/// The last identification solution in a decoded stream (TM\[200,128\] and its N × TM\[200,129\])
-/// as an arrangement file (docs/formats.md) over the channel names of the nominal `arrangement`
-/// file: positions, axes, bias and scale with the deviations of what the window determined
-/// (a held parameter gets no `*_sd` key: not identified, kept at the value in use), the frame's
-/// uncertainty, and a header saying where it came from. Errors: no solution in the stream, a
-/// channel report missing, or another channel count than the nominal file's.
-pub fn identified_arrangement(
-    stream: &Stream,
-    source: &Path,
-    arrangement: &Path,
-) -> Result<String, String> {
-    use ballisto_config::arrangement_file::ArrangementFile;
-    use ballisto_link::identification::IdentifiedChannel;
-    let summary = stream
-        .packets
-        .iter()
-        .rev()
-        .find_map(|p| match &p.report {
-            Report::IdentificationSummary(s) => Some(*s),
-            _ => None,
-        })
-        .ok_or_else(|| {
-            format!(
-                "{}: no identification solution (TM[200,128])",
-                source.display()
-            )
-        })?;
-    let mut channels: Vec<Option<IdentifiedChannel>> = vec![None; usize::from(summary.channels)];
-    for p in &stream.packets {
-        if let Report::IdentifiedChannel(c) = &p.report {
-            if c.solution == summary.solution {
-                if let Some(slot) = channels.get_mut(usize::from(c.channel)) {
-                    *slot = Some(*c);
-                }
-            }
-        }
-    }
-    let nominal = ArrangementFile::read(arrangement).map_err(|e| e.to_string())?;
-    let specs = nominal
-        .expanded_channels(&arrangement.display().to_string())
-        .map_err(|e| e.to_string())?;
-    if specs.len() != channels.len() {
-        return Err(format!(
-            "{}: {} channels, the solution has {}",
-            arrangement.display(),
-            specs.len(),
-            channels.len()
-        ));
-    }
-    let mut out = Vec::with_capacity(specs.len());
-    for (i, (spec, c)) in specs.iter().zip(channels.iter()).enumerate() {
-        let c = c.ok_or_else(|| {
-            format!(
-                "{}: solution {}: no report of channel {i} (TM[200,129])",
-                source.display(),
-                summary.solution
-            )
-        })?;
-        let fit = estimator_core::identify::ChannelFit {
-            channel: estimator_core::Channel {
-                position: c.position.map(f64::from),
-                axis: c.axis.map(f64::from),
-                noise: f64::from(c.noise),
-                bias: f64::from(c.bias),
-                scale: f64::from(c.scale),
-            },
-            sd: c.sd.map(f64::from),
-            held: c.held,
-            residual_rms: f64::from(c.residual_rms),
-        };
-        out.push(crate::calibrate::identified_channel(
-            &spec.name, spec.range, &fit,
-        ));
-    }
-    let file = ArrangementFile {
-        model: nominal.model.clone(),
-        frame_rotation_sd: Some(f64::from(summary.frame[0])),
-        frame_translation_sd: Some(f64::from(summary.frame[1])),
-        frame_size_sd: Some(f64::from(summary.frame[2])),
-        frame_relative_rotation_sd: Some(f64::from(summary.frame[0])),
-        channels: out,
-        sensors: Vec::new(),
-    };
-    let mut header = format!(
-        "# Identified in flight (paper §6): solution {} decoded from {}, {} sample sets, {} reference points; nominal geometry {}.\n",
-        summary.solution,
-        source.display(),
-        summary.sets,
-        summary.points,
-        arrangement.display()
-    );
-    let (r, sd) = (summary.rho, summary.rho_sd);
-    let _ = writeln!(
-        header,
-        "# rho = [{:.6}, {:.6}, {:.6}] m, sd [{:.2e}, {:.2e}, {:.2e}] m: {}.\n# The scale is held in free fall (one product with the lever arm).",
-        r[0], r[1], r[2], sd[0], sd[1], sd[2], crate::com::RHO_MEANING
-    );
-    header.push_str("# A missing *_sd key means that parameter was not identified.\n");
-    Ok(header + &file.to_toml())
 }
