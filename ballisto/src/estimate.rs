@@ -408,6 +408,7 @@ fn run_typed<T: Real + Send + 'static>(
     // the last temperature its column gave; uncorrected rows counted for a warning.
     let mut temps = vec![f64::NAN; loaded.names.len()];
     let mut uncorrected = vec![0u64; loaded.names.len()];
+    let mut noise = plausibility::NoiseTrack::new(loaded.names.len());
     let bar = crate::progress::reading(job.progress, job.samples, "estimate");
     let mut read = 0u64;
     let result = loop {
@@ -430,6 +431,7 @@ fn run_typed<T: Real + Send + 'static>(
                     }
                 }
                 correct_for_temperature(loaded, &temps, &mut row, &mut uncorrected);
+                noise.push(&row);
                 for (pi, ri) in p.iter_mut().zip(row.iter()) {
                     *pi = T::of(*ri);
                 }
@@ -481,6 +483,20 @@ fn run_typed<T: Real + Send + 'static>(
                 job.samples.display()
             )
         });
+    }
+    // A record with per-row variances declares its noise there, not in the arrangement.
+    if !with_variance {
+        let declared: Vec<f64> = loaded
+            .arrangement
+            .channels()
+            .iter()
+            .map(|c| c.noise)
+            .collect();
+        summary.warnings.extend(
+            noise
+                .warning(&declared)
+                .map(|w| format!("{}: {w}", job.samples.display())),
+        );
     }
     if !sigma0.is_empty() {
         let mid = sigma0.len() / 2;

@@ -261,8 +261,8 @@ fn dash_is_stdin_and_stdout_and_quiet_is_quiet() {
     assert!(!Path::new("-").exists(), "no file named -");
 }
 
-/// A wrong unit does not pass silently: readings in mg, positions in mm and a reading no part
-/// can give are each named in a warning, and the absurd reading's row carries its own flag.
+/// A wrong unit does not pass silently: readings in mg, readings in g in orbit, positions in mm
+/// and a reading no part can give are each named in a warning, and the absurd reading's row carries its own flag.
 #[test]
 fn implausible_units_and_absurd_readings_are_named() {
     let d = simulated("plausible");
@@ -310,6 +310,17 @@ fn implausible_units_and_absurd_readings_are_named() {
     assert!(
         mg.contains("WARNING") && mg.contains("raw counts or mg"),
         "{mg}"
+    );
+    // Readings in g, in orbit (σ0 near zero in any unit): named by their noise, 1/9.81 of the
+    // declared.
+    let g = run(
+        "g",
+        &arrangement,
+        &map_readings(&|_, v| (v / 9.80665).to_string()),
+    );
+    assert!(
+        g.contains("WARNING") && g.contains("readings look like g"),
+        "{g}"
     );
     // Positions in millimetres.
     let mm: String = arrangement

@@ -189,6 +189,9 @@ pub struct LoadedArrangement {
     pub noise_given: bool,
     /// Each channel's full scale (m/s², infinite where the file gives none).
     pub ranges: Vec<f64>,
+    /// The sensors given without an `orientation` (taken as the identity: their axes along
+    /// the body's), for a warning.
+    pub unoriented: Vec<String>,
 }
 
 impl LoadedArrangement {
@@ -413,6 +416,12 @@ impl ArrangementFile {
             model,
             noise_given,
             ranges,
+            unoriented: self
+                .sensors
+                .iter()
+                .filter(|s| s.orientation.is_none())
+                .map(|s| s.name.clone())
+                .collect(),
         })
     }
 }

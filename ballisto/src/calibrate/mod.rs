@@ -613,6 +613,7 @@ pub fn estimator_run(
         noise_given: true,
         // Fault isolation is off here (below): no range limits.
         ranges: vec![f64::INFINITY; names.len()],
+        unoriented: Vec::new(),
     };
     // The geometry is what is being fitted: every sample is inconsistent with the nominal
     // geometry, so fault isolation would take parts out.
