@@ -5,6 +5,7 @@ use std::error::Error;
 use std::path::Path;
 
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::fit::PARAMETERS;
 use super::{CalibrateJob, CalibrationSummary};
@@ -189,21 +190,44 @@ pub fn residual_png(
         )
         .margin(8)
         .margin_right(24)
-        .x_label_area_size(50)
+        .x_label_area_size(60)
         .y_label_area_size(70)
         .build_cartesian_2d(0.0..n as f64, (lo..hi).log_scale())
         .map_err(|e| err(&e))?;
     chart
         .configure_mesh()
         .light_line_style(WHITE)
-        .x_labels(n.min(40))
-        .x_label_formatter(&|x| {
-            let i = x.floor() as usize;
-            names.get(i).cloned().unwrap_or_default()
-        })
+        .disable_x_mesh()
+        .x_labels(0)
         .label_style((crate::plot::FONT, 12))
         .draw()
         .map_err(|e| err(&e))?;
+    // Every channel's name under the middle of its bars (the axis's own labels fall on round
+    // numbers and drop those that would overlap): upright while the names fit side by side
+    // (about 7 px per character at 12 px), else turned to read upwards.
+    let longest = names.iter().map(|n| n.chars().count()).max().unwrap_or(1) as i32;
+    let (left, _) = chart.backend_coord(&(0.0, lo));
+    let (right, _) = chart.backend_coord(&(n as f64, lo));
+    let upright = 7 * longest + 4 <= (right - left) / n as i32;
+    // The chart gives the backend's pixels; the area draws in its own.
+    let base = bottom.get_base_pixel();
+    for (i, name) in names.iter().enumerate() {
+        let (x, y) = chart.backend_coord(&(i as f64 + 0.5, lo));
+        let (x, y) = (x - base.0, y - base.1);
+        let (style, at) = if upright {
+            let style = TextStyle::from((crate::plot::FONT, 12).into_font())
+                .pos(Pos::new(HPos::Center, VPos::Top));
+            (style, (x, y + 6))
+        } else {
+            let style = TextStyle::from((crate::plot::FONT, 12).into_font())
+                .transform(FontTransform::Rotate270)
+                .pos(Pos::new(HPos::Right, VPos::Center));
+            (style, (x, y + 6))
+        };
+        bottom
+            .draw(&Text::new(name.clone(), at, style))
+            .map_err(|e| err(&e))?;
+    }
     for (i, c) in channels.iter().enumerate() {
         let x = i as f64;
         for (v, colour, offset) in [
