@@ -48,6 +48,15 @@ impl Columns {
     /// The next row's values into `out` (one per column asked for); `false` at the end. An
     /// error names the file and line.
     pub(crate) fn next_into(&mut self, out: &mut [f64]) -> Result<bool, String> {
+        self.next_row(out, false)
+    }
+
+    /// As [`Self::next_into`], an empty field read as NaN (a value not there at that row).
+    pub(crate) fn next_with_gaps(&mut self, out: &mut [f64]) -> Result<bool, String> {
+        self.next_row(out, true)
+    }
+
+    fn next_row(&mut self, out: &mut [f64], gaps: bool) -> Result<bool, String> {
         let more = self
             .rdr
             .read_record(&mut self.record)
@@ -58,6 +67,10 @@ impl Columns {
         let line = self.record.position().map(|p| p.line()).unwrap_or(0);
         for (o, &i) in out.iter_mut().zip(self.index.iter()) {
             let f = self.record.get(i).unwrap_or("");
+            if gaps && f.is_empty() {
+                *o = f64::NAN;
+                continue;
+            }
             *o = f
                 .parse::<f64>()
                 .map_err(|_| format!("{} line {line}: \"{f}\" is not a number", self.name))?;
@@ -74,6 +87,23 @@ impl Columns {
     pub(crate) fn name(&self) -> &str {
         &self.name
     }
+}
+
+/// The column names of the CSV file `path`'s header.
+pub(crate) fn header(path: &Path) -> Result<Vec<String>, String> {
+    let name = path.display().to_string();
+    let input =
+        crate::text_input::open_text(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .comment(Some(b'#'))
+        .from_reader(input);
+    Ok(rdr
+        .headers()
+        .map_err(|e| format!("{name}: cannot read the header: {e}"))?
+        .iter()
+        .map(str::to_string)
+        .collect())
 }
 
 /// True if the CSV file `path` can be opened and its header has every column of `names`.

@@ -258,7 +258,10 @@ mod tests {
         let one = |a: f64| {
             let w = arrangement(&board(a), "a.toml");
             assert_eq!(w.len(), 2, "{w:?}");
-            assert!(w[1].contains("no orientation for sensor \"u0\", \"u1\""), "{w:?}");
+            assert!(
+                w[1].contains("no orientation for sensor \"u0\", \"u1\""),
+                "{w:?}"
+            );
             w[0].clone()
         };
         assert_eq!(arrangement(&board(0.1), "a.toml").len(), 1);

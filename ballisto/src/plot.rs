@@ -13,13 +13,16 @@ use std::path::Path;
 use std::sync::Once;
 
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::columns::{Columns, Matched};
 
 const WIDTH: u32 = 1200;
 const HEIGHT: u32 = 1200;
-/// Pixel columns the series are reduced to (about the plotting width).
-const PLOT_W: usize = 1060;
+/// Columns the series are reduced to: at least the plotting width in pixels (about 1100), so
+/// that every pixel column is drawn through its range (fewer, and the pixel columns between
+/// two show as white stripes through a long record's envelope).
+const PLOT_W: usize = 1200;
 const AXIS: [RGBColor; 3] = [
     RGBColor(200, 0, 0),
     RGBColor(0, 140, 0),
@@ -75,8 +78,24 @@ fn add(track: &mut Track, x: usize, v: f64) {
     c.last = v;
 }
 
+/// What to plot.
+pub struct PlotJob<'a> {
+    /// The truth file.
+    pub truth: &'a Path,
+    /// The estimates file.
+    pub estimates: &'a Path,
+    /// The samples file, whose `temp_<channel>` columns (where it has them) are drawn in a
+    /// panel of their own: one line per part.
+    pub samples: Option<&'a Path>,
+    /// Lines over the plot saying what it shows (the scenario, the kind of parts).
+    pub heading: &'a [String],
+    /// The PNG to write.
+    pub png: &'a Path,
+}
+
 /// Plots the estimates file against the truth file into a PNG.
-pub fn plot_files(truth: &Path, estimates: &Path, png: &Path) -> Result<(), Box<dyn Error>> {
+pub fn plot_files(job: &PlotJob) -> Result<(), Box<dyn Error>> {
+    let (truth, estimates) = (job.truth, job.estimates);
     // Pass 1: the time span.
     let mut times = Columns::open(estimates, &["t"])?;
     let mut t = [0.0];
@@ -120,7 +139,53 @@ pub fn plot_files(truth: &Path, estimates: &Path, png: &Path) -> Result<(), Box<
         }
         flagged[x] |= e[19] != 0.0;
     }
-    draw(png, span, &motion, &error, &band, &flagged)
+    let temperature = match job.samples {
+        Some(samples) => temperatures(samples, &column)?,
+        None => Vec::new(),
+    };
+    let tracks = Tracks {
+        motion,
+        error,
+        band,
+        flagged,
+        temperature,
+    };
+    draw(job, span, &tracks)
+}
+
+/// Per pixel column, the temperature of each part in `samples` (its first `temp_` column:
+/// the part's channels share one sensor); none without such columns.
+fn temperatures(
+    samples: &Path,
+    column: &dyn Fn(f64) -> usize,
+) -> Result<Vec<(String, Track)>, String> {
+    let mut parts: Vec<(String, String)> = Vec::new();
+    for name in crate::columns::header(samples)? {
+        let Some(channel) = name.strip_prefix("temp_") else {
+            continue;
+        };
+        let part = channel.rsplit_once('.').map_or(channel, |(p, _)| p);
+        if parts.iter().all(|(p, _)| p != part) {
+            parts.push((part.to_string(), name.clone()));
+        }
+    }
+    if parts.is_empty() {
+        return Ok(Vec::new());
+    }
+    let names: Vec<&str> = std::iter::once("t")
+        .chain(parts.iter().map(|(_, c)| c.as_str()))
+        .collect();
+    let mut rows = Columns::open(samples, &names)?;
+    let mut row = vec![0.0; names.len()];
+    let mut tracks: Vec<Track> = vec![vec![None; PLOT_W]; parts.len()];
+    // An empty field is a part not read at that instant: no point.
+    while rows.next_with_gaps(&mut row)? {
+        let x = column(row[0]);
+        for (track, v) in tracks.iter_mut().zip(&row[1..]) {
+            add(track, x, *v);
+        }
+    }
+    Ok(parts.into_iter().map(|(p, _)| p).zip(tracks).collect())
 }
 
 /// Registers the compiled-in font once.
@@ -143,54 +208,86 @@ fn column_t(span: (f64, f64), x: usize) -> f64 {
     span.0 + (x as f64 + 0.5) / PLOT_W as f64 * (span.1 - span.0)
 }
 
-/// The four panels: the truth's Ω, then the error of Ω, Ω′ and σ0 with the ±3 sd band and
-/// the flagged rows.
-fn draw(
-    png: &Path,
-    span: (f64, f64),
-    motion: &[Track],
-    error: &[Track],
-    band: &[Track],
-    flagged: &[bool],
-) -> Result<(), Box<dyn Error>> {
+/// The series of a plot, reduced to pixel columns.
+struct Tracks {
+    /// The truth's Ω, per axis.
+    motion: Vec<Track>,
+    /// The errors of Ω, Ω′ and σ0, per axis.
+    error: Vec<Track>,
+    /// The ±3 sd band of each error panel.
+    band: Vec<Track>,
+    /// The columns holding a flagged row.
+    flagged: Vec<bool>,
+    /// Each part's temperature (°C), by name; empty where the record has none.
+    temperature: Vec<(String, Track)>,
+}
+
+/// Colours of the parts' temperatures (cycled).
+const PARTS: [RGBColor; 8] = [
+    RGBColor(200, 0, 0),
+    RGBColor(0, 140, 0),
+    RGBColor(0, 0, 200),
+    RGBColor(200, 120, 0),
+    RGBColor(140, 0, 160),
+    RGBColor(0, 150, 150),
+    RGBColor(90, 90, 90),
+    RGBColor(160, 100, 60),
+];
+
+/// The heading (the job's lines and the legend), then the panels: the truth's Ω, the error of
+/// Ω, Ω′ and σ0 with the ±3 sd band and the flagged rows, and the parts' temperatures where
+/// the record has them.
+fn draw(job: &PlotJob, span: (f64, f64), tracks: &Tracks) -> Result<(), Box<dyn Error>> {
     font()?;
+    let png = job.png;
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", png.display());
-    let root = BitMapBackend::new(png, (WIDTH, HEIGHT)).into_drawing_area();
+    let with_temperature = !tracks.temperature.is_empty();
+    let height = HEIGHT + if with_temperature { PANEL_H } else { 0 };
+    let root = BitMapBackend::new(png, (WIDTH, height)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root
-        .titled(
-            "error = estimate − truth   grey: ±3 reported sd   orange: flagged rows   x red, y green, z blue",
-            (FONT, 20),
-        )
+    let legend = "error = estimate − truth   grey: ±3 reported sd   orange: flagged rows   x red, y green, z blue";
+    let lines: Vec<&str> = job
+        .heading
+        .iter()
+        .map(String::as_str)
+        .chain([legend])
+        .collect();
+    let (top, body) = root.split_vertically(HEADING_LINE * lines.len() as u32 + 10);
+    for (i, line) in lines.iter().enumerate() {
+        let style = TextStyle::from((FONT, if i == 0 { 20 } else { 17 }).into_font())
+            .pos(Pos::new(HPos::Center, VPos::Top));
+        top.draw(&Text::new(
+            line.to_string(),
+            ((WIDTH / 2) as i32, 6 + (HEADING_LINE as usize * i) as i32),
+            style,
+        ))
         .map_err(|e| err(&e))?;
-    let panels = root.split_evenly((4, 1));
+    }
+    let panels = body.split_evenly((if with_temperature { 5 } else { 4 }, 1));
     let specs: [(&str, &[Track], Option<&Track>); 4] = [
-        ("Ω, truth (rad/s)", motion, None),
-        ("Ω error (rad/s)", &error[0..3], Some(&band[0])),
-        ("Ω' error (rad/s²)", &error[3..6], Some(&band[1])),
-        ("σ0 error (m/s²)", &error[6..9], Some(&band[2])),
+        ("Ω, truth (rad/s)", &tracks.motion, None),
+        (
+            "Ω error (rad/s)",
+            &tracks.error[0..3],
+            Some(&tracks.band[0]),
+        ),
+        (
+            "Ω' error (rad/s²)",
+            &tracks.error[3..6],
+            Some(&tracks.band[1]),
+        ),
+        (
+            "σ0 error (m/s²)",
+            &tracks.error[6..9],
+            Some(&tracks.band[2]),
+        ),
     ];
     for (area, (title, series, band)) in panels.iter().zip(specs) {
         let v = match band {
             None => around(series),
             Some(b) => symmetric(series, b),
         };
-        let mut chart = ChartBuilder::on(area)
-            .caption(title, (FONT, 18))
-            .margin(8)
-            .margin_right(24)
-            .x_label_area_size(36)
-            .y_label_area_size(70)
-            .build_cartesian_2d(span.0..span.1, v.0..v.1)
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .light_line_style(WHITE)
-            .x_desc("t (s)")
-            .label_style((FONT, 14))
-            .axis_desc_style((FONT, 14))
-            .draw()
-            .map_err(|e| err(&e))?;
+        let mut chart = panel(area, title, span, v).map_err(|e| err(&e))?;
         let dt = (span.1 - span.0) / PLOT_W as f64;
         if let Some(b) = band {
             let cells = b.iter().enumerate().filter_map(|(x, c)| c.map(|c| (x, c)));
@@ -202,7 +299,7 @@ fn draw(
                 }))
                 .map_err(|e| err(&e))?;
             let strip = 0.03 * (v.1 - v.0);
-            let marks = flagged.iter().enumerate().filter(|(_, f)| **f);
+            let marks = tracks.flagged.iter().enumerate().filter(|(_, f)| **f);
             chart
                 .draw_series(marks.map(|(x, _)| {
                     let t = column_t(span, x);
@@ -214,20 +311,80 @@ fn draw(
                 .map_err(|e| err(&e))?;
         }
         for (s, colour) in series.iter().zip(AXIS) {
-            // Through every column: its first value, its range, its last value.
-            let points = s.iter().enumerate().flat_map(|(x, c)| {
-                let t = column_t(span, x);
-                c.map(|c| [c.first, c.lo, c.hi, c.last].map(|y| (t, y.clamp(v.0, v.1))))
-                    .into_iter()
-                    .flatten()
-            });
+            // Partly transparent: where the axes' envelopes overlap (a fast motion over a long
+            // record), each shows through.
             chart
-                .draw_series(LineSeries::new(points, colour))
+                .draw_series(LineSeries::new(envelope(s, span, v), colour.mix(0.6)))
+                .map_err(|e| err(&e))?;
+        }
+    }
+    if let Some(area) = panels.get(4) {
+        let series: Vec<Track> = tracks.temperature.iter().map(|(_, t)| t.clone()).collect();
+        let v = around(&series);
+        let names: Vec<&str> = tracks.temperature.iter().map(|(n, _)| n.as_str()).collect();
+        let title = format!("part temperature (°C): {}", names.join(", "));
+        let mut chart = panel(area, &title, span, v).map_err(|e| err(&e))?;
+        for (i, s) in series.iter().enumerate() {
+            chart
+                .draw_series(LineSeries::new(
+                    envelope(s, span, v),
+                    PARTS[i % PARTS.len()],
+                ))
                 .map_err(|e| err(&e))?;
         }
     }
     root.present().map_err(|e| err(&e))?;
     Ok(())
+}
+
+/// Height of one heading line, and of one panel added to the plot's height.
+const HEADING_LINE: u32 = 24;
+const PANEL_H: u32 = 280;
+
+type Panel<'a> = ChartContext<
+    'a,
+    BitMapBackend<'a>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// A panel's chart: its caption, the time axis and the value range `v`.
+fn panel<'a>(
+    area: &DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>,
+    title: &str,
+    span: (f64, f64),
+    v: (f64, f64),
+) -> Result<Panel<'a>, String> {
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, (FONT, 18))
+        .margin(8)
+        .margin_right(24)
+        .x_label_area_size(36)
+        .y_label_area_size(70)
+        .build_cartesian_2d(span.0..span.1, v.0..v.1)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc("t (s)")
+        .label_style((FONT, 14))
+        .axis_desc_style((FONT, 14))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    Ok(chart)
+}
+
+/// Through every pixel column of `s`: its first value, its range, its last value (so that a
+/// record of any length draws its envelope, not a block of every sample).
+fn envelope(s: &Track, span: (f64, f64), v: (f64, f64)) -> Vec<(f64, f64)> {
+    s.iter()
+        .enumerate()
+        .flat_map(|(x, c)| {
+            let t = column_t(span, x);
+            c.map(|c| [c.first, c.lo, c.hi, c.last].map(|y| (t, y.clamp(v.0, v.1))))
+                .into_iter()
+                .flatten()
+        })
+        .collect()
 }
 
 /// The range of the series, with a margin.

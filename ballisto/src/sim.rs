@@ -98,6 +98,97 @@ pub const OUTPUTS: [&str; 9] = [
     "telemetry-identify.bin",
 ];
 
+/// The files a run will write and about how large each will be (bytes), from the number of
+/// values per row and the bytes a value takes in each file (measured on `tetra-orbit` and
+/// `tetra-orbit-thermal`: a reading about 20, a temperature 5, a truth value 21, an estimate
+/// 19; the firmware's telemetry about 190 per sample set).
+pub fn expected_sizes(job: &SimJob) -> Vec<(&'static str, u64)> {
+    let sc = job.scenario;
+    let rows = sc.samples() as u64;
+    let channels = sc.arrangement().expanded_channels("scenario").map_or(0, |c| c.len()) as u64;
+    let temps = if sc.temperature.is_some() { channels } else { 0 };
+    let firmware = job.firmware.is_some();
+    let mut sizes = vec![
+        ("samples.csv", rows * (12 + channels * 20 + temps * 5)),
+        ("truth.csv", rows * truth_row_bytes(sc)),
+    ];
+    if let Some(r) = &sc.reference {
+        let every = r.rate.map_or(1.0, |hz| (sc.rate / hz).round().max(1.0)) as u64;
+        sizes.push(("reference.csv", rows.div_ceil(every) * (12 + 3 * 20)));
+    }
+    if firmware || job.estimate {
+        // The gravity gradient's columns with model G only (12 channels or more).
+        let general = sc.model.as_deref() != Some("free-float") && channels >= 12;
+        let gamma = if general {
+            crate::estimates_csv::GAMMA_COLUMNS.len()
+        } else {
+            0
+        };
+        let columns = (crate::estimates_csv::COLUMNS.len()
+            + crate::estimates_csv::EXTRA_COLUMNS.len()
+            + gamma) as u64;
+        sizes.push(("estimates.csv", rows * columns * 19));
+    }
+    if firmware {
+        let boots = if job.identify { 2 } else { 1 };
+        sizes.push(("telemetry.bin", boots * rows * 190));
+    }
+    sizes
+}
+
+/// About how many bytes a truth row takes: 26 values of about 21 bytes, but a `0` where the
+/// environment makes a column zero (no gravity gradient outside an orbit; no specific force in
+/// deep space without drag or burns).
+fn truth_row_bytes(sc: &Scenario) -> u64 {
+    let env = &sc.environment;
+    let mut zeros = 0;
+    if env.kind != "orbit" {
+        zeros += 6;
+    }
+    if env.kind == "space" && env.drag.is_none() && env.burns.is_empty() {
+        zeros += 3;
+    }
+    (26 - zeros) * 21 + zeros * 2
+}
+
+/// The files [`run_sim_keeping_the_plot`] keeps: what a person reads; the records (the CSV
+/// files, the telemetry) are what a long run's size is.
+pub const KEPT_WITH_THE_PLOT: [&str; 3] =
+    ["arrangement.toml", "truth_geometry.toml", "estimates.png"];
+
+/// Runs a scenario as [`run_sim`] does, with the records in a scratch directory inside
+/// `job.out` (removed at the end, and on SIGINT/SIGTERM/SIGHUP): only
+/// [`KEPT_WITH_THE_PLOT`] are put in `job.out`, for a person who wants the plot and the
+/// summary of a long run without its gigabytes. Needs `job.estimate` or `job.firmware`.
+pub fn run_sim_keeping_the_plot(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
+    if !(job.estimate || job.firmware.is_some()) {
+        return Err(
+            "only the plot is kept, and without --estimate or --firmware there is none".into(),
+        );
+    }
+    std::fs::create_dir_all(job.out)
+        .map_err(|e| format!("{}: cannot create the directory: {e}", job.out.display()))?;
+    let scratch = crate::output::Scratch::new(job.out)?;
+    let inner = SimJob {
+        out: scratch.path(),
+        uplink: job.uplink.clone(),
+        ..*job
+    };
+    let mut report = run_sim(&inner)?;
+    let mut kept = Vec::new();
+    for name in KEPT_WITH_THE_PLOT {
+        let from = scratch.path().join(name);
+        if from.exists() {
+            let to = job.out.join(name);
+            std::fs::rename(&from, &to)
+                .map_err(|e| format!("{}: cannot put in place: {e}", to.display()))?;
+            kept.push(to);
+        }
+    }
+    report.files = kept;
+    Ok(report)
+}
+
 /// Runs a scenario (see the module doc).
 pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
     let sc = job.scenario;
@@ -198,7 +289,13 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
         report.files.push(est.clone());
         let png = path("estimates.png");
         let (plot, _) = crate::output::Pending::new(&png)?;
-        crate::plot::plot_files(&path("truth.csv"), &est, plot.path())?;
+        crate::plot::plot_files(&crate::plot::PlotJob {
+            truth: &path("truth.csv"),
+            estimates: &est,
+            samples: temperatures.then(|| path("samples.csv")).as_deref(),
+            heading: &plot_heading(job),
+            png: plot.path(),
+        })?;
         plot.commit()?;
         report.files.push(png);
     }
@@ -209,6 +306,51 @@ pub fn run_sim(job: &SimJob) -> Result<SimReport, Box<dyn Error>> {
         report.files.push(path("telemetry-identify.bin"));
     }
     Ok(report)
+}
+
+/// What a run's plot shows, for its heading: the scenario (its description), the kind of
+/// parts (their noise, whether they carry mounting and sensor errors and temperature
+/// coefficients), the rate and length, and whose estimates.
+fn plot_heading(job: &SimJob) -> Vec<String> {
+    let sc = job.scenario;
+    let mut types: Vec<&str> = sc.parts.iter().map(|p| p.part.label()).collect();
+    types.dedup();
+    let noise = if sc.parts.iter().any(|p| p.noise_density == Some(0.0)) {
+        "noise-free"
+    } else if sc.parts.iter().any(|p| p.noise_density.is_some()) {
+        "the scenario's noise"
+    } else {
+        "datasheet noise"
+    };
+    let errors = if sc.has_part_errors() {
+        "with mounting and sensor errors (truth_geometry.toml)"
+    } else {
+        "mounted as designed, no sensor errors"
+    };
+    let thermal = if sc
+        .parts
+        .iter()
+        .any(|p| p.bias_tc.is_some() || p.scale_tc.is_some())
+    {
+        ", temperature coefficients"
+    } else {
+        ""
+    };
+    let whose = match (job.firmware.is_some(), job.identify) {
+        (true, true) => "the firmware (f32), after identifying in flight",
+        (true, false) => "the firmware (f32)",
+        _ => "ballisto estimate (f64)",
+    };
+    vec![
+        sc.description.clone(),
+        format!(
+            "{} × {}: {noise}, {errors}{thermal}  ·  {} Hz, {} s  ·  estimates of {whose}",
+            sc.parts.len(),
+            types.join(" + "),
+            sc.rate,
+            sc.duration
+        ),
+    ]
 }
 
 /// The bench reader's record (with `temperatures`, the `temp_<channel>` columns after the

@@ -387,3 +387,92 @@ fn decode_of_a_capture_across_a_reset_loses_nothing() {
     let t = |i: usize| rows[i][0].parse::<f64>().unwrap();
     assert!(t(2001) < t(2000), "t starts again with the second boot");
 }
+
+/// `--plot-only` keeps the plot and the arrangement, and nothing of the records; without a
+/// plot to keep it is refused before anything runs.
+#[test]
+fn plot_only_keeps_the_plot_alone() {
+    let d = tmpdir("plot-only");
+    let out = Command::new(env!("CARGO_BIN_EXE_ballisto"))
+        .args([
+            "sim",
+            "--scenario",
+            "tetra-orbit-faults",
+            "--estimate",
+            "--plot-only",
+            "--out",
+        ])
+        .arg(&d)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut files: Vec<String> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    files.sort();
+    assert_eq!(files, ["arrangement.toml", "estimates.png"]);
+    let summary = String::from_utf8_lossy(&out.stderr);
+    assert!(summary.contains("RMS error"), "{summary}");
+    let refused = Command::new(env!("CARGO_BIN_EXE_ballisto"))
+        .args(["sim", "--scenario", "tetra-orbit", "--plot-only", "--out"])
+        .arg(d.join("none"))
+        .output()
+        .unwrap();
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(!d.join("none").exists());
+}
+
+/// The size said before a long run is within 25 % of what the run writes, file by file, for
+/// the bench reader and the firmware, with and without temperatures. The last three scenarios
+/// were not used in choosing the bytes per value (orbit-identify then showed the reference's
+/// own rate, now counted).
+#[test]
+fn the_size_said_before_a_run_is_what_it_writes() {
+    for (scenario, firmware) in [
+        ("tetra-orbit", false),
+        ("tetra-orbit", true),
+        ("ground-thermal", false),
+        ("nine-channel", true),
+        // Not used in choosing the sizes per value:
+        ("ground-spin-mixed", false),
+        ("orbit-identify", true),
+        ("tetra-orbit-faults", true),
+    ] {
+        let d = tmpdir(&format!("size-{scenario}-{firmware}"));
+        let mut c = Command::new(env!("CARGO_BIN_EXE_ballisto"));
+        c.args(["sim", "-q", "--scenario", scenario, "--out"])
+            .arg(&d);
+        c.arg(if firmware { "--firmware" } else { "--estimate" });
+        let out = c.output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let sc = Scenario::load(scenario).unwrap();
+        let job = ballisto::sim::SimJob {
+            scenario: &sc,
+            out: &d,
+            estimate: !firmware,
+            progress: false,
+            firmware: firmware.then_some(ballisto_fw::config::Alignment::Interpolate),
+            identify: false,
+            uplink: Vec::new(),
+            calibration: None,
+        };
+        for (file, expected) in ballisto::sim::expected_sizes(&job) {
+            let actual = std::fs::metadata(d.join(file)).unwrap().len();
+            let ratio = expected as f64 / actual as f64;
+            println!("{scenario} firmware={firmware} {file}: said {expected}, wrote {actual} ({ratio:.2})");
+            assert!(
+                (0.75..=1.25).contains(&ratio),
+                "{scenario} {file}: said {expected}, wrote {actual}"
+            );
+        }
+    }
+}

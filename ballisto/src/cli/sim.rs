@@ -55,7 +55,15 @@ pub struct SimArgs {
     /// on it (with --identify, the first boot does).
     #[arg(long, value_name = "FILE.toml", requires = "firmware")]
     pub calibration: Option<PathBuf>,
+    /// With --estimate or --firmware: keep only arrangement.toml, truth_geometry.toml and
+    /// estimates.png (and the summary); the records (samples, truth, estimates, telemetry)
+    /// are written to a scratch directory and removed — for a long run looked at, not kept.
+    #[arg(long)]
+    pub plot_only: bool,
 }
+
+/// Above this, the size of a run's files is said before it starts (bytes).
+const SAY_SIZE_ABOVE: u64 = 100_000_000;
 
 /// `ballisto sim`.
 pub fn sim(args: SimArgs, say: Say, started: Instant) -> Result<ExitCode, Box<dyn Error>> {
@@ -68,7 +76,13 @@ pub fn sim(args: SimArgs, say: Say, started: Instant) -> Result<ExitCode, Box<dy
         identify,
         uplink,
         calibration,
+        plot_only,
     } = args;
+    if plot_only && !(estimate || firmware) {
+        return Err(Box::new(ballisto::exit::Usage(
+            "--plot-only keeps the plot, which needs --estimate or --firmware".into(),
+        )));
+    }
     let alignment = match align {
         AlignArg::Interpolate => Alignment::Interpolate,
         AlignArg::Latest => Alignment::Latest,
@@ -92,7 +106,7 @@ pub fn sim(args: SimArgs, say: Say, started: Instant) -> Result<ExitCode, Box<dy
         .into_iter()
         .map(|(at, file)| read_uplink(at, file))
         .collect::<Result<Vec<_>, _>>()?;
-    let r = ballisto::sim::run_sim(&ballisto::sim::SimJob {
+    let job = ballisto::sim::SimJob {
         scenario: &sc,
         out: &out,
         estimate,
@@ -101,9 +115,42 @@ pub fn sim(args: SimArgs, say: Say, started: Instant) -> Result<ExitCode, Box<dy
         identify,
         uplink,
         calibration: calibration.as_deref(),
-    })?;
+    };
+    let sizes = ballisto::sim::expected_sizes(&job);
+    let total: u64 = sizes.iter().map(|(_, b)| b).sum();
+    if total > SAY_SIZE_ABOVE {
+        let each: Vec<String> = sizes
+            .iter()
+            .map(|(f, b)| format!("{f} {}", megabytes(*b)))
+            .collect();
+        say.info(format!(
+            "ballisto sim: {} sample sets: about {} of records ({}){}",
+            sc.samples(),
+            megabytes(total),
+            each.join(", "),
+            if plot_only {
+                ", written to a scratch directory and removed at the end (--plot-only)"
+            } else {
+                "; --plot-only keeps only the plot and the summary"
+            }
+        ));
+    }
+    let r = if plot_only {
+        ballisto::sim::run_sim_keeping_the_plot(&job)?
+    } else {
+        ballisto::sim::run_sim(&job)?
+    };
     print_sim(say, &scenario, &sc, &r, identify, started);
     Ok(ExitCode::SUCCESS)
+}
+
+/// `bytes` as megabytes (or gigabytes), rounded for a person.
+fn megabytes(bytes: u64) -> String {
+    if bytes >= 1_000_000_000 {
+        format!("{:.1} GB", bytes as f64 / 1e9)
+    } else {
+        format!("{:.0} MB", bytes as f64 / 1e6)
+    }
 }
 
 /// `--uplink SECONDS:FILE`: the scenario time and the file.

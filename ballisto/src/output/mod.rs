@@ -16,6 +16,33 @@ pub mod signals;
 
 pub use pending::{create, finish, write, Pending, Sink};
 
+/// A scratch directory inside an output directory, for records not kept: removed when dropped,
+/// and on SIGINT, SIGTERM or SIGHUP ([`signals`]).
+pub struct Scratch(tempfile::TempDir);
+
+impl Scratch {
+    /// A new hidden directory in `dir`.
+    pub fn new(dir: &Path) -> Result<Self, String> {
+        let d = tempfile::Builder::new()
+            .prefix(".ballisto-scratch.")
+            .tempdir_in(dir)
+            .map_err(|e| format!("{}: cannot create a scratch directory: {e}", dir.display()))?;
+        signals::register(d.path());
+        Ok(Scratch(d))
+    }
+
+    /// Its path.
+    pub fn path(&self) -> &Path {
+        self.0.path()
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        signals::unregister(self.0.path());
+    }
+}
+
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;

@@ -14,7 +14,7 @@ static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 /// Whether a write to stdout found its reader gone.
 static STDOUT_CLOSED: AtomicBool = AtomicBool::new(false);
 
-/// Adds a temporary file to those removed on a signal.
+/// Adds a temporary file (or a scratch directory) to those removed on a signal.
 pub(super) fn register(path: &Path) {
     if let Ok(mut t) = TEMPORARIES.lock() {
         t.push(path.to_path_buf());
@@ -41,7 +41,11 @@ pub fn remove_temporaries_on_signals() -> std::io::Result<()> {
                 let held = TEMPORARIES.lock();
                 if let Ok(list) = &held {
                     for p in list.iter() {
-                        let _ = std::fs::remove_file(p);
+                        if p.is_dir() {
+                            let _ = std::fs::remove_dir_all(p);
+                        } else {
+                            let _ = std::fs::remove_file(p);
+                        }
                     }
                 }
                 let _ = signal_hook::low_level::emulate_default_handler(signal);

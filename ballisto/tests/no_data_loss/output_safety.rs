@@ -269,3 +269,50 @@ fn a_reader_that_goes_away_ends_the_command_quietly() {
     assert!(first.starts_with(b"t,"), "the estimates' header first");
     assert!(temporaries(&d).is_empty(), "{:?}", temporaries(&d));
 }
+
+/// `--plot-only` interrupted: its scratch directory of records goes with it.
+#[test]
+fn an_interrupted_plot_only_run_leaves_no_scratch() {
+    let d = common::tmpdir("output-safety", "scratch");
+    let mut c = common::ballisto();
+    c.args([
+        "sim",
+        "-q",
+        "--scenario",
+        "tetra-orbit-thermal",
+        "--estimate",
+        "--plot-only",
+        "--out",
+    ])
+    .arg(&d)
+    .stderr(Stdio::piped());
+    let mut child = c.spawn().unwrap();
+    let started = std::time::Instant::now();
+    let scratch = |d: &Path| -> Vec<String> {
+        std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with(".ballisto-scratch"))
+            .collect()
+    };
+    // Until the records are being written in it.
+    while scratch(&d)
+        .first()
+        .is_none_or(|s| temporaries(&d.join(s)).is_empty())
+    {
+        assert!(
+            started.elapsed().as_secs() < 120,
+            "no record begun in 2 minutes"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "ended before the signal"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    // SAFETY: kill(2) on our own child.
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+    let status = child.wait().unwrap();
+    assert_eq!(status.signal(), Some(libc::SIGINT), "{status:?}");
+    assert!(scratch(&d).is_empty(), "{:?}", scratch(&d));
+}
