@@ -52,6 +52,8 @@ pub struct CaptureSummary {
     pub packets: u64,
     /// Motion reports written.
     pub rows: u64,
+    /// Of them, rows the unit flagged (any estimate flag set).
+    pub flagged: u64,
     /// Problems (damaged frames, lost packets), also in the log.
     pub problems: u64,
     /// Times the port was lost and opened again.
@@ -221,9 +223,10 @@ pub fn capture(job: &CaptureJob) -> Result<CaptureSummary, String> {
         decoder.push(&buf[..n], &mut stream);
         write_packets(&stream, &mut rows, &mut out, &mut log, job, &mut summary)?;
         status.set_message(format!(
-            "{} packets, {} rows, {} problems, {} boots, {:.0} B/s",
+            "{} packets, {} rows ({} flagged), {} problems, {} boots, {:.0} B/s",
             summary.packets,
             summary.rows,
+            summary.flagged,
             summary.problems,
             summary.boots,
             summary.bytes as f64 / started.elapsed().as_secs_f64().max(1e-3)
@@ -276,6 +279,9 @@ fn write_packets(
         summary.packets += 1;
         if rows.packet(out, p).map_err(write_err(job.out))? {
             summary.rows += 1;
+        }
+        if let ballisto_link::decode::Report::Motion(m) = &p.report {
+            summary.flagged += u64::from(m.estimate.flags.0 != 0);
         }
         summary.boots += u32::from(is_boot(p));
         if let Some(line) = log_line(p, job.time_offset) {

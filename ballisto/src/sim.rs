@@ -105,8 +105,15 @@ pub const OUTPUTS: [&str; 9] = [
 pub fn expected_sizes(job: &SimJob) -> Vec<(&'static str, u64)> {
     let sc = job.scenario;
     let rows = sc.samples() as u64;
-    let channels = sc.arrangement().expanded_channels("scenario").map_or(0, |c| c.len()) as u64;
-    let temps = if sc.temperature.is_some() { channels } else { 0 };
+    let channels = sc
+        .arrangement()
+        .expanded_channels("scenario")
+        .map_or(0, |c| c.len()) as u64;
+    let temps = if sc.temperature.is_some() {
+        channels
+    } else {
+        0
+    };
     let firmware = job.firmware.is_some();
     let mut sizes = vec![
         ("samples.csv", rows * (12 + channels * 20 + temps * 5)),

@@ -123,6 +123,14 @@ fn a_live_capture_across_a_reset_is_the_file_decode_row_for_row() {
         "header and both boots' rows"
     );
     assert!(live == file, "the live rows differ from the file decode's");
+    // The flagged rows counted live are the rows with a flag.
+    let (header, rows) = common::read_table(&out);
+    let flags = header.iter().position(|h| h == "flags").unwrap();
+    let flagged = rows.iter().filter(|r| r[flags] != "0").count();
+    assert!(
+        stderr.contains(&format!("({flagged} flagged)")),
+        "{stderr}: {flagged} rows flagged"
+    );
     let live_log = std::fs::read_to_string(&log).unwrap();
     let file_log = std::fs::read_to_string(d.join("decoded.txt")).unwrap();
     assert_eq!(live_log, file_log, "the log");

@@ -115,12 +115,13 @@ pub fn capture(args: CaptureArgs, say: Say) -> Result<ExitCode, Box<dyn Error>> 
         on_open: &|| say.info(format!("{}: open, following the link", args.port.display())),
     })?;
     say.info(format!(
-        "{}: {} bytes, {} packets, {} motion reports to {}, {} boots, {} problems, port reopened {} times",
+        "{}: {} bytes, {} packets, {} motion reports to {} ({} flagged), {} boots, {} problems, port reopened {} times",
         args.port.display(),
         s.bytes,
         s.packets,
         s.rows,
         args.out.display(),
+        s.flagged,
         s.boots,
         s.problems,
         s.reopened
