@@ -463,16 +463,35 @@ fn run_typed<T: Real + Send + 'static>(
         .into());
     }
     pending.commit()?;
+    summary.warnings.extend(input_warnings(
+        job,
+        loaded,
+        &reader,
+        &uncorrected,
+        (!with_variance).then_some(&noise),
+        &mut sigma0,
+    ));
+    Ok(summary)
+}
+
+/// The warnings on a run's inputs: the arrangement's, absurd readings, channels not
+/// compensated for temperature, readings quieter than their declared noise (`noise`, where the
+/// arrangement declares it: not with per-row variances) and a median |σ0| of another unit.
+fn input_warnings<R: std::io::Read>(
+    job: &EstimateJob,
+    loaded: &LoadedArrangement,
+    reader: &SamplesReader<R>,
+    uncorrected: &[u64],
+    noise: Option<&plausibility::NoiseTrack>,
+    sigma0: &mut [f32],
+) -> Vec<String> {
+    let mut warnings = Vec::new();
     let file = job.arrangement.display().to_string();
-    summary
-        .warnings
-        .extend(plausibility::arrangement(loaded, &file));
-    summary
-        .warnings
-        .extend(reader.absurd_warnings(&loaded.names));
+    warnings.extend(plausibility::arrangement(loaded, &file));
+    warnings.extend(reader.absurd_warnings(&loaded.names));
     for (c, n) in uncorrected.iter().enumerate().filter(|(_, n)| **n > 0) {
         let name = &loaded.names[c];
-        summary.warnings.push(if reader.has_temperature(c) {
+        warnings.push(if reader.has_temperature(c) {
             format!(
                 "{}: channel \"{name}\" has temperature coefficients but no temperature before its first temp_{name} value: {n} rows not compensated",
                 job.samples.display()
@@ -484,15 +503,14 @@ fn run_typed<T: Real + Send + 'static>(
             )
         });
     }
-    // A record with per-row variances declares its noise there, not in the arrangement.
-    if !with_variance {
+    if let Some(noise) = noise {
         let declared: Vec<f64> = loaded
             .arrangement
             .channels()
             .iter()
             .map(|c| c.noise)
             .collect();
-        summary.warnings.extend(
+        warnings.extend(
             noise
                 .warning(&declared)
                 .map(|w| format!("{}: {w}", job.samples.display())),
@@ -501,11 +519,11 @@ fn run_typed<T: Real + Send + 'static>(
     if !sigma0.is_empty() {
         let mid = sigma0.len() / 2;
         let median = f64::from(*sigma0.select_nth_unstable_by(mid, f32::total_cmp).1);
-        summary.warnings.extend(
+        warnings.extend(
             plausibility::specific_force(median).map(|w| format!("{}: {w}", job.samples.display())),
         );
     }
-    Ok(summary)
+    warnings
 }
 
 /// Each channel of `row` with temperature coefficients and a temperature in `temps` corrected to
