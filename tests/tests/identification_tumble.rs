@@ -197,6 +197,16 @@ fn a_torque_free_tumble_identifies_the_geometry_without_a_reference() {
         .channels()
         .iter()
         .all(|f| f.held.count_ones() >= 2));
+    // A held parameter's deviation is its tolerance (docs/telemetry.md, TM[200,129]): the start
+    // rate's spread is the free parameters'.
+    let tolerance = estimator_core::identify::Tolerance::DATASHEET;
+    for f in fit.identified.channels() {
+        for (k, p) in estimator_core::identify::Param::ALL.iter().enumerate() {
+            if f.is_held(*p) {
+                assert_eq!(f.sd[k], tolerance.of(k), "held {p:?}: {:?}", f.sd);
+            }
+        }
+    }
     // Other windows, shorter ones included: each either finds the start rate or is refused
     // (from the estimator's rates with the nominal geometry, the search can end in a local
     // minimum: then no geometry fits and the solve says so).

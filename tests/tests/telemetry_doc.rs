@@ -484,3 +484,125 @@ fn identification_tables_match_the_encoders() {
         21 + TRACK_LEN + 2
     )));
 }
+
+/// The numbers of `text` that follow `before` (digits with spaces between thousands, and a
+/// decimal point), e.g. `379 404` → 379404.
+fn number_after(text: &str, before: &str) -> f64 {
+    let at = text
+        .find(before)
+        .unwrap_or_else(|| panic!("no \"{before}\" in the document"));
+    let digits: String = text[at + before.len()..]
+        .trim_start()
+        .chars()
+        .take_while(|c| c.is_ascii_digit() || *c == ' ' || *c == '.')
+        .filter(|c| *c != ' ')
+        .collect();
+    digits
+        .trim_end_matches('.')
+        .parse()
+        .unwrap_or_else(|_| panic!("no number after \"{before}\""))
+}
+
+/// The number of `text` just before `after`.
+fn number_before(text: &str, after: &str) -> f64 {
+    let at = text
+        .find(after)
+        .unwrap_or_else(|| panic!("no \"{after}\" in the document"));
+    let head = text[..at].trim_end();
+    let start = head
+        .rfind(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .map_or(0, |i| i + 1);
+    head[start..]
+        .parse()
+        .unwrap_or_else(|_| panic!("no number before \"{after}\""))
+}
+
+/// Each report's "(packet N octets)" heading is its headers, application data and CRC; the link
+/// budget's motion report, framed, and the rates are what the framing and a run of
+/// `tetra-orbit` through the firmware give.
+#[test]
+fn packet_lengths_and_the_link_budget_are_the_bytes() {
+    use ballisto_link::framing;
+    use ballisto_link::identification::{CHANNEL_LEN, SUMMARY_LEN, TRACK_LEN};
+    use ballisto_link::tm::{CRC_LEN, HEADERS_LEN};
+    let doc = doc();
+    let packet = |data: usize| HEADERS_LEN + data + CRC_LEN;
+    for (heading, data) in [
+        ("### Motion report — TM[3,25], SID 1 (packet", MOTION_LEN),
+        (
+            "### Housekeeping report — TM[3,25], SID 2 (packet",
+            HOUSEKEEPING_LEN,
+        ),
+        (
+            "### Identification summary — TM[200,128] (packet",
+            SUMMARY_LEN,
+        ),
+        ("### Identified channel — TM[200,129] (packet", CHANNEL_LEN),
+        ("### Thermal track — TM[200,130] (packet", TRACK_LEN),
+    ] {
+        assert_eq!(
+            number_after(&doc, heading),
+            packet(data) as f64,
+            "{heading}"
+        );
+    }
+    for (row, data) in [
+        ("| identification summary | TM[200,128] |", SUMMARY_LEN),
+        ("| identified channel | TM[200,129] |", CHANNEL_LEN),
+        ("| thermal track | TM[200,130] |", TRACK_LEN),
+    ] {
+        assert_eq!(number_after(&doc, row), data as f64, "{row}");
+    }
+    // A motion packet as the unit sends it, framed.
+    let report = MotionReport {
+        k: 1,
+        estimate: Estimate::default(),
+        missing_parts: PartSet(0),
+        excluded_parts: PartSet(0),
+        excluded_channels: ChannelSet(0),
+        context: Some((Mode::Operate, ModelCode::General)),
+    };
+    let mut buf = [0u8; ballisto_link::ids::TM_MAX];
+    let len = ballisto_link::tm::build(&mut buf, 7, 7, 3, 25, 1_000_000_000, |out| {
+        report.encode(out)
+    })
+    .unwrap();
+    let mut frame = [0u8; 600];
+    let framed = framing::encode(&buf[..len], &mut frame).unwrap();
+    let budget = &doc[doc.find("## Link budget").unwrap()..];
+    assert_eq!(number_after(budget, "A motion report is"), len as f64);
+    assert_eq!(number_after(budget, "octets,"), framed as f64);
+    assert_eq!(
+        number_before(budget, "kB/s at 100 Hz"),
+        (framed * 100) as f64 / 1000.0,
+        "kB/s at 100 Hz"
+    );
+    // The stream of a run.
+    let dir = std::env::temp_dir().join(format!("telemetry-doc-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let sc = hal_sim::scenario::Scenario::load("tetra-orbit").unwrap();
+    ballisto::sim::run_sim(&ballisto::sim::SimJob {
+        scenario: &sc,
+        out: &dir,
+        estimate: false,
+        progress: false,
+        firmware: Some(ballisto_fw::config::Alignment::Interpolate),
+        identify: false,
+        uplink: Vec::new(),
+        calibration: None,
+    })
+    .unwrap();
+    let stream = std::fs::metadata(dir.join("telemetry.bin")).unwrap().len() as f64;
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(
+        number_after(budget, "format 6):"),
+        stream,
+        "octets of the run"
+    );
+    assert_eq!(
+        number_after(budget, "in 20 s with housekeeping and events,"),
+        (stream / sc.duration / 100.0).round() / 10.0,
+        "kB/s of the run"
+    );
+    assert_eq!(sc.duration, 20.0);
+}

@@ -6,7 +6,7 @@ use super::Config;
 use crate::arrangement::{Arrangement, ChannelMask, Model};
 use crate::design::check_structural;
 use crate::error::ConfigError;
-use crate::integrity::{Integrity, DEFAULT_MISSED};
+use crate::integrity::{Protection, DEFAULT_MISSED};
 use crate::linalg::{dot, quat_to_mat, Sym3};
 use crate::real::Real;
 
@@ -31,6 +31,11 @@ pub struct Options {
     /// limit (or none where a limit is finite) sets [`crate::Flags::INTEGRITY_ALERT`]. Default
     /// infinite: no alert.
     pub alert_limits: [f64; 3],
+    /// Whether the protection levels are computed where the channel set allows them (default
+    /// true). Off, no row carries one (and a finite alert limit alerts): for a unit whose
+    /// processor cannot afford model F's per-set gains (≈ 8 000 instructions per set on a
+    /// Cortex-M4F at N = 12, `docs/validation.md`).
+    pub protection: bool,
 }
 
 /// The default white-jerk density (rad²/s⁵): Ω′ wanders by ≈ 10 rad/s² RMS in a second, which
@@ -47,6 +52,7 @@ impl Default for Options {
             jerk_density: DEFAULT_JERK_DENSITY,
             missed: DEFAULT_MISSED,
             alert_limits: [f64::INFINITY; 3],
+            protection: true,
         }
     }
 }
@@ -139,10 +145,10 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         self.mask = mask;
         self.frames = frames;
         self.options = options;
-        self.integrity = match model {
-            Model::General => Integrity::build(arr, mask, options.missed),
-            Model::FreeFloat => None,
-        };
+        self.integrity = options
+            .protection
+            .then(|| Protection::build(arr, mask, model, options.missed))
+            .flatten();
         self.set_gamma(&options.gamma);
         Ok(())
     }

@@ -30,7 +30,7 @@ use crate::design::Projection;
 use crate::error::ConfigError;
 use crate::estimate::{Estimate, Flags};
 use crate::frame_uncertainty::FrameUncertainty;
-use crate::integrity::Integrity;
+use crate::integrity::Protection;
 use crate::linalg::{norm2, Sym3, Vec3};
 use crate::real::Real;
 use crate::svd::MAX_COLS;
@@ -94,8 +94,8 @@ struct Config<T: Real, const CAP: usize> {
     /// Whether the frame uncertainty is other than zero.
     widen: bool,
     options: Options,
-    /// The protection levels' gains (model G with redundancy).
-    integrity: Option<Integrity<T, CAP>>,
+    /// The protection levels' gains (with redundancy; model F's linearised per row).
+    integrity: Option<Protection<T, CAP>>,
 }
 
 /// Per-sample working storage, kept in the estimator so that the sample loop neither zeroes

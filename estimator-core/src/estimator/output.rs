@@ -23,8 +23,8 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
         }
     }
 
-    /// Sets the protection levels of `est` (model G with redundancy and a `solved` sample,
-    /// else none) and [`Flags::INTEGRITY_ALERT`] where one is above its alert limit or missing
+    /// Sets the protection levels of `est` (with redundancy and a `solved` sample, else none;
+    /// model F's where its linearisation at the row's Ω gives one) and [`Flags::INTEGRITY_ALERT`] where one is above its alert limit or missing
     /// under a finite one.
     pub(super) fn protect(&self, est: &mut Estimate<T>, solved: bool) {
         // A prediction (a sample without its readings) has no bound: the motion since the
@@ -33,7 +33,7 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
             .integrity
             .as_ref()
             .filter(|_| solved)
-            .map(|i| i.levels(est));
+            .and_then(|i| i.levels(est));
         // Ω may be −Ω while its sign is unresolved, or another root while the branch is
         // ambiguous (a gross fault not yet isolated can carry the filter to the mirror root:
         // the mixed layout, a stuck part, 2 rows of 30 000): the level covers the mirror,

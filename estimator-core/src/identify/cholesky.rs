@@ -8,22 +8,24 @@ use crate::real::Real;
 // was written; these three functions are 40 lines.
 
 /// Cholesky factor (lower) of the leading `n × n` block of the symmetric `a`, in place;
-/// `false` unless positive definite with every pivot above 10⁻¹³ of the largest diagonal.
+/// `false` unless positive definite with every pivot above 10⁻¹³ of the largest diagonal (in
+/// f32, 100 × its epsilon: 1.2 × 10⁻⁵).
 #[inline]
-pub(crate) fn cholesky<const N: usize>(a: &mut [[f64; N]; N], n: usize) -> bool {
-    let top = (0..n).map(|i| a[i][i]).fold(0.0f64, f64::max);
-    if !(top > 0.0) || !top.is_finite() {
+pub(crate) fn cholesky<T: Real, const N: usize>(a: &mut [[T; N]; N], n: usize) -> bool {
+    let top = (0..n).map(|i| a[i][i]).fold(T::ZERO, T::max);
+    if !(top > T::ZERO) || !top.is_finite() {
         return false;
     }
+    let floor = T::of(1e-13).max(T::of(100.0) * T::EPSILON) * top;
     for j in 0..n {
         let mut d = a[j][j];
         for k in 0..j {
             d -= a[j][k] * a[j][k];
         }
-        if !(d > 1e-13 * top) {
+        if !(d > floor) {
             return false;
         }
-        let d = Real::sqrt(d);
+        let d = d.sqrt();
         a[j][j] = d;
         for i in (j + 1)..n {
             let mut s = a[i][j];
@@ -38,35 +40,41 @@ pub(crate) fn cholesky<const N: usize>(a: &mut [[f64; N]; N], n: usize) -> bool 
 
 /// Solves `L Lᵀ x = b` with the factor [`cholesky`] left in `l`.
 #[inline]
-pub(crate) fn cholesky_solve<const N: usize>(
-    l: &[[f64; N]; N],
+pub(crate) fn cholesky_solve<T: Real, const N: usize>(
+    l: &[[T; N]; N],
     n: usize,
-    b: &[f64; N],
-) -> [f64; N] {
-    let mut y = [0.0; N];
+    b: &[T; N],
+) -> [T; N] {
+    // The products summed first, then taken from the right-hand side.
+    let mut y = [T::ZERO; N];
     for i in 0..n {
-        let s: f64 = (0..i).map(|k| l[i][k] * y[k]).sum();
+        let mut s = T::ZERO;
+        for k in 0..i {
+            s += l[i][k] * y[k];
+        }
         y[i] = (b[i] - s) / l[i][i];
     }
-    let mut x = [0.0; N];
+    let mut x = [T::ZERO; N];
     for i in (0..n).rev() {
-        let s: f64 = ((i + 1)..n).map(|k| l[k][i] * x[k]).sum();
+        let mut s = T::ZERO;
+        for k in (i + 1)..n {
+            s += l[k][i] * x[k];
+        }
         x[i] = (y[i] - s) / l[i][i];
     }
     x
 }
 
-/// The inverse of the symmetric positive definite `a` (configuration time); `None` unless
-/// [`cholesky`] factors it.
-pub(crate) fn invert_spd<const N: usize>(a: &[[f64; N]; N]) -> Option<[[f64; N]; N]> {
+/// The inverse of the symmetric positive definite `a`; `None` unless [`cholesky`] factors it.
+pub(crate) fn invert_spd<T: Real, const N: usize>(a: &[[T; N]; N]) -> Option<[[T; N]; N]> {
     let mut l = *a;
     if !cholesky(&mut l, N) {
         return None;
     }
-    let mut inv = [[0.0f64; N]; N];
+    let mut inv = [[T::ZERO; N]; N];
     for c in 0..N {
-        let mut e = [0.0f64; N];
-        e[c] = 1.0;
+        let mut e = [T::ZERO; N];
+        e[c] = T::ONE;
         let x = cholesky_solve(&l, N, &e);
         for (row, v) in inv.iter_mut().zip(x) {
             row[c] = v;

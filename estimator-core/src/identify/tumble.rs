@@ -609,7 +609,12 @@ fn carry_start_uncertainty<S: Sets + ?Sized, const CAP: usize>(
                     ratio: spread / limit,
                 });
             }
-            fit.sd[k] = Real::sqrt(fit.sd[k] * fit.sd[k] + var[ch][k]);
+            // A held parameter stays at the value in use, its deviation its tolerance: the
+            // spread of the start rate's solutions is the free parameters' (two solutions that
+            // hold differently would otherwise lift it above the tolerance).
+            if !fit.is_held(*p) {
+                fit.sd[k] = Real::sqrt(fit.sd[k] * fit.sd[k] + var[ch][k]);
+            }
         }
     }
     Ok(sd0)

@@ -45,6 +45,105 @@ pub const DEFAULT_MISSED: f64 = 1e-3;
 /// The protection level of an output whose first order fails (Ω at rest): large and finite.
 const UNBOUNDED: f64 = 1e6;
 
+/// `√χ²_ν` at `1 − β/2` and the two-sided normal point at `β/2`, for `ν = dof` and
+/// `β = missed`: the two halves of the missed probability (the parity space's noise, the
+/// fault-free error). `None` unless `0 < missed < 1`.
+fn points(dof: usize, missed: f64) -> Option<(f64, f64)> {
+    if !(missed > 0.0 && missed < 1.0) {
+        return None;
+    }
+    let half = 0.5 * missed;
+    Some((
+        Real::sqrt(chi2_quantile(dof as f64, upper_normal_quantile(half))),
+        upper_normal_quantile(0.5 * half),
+    ))
+}
+
+/// The parts of the rows in a solve: each part's rows (a channel of no part is a part of its
+/// own).
+#[derive(Clone, Debug)]
+struct Groups<const CAP: usize> {
+    group: [[usize; PART_CHANNELS]; CAP],
+    count: [usize; CAP],
+    parts: usize,
+}
+
+impl<const CAP: usize> Groups<CAP> {
+    /// The parts of the channels `idx` (row `r` is channel `idx[r]`); `None` with a part of more
+    /// channels than a tri-axial one (not modelled).
+    fn of(arr: &Arrangement<CAP>, idx: &[usize]) -> Option<Self> {
+        let mut g = Groups {
+            group: [[0usize; PART_CHANNELS]; CAP],
+            count: [0; CAP],
+            parts: 0,
+        };
+        let mut label = [NO_PART; CAP];
+        for (r, &i) in idx.iter().enumerate() {
+            let p = arr.part(i);
+            let k = match (p != NO_PART)
+                .then(|| label[..g.parts].iter().position(|q| *q == p))
+                .flatten()
+            {
+                Some(k) => k,
+                None => {
+                    label[g.parts] = p;
+                    g.parts += 1;
+                    g.parts - 1
+                }
+            };
+            if g.count[k] == PART_CHANNELS {
+                return None;
+            }
+            g.group[k][g.count[k]] = r;
+            g.count[k] += 1;
+        }
+        Some(g)
+    }
+
+    /// The rows of part `k`.
+    fn rows(&self, k: usize) -> &[usize] {
+        &self.group[k][..self.count[k]]
+    }
+}
+
+mod free_float;
+pub use free_float::FreeFloatIntegrity;
+
+/// The protection levels' gains of a configuration, by model.
+#[derive(Clone, Debug)]
+pub enum Protection<T, const CAP: usize> {
+    /// Model G: constants of the channel set (Ω's slope through `∂Ω/∂A` per row).
+    General(Integrity<T, CAP>),
+    /// Model F: linearised at every row's Ω.
+    FreeFloat(FreeFloatIntegrity<T, CAP>),
+}
+
+impl<T: Real, const CAP: usize> Protection<T, CAP> {
+    /// The gains of the channels of `mask` in `arr` under `model`; `None` where no level
+    /// exists at any row (no redundancy, a part whose fault can hide).
+    pub fn build(
+        arr: &Arrangement<CAP>,
+        mask: ChannelMask,
+        model: crate::Model,
+        missed: f64,
+    ) -> Option<Self> {
+        match model {
+            crate::Model::General => Integrity::build(arr, mask, missed).map(Protection::General),
+            crate::Model::FreeFloat => {
+                FreeFloatIntegrity::build(arr, mask, missed).map(Protection::FreeFloat)
+            }
+        }
+    }
+
+    /// The levels `[σ0, Ω′, Ω]` of `e`; `None` where this row gives none.
+    pub fn levels(&self, e: &Estimate<T>) -> Option<[T; 3]> {
+        match self {
+            Protection::General(g) => Some(g.levels(e)),
+            Protection::FreeFloat(f) => f.levels(e),
+        }
+    }
+}
+
 /// The precomputed gains of one channel set (model G).
 #[derive(Clone, Debug)]
 pub struct Integrity<T, const CAP: usize> {
@@ -113,34 +212,12 @@ impl<T: Real, const CAP: usize> Integrity<T, CAP> {
         for r in 0..rows {
             k[r] = cholesky_solve(&l, UNKNOWNS, &h[r]);
         }
-        // The parts: their rows (a channel of no part is a part of its own).
-        let mut group = [[0usize; PART_CHANNELS]; CAP];
-        let mut count = [0usize; CAP];
-        let mut label = [NO_PART; CAP];
-        let mut parts = 0;
-        for r in 0..rows {
-            let p = arr.part(idx[r]);
-            let g = match (p != NO_PART)
-                .then(|| label[..parts].iter().position(|q| *q == p))
-                .flatten()
-            {
-                Some(g) => g,
-                None => {
-                    label[parts] = p;
-                    parts += 1;
-                    parts - 1
-                }
-            };
-            if count[g] == PART_CHANNELS {
-                return None; // a part of more channels than a tri-axial one: not modelled
-            }
-            group[g][count[g]] = r;
-            count[g] += 1;
-        }
+        let groups = Groups::of(arr, &idx[..rows])?;
+        let parts = groups.parts;
         let mut slope = [0.0f64; 2];
         let mut field = [[[T::ZERO; PART_CHANNELS]; 6]; CAP];
         for g in 0..parts {
-            let s = &group[g][..count[g]];
+            let s = groups.rows(g);
             // P_SS = I − h_a · k_b, padded with the identity.
             let mut pss = [[0.0f64; 3]; 3];
             for a in 0..3 {
@@ -187,16 +264,13 @@ impl<T: Real, const CAP: usize> Integrity<T, CAP> {
                 }
             }
         }
-        let half = 0.5 * missed;
+        let (parity_noise, free) = points(dof, missed)?;
         Some(Integrity {
             slope: [T::of(slope[0]), T::of(slope[1])],
             field,
             parts,
-            parity_noise: T::of(Real::sqrt(chi2_quantile(
-                dof as f64,
-                upper_normal_quantile(half),
-            ))),
-            free: T::of(upper_normal_quantile(0.5 * half)),
+            parity_noise: T::of(parity_noise),
+            free: T::of(free),
         })
     }
 
@@ -395,20 +469,21 @@ mod tests {
         }
     }
 
-    /// No bound without redundancy (12 channels), with a part of more channels than its parity
-    /// space can test (thirteen channels: one degree of freedom, a tri-axial part), or in model
-    /// F; fifteen channels each a part of its own have one.
+    /// No bound without redundancy (12 channels in model G, 9 in model F), or with a part of
+    /// more channels than its parity space can test (thirteen channels: one degree of freedom,
+    /// a tri-axial part); fifteen channels each a part of its own have one, and so has model F
+    /// on ten or more.
     #[test]
-    fn there_is_no_bound_without_redundancy_or_in_model_f() {
+    fn there_is_no_bound_without_redundancy() {
         let arr = layout();
         assert!(Integrity::<f32, 24>::build(&arr, ChannelMask::all(12), 1e-3).is_none());
         assert!(Integrity::<f32, 24>::build(&arr, ChannelMask::all(13), 1e-3).is_none());
         let mut singles = arr.clone();
         singles.set_parts(&[NO_PART; 18]);
         assert!(Integrity::<f32, 24>::build(&singles, ChannelMask::all(15), 1e-3).is_some());
-        let clean = readings(&arr, [0.0, 0.0, 9.8], [0.0; 3], [0.0, 0.0, 1.0]);
-        let mut f = Estimator::<f64, 24>::new(&arr, Model::FreeFloat, raw()).unwrap();
-        assert!(f.update(0.0, &clean).protection.is_none());
+        assert!(FreeFloatIntegrity::<f32, 24>::build(&arr, ChannelMask::all(9), 1e-3).is_none());
+        assert!(FreeFloatIntegrity::<f32, 24>::build(&arr, ChannelMask::all(12), 1e-3).is_some());
+        assert!(FreeFloatIntegrity::<f32, 24>::build(&arr, ChannelMask::all(18), 1e-3).is_some());
     }
 
     /// An alert limit below the protection level sets the alert flag; one above it does not;
@@ -425,23 +500,30 @@ mod tests {
             let mut est = Estimator::<f64, 24>::new(&arr, model, options).unwrap();
             *est.update(0.0, &clean)
         };
-        let e = run([f64::INFINITY; 3], Model::General);
-        let pl = e.protection.unwrap();
-        assert!(!e.flags.has(crate::Flags::INTEGRITY_ALERT));
-        for q in 0..3 {
-            let mut limits = [f64::INFINITY; 3];
-            limits[q] = 0.5 * pl[q];
-            assert!(run(limits, Model::General)
-                .flags
-                .has(crate::Flags::INTEGRITY_ALERT));
-            limits[q] = 2.0 * pl[q];
-            assert!(!run(limits, Model::General)
-                .flags
-                .has(crate::Flags::INTEGRITY_ALERT));
+        for model in [Model::General, Model::FreeFloat] {
+            let e = run([f64::INFINITY; 3], model);
+            let pl = e.protection.unwrap();
+            assert!(!e.flags.has(crate::Flags::INTEGRITY_ALERT));
+            for q in 0..3 {
+                let mut limits = [f64::INFINITY; 3];
+                limits[q] = 0.5 * pl[q];
+                assert!(run(limits, model).flags.has(crate::Flags::INTEGRITY_ALERT));
+                limits[q] = 2.0 * pl[q];
+                assert!(!run(limits, model).flags.has(crate::Flags::INTEGRITY_ALERT));
+            }
         }
-        assert!(run([1.0, 1.0, 1.0], Model::FreeFloat)
-            .flags
-            .has(crate::Flags::INTEGRITY_ALERT));
+        // Twelve channels in model G: no level, so a finite limit alerts.
+        let mut twelve = Arrangement::<24>::new();
+        for ch in &arr.channels()[..12] {
+            twelve.push(ch.position, ch.axis, ch.noise).unwrap();
+        }
+        let options = Options {
+            alert_limits: [1.0; 3],
+            ..raw()
+        };
+        let mut g = Estimator::<f64, 24>::new(&twelve, Model::General, options).unwrap();
+        let e = *g.update(0.0, &clean[..12]);
+        assert!(e.protection.is_none() && e.flags.has(crate::Flags::INTEGRITY_ALERT));
         let bad = Options {
             missed: 1.5,
             ..raw()
