@@ -24,7 +24,7 @@
 use super::{Groups, UNBOUNDED};
 use crate::arrangement::{Arrangement, ChannelMask};
 use crate::estimate::Estimate;
-use crate::identify::cholesky::invert_spd;
+use crate::identify::cholesky::{cholesky, cholesky_solve, invert_spd};
 use crate::linalg::{cross, dot, Sym3, Vec3};
 use crate::real::Real;
 
@@ -136,10 +136,18 @@ impl<T: Real, const CAP: usize> FreeFloatIntegrity<T, CAP> {
                     pss.0[at(a, b)] = (if a == b { T::ONE } else { T::ZERO }) - hk;
                 }
             }
-            // P_SS's eigenvalues lie in [0, 1]: a determinant this small is a part whose
-            // fault can hide.
-            let m = pss.inverse(T::of(1e-6))?;
-            // tr(K_{x,S} M K_{x,S}ᵀ) per output x.
+            // P_SS's eigenvalues lie in [0, 1]. A part whose fault can hide has one at zero; a
+            // nearly dependent one has a small one and a large slope, which is a bound (an
+            // absolute threshold on the determinant, 10⁻⁶, refused 29 % of the rows of random
+            // layouts whose parts are checked poorly but surely). Its entries are rounded by
+            // about ε each (`I − h·k`, gains of order one): `P_SS − 16 ε I` is inverted instead,
+            // a slope that covers the rounding, and a part where that is not positive definite
+            // has no bound at this row.
+            let mut full = pss.to_mat();
+            for (i, row) in full.iter_mut().enumerate() {
+                row[i] -= T::of(16.0) * T::EPSILON;
+            }
+            let m = spd_inverse(&full)?; // tr(K_{x,S} M K_{x,S}ᵀ) per output x.
             let mut sq = [T::ZERO; 3];
             for c in 0..UNKNOWNS {
                 let mut v = [T::ZERO; 3];
@@ -250,6 +258,22 @@ impl<T: Real, const CAP: usize> FreeFloatIntegrity<T, CAP> {
         }
         Some((k, omega))
     }
+}
+
+/// The inverse of a symmetric positive definite 3 × 3 matrix in the estimator's precision;
+/// `None` unless its Cholesky factor exists.
+fn spd_inverse<T: Real>(a: &[[T; 3]; 3]) -> Option<Sym3<T>> {
+    let mut l = *a;
+    if !cholesky(&mut l, 3) {
+        return None;
+    }
+    let col = |c: usize| {
+        let mut e = [T::ZERO; 3];
+        e[c] = T::ONE;
+        cholesky_solve(&l, 3, &e)
+    };
+    let (x, y, z) = (col(0), col(1), col(2));
+    Some(Sym3([x[0], y[1], z[2], x[1], x[2], y[2]]))
 }
 
 #[cfg(test)]
