@@ -63,8 +63,8 @@ fn draw(seed: u64) -> Draw {
         let at: Vec3<f64> = core::array::from_fn(|_| rng.gen_range(-arm..arm));
         let m = rotation(&mut rng);
         let sigma = 10f64.powf(rng.gen_range(-4.0..-2.5));
-        for k in 0..3 {
-            let axis = [m[0][k], m[1][k], m[2][k]];
+        // The part's axes: the rotation's columns.
+        for axis in (0..3).map(|k| m.map(|row| row[k])) {
             arr.push(at, axis, sigma).unwrap();
             noise.push(sigma);
             part.push(p as u8);
