@@ -504,12 +504,7 @@ fn input_warnings<R: std::io::Read>(
         });
     }
     if let Some(noise) = noise {
-        let declared: Vec<f64> = loaded
-            .arrangement
-            .channels()
-            .iter()
-            .map(|c| c.noise)
-            .collect();
+        let declared = loaded.noises();
         warnings.extend(
             noise
                 .warning(&declared)

@@ -195,6 +195,15 @@ pub struct LoadedArrangement {
 }
 
 impl LoadedArrangement {
+    /// Each channel's declared noise (m/s²), in estimator channel order.
+    pub fn noises(&self) -> Vec<f64> {
+        self.arrangement
+            .channels()
+            .iter()
+            .map(|c| c.noise)
+            .collect()
+    }
+
     /// The channel of axis `axis` (0 = x, 1 = y, 2 = z) of the part named `part` (channel
     /// names are `part.x`, `part.y`, `part.z`), if the arrangement has it.
     pub fn channel(&self, part: &str, axis: usize) -> Option<usize> {

@@ -17,29 +17,9 @@ use rand_chacha::ChaCha8Rng;
 
 const ROWS: usize = 2_000;
 
-/// A random rotation (columns: the part's axes in the body frame), from a random unit
-/// quaternion.
+/// A random rotation (columns: the part's axes in the body frame), from a random quaternion.
 fn rotation(rng: &mut ChaCha8Rng) -> [[f64; 3]; 3] {
-    let q: [f64; 4] = core::array::from_fn(|_| rng.gen_range(-1.0..1.0));
-    let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
-    let [w, x, y, z] = q.map(|v| v / n);
-    [
-        [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        ],
-    ]
+    estimator_core::linalg::quat_to_mat(core::array::from_fn(|_| rng.gen_range(-1.0..1.0)))
 }
 
 /// One draw: the layout, the motion, the model.

@@ -265,12 +265,7 @@ pub fn calibrate_files(job: &CalibrateJob) -> Result<CalibrationSummary, Box<dyn
             .and_then(|r| rate_prior(&r.omega, job.reference_scale_sd)),
     };
     let run_estimator = |geo: &[Geometry]| estimator_rates(geo, &names, model, &times, &rows);
-    let declared: Vec<f64> = loaded
-        .arrangement
-        .channels()
-        .iter()
-        .map(|c| c.noise)
-        .collect();
+    let declared = loaded.noises();
     let source = match &reference {
         Some(r) => RateSource::Reference(&r.omega),
         None => RateSource::Estimator(&run_estimator),

@@ -226,9 +226,16 @@ fn an_interrupted_run_leaves_no_temporary_file() {
     c.args(["sim", "-q", "--scenario", "tetra-orbit-thermal", "--out"])
         .arg(&d)
         .stderr(Stdio::piped());
+    interrupt_once(&mut c, || !temporaries(&d).is_empty());
+    assert!(temporaries(&d).is_empty(), "{:?}", temporaries(&d));
+}
+
+/// Starts `c`, sends it SIGINT once `begun` (within 2 minutes, before it ends), and checks
+/// that it ended as SIGINT ends a process.
+fn interrupt_once(c: &mut Command, begun: impl Fn() -> bool) {
     let mut child = c.spawn().unwrap();
     let started = std::time::Instant::now();
-    while temporaries(&d).is_empty() {
+    while !begun() {
         assert!(
             started.elapsed().as_secs() < 120,
             "no output begun in 2 minutes"
@@ -243,7 +250,6 @@ fn an_interrupted_run_leaves_no_temporary_file() {
     assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
     let status = child.wait().unwrap();
     assert_eq!(status.signal(), Some(libc::SIGINT), "{status:?}");
-    assert!(temporaries(&d).is_empty(), "{:?}", temporaries(&d));
 }
 
 #[test]
@@ -286,8 +292,6 @@ fn an_interrupted_plot_only_run_leaves_no_scratch() {
     ])
     .arg(&d)
     .stderr(Stdio::piped());
-    let mut child = c.spawn().unwrap();
-    let started = std::time::Instant::now();
     let scratch = |d: &Path| -> Vec<String> {
         std::fs::read_dir(d)
             .unwrap()
@@ -295,24 +299,11 @@ fn an_interrupted_plot_only_run_leaves_no_scratch() {
             .filter(|n| n.starts_with(".ballisto-scratch"))
             .collect()
     };
-    // Until the records are being written in it.
-    while scratch(&d)
-        .first()
-        .is_none_or(|s| temporaries(&d.join(s)).is_empty())
-    {
-        assert!(
-            started.elapsed().as_secs() < 120,
-            "no record begun in 2 minutes"
-        );
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "ended before the signal"
-        );
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    // SAFETY: kill(2) on our own child.
-    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
-    let status = child.wait().unwrap();
-    assert_eq!(status.signal(), Some(libc::SIGINT), "{status:?}");
+    // Once the records are being written in it.
+    interrupt_once(&mut c, || {
+        scratch(&d)
+            .first()
+            .is_some_and(|s| !temporaries(&d.join(s)).is_empty())
+    });
     assert!(scratch(&d).is_empty(), "{:?}", scratch(&d));
 }

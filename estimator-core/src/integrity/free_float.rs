@@ -279,39 +279,13 @@ fn spd_inverse<T: Real>(a: &[[T; 3]; 3]) -> Option<Sym3<T>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Estimator, Model, Options};
+    use crate::{Estimator, Model};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// Six tri-axial parts (N = 18, ν = 9 in model F), noise 1 mg, parts given.
-    fn layout() -> Arrangement<24> {
-        let (mut arr, part) = crate::parity::tests::six_parts();
-        arr.set_parts(&part);
-        arr
-    }
-
-    /// Noise-free readings of a rigid body in free float (Γ = 0).
-    fn readings(arr: &Arrangement<24>, s0: Vec3<f64>, dw: Vec3<f64>, w: Vec3<f64>) -> [f64; 18] {
-        core::array::from_fn(|i| {
-            let ch = &arr.channels()[i];
-            let r = ch.position;
-            let wr = cross(&w, &r);
-            let f = [0, 1, 2].map(|k| s0[k] + cross(&dw, &r)[k] + cross(&w, &wr)[k]);
-            dot(&ch.axis, &f)
-        })
-    }
-
-    fn options() -> Options {
-        Options {
-            raw: true,
-            initial_omega: Some([1.0, -0.5, 2.0]),
-            ..Options::default()
-        }
-    }
-
-    fn dist(a: &Vec3<f64>, b: &Vec3<f64>) -> f64 {
-        (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt()
-    }
+    // The layout, readings and options of model G's tests: six tri-axial parts (N = 18,
+    // ν = 9 in model F), noise 1 mg; noise-free readings of a rigid body (Γ = 0).
+    use super::super::tests::{dist, layout, raw as options, readings};
 
     /// A fault on one part moves σ0, Ω′ and Ω by no more than the slope (linearised at the
     /// fault-free Ω) times `√χ²` (noise-free: `χ²` is `|P b|²`), up to the model's curvature

@@ -329,14 +329,19 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     /// Six tri-axial parts (N = 18, ν = 6), noise 1 mg, parts given to the arrangement.
-    fn layout() -> Arrangement<24> {
+    pub(super) fn layout() -> Arrangement<24> {
         let (mut arr, part) = crate::parity::tests::six_parts();
         arr.set_parts(&part);
         arr
     }
 
     /// Noise-free readings of a rigid body (Γ = 0): σ0, Ω′, Ω.
-    fn readings(arr: &Arrangement<24>, s0: Vec3<f64>, dw: Vec3<f64>, w: Vec3<f64>) -> [f64; 18] {
+    pub(super) fn readings(
+        arr: &Arrangement<24>,
+        s0: Vec3<f64>,
+        dw: Vec3<f64>,
+        w: Vec3<f64>,
+    ) -> [f64; 18] {
         core::array::from_fn(|i| {
             let ch = &arr.channels()[i];
             let r = ch.position;
@@ -346,7 +351,7 @@ mod tests {
         })
     }
 
-    fn raw() -> Options {
+    pub(super) fn raw() -> Options {
         Options {
             raw: true,
             initial_omega: Some([1.0, -0.5, 2.0]),
@@ -354,7 +359,7 @@ mod tests {
         }
     }
 
-    fn dist(a: &Vec3<f64>, b: &Vec3<f64>) -> f64 {
+    pub(super) fn dist(a: &Vec3<f64>, b: &Vec3<f64>) -> f64 {
         (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt()
     }
 
