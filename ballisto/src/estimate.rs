@@ -544,7 +544,7 @@ fn correct_for_temperature(
 }
 
 /// Names of the flag bits, for summaries and `--help`.
-pub const FLAG_NAMES: [(u16, &str); 9] = [
+pub const FLAG_NAMES: [(u16, &str); 10] = [
     (Flags::SIGN_UNRESOLVED, "sign unresolved"),
     (Flags::FALLBACK, "no real solution for a / fallback used"),
     (Flags::ILL_CONDITIONED, "ill-conditioned"),
@@ -559,6 +559,10 @@ pub const FLAG_NAMES: [(u16, &str); 9] = [
     (
         Flags::INTEGRITY_ALERT,
         "integrity alert (a protection level above its alert limit)",
+    ),
+    (
+        Flags::NO_PROTECTION_LEVEL,
+        "no protection level (where the configuration gives them)",
     ),
 ];
 

@@ -33,6 +33,13 @@ impl Flags {
     /// alert limit is configured ([`crate::Options::alert_limits`]): the output is not assured
     /// to the accuracy asked for.
     pub const INTEGRITY_ALERT: u16 = 1 << 8;
+    /// The configuration gives protection levels (it has redundancy) but this solved row has
+    /// none: a part checked too poorly for the estimator's precision to bound its fault, or
+    /// model F with Ω exactly zero (its first order vanishes; near rest the level is a bound
+    /// as large as Ω's deviation). A prediction ([`Flags::INPUT_INVALID`]) has
+    /// none either and is flagged as such. A configuration without redundancy gives none on
+    /// any row and does not set this: its telemetry's consistency test says so.
+    pub const NO_PROTECTION_LEVEL: u16 = 1 << 9;
 
     /// True if `bit` is set.
     pub const fn has(self, bit: u16) -> bool {

@@ -34,6 +34,11 @@ impl<T: Real, const CAP: usize> Config<T, CAP> {
             .as_ref()
             .filter(|_| solved)
             .and_then(|i| i.levels(est));
+        if self.integrity.is_some() && solved && est.protection.is_none() {
+            est.flags.0 |= Flags::NO_PROTECTION_LEVEL;
+        } else {
+            est.flags.0 &= !Flags::NO_PROTECTION_LEVEL;
+        }
         // Ω may be −Ω while its sign is unresolved, or another root while the branch is
         // ambiguous (a gross fault not yet isolated can carry the filter to the mirror root:
         // the mixed layout, a stuck part, 2 rows of 30 000): the level covers the mirror,

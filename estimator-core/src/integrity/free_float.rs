@@ -17,8 +17,8 @@
 //!
 //! The linearisation holds where the fault's effect is small against Ω's own scale: a fault
 //! that carries the estimate to another root (the mirror, or another branch) is covered as in
-//! model G, by the `2|Ω|` the level adds while the sign or the branch is in doubt. At rest
-//! (`S` singular: Ω's columns vanish) or where one part's fault can hide from the parity
+//! model G, by the `2|Ω|` the level adds while the sign or the branch is in doubt. With Ω
+//! zero (`S` singular: Ω's columns vanish) or where one part's fault can hide from the parity
 //! space (`P_SS` singular), there is no level at that row.
 
 use super::{Groups, UNBOUNDED};
@@ -279,7 +279,7 @@ fn spd_inverse<T: Real>(a: &[[T; 3]; 3]) -> Option<Sym3<T>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Estimator, Model};
+    use crate::{Estimator, Model, Options};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -392,5 +392,21 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// At rest (Ω exactly zero) Ω's columns vanish: no level. Near it, the level is a bound
+    /// with Ω's share as large as Ω's deviation (the rows of random layouts check the flag
+    /// that a row without a level carries: `tests/protection_levels.rs`).
+    #[test]
+    fn at_rest_there_is_no_level() {
+        let arr = layout();
+        let ff = FreeFloatIntegrity::<f64, 24>::build(&arr, ChannelMask::all(18), 1e-3).unwrap();
+        let e = Estimate::<f64>::default();
+        assert!(ff.levels(&e).is_none());
+        let near = Estimate {
+            omega: [1e-7, 0.0, 0.0],
+            ..e
+        };
+        assert!(ff.levels(&near).is_some());
     }
 }
