@@ -279,7 +279,7 @@ fn spd_inverse<T: Real>(a: &[[T; 3]; 3]) -> Option<Sym3<T>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Estimator, Model, Options};
+    use crate::{Estimator, Model};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
