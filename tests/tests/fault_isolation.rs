@@ -157,8 +157,8 @@ fn held_across_its_gaps(name: &str, t: &e2e_tests::faults::Tally) {
 }
 
 /// The goal for the protection levels: each output's error above its level on at most
-/// 0.1 % of the rows that have one (the missed probability is 10⁻³), faults included; model G
-/// (the N = 18 and mixed layouts) has them on every row with all parts in; model F none
+/// 0.1 % of the rows that have one (the missed probability is 10⁻³), faults included; both
+/// models have them on every row with all parts in, model F's linearised at each row's Ω
 /// (`estimator_core::integrity`).
 fn protection_holds(name: &str, p: &e2e_tests::faults::Protection) {
     println!(
