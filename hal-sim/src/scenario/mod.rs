@@ -736,7 +736,10 @@ impl Scenario {
                 file.sensors.push(SensorSpec {
                     name: p.name.clone(),
                     position: p.position,
-                    orientation: p.orientation,
+                    // Written out even where it is the identity: an arrangement file without
+                    // it is warned about (the identity taken silently hides a part mounted
+                    // otherwise).
+                    orientation: Some(p.orientation.unwrap_or(IDENTITY)),
                     noise: Some(Noise::Same(noise)),
                     part: Some(p.part.label().into()),
                     address: Some(match (p.cs, p.address) {
