@@ -169,26 +169,11 @@ impl TypeCounters {
     }
 }
 
-/// Writes the motion reports as an estimates file (docs/formats.md columns, then
-/// [`LINK_COLUMNS`]; the gravity gradient where the stream says the model is G); `t` is the
-/// packet time (s since boot) plus `time_offset`, rounded to 0.1 µs (the CUC fine time has
-/// 2⁻²⁴ s ≈ 60 ns steps, so a time on a 0.1 µs grid on board comes back exactly).
-pub fn write_estimates<W: Write>(
-    w: &mut W,
-    stream: &Stream,
-    time_offset: f64,
-) -> std::io::Result<usize> {
-    let mut rows = RowWriter::new(time_offset);
-    rows.header(w)?;
-    let mut written = 0;
-    for p in &stream.packets {
-        written += usize::from(rows.packet(w, p)?);
-    }
-    Ok(written)
-}
-
-/// The rows of an estimates file, packet by packet, with what earlier packets said: the model
-/// in force (model G's rows carry the gravity gradient) and the boot.
+/// The rows of an estimates file (docs/formats.md columns, then [`LINK_COLUMNS`]), packet by
+/// packet, with what earlier packets said: the model in force (model G's rows carry the
+/// gravity gradient) and the boot. `t` is the packet time (s since boot) plus the time offset,
+/// rounded to 0.1 µs (the CUC fine time has 2⁻²⁴ s ≈ 60 ns steps, so a time on a 0.1 µs grid
+/// on board comes back exactly).
 pub struct RowWriter {
     time_offset: f64,
     /// From the housekeeping (one is sent at boot, before any estimate) and the reconfigured
